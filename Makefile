@@ -1,0 +1,58 @@
+# Two entry points (see README.md):
+#   make demo   install every dependency and the package, run the validation demo on the test bed
+#   make test   install every dependency, build the package and run R CMD check (tests and vignettes)
+
+R       ?= R
+RSCRIPT ?= Rscript
+OUT     ?= out
+PKG      = wavevalid
+VERSION  = $(shell sed -n 's/^Version: //p' DESCRIPTION)
+TARBALL  = $(PKG)_$(VERSION).tar.gz
+
+DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggplot2 \
+           r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 pkgbuild \
+           r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat pandoc qpdf
+R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
+           withr cli rlang testthat DiceKriging
+
+.PHONY: deps document install demo test check bench sanitize clean
+
+deps:
+	@if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get update -qq && apt-get install -y -qq --no-install-recommends $(DEB_PKGS) >/dev/null; \
+	fi
+	$(RSCRIPT) -e 'need <- setdiff(strsplit("$(R_PKGS)", " +")[[1]], rownames(installed.packages())); \
+	  if (length(need)) install.packages(need, repos = "https://cloud.r-project.org")'
+
+document:
+	$(RSCRIPT) -e 'Rcpp::compileAttributes(); roxygen2::roxygenise()'
+
+install: deps
+	$(R) CMD INSTALL --preclean --no-multiarch .
+
+demo: install
+	$(RSCRIPT) inst/scripts/demo.R $(OUT)
+
+$(TARBALL): deps
+	rm -f $(PKG)_*.tar.gz
+	$(R) CMD build .
+
+test: $(TARBALL)
+	_R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual $(TARBALL)
+	@$(RSCRIPT) -e 'l <- readLines("$(PKG).Rcheck/tests/testthat.Rout"); cat(grep("\\[ FAIL", l, value = TRUE), sep = "\n")'
+
+check: $(TARBALL)
+	$(R) CMD check --as-cran --no-manual $(TARBALL)
+
+bench: install
+	for f in bench/*.R; do echo "== $$f"; $(RSCRIPT) $$f || exit 1; done
+
+sanitize: deps
+	mkdir -p .sanitize && printf 'CXXFLAGS=-g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer\nLDFLAGS=-fsanitize=address,undefined\n' > .sanitize/Makevars
+	R_MAKEVARS_USER=$(CURDIR)/.sanitize/Makevars $(R) CMD INSTALL --preclean -l .sanitize .
+	LD_PRELOAD=$$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 R_LIBS=$(CURDIR)/.sanitize \
+	  $(RSCRIPT) -e 'testthat::test_local(".", load_package = "installed", stop_on_failure = TRUE)'
+
+clean:
+	rm -rf $(PKG)_*.tar.gz $(PKG).Rcheck src/*.o src/*.so .sanitize

@@ -1,0 +1,72 @@
+# Classed conditions and argument checks shared by every stage.
+
+wv_abort <- function(message, class = "input", ..., call = rlang::caller_env(), .envir = parent.frame()) {
+  cli::cli_abort(
+    message,
+    class = c(paste0("wavevalid_error_", class), "wavevalid_error"),
+    ...,
+    call = call,
+    .envir = .envir
+  )
+}
+
+wv_warn <- function(message, class = "warning", ..., .envir = parent.frame()) {
+  cli::cli_warn(message, class = c(paste0("wavevalid_warning_", class), "wavevalid_warning"), ..., .envir = .envir)
+}
+
+wv_inform <- function(message, ..., .envir = parent.frame()) {
+  if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
+    cli::cli_inform(message, class = "wavevalid_message", ..., .envir = .envir)
+  }
+}
+
+check_number <- function(x, arg = deparse(substitute(x)), min = -Inf, max = Inf,
+                         integer = FALSE, call = rlang::caller_env()) {
+  if (!is.numeric(x) || length(x) != 1L || !is.finite(x)) {
+    wv_abort("{.arg {arg}} must be a single finite number, not {.obj_type_friendly {x}}.", call = call)
+  }
+  if (integer && x != round(x)) {
+    wv_abort("{.arg {arg}} must be a whole number; it is {x}.", call = call)
+  }
+  if (x < min || x > max) {
+    wv_abort("{.arg {arg}} must lie in [{min}, {max}]; it is {x}.", call = call)
+  }
+  invisible(x)
+}
+
+check_class <- function(x, class, arg = deparse(substitute(x)), call = rlang::caller_env()) {
+  if (!inherits(x, class)) {
+    wv_abort(
+      "{.arg {arg}} must be a {.cls {class}} object, not {.obj_type_friendly {x}}.",
+      call = call
+    )
+  }
+  invisible(x)
+}
+
+check_string <- function(x, arg = deparse(substitute(x)), call = rlang::caller_env()) {
+  if (!is.character(x) || length(x) != 1L || is.na(x) || !nzchar(x)) {
+    wv_abort("{.arg {arg}} must be a single non-empty string.", call = call)
+  }
+  invisible(x)
+}
+
+check_level <- function(level, call = rlang::caller_env()) {
+  if (!is.numeric(level) || length(level) != 1L || !is.finite(level) || level <= 0 || level >= 1) {
+    wv_abort("{.arg level} must be a single probability strictly between 0 and 1.", call = call)
+  }
+  invisible(level)
+}
+
+# Seed handling: NULL draws one from R's RNG so that set.seed() works.
+resolve_seed <- function(seed, call = rlang::caller_env()) {
+  if (is.null(seed)) {
+    return(as.integer(sample.int(.Machine$integer.max, 1L)))
+  }
+  if (!is.numeric(seed) || length(seed) != 1L || !is.finite(seed)) {
+    wv_abort("{.arg seed} must be NULL or a single whole number.", call = call)
+  }
+  as.integer(seed %% .Machine$integer.max)
+}
+
+`%||%` <- function(x, y) if (is.null(x)) y else x

@@ -1,0 +1,405 @@
+#' Computer model runs
+#'
+#' Holds the design of a computer experiment and the output curve of every run
+#' at one or several sites. Runs that failed (a curve that is all `NA` or has
+#' any non-finite value at any site) are dropped with a warning naming them, as
+#' the method drops runs that did not converge.
+#'
+#' A grid that is not dyadic (a power of two of equally spaced points) is
+#' linearly interpolated to the next dyadic grid on the same interval, with a
+#' message.
+#'
+#' @param design A data frame (or matrix with column names) with one row per
+#'   run and one numeric column per input.
+#' @param curves A K x T matrix of outputs (one site) or a named list of such
+#'   matrices, one per site.
+#' @param t The time grid, T increasing values.
+#' @param site Site name(s) when `curves` is a matrix or an unnamed list.
+#' @return A `wv_runs` object: a list with `design` (data frame, K rows),
+#'   `t` (grid) and `curves` (named list of K x T matrices, one per site).
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = runif(5), b = runif(5))
+#' curves <- t(sapply(design$a, function(a) sin(2 * pi * t * (1 + a))))
+#' runs <- model_runs(design, curves, t)
+#' runs
+model_runs <- function(design, curves, t, site = NULL) {
+  if (is.matrix(design)) {
+    if (is.null(colnames(design))) {
+      wv_abort("{.arg design} must have column names, one per input.")
+    }
+    design <- as.data.frame(design)
+  }
+  if (!is.data.frame(design)) {
+    wv_abort("{.arg design} must be a data frame with one column per input, not {.obj_type_friendly {design}}.")
+  }
+  if (nrow(design) == 0L || ncol(design) == 0L) {
+    wv_abort("{.arg design} is empty; it needs at least one run and one input.")
+  }
+  nonnum <- !vapply(design, is.numeric, logical(1))
+  if (any(nonnum)) {
+    wv_abort("Every column of {.arg design} must be numeric; {.val {names(design)[nonnum]}} {?is/are} not.")
+  }
+  if (any(!vapply(design, function(v) all(is.finite(v)), logical(1)))) {
+    wv_abort("{.arg design} must not contain NA or infinite values.")
+  }
+  check_names(names(design), "design")
+  t <- check_grid(t)
+  curves <- as_site_list(curves, site, nrow(design), length(t), what = "runs")
+  rownames(design) <- NULL
+
+  failed <- Reduce(`|`, lapply(curves, function(m) apply(m, 1L, function(r) any(!is.finite(r)))))
+  if (any(failed)) {
+    wv_warn(c(
+      "Dropped {sum(failed)} failed run{?s} (curve with NA or non-finite values): run{?s} {which(failed)}.",
+      "i" = "{sum(!failed)} run{?s} remain."
+    ), class = "failed_runs")
+    design <- design[!failed, , drop = FALSE]
+    curves <- lapply(curves, function(m) m[!failed, , drop = FALSE])
+    rownames(design) <- NULL
+  }
+  if (nrow(design) < 2L) {
+    wv_abort("Fewer than two usable runs remain; a computer experiment needs more runs than inputs.")
+  }
+  regridded <- to_dyadic(t, curves)
+  validate_wv_runs(new_wv_runs(design, regridded$t, regridded$curves))
+}
+
+new_wv_runs <- function(design, t, curves) {
+  structure(list(design = design, t = t, curves = curves), class = "wv_runs")
+}
+
+validate_wv_runs <- function(x, call = rlang::caller_env()) {
+  if (!is.data.frame(x$design)) wv_abort("{.field design} must be a data frame.", call = call)
+  k <- nrow(x$design)
+  for (s in names(x$curves)) {
+    d <- dim(x$curves[[s]])
+    if (d[1] != k || d[2] != length(x$t)) {
+      wv_abort("Site {.val {s}}: curves are {d[1]} x {d[2]}, expected {k} x {length(x$t)}.", call = call)
+    }
+  }
+  x
+}
+
+#' Field measurements
+#'
+#' Holds the replicate field curves of one physical system at one or several
+#' sites. Missing values inside a field curve are refused: field data are not
+#' dropped silently.
+#'
+#' @param curves An R x T matrix of replicate curves (one site) or a named list
+#'   of such matrices.
+#' @param t The time grid, T increasing values.
+#' @param x_nom Optional named numeric vector of nominal input values of the
+#'   tested system (defaults to the nominals of the I/U map at calibration).
+#' @param site Site name(s) when `curves` is a matrix or an unnamed list.
+#' @return A `wv_field` object: a list with `t`, `curves` (named list of R x T
+#'   matrices) and `x_nom`.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' reps <- t(replicate(3, sin(2 * pi * t) + rnorm(64, sd = 0.1)))
+#' field_runs(reps, t)
+field_runs <- function(curves, t, x_nom = NULL, site = NULL) {
+  t <- check_grid(t)
+  curves <- as_site_list(curves, site, NULL, length(t), what = "field")
+  for (s in names(curves)) {
+    bad <- which(!is.finite(curves[[s]]), arr.ind = TRUE)
+    if (nrow(bad)) {
+      reps <- unique(bad[, 1])
+      wv_abort(c(
+        "Field curves must be complete: site {.val {s}} has {nrow(bad)} missing or non-finite value{?s}.",
+        "x" = "Replicate{?s} {reps}, first at t = {signif(t[bad[1, 2]], 5)}.",
+        "i" = "Fill the gap (e.g. by interpolation) or remove the replicate."
+      ), class = "input")
+    }
+  }
+  if (!is.null(x_nom)) {
+    if (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom))) {
+      wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.")
+    }
+  }
+  regridded <- to_dyadic(t, curves)
+  validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom))
+}
+
+new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL) {
+  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps), class = "wv_field")
+}
+
+validate_wv_field <- function(x, call = rlang::caller_env()) {
+  n <- vapply(x$curves, nrow, integer(1))
+  for (s in names(x$curves)) {
+    if (ncol(x$curves[[s]]) != length(x$t)) {
+      wv_abort("Site {.val {s}}: {ncol(x$curves[[s]])} columns but {length(x$t)} time points.", call = call)
+    }
+  }
+  x
+}
+
+# --- helpers ---------------------------------------------------------------
+
+check_names <- function(nm, arg, call = rlang::caller_env()) {
+  if (is.null(nm) || anyNA(nm) || any(!nzchar(nm))) {
+    wv_abort("Every column of {.arg {arg}} needs a name.", call = call)
+  }
+  dup <- unique(nm[duplicated(nm)])
+  if (length(dup)) wv_abort("Column names of {.arg {arg}} must be unique; {.val {dup}} repeat{?s/}.", call = call)
+  invisible(nm)
+}
+
+check_grid <- function(t, call = rlang::caller_env()) {
+  if (!is.numeric(t) || !is.null(dim(t))) {
+    wv_abort("{.arg t} must be a numeric vector of time points, not {.obj_type_friendly {t}}.", call = call)
+  }
+  if (length(t) < 8L) {
+    wv_abort("{.arg t} must have at least 8 time points; it has {length(t)}.", call = call)
+  }
+  if (any(!is.finite(t))) {
+    wv_abort("{.arg t} must not contain NA or infinite values.", call = call)
+  }
+  if (any(diff(t) <= 0)) {
+    i <- which(diff(t) <= 0)[1]
+    wv_abort(c(
+      "{.arg t} must be strictly increasing.",
+      "x" = "t[{i + 1}] = {t[i + 1]} does not exceed t[{i}] = {t[i]}."
+    ), call = call)
+  }
+  as.numeric(t)
+}
+
+# Turns a matrix or list of matrices into a named list of numeric matrices,
+# checking dimensions.
+as_site_list <- function(curves, site, n_rows, n_t, what, call = rlang::caller_env()) {
+  if (is.data.frame(curves)) curves <- as.matrix(curves)
+  if (is.matrix(curves)) curves <- list(curves)
+  if (!is.list(curves) || length(curves) == 0L) {
+    wv_abort("{.arg curves} must be a matrix (one site) or a list of matrices (one per site).", call = call)
+  }
+  nm <- names(curves)
+  if (!is.null(site)) {
+    if (!is.character(site) || length(site) != length(curves)) {
+      wv_abort("{.arg site} must give one name per site ({length(curves)}).", call = call)
+    }
+    nm <- site
+  }
+  if (is.null(nm)) nm <- if (length(curves) == 1L) "site1" else paste0("site", seq_along(curves))
+  if (anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
+    wv_abort("Site names must be unique and non-empty.", call = call)
+  }
+  names(curves) <- nm
+  for (s in nm) {
+    m <- curves[[s]]
+    if (is.data.frame(m)) m <- as.matrix(m)
+    if (is.numeric(m) && is.null(dim(m))) m <- matrix(m, nrow = 1L)
+    if (!is.matrix(m) || !is.numeric(m)) {
+      wv_abort("Curves of site {.val {s}} must be a numeric matrix, one row per {if (what == 'runs') 'run' else 'replicate'}.",
+               call = call)
+    }
+    if (ncol(m) != n_t) {
+      wv_abort(c(
+        "{.arg curves} must have one column per time point.",
+        "x" = "Site {.val {s}} has {ncol(m)} column{?s} and {.arg t} has {n_t} value{?s}."
+      ), call = call)
+    }
+    if (!is.null(n_rows) && nrow(m) != n_rows) {
+      wv_abort(c(
+        "{.arg curves} must have one row per run of {.arg design}.",
+        "x" = "Site {.val {s}} has {nrow(m)} row{?s} and {.arg design} has {n_rows}."
+      ), call = call)
+    }
+    if (nrow(m) == 0L) wv_abort("Site {.val {s}} has no curves.", call = call)
+    storage.mode(m) <- "double"
+    dimnames(m) <- NULL
+    curves[[s]] <- m
+  }
+  curves
+}
+
+is_dyadic_grid <- function(t) {
+  n <- length(t)
+  h <- diff(t)
+  bitwAnd(n, n - 1L) == 0L && max(abs(h - mean(h))) <= 1e-8 * max(1, abs(mean(h)))
+}
+
+# Linear interpolation of every curve to 2^ceiling(log2(T)) equally spaced
+# points on [min(t), max(t)], unless the grid is dyadic already.
+to_dyadic <- function(t, curves) {
+  if (is_dyadic_grid(t)) return(list(t = t, curves = curves))
+  n_new <- 2L^ceiling(log2(length(t)))
+  t_new <- seq(t[1], t[length(t)], length.out = n_new)
+  wv_inform(c(
+    "i" = "The grid of {length(t)} point{?s} is not dyadic; curves were linearly interpolated to {n_new} equally spaced points on [{signif(t[1], 4)}, {signif(t[length(t)], 4)}]."
+  ))
+  curves <- lapply(curves, function(m) {
+    out <- t(apply(m, 1L, function(y) stats::approx(t, y, xout = t_new)$y))
+    if (nrow(m) == 1L) out <- matrix(out, nrow = 1L)
+    out
+  })
+  list(t = t_new, curves = curves)
+}
+
+# Long data frame of a K x T matrix of curves.
+curves_long <- function(m, t, site, id_name = "run") {
+  out <- data.frame(
+    site = site,
+    id = rep(seq_len(nrow(m)), times = ncol(m)),
+    t = rep(t, each = nrow(m)),
+    y = as.vector(m)
+  )
+  names(out)[2] <- id_name
+  out
+}
+
+#' @export
+print.wv_runs <- function(x, ...) {
+  k <- nrow(x$design)
+  cli::cat_line(sprintf("<wv_runs> %d model run%s of %d input%s on %d time points in [%s, %s]",
+                        k, if (k == 1) "" else "s", ncol(x$design), if (ncol(x$design) == 1) "" else "s",
+                        length(x$t), format(signif(min(x$t), 4)), format(signif(max(x$t), 4))))
+  cli::cat_line("  inputs: ", paste(names(x$design), collapse = ", "))
+  cli::cat_line("  sites:  ", paste(names(x$curves), collapse = ", "))
+  invisible(x)
+}
+
+#' @export
+summary.wv_runs <- function(object, ...) {
+  structure(list(
+    n_runs = nrow(object$design),
+    n_t = length(object$t),
+    range_t = range(object$t),
+    inputs = vapply(object$design, range, numeric(2)),
+    output = vapply(object$curves, function(m) c(min = min(m), max = max(m), sd_between = mean(apply(m, 2, stats::sd))), numeric(3))
+  ), class = "summary_wv_runs")
+}
+
+#' @export
+print.summary_wv_runs <- function(x, ...) {
+  cli::cat_line(sprintf("%d model runs on %d time points in [%s, %s]", x$n_runs, x$n_t,
+                        format(signif(x$range_t[1], 4)), format(signif(x$range_t[2], 4))))
+  cli::cat_line("Input ranges in the design:")
+  r <- t(x$inputs)
+  colnames(r) <- c("min", "max")
+  print(signif(r, 4))
+  cli::cat_line("Output by site (min, max, mean sd across runs):")
+  print(signif(t(x$output), 4))
+  invisible(x)
+}
+
+#' @export
+print.wv_field <- function(x, ...) {
+  n <- vapply(x$curves, nrow, integer(1))
+  cli::cat_line(sprintf("<wv_field> field data on %d time points in [%s, %s]%s", length(x$t),
+                        format(signif(min(x$t), 4)), format(signif(max(x$t), 4)),
+                        if (!is.null(x$warps)) ", registered" else ""))
+  for (s in names(n)) cli::cat_line(sprintf("  %s: %d replicate%s", s, n[[s]], if (n[[s]] == 1) "" else "s"))
+  if (!is.null(x$x_nom)) {
+    cli::cat_line("  nominal inputs: ", paste(sprintf("%s = %s", names(x$x_nom), format(signif(x$x_nom, 4))),
+                                                collapse = ", "))
+  }
+  invisible(x)
+}
+
+#' @export
+summary.wv_field <- function(object, ...) {
+  structure(list(
+    n_t = length(object$t),
+    range_t = range(object$t),
+    replicates = vapply(object$curves, nrow, integer(1)),
+    spread = vapply(object$curves, function(m) if (nrow(m) > 1) mean(apply(m, 2, stats::sd)) else NA_real_, numeric(1)),
+    registered = !is.null(object$warps),
+    x_nom = object$x_nom
+  ), class = "summary_wv_field")
+}
+
+#' @export
+print.summary_wv_field <- function(x, ...) {
+  cli::cat_line(sprintf("Field data on %d time points in [%s, %s]%s", x$n_t, format(signif(x$range_t[1], 4)),
+                        format(signif(x$range_t[2], 4)), if (x$registered) " (registered)" else ""))
+  print(data.frame(site = names(x$replicates), replicates = x$replicates,
+                   mean_pointwise_sd = signif(x$spread, 4), row.names = NULL), row.names = FALSE)
+  invisible(x)
+}
+
+#' Plot model runs and field data
+#'
+#' Draws the model runs in grey and the field replicates in colour, one panel
+#' per site (and per event window when `windows` is given), with the window
+#' limits as dashed lines: the look of Figure 1 of the method's report.
+#'
+#' @param object A `wv_runs` or `wv_field` object.
+#' @param field Optional `wv_field` to overlay on model runs.
+#' @param windows Optional list of length-2 numeric vectors: time windows to zoom
+#'   into, one column of panels each.
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @name autoplot-curves
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' runs <- model_runs(data.frame(a = 1:4 / 5), t(sapply(1:4, function(k) sin(2 * pi * t * k / 4))), t)
+#' autoplot(runs, windows = list(c(0.1, 0.4), c(0.6, 0.9)))
+NULL
+
+#' @rdname autoplot-curves
+#' @export
+autoplot.wv_runs <- function(object, field = NULL, windows = NULL, ...) {
+  if (!is.null(field)) check_class(field, "wv_field")
+  plot_curves(object, field, windows)
+}
+
+#' @rdname autoplot-curves
+#' @export
+autoplot.wv_field <- function(object, windows = NULL, ...) {
+  plot_curves(NULL, object, windows)
+}
+
+#' @export
+plot.wv_runs <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+#' @export
+plot.wv_field <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+plot_curves <- function(runs, field, windows) {
+  layers <- list()
+  add_window <- function(df) {
+    if (is.null(windows)) {
+      df$window <- "whole record"
+      return(df)
+    }
+    do.call(rbind, lapply(seq_along(windows), function(w) {
+      sub <- df[df$t >= windows[[w]][1] & df$t <= windows[[w]][2], , drop = FALSE]
+      if (nrow(sub)) sub$window <- sprintf("%s < t < %s", windows[[w]][1], windows[[w]][2])
+      sub
+    }))
+  }
+  if (!is.null(windows)) {
+    ok <- is.list(windows) && all(vapply(windows, function(w) is.numeric(w) && length(w) == 2L && w[1] < w[2], logical(1)))
+    if (!ok) wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.")
+  }
+  p <- ggplot2::ggplot()
+  if (!is.null(runs)) {
+    d <- do.call(rbind, lapply(names(runs$curves), function(s) curves_long(runs$curves[[s]], runs$t, s, "run")))
+    d <- add_window(d)
+    p <- p + ggplot2::geom_line(data = d, ggplot2::aes(.data$t, .data$y, group = .data$run),
+                                colour = "grey60", linewidth = 0.25, alpha = 0.6)
+  }
+  if (!is.null(field)) {
+    d <- do.call(rbind, lapply(names(field$curves), function(s) curves_long(field$curves[[s]], field$t, s, "replicate")))
+    d <- add_window(d)
+    d$replicate <- factor(d$replicate)
+    p <- p + ggplot2::geom_line(data = d, ggplot2::aes(.data$t, .data$y, group = .data$replicate,
+                                                       colour = .data$replicate), linewidth = 0.35)
+  }
+  p <- p + ggplot2::facet_grid(site ~ window, scales = "free") +
+    ggplot2::labs(x = "time", y = "output", colour = "field\nreplicate",
+                  title = if (!is.null(runs) && !is.null(field)) "Model runs (grey) and field replicates" else NULL) +
+    ggplot2::theme_bw()
+  p
+}

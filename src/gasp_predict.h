@@ -1,0 +1,86 @@
+// GASP prediction for a bank of emulators that share one design (eq. 11 of
+// the method): for every coefficient i at a new input z,
+//   m_i(z) = mu_i + r_i(z)' a_i,            a_i = R_i^{-1} (y_i - mu_i 1)
+//   V_i(z) = (1 - r_i(z)' R_i^{-1} r_i(z)) / lambda_i,
+// with r_ik(z) = exp(-sum_p beta_ip |z_p - X_kp|^(2 - alpha_ip)) and
+// R_i = L_i L_i' (correlation of the design, nugget on the diagonal).
+// Free of R types so that the sampler and the emulator code share it.
+#ifndef WAVEVALID_GASP_PREDICT_H
+#define WAVEVALID_GASP_PREDICT_H
+
+#include <Eigen/Dense>
+#include <vector>
+#include <cmath>
+
+namespace wavevalid {
+
+struct GaspBank {
+  Eigen::MatrixXd X;        // K x p design, scaled to the emulators' unit cube
+  Eigen::MatrixXd beta;     // n x p, >= 0
+  Eigen::MatrixXd alpha;    // n x p, in [0, 1]
+  Eigen::VectorXd mu;       // n
+  Eigen::VectorXd lambda;   // n (precision)
+  Eigen::MatrixXd weights;  // K x n, R_i^{-1}(y_i - mu_i)
+  std::vector<Eigen::MatrixXd> L;  // n lower Cholesky factors, K x K
+  Eigen::VectorXd lower, width;    // p: z_scaled = (z - lower) / width
+
+  int n_coef() const { return static_cast<int>(mu.size()); }
+  int n_runs() const { return static_cast<int>(X.rows()); }
+  int n_inputs() const { return static_cast<int>(X.cols()); }
+
+  // Correlation vector r_i(z) for coefficient i, z already scaled.
+  // d1, d2, logd: K x p matrices of |z - X|, |z - X|^2, log|z - X|.
+  void corr_vector(int i, const Eigen::MatrixXd& d1, const Eigen::MatrixXd& d2,
+                   const Eigen::MatrixXd& logd, Eigen::VectorXd& r) const {
+    const int K = n_runs(), p = n_inputs();
+    Eigen::ArrayXd s = Eigen::ArrayXd::Zero(K);
+    for (int q = 0; q < p; ++q) {
+      const double b = beta(i, q);
+      if (b == 0.0) continue;  // a zero beta makes the input irrelevant
+      const double a = alpha(i, q);
+      if (a == 0.0) {
+        s += b * d2.col(q).array();
+      } else if (a == 1.0) {
+        s += b * d1.col(q).array();
+      } else {
+        s += b * ((2.0 - a) * logd.col(q).array()).exp();
+      }
+    }
+    r = (-s).exp().matrix();
+  }
+
+  // Distances of a raw input vector z to the design.
+  void distances(const Eigen::VectorXd& z, Eigen::MatrixXd& d1, Eigen::MatrixXd& d2,
+                 Eigen::MatrixXd& logd) const {
+    const int p = n_inputs();
+    Eigen::VectorXd zs = ((z - lower).array() / width.array()).matrix();
+    d1.resize(n_runs(), p);
+    for (int q = 0; q < p; ++q) d1.col(q) = (X.col(q).array() - zs(q)).abs().matrix();
+    d2 = d1.array().square().matrix();
+    logd = d1.array().log().matrix();  // log(0) = -inf gives exp(-inf) = 0 as wanted
+  }
+
+  // Predictive means m and variances v (length n) at raw input z.
+  void predict(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
+               bool want_var = true) const {
+    const int n = n_coef();
+    Eigen::MatrixXd d1, d2, logd;
+    distances(z, d1, d2, logd);
+    m.resize(n);
+    if (want_var) v.resize(n);
+    Eigen::VectorXd r;
+    for (int i = 0; i < n; ++i) {
+      corr_vector(i, d1, d2, logd, r);
+      m(i) = mu(i) + r.dot(weights.col(i));
+      if (want_var) {
+        L[i].triangularView<Eigen::Lower>().solveInPlace(r);
+        double q = 1.0 - r.squaredNorm();
+        v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
+      }
+    }
+  }
+};
+
+}  // namespace wavevalid
+
+#endif

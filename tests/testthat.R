@@ -1,0 +1,4 @@
+library(testthat)
+library(wavevalid)
+
+test_check("wavevalid")
