@@ -40,7 +40,9 @@ $(TARBALL): deps
 
 test: $(TARBALL)
 	_R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual $(TARBALL)
-	@$(RSCRIPT) -e 'l <- readLines("$(PKG).Rcheck/tests/testthat.Rout"); cat(grep("\\[ FAIL", l, value = TRUE), sep = "\n")'
+	@$(RSCRIPT) -e 'l <- grep("\\[ FAIL", readLines("$(PKG).Rcheck/tests/testthat.Rout"), value = TRUE); \
+	  n <- as.integer(regmatches(l, gregexpr("[0-9]+", l))[[length(l)]]); \
+	  cat(sprintf("testthat: %d passed, %d failed, %d skipped\n", n[4], n[1], n[3]))'
 
 check: $(TARBALL)
 	$(R) CMD check --as-cran --no-manual $(TARBALL)

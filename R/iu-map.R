@@ -69,7 +69,7 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
   if (any(badtype)) {
     wv_abort(c(
       "{.arg type} must be {.val calibration} or {.val variation}.",
-      "x" = "Input{?s} {.val {x$name[badtype]}} {?has/have} type {.val {x$type[badtype]}}."
+      "x" = "{cli::qty(sum(badtype))}Input{?s} {.val {x$name[badtype]}} {?has/have} type {.val {unique(x$type[badtype])}}."
     ), call = call)
   }
   num <- c("lower", "upper", "nominal")
@@ -90,7 +90,7 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
   if (any(out)) {
     wv_abort(c(
       "{.arg nominal} must lie inside [lower, upper].",
-      "x" = "{.val {x$name[out]}} {cli::qty(sum(out))}{?has a nominal/have nominals} outside {?its/their} range."
+      "x" = "{cli::qty(sum(out))}Input{?s} {.val {x$name[out]}} {?has a nominal/have nominals} outside {?its/their} range."
     ), call = call)
   }
   var <- x$type == "variation"

@@ -110,7 +110,7 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL) {
       reps <- unique(bad[, 1])
       wv_abort(c(
         "Field curves must be complete: site {.val {s}} has {nrow(bad)} missing or non-finite value{?s}.",
-        "x" = "Replicate{?s} {reps}, first at t = {signif(t[bad[1, 2]], 5)}.",
+        "x" = "{cli::qty(length(reps))}Replicate{?s} {reps}; the first gap is at t = {signif(t[bad[1, 2]], 5)}.",
         "i" = "Fill the gap (e.g. by interpolation) or remove the replicate."
       ), class = "input")
     }

@@ -1,0 +1,39 @@
+test_that("iu_map builds the report's I/U map with range/6 prior sds", {
+  iu <- iu_map(
+    name = c("u1", "x1", "x5"),
+    type = c("calibration", "variation", "variation"),
+    lower = c(0.125, 0.1667, 0.3529), upper = c(0.875, 0.8333, 0.6471)
+  )
+  expect_s3_class(iu, "wv_iu")
+  expect_equal(iu$nominal, c(0.5, 0.5, 0.5))
+  expect_true(is.na(iu$prior_sd[1]))
+  expect_equal(iu$prior_sd[3], (0.6471 - 0.3529) / 6)
+  expect_snapshot(print(iu))
+  expect_snapshot(print(summary(iu)))
+})
+
+test_that("iu_map rejects bad input with classed errors", {
+  expect_error(iu_map(c("a", "b"), "variation", c(0, 0), c(1)), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "variation", 1, 1), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "variation", 2, 1), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "variation", 0, 1, nominal = 1.5), class = "wavevalid_error_input")
+  expect_error(iu_map(c("a", "a"), "variation", c(0, 0), c(1, 1)), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "tuning", 0, 1), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "variation", 0, 1, prior_sd = -1), class = "wavevalid_error_input")
+  expect_error(iu_map("a", "variation", NA, 1), class = "wavevalid_error_input")
+  expect_snapshot(iu_map("a", "variation", 2, 1), error = TRUE)
+})
+
+test_that("prior draws follow the truncated normal and uniform priors", {
+  withr::local_seed(1)
+  iu <- iu_map(c("u", "x"), c("calibration", "variation"), c(0, 0.2), c(1, 0.8))
+  d <- iu_prior_draws(iu, 20000)
+  expect_true(all(d[, "u"] >= 0 & d[, "u"] <= 1))
+  expect_true(all(d[, "x"] >= 0.2 & d[, "x"] <= 0.8))
+  expect_equal(mean(d[, "u"]), 0.5, tolerance = 0.01)
+  expect_equal(sd(d[, "x"]), 0.1 * sqrt(1 - 2 * 3 * dnorm(3) / (2 * pnorm(3) - 1)), tolerance = 0.02)
+  # the density integrates to one
+  v <- seq(0.2, 0.8, length.out = 2001)
+  expect_equal(sum(iu_prior_density(iu, 2, v)) * diff(v[1:2]), 1, tolerance = 1e-3)
+  expect_s3_class(autoplot(iu), "ggplot")
+})
