@@ -10,7 +10,7 @@ VERSION  = $(shell sed -n 's/^Version: //p' DESCRIPTION)
 TARBALL  = $(PKG)_$(VERSION).tar.gz
 
 DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggplot2 \
-           r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 pkgbuild \
+           r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 \
            r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat pandoc qpdf
 R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
            withr cli rlang testthat DiceKriging
