@@ -22,8 +22,7 @@ deps:
 	  export DEBIAN_FRONTEND=noninteractive; \
 	  apt-get update -qq && apt-get install -y -qq --no-install-recommends $(DEB_PKGS) >/dev/null; \
 	fi
-	$(RSCRIPT) -e 'need <- setdiff(strsplit("$(R_PKGS)", " +")[[1]], rownames(installed.packages())); \
-	  if (length(need)) install.packages(need, repos = "https://cloud.r-project.org")'
+	$(RSCRIPT) tools/install-deps.R $(R_PKGS)
 
 document:
 	$(RSCRIPT) -e 'Rcpp::compileAttributes(); roxygen2::roxygenise()'
@@ -40,9 +39,7 @@ $(TARBALL): deps
 
 test: $(TARBALL)
 	_R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual $(TARBALL)
-	@$(RSCRIPT) -e 'l <- grep("\\[ FAIL", readLines("$(PKG).Rcheck/tests/testthat.Rout"), value = TRUE); \
-	  n <- as.integer(regmatches(l, gregexpr("[0-9]+", l))[[length(l)]]); \
-	  cat(sprintf("testthat: %d passed, %d failed, %d skipped\n", n[4], n[1], n[3]))'
+	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
 
 check: $(TARBALL)
 	$(R) CMD check --as-cran --no-manual $(TARBALL)
