@@ -38,7 +38,7 @@ $(TARBALL): deps
 	$(R) CMD build .
 
 test: $(TARBALL)
-	_R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual $(TARBALL)
+	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual $(TARBALL)
 	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
 
 check: $(TARBALL)
