@@ -2,6 +2,10 @@
 # Generator token: 10BE3573-1514-4C36-9D1C-5A225CD40393
 
 gasp_bank_predict_cpp <- function(bank, Z) {
-    .Call('_wavevalid_gasp_bank_predict_cpp', PACKAGE = 'wavevalid', bank, Z)
+    .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
+}
+
+gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
+    .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
 }
 

@@ -70,3 +70,13 @@ resolve_seed <- function(seed, call = rlang::caller_env()) {
 }
 
 `%||%` <- function(x, y) if (is.null(x)) y else x
+
+# Evaluates expr with R's RNG seeded by seed, restoring the caller's RNG state.
+with_rng_seed <- function(seed, expr) {
+  env <- globalenv()
+  had <- exists(".Random.seed", envir = env, inherits = FALSE)
+  old <- if (had) get(".Random.seed", envir = env, inherits = FALSE)
+  on.exit(if (had) assign(".Random.seed", old, envir = env) else rm(".Random.seed", envir = env))
+  set.seed(seed)
+  expr
+}

@@ -1,0 +1,364 @@
+#' Where does the model fail?
+#'
+#' Finds the time intervals where the tolerance band of the bias excludes
+#' zero, ranked by how much bias they carry, and tells at which wavelet levels
+#' (time scales) the bias lives and which inputs have a posterior piled up at a
+#' bound of their range (an input used as a tuning knob, like the report's
+#' `x5`).
+#'
+#' @param fit A `wv_fit`.
+#' @param level Probability of the pointwise bias band.
+#' @param min_steps Shortest interval reported, in grid steps.
+#' @param ... Unused.
+#' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
+#'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
+#'   posterior mean bias over the interval), `share_of_signal` (that integral
+#'   over the integral of the absolute predicted reality there), `sign`
+#'   (whether the model is above or below reality), ranked by
+#'   `integrated_abs_bias`. Attributes: `levels` (bias energy by site and
+#'   wavelet level), `boundary` (inputs and the share of their posterior near
+#'   each bound, `flagged` when it piles up there) and `bias` (the bias band).
+#' @export
+where_fails <- function(fit, level = 0.9, min_steps = 1L, ...) {
+  check_class(fit, "wv_fit")
+  check_level(level)
+  check_number(min_steps, min = 1, integer = TRUE)
+  b <- bias(fit, level = level)
+  r <- reality(fit, level = level)
+  dt <- diff(fit$basis$t[1:2])
+  rows <- lapply(unique(b$site), function(s) {
+    bs <- b[b$site == s, ]
+    rs <- r[r$site == s, ]
+    excl <- bs$lower > 0 | bs$upper < 0
+    runs <- rle(excl)
+    ends <- cumsum(runs$lengths)
+    starts <- ends - runs$lengths + 1L
+    keep <- runs$values & runs$lengths >= min_steps
+    if (!any(keep)) return(NULL)
+    do.call(rbind, lapply(which(keep), function(k) {
+      idx <- starts[k]:ends[k]
+      ib <- sum(abs(bs$mean[idx])) * dt
+      data.frame(
+        site = s, start = bs$t[starts[k]], end = bs$t[ends[k]] + dt,
+        peak_abs_bias = max(abs(bs$mean[idx])),
+        integrated_abs_bias = ib,
+        share_of_signal = ib / max(sum(abs(rs$mean[idx])) * dt, .Machine$double.eps),
+        sign = if (mean(bs$mean[idx]) > 0) "reality above model" else "reality below model",
+        stringsAsFactors = FALSE
+      )
+    }))
+  })
+  out <- do.call(rbind, rows)
+  if (is.null(out)) {
+    out <- data.frame(site = character(), start = numeric(), end = numeric(), peak_abs_bias = numeric(),
+                      integrated_abs_bias = numeric(), share_of_signal = numeric(), sign = character(),
+                      stringsAsFactors = FALSE)
+  }
+  out <- out[order(-out$integrated_abs_bias), , drop = FALSE]
+  rownames(out) <- NULL
+  attr(out, "levels") <- bias_by_level(fit, level)
+  attr(out, "boundary") <- boundary_check(fit)
+  attr(out, "bias") <- b
+  attr(out, "level") <- level
+  class(out) <- c("wv_fails", "data.frame")
+  out
+}
+
+# Bias energy (posterior mean of the squared bias coefficients) by site and
+# level, with the number of coefficients whose interval excludes zero.
+bias_by_level <- function(fit, level) {
+  a <- (1 - level) / 2
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    wb <- fit$wb[[s]]
+    e <- colMeans(wb^2)
+    lo <- apply(wb, 2, stats::quantile, probs = a, names = FALSE)
+    hi <- apply(wb, 2, stats::quantile, probs = 1 - a, names = FALSE)
+    lev <- fit$basis$level
+    out <- data.frame(
+      site = s,
+      level = sort(unique(lev)),
+      n_coef = as.vector(table(lev)),
+      energy = as.vector(tapply(e, lev, sum)),
+      significant = as.vector(tapply(lo > 0 | hi < 0, lev, sum)),
+      stringsAsFactors = FALSE
+    )
+    out$share <- out$energy / sum(out$energy)
+    out
+  }))
+}
+
+# Share of the posterior within 2% of the range from each bound, against the
+# prior's share there; flagged when the posterior piles up at a bound.
+boundary_check <- function(fit, margin = 0.02) {
+  d <- as.matrix(fit$draws)
+  iu <- fit$iu
+  inputs <- intersect(fit$emulators$inputs, iu$name)
+  do.call(rbind, lapply(inputs, function(p) {
+    k <- match(p, iu$name)
+    lo <- iu$lower[k]
+    hi <- iu$upper[k]
+    nom <- iu$nominal[k]
+    if (iu$type[k] == "variation" && !is.null(fit$x_nom) && p %in% names(fit$x_nom)) {
+      shift <- fit$x_nom[[p]] - nom
+      lo <- lo + shift
+      hi <- hi + shift
+    }
+    w <- hi - lo
+    x <- d[, p]
+    near_lo <- mean(x < lo + margin * w)
+    near_hi <- mean(x > hi - margin * w)
+    v <- seq(lo, hi, length.out = 2001)
+    dens <- iu_prior_density(iu, k, v - (lo - iu$lower[k]))
+    dens <- dens / sum(dens)
+    prior_lo <- sum(dens[v < lo + margin * w])
+    prior_hi <- sum(dens[v > hi - margin * w])
+    data.frame(
+      input = p, lower = lo, upper = hi,
+      near_lower = near_lo, near_upper = near_hi,
+      prior_near_lower = prior_lo, prior_near_upper = prior_hi,
+      flagged = (near_lo > 0.25 && near_lo > 5 * prior_lo) || (near_hi > 0.25 && near_hi > 5 * prior_hi),
+      stringsAsFactors = FALSE
+    )
+  }))
+}
+
+#' @export
+print.wv_fails <- function(x, ...) {
+  lev <- attr(x, "level")
+  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% band of the bias excludes zero",
+                        nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev))
+  if (nrow(x)) {
+    df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
+                                      "share_of_signal", "sign")], stringsAsFactors = FALSE)
+    num <- vapply(df, is.numeric, logical(1))
+    df[num] <- lapply(df[num], signif, digits = 3)
+    print(utils::head(df, 10), row.names = FALSE)
+    if (nrow(df) > 10) cli::cat_line(sprintf("... and %d more", nrow(df) - 10))
+  }
+  levs <- attr(x, "levels")
+  if (!is.null(levs)) {
+    top <- levs[order(-levs$energy), ][seq_len(min(3, nrow(levs))), ]
+    cli::cat_line("Bias energy is highest at wavelet level",
+                  if (nrow(top) > 1) "s " else " ",
+                  paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share), collapse = ", "))
+  }
+  bd <- attr(x, "boundary")
+  if (!is.null(bd) && any(bd$flagged)) {
+    cli::cat_line("Posterior piled up at a bound of its range: ", paste(bd$input[bd$flagged], collapse = ", "),
+                  " (an input acting as a tuning knob?)")
+  }
+  invisible(x)
+}
+
+#' @export
+summary.wv_fails <- function(object, ...) {
+  structure(list(
+    n = nrow(object),
+    by_site = if (nrow(object)) tapply(object$integrated_abs_bias, object$site, sum) else numeric(),
+    total_length = sum(object$end - object$start),
+    levels = attr(object, "levels"),
+    boundary = attr(object, "boundary")
+  ), class = "summary_wv_fails")
+}
+
+#' @export
+print.summary_wv_fails <- function(x, ...) {
+  cli::cat_line(sprintf("%d failure intervals covering %.3g time units", x$n, x$total_length))
+  if (length(x$by_site)) {
+    cli::cat_line("Integrated absolute bias by site: ",
+                  paste(sprintf("%s %.3g", names(x$by_site), x$by_site), collapse = ", "))
+  }
+  cli::cat_line("Bias energy by wavelet level:")
+  lv <- x$levels
+  lv$share <- round(lv$share, 3)
+  lv$energy <- signif(lv$energy, 3)
+  print(lv, row.names = FALSE)
+  invisible(x)
+}
+
+#' @rdname where_fails
+#' @param object A `wv_fails` result.
+#' @param type `"bias"` (the bias band with the failure intervals shaded) or
+#'   `"levels"` (bias energy by wavelet level).
+#' @export
+autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
+  type <- match.arg(type)
+  if (type == "levels") {
+    lv <- attr(object, "levels")
+    return(ggplot2::ggplot(lv, ggplot2::aes(factor(.data$level), .data$share)) +
+      ggplot2::geom_col(fill = "grey40") +
+      ggplot2::facet_wrap(~site) +
+      ggplot2::labs(x = "wavelet level (coarse to fine)", y = "share of bias energy",
+                    title = "Which time scales carry the bias") +
+      ggplot2::theme_bw())
+  }
+  b <- attr(object, "bias")
+  regions <- as.data.frame(unclass(object)[c("site", "start", "end")])
+  p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
+  if (nrow(regions)) {
+    p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                fill = "#D55E00", alpha = 0.25)
+  }
+  p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
+    ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
+    ggplot2::labs(x = "time", y = "bias",
+                  title = "Where the model fails: intervals where the bias band excludes zero") +
+    ggplot2::theme_bw()
+}
+
+#' @export
+plot.wv_fails <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+#' Compare two validations of the same system
+#'
+#' Sets a validation before a model change beside one after it (for example
+#' after adding the missing effect that [explain_bias()] pointed to; the
+#' "after" model may have extra calibration inputs): how large the bias is,
+#' how wide the bands of reality are, and, on held-out field data, how well
+#' each predicts.
+#'
+#' @param before,after `wv_fit` objects fitted to the same field data.
+#' @param holdout Optional held-out field data: a `wv_field` of the same
+#'   system (predicted as new field runs of each fit), or a list with `field`
+#'   (a `wv_field`) and `before`, `after`: `wv_prediction` objects of each fit
+#'   for that field data (e.g. `predict(fit, type = "new_nominal", ...)` for
+#'   a system with other nominal inputs).
+#' @param level Probability of the bands.
+#' @return A `wv_comparison` data frame with columns `metric`, `before`,
+#'   `after`, `change` (relative change, after / before - 1) and rows
+#'   `bias_rms`, `bias_peak`, `band_width`, `model_rmse` (pure-model
+#'   prediction against the mean of the fitted field data) and, with a holdout,
+#'   `holdout_rmse` and `holdout_coverage`.
+#' @export
+compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
+  check_class(before, "wv_fit")
+  check_class(after, "wv_fit")
+  check_level(level)
+  if (!identical(names(before$wb), names(after$wb))) {
+    wv_abort("{.arg before} and {.arg after} must have the same sites.")
+  }
+  if (!isTRUE(all.equal(before$basis$t, after$basis$t))) {
+    wv_abort("{.arg before} and {.arg after} must be on the same time grid.")
+  }
+  m_before <- validation_metrics(before, level)
+  m_after <- validation_metrics(after, level)
+  if (!is.null(holdout)) {
+    preds <- holdout_predictions(before, after, holdout, level)
+    m_before <- c(m_before, holdout_metrics(preds$before, preds$field))
+    m_after <- c(m_after, holdout_metrics(preds$after, preds$field))
+  }
+  out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
+                    stringsAsFactors = FALSE)
+  out$change <- out$after / out$before - 1
+  attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
+  class(out) <- c("wv_comparison", "data.frame")
+  out
+}
+
+validation_metrics <- function(fit, level) {
+  b <- bias(fit, level)
+  r <- reality(fit, level)
+  mp <- model_prediction(fit, level)
+  fm <- do.call(rbind, lapply(names(fit$field$curves), function(s) {
+    data.frame(site = s, t = fit$field$t, y = colMeans(fit$field$curves[[s]]))
+  }))
+  mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
+  c(
+    bias_rms = sqrt(mean(b$mean^2)),
+    bias_peak = max(abs(b$mean)),
+    band_width = mean(r$upper - r$lower),
+    model_rmse = sqrt(mean((mp$mean - mp$y)^2))
+  )
+}
+
+holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
+  if (inherits(holdout, "wv_field")) {
+    return(list(
+      field = holdout,
+      before = stats::predict(before, type = "field_run", level = level),
+      after = stats::predict(after, type = "field_run", level = level)
+    ))
+  }
+  ok <- is.list(holdout) && inherits(holdout$field, "wv_field") &&
+    inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
+  if (!ok) {
+    wv_abort(c(
+      "{.arg holdout} must be a {.cls wv_field} or a list with {.field field}, {.field before} and {.field after}.",
+      "i" = "{.field before} and {.field after} are predictions of each fit for the held-out system."
+    ), call = call)
+  }
+  holdout[c("field", "before", "after")]
+}
+
+# RMSE of the prediction mean against each held-out replicate, and the share
+# of held-out points inside the band.
+holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
+  p <- as.data.frame(pred)
+  sites <- intersect(unique(p$site), names(field$curves))
+  if (!length(sites)) wv_abort("The held-out field data share no site with the prediction.", call = call)
+  err <- inside <- numeric()
+  for (s in sites) {
+    ps <- p[p$site == s, ]
+    if (!isTRUE(all.equal(ps$t, field$t))) {
+      wv_abort("The held-out field data are not on the prediction's grid.", call = call)
+    }
+    y <- field$curves[[s]]
+    err <- c(err, as.vector(sweep(y, 2, ps$mean)))
+    inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`)))
+  }
+  c(holdout_rmse = sqrt(mean(err^2)), holdout_coverage = mean(inside))
+}
+
+#' @export
+print.wv_comparison <- function(x, ...) {
+  cli::cat_line("<wv_comparison> validation before and after the model change")
+  df <- as.data.frame(unclass(x)[c("metric", "before", "after", "change")], stringsAsFactors = FALSE)
+  df$before <- signif(df$before, 4)
+  df$after <- signif(df$after, 4)
+  df$change <- sprintf("%+.1f%%", 100 * df$change)
+  print(df, row.names = FALSE)
+  invisible(x)
+}
+
+#' @export
+summary.wv_comparison <- function(object, ...) {
+  structure(list(table = as.data.frame(unclass(object)[c("metric", "before", "after", "change")]),
+                 improved = object$metric[ifelse(object$metric == "holdout_coverage",
+                                                 object$after > object$before, object$after < object$before)]),
+            class = "summary_wv_comparison")
+}
+
+#' @export
+print.summary_wv_comparison <- function(x, ...) {
+  cli::cat_line("Improved after the change: ", if (length(x$improved)) paste(x$improved, collapse = ", ") else "nothing")
+  invisible(x)
+}
+
+#' @rdname compare_validations
+#' @param object A `wv_comparison`.
+#' @param ... Unused.
+#' @export
+autoplot.wv_comparison <- function(object, ...) {
+  cv <- attr(object, "curves")
+  d <- rbind(cbind(cv$before, model = "before"), cbind(cv$after, model = "after"))
+  d$model <- factor(d$model, levels = c("before", "after"))
+  ggplot2::ggplot(d, ggplot2::aes(.data$t)) +
+    ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
+    ggplot2::facet_grid(site ~ model, scales = "free_y") +
+    ggplot2::labs(x = "time", y = "bias", title = "Bias before and after the model change") +
+    ggplot2::theme_bw()
+}
+
+#' @export
+plot.wv_comparison <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}

@@ -1,0 +1,326 @@
+#' Which missing effect explains the bias?
+#'
+#' Regresses the posterior bias, draw by draw, on the wavelet coefficients of
+#' candidate effect curves and compares subsets of candidates by their
+#' marginal likelihood. A candidate is the signature of a mechanism the user
+#' suspects the model lacks: typically the difference between a run with the
+#' mechanism and a run without it, near the calibrated inputs, or a physical
+#' feature curve of the calibrated model (a contact force, a velocity). The
+#' directions in which the emulated model output moves when one input moves
+#' (emulator gradients at the posterior mean inputs) join as automatic
+#' candidates named `shift:<input>`, so that a bias a parameter change would
+#' absorb is told apart from a missing mechanism.
+#'
+#' For draw h, the bias coefficients `w^b` (all sites stacked) are regressed on
+#' the candidates' coefficients `C` by weighted least squares with weights
+#' `1 / tau^2_j(i)` (the draw's bias variance of each coefficient's level):
+#' `w^b = C_S a_S + e`, `e ~ N(0, phi diag(tau^2))`, with Zellner's g-prior
+#' `a_S ~ N(0, g phi (C_S' W C_S)^-1)`, `g = n` and `pi(phi) ∝ 1/phi`. The Bayes
+#' factor of a subset S against no candidate is then
+#' `(1 + g)^(-|S|/2) (1 - g / (1 + g) R^2_S)^(-n/2)`, with `R^2_S` the
+#' weighted share of the bias explained. Subsets of up to `max_size`
+#' candidates are enumerated with equal prior probability for each size and
+#' within a size; posterior subset probabilities are averaged over draws, and
+#' the inclusion probability of a candidate is the total probability of the
+#' subsets that contain it. Subsets whose candidates are linearly dependent
+#' are skipped, so identical candidates share their inclusion.
+#'
+#' @param fit A `wv_fit` from [calibrate()] or [validate()].
+#' @param candidates A named list of candidate curves on the fit's grid: each a
+#'   numeric vector (used at every site) or a named list by site of vectors.
+#'   May be empty when `shifts = TRUE`.
+#' @param shifts Add the automatic parameter-shift candidates `shift:<input>`.
+#' @param max_size Largest number of candidates in one subset.
+#' @param n_draws Number of posterior draws used (evenly thinned).
+#' @param level Probability of the amplitude intervals.
+#' @param seed Seed for the draws of subsets behind the amplitude intervals
+#'   (`NULL`: drawn from R's RNG).
+#' @param ... Unused.
+#' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
+#'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
+#'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
+#'   out), `amplitude_lower`, `amplitude_upper`, `share_explained` (mean share
+#'   of the bias energy that the candidate alone explains). Attributes
+#'   `subsets` (top subsets with their probabilities) and `fitted` (bias and
+#'   scaled candidates by site, for plotting).
+#' @export
+explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
+                         n_draws = 200L, level = 0.9, seed = NULL, ...) {
+  check_class(fit, "wv_fit")
+  check_number(max_size, min = 1, max = 8, integer = TRUE)
+  check_number(n_draws, min = 2, integer = TRUE)
+  check_level(level)
+  cand <- candidate_coefficients(fit, candidates)
+  if (isTRUE(shifts)) cand <- cbind(cand, shift_candidates(fit))
+  if (ncol(cand) == 0L) {
+    wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
+  }
+  sites <- names(fit$wb)
+  H <- nrow(fit$wb[[1]])
+  keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
+  Y <- do.call(cbind, lapply(sites, function(s) fit$wb[[s]][keep, , drop = FALSE]))
+  Wt <- 1 / bias_level_variances(fit, keep)
+  seed <- resolve_seed(seed)
+  res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level))
+  out <- res$table
+  attr(out, "subsets") <- res$subsets
+  attr(out, "curves") <- explain_curves(fit, cand, out)
+  class(out) <- c("wv_explain", "data.frame")
+  out
+}
+
+# Coefficients (all sites stacked, in the order of fit$wb) of user candidates.
+candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) {
+  sites <- names(fit$wb)
+  n_t <- length(fit$basis$t)
+  if (!is.list(candidates)) {
+    wv_abort("{.arg candidates} must be a named list of curves.", call = call)
+  }
+  if (length(candidates) == 0L) return(matrix(0, sum(vapply(fit$wb, ncol, 1L)), 0L))
+  nm <- names(candidates)
+  if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
+    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
+  }
+  cols <- lapply(nm, function(k) {
+    cur <- candidates[[k]]
+    if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)), sites)
+    if (!is.list(cur) || !all(sites %in% names(cur))) {
+      wv_abort(c(
+        "Candidate {.val {k}} must be a numeric vector on the fit's grid or a list with one curve per site.",
+        "i" = "The fit's sites are {.val {sites}}."
+      ), call = call)
+    }
+    unlist(lapply(sites, function(s) {
+      y <- cur[[s]]
+      if (!is.numeric(y) || length(y) != n_t) {
+        wv_abort(c(
+          "Candidate {.val {k}} is not on the fit's grid at site {.val {s}}.",
+          "x" = "It has {length(y)} value{?s}; the grid has {n_t} points.",
+          "i" = "Interpolate it to {.code fit$basis$t} first."
+        ), call = call)
+      }
+      if (any(!is.finite(y))) wv_abort("Candidate {.val {k}} has missing or infinite values.", call = call)
+      drop(y %*% fit$basis$Psi)
+    }))
+  })
+  out <- do.call(cbind, cols)
+  colnames(out) <- nm
+  zero <- colSums(out^2) == 0
+  if (any(zero)) {
+    wv_abort(c(
+      "Candidate{?s} {.val {nm[zero]}} {?is/are} zero on the retained wavelet coefficients.",
+      "i" = "A candidate must be a curve that changes where the bias could be."
+    ), call = call)
+  }
+  out
+}
+
+# Emulator gradient of every coefficient in each input at the posterior mean
+# inputs, by central differences, scaled by the input's range: the change of the
+# model output when the input moves by its whole range.
+shift_candidates <- function(fit) {
+  em <- fit$emulators
+  zhat <- posterior_mean_inputs(fit)
+  sites <- names(fit$wb)
+  width <- vapply(em$inputs, function(p) {
+    k <- match(p, fit$iu$name)
+    if (is.na(k)) diff(range(em$design[, p])) else fit$iu$upper[k] - fit$iu$lower[k]
+  }, numeric(1))
+  out <- vapply(seq_along(em$inputs), function(p) {
+    h <- 1e-3 * width[p]
+    zp <- zm <- zhat
+    zp[p] <- zp[p] + h
+    zm[p] <- zm[p] - h
+    Z <- rbind(zp, zm)
+    unlist(lapply(sites, function(s) {
+      pr <- gasp_bank_predict_cpp(em$banks[[s]], Z)$mean
+      (pr[1, ] - pr[2, ]) / (2 * h) * width[p]
+    }))
+  }, numeric(sum(vapply(fit$wb, ncol, 1L))))
+  if (is.null(dim(out))) out <- matrix(out, ncol = length(em$inputs))
+  colnames(out) <- paste0("shift:", em$inputs)
+  out[, colSums(out^2) > 0, drop = FALSE]
+}
+
+posterior_mean_inputs <- function(fit) {
+  m <- colMeans(as.matrix(fit$draws))
+  m[fit$emulators$inputs]
+}
+
+# Per-draw bias variance tau^2 of each coefficient's (site, level) group:
+# H x n matrix, sites stacked in the order of fit$wb.
+bias_level_variances <- function(fit, keep) {
+  d <- as.matrix(fit$draws)[keep, , drop = FALSE]
+  do.call(cbind, lapply(names(fit$wb), function(s) {
+    col <- paste0("tau2[", s, ":", fit$basis$level, "]")
+    miss <- setdiff(unique(col), colnames(d))
+    if (length(miss)) wv_abort("The fit has no draws of {.val {miss}}.", class = "state")
+    d[, col, drop = FALSE]
+  }))
+}
+
+# The regression of bias draws Y (H x n) on candidates X (n x m) with weights
+# Wt (H x n), subsets of up to max_size candidates, Zellner g = n.
+bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, g = ncol(Y)) {
+  n <- ncol(Y)
+  m <- ncol(X)
+  H <- nrow(Y)
+  subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
+    utils::combn(m, k, simplify = FALSE)
+  }), recursive = FALSE)
+  sizes <- vapply(subsets, length, 1L)
+  # prior: equal mass on each size 0..max_size, shared equally within a size
+  n_size <- c(1, table(factor(sizes, levels = seq_len(min(max_size, m)))))
+  log_prior <- c(0, -log(n_size[sizes + 1L])) - log(length(n_size))
+  n_sub <- length(subsets) + 1L
+  logml <- matrix(-Inf, H, n_sub)
+  logml[, 1] <- 0
+  share <- matrix(0, H, m)
+  for (h in seq_len(H)) {
+    w <- Wt[h, ]
+    y <- Y[h, ]
+    XtW <- t(X * w)
+    G <- XtW %*% X
+    b <- drop(XtW %*% y)
+    yy <- sum(w * y^2)
+    if (yy <= 0) next
+    energy <- sum(y^2)
+    for (k in seq_len(m)) {
+      a <- b[k] / G[k, k]
+      share[h, k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
+    }
+    for (j in seq_along(subsets)) {
+      S <- subsets[[j]]
+      GS <- G[S, S, drop = FALSE]
+      ch <- tryCatch(chol(GS), error = function(e) NULL)
+      if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
+      coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
+      r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
+      logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)
+    }
+  }
+  lp <- sweep(logml, 2, log_prior, `+`)
+  lp <- lp - apply(lp, 1, max)
+  post <- exp(lp)
+  post <- post / rowSums(post)
+  sub_prob <- colMeans(post)
+  incl <- vapply(seq_len(m), function(k) {
+    sum(sub_prob[-1][vapply(subsets, function(S) k %in% S, logical(1))])
+  }, numeric(1))
+  # model-averaged amplitude draws: one subset drawn per draw
+  alpha <- (1 - level) / 2
+  pick <- apply(post, 1, function(p) sample.int(n_sub, 1L, prob = p))
+  amp_draws <- t(vapply(seq_len(H), function(h) {
+    a <- numeric(m)
+    if (pick[h] == 1L) return(a)
+    S <- subsets[[pick[h] - 1L]]
+    w <- Wt[h, ]
+    XS <- X[, S, drop = FALSE]
+    G <- crossprod(XS * w, XS)
+    b <- drop(crossprod(XS * w, Y[h, ]))
+    coef <- solve(G, b)
+    shrink <- g / (1 + g)
+    phi <- (sum(w * Y[h, ]^2) - shrink * sum(b * coef)) / n
+    cov <- shrink * phi * solve(G)
+    a[S] <- shrink * coef + drop(t(chol(cov)) %*% stats::rnorm(length(S)))
+    a
+  }, numeric(m)))
+  if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
+  table <- data.frame(
+    candidate = colnames(X),
+    inclusion_prob = incl,
+    amplitude = colMeans(amp_draws),
+    amplitude_lower = apply(amp_draws, 2, stats::quantile, probs = alpha, names = FALSE),
+    amplitude_upper = apply(amp_draws, 2, stats::quantile, probs = 1 - alpha, names = FALSE),
+    share_explained = colMeans(share),
+    stringsAsFactors = FALSE
+  )
+  table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
+  rownames(table) <- NULL
+  sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
+  top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
+  list(
+    table = table,
+    subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE)
+  )
+}
+
+# Posterior mean bias and the leading candidates scaled by their amplitude, by
+# site, on the grid (for autoplot).
+explain_curves <- function(fit, cand, table, n_lead = 3L) {
+  sites <- names(fit$wb)
+  n <- vapply(fit$wb, ncol, 1L)
+  offs <- c(0L, cumsum(n))
+  lead <- utils::head(table[table$inclusion_prob > 0, , drop = FALSE], n_lead)
+  do.call(rbind, lapply(seq_along(sites), function(i) {
+    s <- sites[i]
+    rows <- (offs[i] + 1L):offs[i + 1L]
+    b <- drop(fit$basis$Psi %*% colMeans(fit$wb[[s]]))
+    out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
+    for (k in seq_len(nrow(lead))) {
+      v <- drop(fit$basis$Psi %*% cand[rows, lead$candidate[k]]) * lead$amplitude[k]
+      out <- rbind(out, data.frame(site = s, t = fit$basis$t,
+                                   curve = sprintf("%s x %.3g", lead$candidate[k], lead$amplitude[k]),
+                                   value = v))
+    }
+    out
+  }))
+}
+
+#' @export
+print.wv_explain <- function(x, ...) {
+  cli::cat_line("<wv_explain> candidate effects ranked by posterior inclusion probability")
+  df <- as.data.frame(unclass(x)[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower",
+                                    "amplitude_upper", "share_explained")], stringsAsFactors = FALSE)
+  num <- vapply(df, is.numeric, logical(1))
+  df[num] <- lapply(df[num], signif, digits = 3)
+  print(df, row.names = FALSE)
+  sub <- attr(x, "subsets")
+  if (!is.null(sub)) {
+    cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
+  }
+  invisible(x)
+}
+
+#' @export
+summary.wv_explain <- function(object, ...) {
+  lead <- object[1, , drop = FALSE]
+  structure(list(
+    leader = lead$candidate,
+    inclusion = lead$inclusion_prob,
+    n_candidates = nrow(object),
+    n_likely = sum(object$inclusion_prob >= 0.5),
+    subsets = attr(object, "subsets")
+  ), class = "summary_wv_explain")
+}
+
+#' @export
+print.summary_wv_explain <- function(x, ...) {
+  cli::cat_line(sprintf("%d candidate effects; %d with inclusion probability >= 0.5", x$n_candidates, x$n_likely))
+  cli::cat_line(sprintf("Leading candidate: %s (inclusion probability %.2f)", x$leader, x$inclusion))
+  print(utils::head(x$subsets, 5), row.names = FALSE)
+  invisible(x)
+}
+
+#' @rdname explain_bias
+#' @param object A `wv_explain` result.
+#' @export
+autoplot.wv_explain <- function(object, ...) {
+  d <- attr(object, "curves")
+  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$value, colour = .data$curve)) +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey70") +
+    ggplot2::geom_line(linewidth = 0.4) +
+    ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
+    ggplot2::scale_colour_manual(values = c("black", "#D55E00", "#0072B2", "#009E73")[seq_along(unique(d$curve))],
+                                 breaks = unique(d$curve)) +
+    ggplot2::labs(x = "time", y = "bias", colour = NULL,
+                  title = "Posterior mean bias and the leading candidate effects, scaled") +
+    ggplot2::theme_bw() +
+    ggplot2::theme(legend.position = "bottom")
+}
+
+#' @export
+plot.wv_explain <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}

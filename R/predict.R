@@ -1,0 +1,358 @@
+#' Predictions from a validated model
+#'
+#' Everything an engineer asks of a validated model (sections 5.2 to 5.4 of
+#' the method): the bias-corrected prediction of reality, a new field run of
+#' the same system, the same vehicle with a known change of its nominal inputs
+#' (added load), a new vehicle of the same type, and a new vehicle with other
+#' nominal inputs, with the bias carried over additively or multiplicatively.
+#'
+#' All types are built from the joint posterior draws of the fit (inputs,
+#' model and bias coefficients, field variances), draw by draw:
+#' * `"reality"`: `y^R = Psi (w^M + w^b)`.
+#' * `"field_run"`: reality plus a draw of the measurement error.
+#' * `"added_load"`: reality translated by `D(t)`, the difference of the two
+#'   model runs in `new_runs` (the nominal run first, then the changed run),
+#'   plus measurement error.
+#' * `"new_vehicle"`: the variation inputs drawn from their prior (or fixed by
+#'   `x_new`), the calibration inputs from the posterior; the model output at
+#'   them from the emulators augmented with the posterior model coefficients
+#'   at the tested vehicle's inputs (eq. 26); plus bias and measurement error.
+#' * `"new_nominal"`: new emulators fitted to `new_runs` (the runs under the
+#'   new nominals) on the same wavelet basis; variation inputs drawn from their
+#'   prior around `x_nom`, calibration inputs, bias and field variances carried
+#'   over jointly from the fit's draws; plus measurement error.
+#'
+#' With `bias = "multiplicative"` the bias of each draw is carried over as a
+#' ratio, `y^R / y^M - 1`, applied to the new model output; where the model
+#' output of a draw is near zero (below `guard` times its largest absolute
+#' value) the additive bias is used instead.
+#'
+#' @param object A `wv_fit`.
+#' @param type What to predict; see Details.
+#' @param bias How the bias carries over to new settings.
+#' @param level Probability of the tolerance bands.
+#' @param new_runs A `wv_runs`: for `"added_load"` the nominal run and the run
+#'   with the changed inputs; for `"new_nominal"` the model runs under the new
+#'   nominals.
+#' @param x_nom For `"new_nominal"`: named nominal values of the variation
+#'   inputs of the new system (default: the centre of each input's range in
+#'   `new_runs`).
+#' @param x_new For `"new_vehicle"`: optional named values at which to fix the
+#'   variation inputs of the new vehicle instead of drawing them.
+#' @param noise Add measurement error draws (default: yes for every type but
+#'   `"reality"`).
+#' @param guard Threshold for the multiplicative bias, relative to the largest
+#'   absolute model output of a draw.
+#' @param keep_draws Keep the curve draws in the result (memory: draws x time
+#'   points per site).
+#' @param seed Seed for the draws (`NULL`: drawn from R's RNG).
+#' @param ... Unused.
+#' @return A `wv_prediction`: a list with `summary` (data frame with columns
+#'   `site`, `t`, `mean`, `lower`, `upper` (pointwise band), `lower_curve`,
+#'   `upper_curve` (band holding a `level` share of whole curves), `model`
+#'   (pure-model prediction)), `type`, `bias`, `level`, `draws` (if kept) and
+#'   what was used to build it. `as.data.frame()` returns `summary`.
+#' @export
+predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal"),
+                           bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, x_nom = NULL,
+                           x_new = NULL, noise = NULL, guard = 0.01, keep_draws = FALSE, seed = NULL, ...) {
+  type <- match.arg(type)
+  bias <- match.arg(bias)
+  check_level(level)
+  check_number(guard, min = 0, max = 1)
+  noise <- noise %||% (type != "reality")
+  seed <- resolve_seed(seed)
+  em <- object$emulators
+  sites <- names(object$wb)
+  new_model <- switch(type,
+    added_load = added_load_difference(object, new_runs),
+    new_nominal = new_nominal_setup(object, new_runs, x_nom),
+    new_vehicle = new_vehicle_setup(object, x_new),
+    NULL
+  )
+  if (type %in% c("reality", "field_run") && !is.null(new_runs)) {
+    wv_abort("{.arg new_runs} is used only by types {.val added_load} and {.val new_nominal}.")
+  }
+  out <- with_rng_seed(seed, lapply(sites, function(s) {
+    predict_site(object, s, type, bias, level, new_model, noise, guard, keep_draws)
+  }))
+  names(out) <- sites
+  structure(list(
+    summary = do.call(rbind, lapply(out, `[[`, "summary")),
+    draws = if (keep_draws) lapply(out, `[[`, "draws"),
+    n_guarded = vapply(out, `[[`, 0, "n_guarded"),
+    type = type, bias = bias, level = level, noise = noise, seed = seed,
+    runs = if (type == "new_nominal") new_runs,
+    field = if (type %in% c("reality", "field_run", "new_vehicle")) object$field,
+    x_nom = new_model$x_nom
+  ), class = "wv_prediction")
+}
+
+# The model output draws of the new setting for one site (H x n coefficient
+# draws, or a curve shift) and the pure-model prediction.
+predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws) {
+  Psi <- fit$basis$Psi
+  wM <- fit$wM[[s]]
+  wb <- fit$wb[[s]]
+  H <- nrow(wM)
+  yM <- wM %*% t(Psi)
+  yR <- yM + wb %*% t(Psi)
+  zhat <- posterior_mean_inputs(fit)
+  pure <- drop(Psi %*% drop(gasp_bank_predict_cpp(fit$emulators$banks[[s]], matrix(zhat, 1))$mean))
+  yNew <- switch(type,
+    reality = , field_run = yM,
+    added_load = sweep(yM, 2, new_model$D[[s]], `+`),
+    new_vehicle = , new_nominal = {
+      w <- new_model$mean[[s]] + sqrt(new_model$var[[s]]) * matrix(stats::rnorm(length(wM)), H)
+      w %*% t(Psi)
+    }
+  )
+  if (type == "added_load") pure <- pure + new_model$D[[s]]
+  if (type %in% c("new_vehicle", "new_nominal")) pure <- drop(Psi %*% new_model$pure[[s]])
+  n_guarded <- 0
+  if (bias == "additive" || type %in% c("reality", "field_run")) {
+    pred <- yNew + (yR - yM)
+  } else {
+    small <- abs(yM) < guard * apply(abs(yM), 1, max)
+    ratio <- yR / yM
+    pred <- yNew * ratio
+    pred[small] <- (yNew + (yR - yM))[small]
+    n_guarded <- sum(small)
+  }
+  rm(yM, yR, yNew)
+  if (noise) {
+    eps <- sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
+    pred <- pred + eps %*% t(Psi)
+  }
+  band <- curve_summary(pred, level)
+  list(
+    summary = data.frame(site = s, t = fit$basis$t, band, model = pure, stringsAsFactors = FALSE),
+    draws = if (keep_draws) pred,
+    n_guarded = n_guarded
+  )
+}
+
+# Pointwise mean and quantile band of H x T curve draws, and the band of whole
+# curves: the envelope of the `level` share of curves whose largest
+# standardised distance from the pointwise mean is smallest.
+curve_summary <- function(Y, level) {
+  a <- (1 - level) / 2
+  m <- colMeans(Y)
+  q <- apply(Y, 2, stats::quantile, probs = c(a, 1 - a), names = FALSE)
+  s <- sqrt(pmax(colMeans(Y^2) - m^2, 0))
+  s[s == 0] <- 1
+  dev <- apply(abs(sweep(Y, 2, m)) / rep(s, each = nrow(Y)), 1, max)
+  inside <- dev <= stats::quantile(dev, level, names = FALSE, type = 1)
+  data.frame(
+    mean = m, lower = q[1, ], upper = q[2, ],
+    lower_curve = apply(Y[inside, , drop = FALSE], 2, min),
+    upper_curve = apply(Y[inside, , drop = FALSE], 2, max)
+  )
+}
+
+check_new_runs <- function(fit, new_runs, call = rlang::caller_env()) {
+  if (is.null(new_runs)) wv_abort("This prediction needs {.arg new_runs}, a {.cls wv_runs}.", call = call)
+  check_class(new_runs, "wv_runs", call = call)
+  if (!isTRUE(all.equal(new_runs$t, fit$basis$t))) {
+    wv_abort(c(
+      "{.arg new_runs} must be on the fit's time grid.",
+      "x" = "It has {length(new_runs$t)} points on [{signif(min(new_runs$t), 4)}, {signif(max(new_runs$t), 4)}]; the fit has {length(fit$basis$t)} on [{signif(min(fit$basis$t), 4)}, {signif(max(fit$basis$t), 4)}]."
+    ), call = call)
+  }
+  inputs <- fit$emulators$inputs
+  if (!setequal(names(new_runs$design), inputs)) {
+    extra <- setdiff(names(new_runs$design), inputs)
+    miss <- setdiff(inputs, names(new_runs$design))
+    wv_abort(c(
+      "{.arg new_runs} must have the fit's inputs.",
+      "x" = if (length(extra)) "Unknown input{?s}: {.val {extra}}.",
+      "x" = if (length(miss)) "Missing input{?s}: {.val {miss}}."
+    ), call = call)
+  }
+  miss_site <- setdiff(names(fit$wb), names(new_runs$curves))
+  if (length(miss_site)) {
+    wv_abort("{.arg new_runs} has no curves for site{?s} {.val {miss_site}}.", call = call)
+  }
+  invisible(new_runs)
+}
+
+added_load_difference <- function(fit, new_runs, call = rlang::caller_env()) {
+  check_new_runs(fit, new_runs, call = call)
+  if (nrow(new_runs$design) != 2L) {
+    wv_abort("For an added load, {.arg new_runs} must hold two runs: the nominal run, then the changed run.",
+             call = call)
+  }
+  delta <- unlist(new_runs$design[2, ]) - unlist(new_runs$design[1, ])
+  list(
+    D = lapply(new_runs$curves[names(fit$wb)], function(m) m[2, ] - m[1, ]),
+    delta = delta[delta != 0]
+  )
+}
+
+new_nominal_setup <- function(fit, new_runs, x_nom, call = rlang::caller_env()) {
+  check_new_runs(fit, new_runs, call = call)
+  inputs <- fit$emulators$inputs
+  iu <- fit$iu
+  var_inputs <- intersect(iu$name[iu$type == "variation"], inputs)
+  if (is.null(x_nom)) {
+    x_nom <- vapply(var_inputs, function(p) mean(range(new_runs$design[[p]])), numeric(1))
+    wv_inform("Nominal inputs of the new system taken as the centre of {.arg new_runs}' design.")
+  }
+  if (!is.numeric(x_nom) || is.null(names(x_nom)) || !all(names(x_nom) %in% var_inputs)) {
+    wv_abort("{.arg x_nom} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
+  }
+  new_runs$design <- new_runs$design[inputs]
+  em_new <- fit_emulators(new_runs, fit$basis, engine = fit$emulators$engine)
+  predict_at_draws(fit, em_new$banks, x_nom, x_new = NULL, augmented = FALSE)
+}
+
+new_vehicle_setup <- function(fit, x_new, call = rlang::caller_env()) {
+  nominal <- fit$x_nom
+  if (!is.null(x_new)) {
+    iu <- fit$iu
+    var_inputs <- intersect(iu$name[iu$type == "variation"], fit$emulators$inputs)
+    if (!is.numeric(x_new) || is.null(names(x_new)) || !all(names(x_new) %in% var_inputs)) {
+      wv_abort("{.arg x_new} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
+    }
+  }
+  predict_at_draws(fit, fit$emulators$banks, nominal, x_new = x_new, augmented = TRUE)
+}
+
+# Emulator means and variances, draw by draw, at the new vehicle's inputs:
+# variation inputs from their prior around `nominal` (or fixed at x_new),
+# calibration inputs from the posterior draws.
+predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
+  inputs <- fit$emulators$inputs
+  iu <- fit$iu
+  post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
+  H <- nrow(post)
+  var_inputs <- intersect(iu$name[iu$type == "variation"], inputs)
+  Znew <- post
+  prior <- iu_prior_draws(iu, H, nominal = nominal)
+  Znew[, var_inputs] <- prior[, var_inputs]
+  if (!is.null(x_new)) for (p in names(x_new)) Znew[, p] <- x_new[[p]]
+  zpure <- colMeans(post)
+  nom_full <- iu$nominal[match(var_inputs, iu$name)]
+  names(nom_full) <- var_inputs
+  if (!is.null(nominal)) nom_full[names(nominal)] <- nominal
+  zpure[var_inputs] <- if (is.null(x_new)) nom_full else replace(nom_full, names(x_new), x_new)
+  res <- lapply(names(fit$wb), function(s) {
+    pr <- if (augmented) {
+      gasp_bank_predict_augmented_cpp(banks[[s]], post, fit$wM[[s]], Znew)
+    } else {
+      gasp_bank_predict_cpp(banks[[s]], Znew)
+    }
+    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], matrix(zpure, 1))$mean)
+    pr
+  })
+  names(res) <- names(fit$wb)
+  list(
+    mean = lapply(res, `[[`, "mean"), var = lapply(res, `[[`, "var"), pure = lapply(res, `[[`, "pure"),
+    x_nom = nominal
+  )
+}
+
+#' @export
+as.data.frame.wv_prediction <- function(x, ...) {
+  x$summary
+}
+
+#' @export
+print.wv_prediction <- function(x, ...) {
+  labels <- c(reality = "bias-corrected prediction of reality", field_run = "a new field run",
+              added_load = "the same vehicle with an added load", new_vehicle = "a new vehicle of the same type",
+              new_nominal = "a new vehicle with new nominal inputs")
+  cli::cat_line(sprintf("<wv_prediction> %s, %s bias, %g%% bands", labels[[x$type]], x$bias, 100 * x$level))
+  s <- x$summary
+  for (site in unique(s$site)) {
+    d <- s[s$site == site, ]
+    cli::cat_line(sprintf("  %s: %d time points, median pointwise band width %.3g, whole-curve band width %.3g",
+                          site, nrow(d), stats::median(d$upper - d$lower),
+                          stats::median(d$upper_curve - d$lower_curve)))
+  }
+  if (sum(x$n_guarded) > 0) {
+    cli::cat_line(sprintf("  multiplicative bias replaced by additive at %d draw-time points near zero model output",
+                          sum(x$n_guarded)))
+  }
+  invisible(x)
+}
+
+#' @export
+summary.wv_prediction <- function(object, ...) {
+  s <- object$summary
+  structure(list(
+    type = object$type, bias = object$bias, level = object$level,
+    width = do.call(rbind, lapply(split(s, s$site), function(d) {
+      data.frame(site = d$site[1], median_width = stats::median(d$upper - d$lower),
+                 median_curve_width = stats::median(d$upper_curve - d$lower_curve),
+                 max_abs_correction = max(abs(d$mean - d$model)))
+    }))
+  ), class = "summary_wv_prediction")
+}
+
+#' @export
+print.summary_wv_prediction <- function(x, ...) {
+  cli::cat_line(sprintf("Prediction (%s, %s bias, %g%% bands)", x$type, x$bias, 100 * x$level))
+  print(x$width, row.names = FALSE, digits = 3)
+  invisible(x)
+}
+
+#' Plot a prediction
+#'
+#' Bias-corrected prediction (black) with its tolerance band (dashed), the
+#' pure-model prediction (grey), field runs (orange) and, for new nominals, the
+#' model runs (light grey): the report's Figures 7 to 11.
+#'
+#' @param object A `wv_prediction`.
+#' @param field Field runs to overlay (default: those kept in the prediction).
+#' @param windows Optional list of time windows to zoom into.
+#' @param band `"pointwise"` or `"curve"` (the whole-curve band).
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @export
+autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = c("pointwise", "curve"), ...) {
+  band <- match.arg(band)
+  s <- object$summary
+  if (band == "curve") {
+    s$lower <- s$lower_curve
+    s$upper <- s$upper_curve
+  }
+  field <- field %||% object$field
+  win <- function(d) {
+    if (is.null(windows)) return(cbind(d, window = rep("whole record", nrow(d))))
+    do.call(rbind, lapply(windows, function(w) {
+      sub <- d[d$t >= w[1] & d$t <= w[2], , drop = FALSE]
+      if (nrow(sub)) sub$window <- sprintf("%s < t < %s", w[1], w[2])
+      sub
+    }))
+  }
+  s <- win(s)
+  p <- ggplot2::ggplot(s, ggplot2::aes(.data$t))
+  if (!is.null(object$runs)) {
+    rr <- do.call(rbind, lapply(unique(s$site), function(si) curves_long(object$runs$curves[[si]], object$runs$t, si)))
+    p <- p + ggplot2::geom_line(data = win(rr), ggplot2::aes(.data$t, .data$y, group = .data$run),
+                                colour = "grey85", linewidth = 0.2)
+  }
+  if (!is.null(field)) {
+    ff <- do.call(rbind, lapply(intersect(unique(s$site), names(field$curves)), function(si) {
+      curves_long(field$curves[[si]], field$t, si, "replicate")
+    }))
+    p <- p + ggplot2::geom_line(data = win(ff), ggplot2::aes(.data$t, .data$y, group = .data$replicate),
+                                colour = "#E69F00", linewidth = 0.3)
+  }
+  p + ggplot2::geom_line(ggplot2::aes(y = .data$model), colour = "grey50", linewidth = 0.4) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$lower), linetype = 2, linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$upper), linetype = 2, linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.4) +
+    ggplot2::facet_grid(site ~ window, scales = "free") +
+    ggplot2::labs(x = "time", y = "output",
+                  title = sprintf("Prediction: %s (%s bias, %g%% band)", gsub("_", " ", object$type),
+                                  object$bias, 100 * object$level)) +
+    ggplot2::theme_bw()
+}
+
+#' @export
+plot.wv_prediction <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}

@@ -1,0 +1,57 @@
+# Synthetic bias draws: n coefficients in 3 levels, the bias is 2 x candidate 1
+# plus level-scaled noise, with posterior jitter across draws.
+synthetic_bias <- function(H = 60, n = 120, amp = 2, noise = 0.3) {
+  lev <- rep(1:3, each = n / 3)
+  tau2 <- c(4, 1, 0.25)[lev]
+  X <- matrix(rnorm(n * 4), n, 4, dimnames = list(NULL, c("true", "decoy1", "decoy2", "decoy3")))
+  X[, "true"] <- X[, "true"] * sqrt(tau2)
+  base <- amp * X[, "true"] + rnorm(n, sd = noise * sqrt(tau2))
+  Y <- t(replicate(H, base + rnorm(n, sd = 0.1 * sqrt(tau2))))
+  W <- matrix(1 / tau2, H, n, byrow = TRUE)
+  list(Y = Y, X = X, W = W)
+}
+
+test_that("the regression finds the candidate that makes the bias", {
+  withr::local_seed(11)
+  d <- synthetic_bias()
+  res <- bias_regression(d$Y, d$X, d$W, max_size = 2)
+  tab <- res$table
+  expect_equal(tab$candidate[1], "true")
+  expect_gt(tab$inclusion_prob[1], 0.9)
+  expect_true(all(tab$inclusion_prob[-1] < 0.5))
+  expect_equal(tab$amplitude[1], 2, tolerance = 0.05)
+  expect_true(tab$amplitude_lower[1] <= 2 && tab$amplitude_upper[1] >= 1.9)
+  expect_gt(tab$share_explained[1], 0.8)
+  expect_equal(sum(res$subsets$probability) <= 1 + 1e-12, TRUE)
+})
+
+test_that("with no bias signal no candidate reaches one half", {
+  withr::local_seed(12)
+  d <- synthetic_bias(amp = 0, noise = 1)
+  tab <- bias_regression(d$Y, d$X, d$W, max_size = 3)$table
+  expect_true(all(tab$inclusion_prob < 0.5))
+})
+
+test_that("identical candidates share their inclusion instead of failing", {
+  withr::local_seed(13)
+  d <- synthetic_bias()
+  X <- cbind(d$X, twin = d$X[, "true"])
+  tab <- bias_regression(d$Y, X, d$W, max_size = 2)$table
+  p <- stats::setNames(tab$inclusion_prob, tab$candidate)
+  expect_equal(unname(p["true"]), unname(p["twin"]), tolerance = 1e-8)
+  expect_gt(p["true"] + p["twin"], 0.9)
+})
+
+test_that("the Bayes factor matches the closed form of the g-prior", {
+  withr::local_seed(14)
+  n <- 50
+  x <- rnorm(n)
+  y <- 0.5 * x + rnorm(n)
+  res <- bias_regression(matrix(y, 1), matrix(x, ncol = 1, dimnames = list(NULL, "x")), matrix(1, 1, n),
+                         max_size = 1)
+  r2 <- sum(x * y)^2 / sum(x^2) / sum(y^2)
+  g <- n
+  bf <- exp(-0.5 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2))
+  # equal prior on size 0 and 1
+  expect_equal(res$table$inclusion_prob, bf / (1 + bf), tolerance = 1e-10)
+})
