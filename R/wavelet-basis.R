@@ -54,7 +54,8 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
     if (length(extra)) {
       wv_abort(c(
         "Every field site needs model runs.",
-        "x" = "Field site{?s} {.val {extra}} {?is/are} not among the model-run sites {.val {sites}}."
+        "x" = "Field site{?s} {.val {extra}} ha{?s/ve} no model runs.",
+        "i" = "Model-run sites: {.val {sites}}."
       ))
     }
   }
@@ -156,14 +157,29 @@ full_curve <- function(coef, settings) {
   wavethresh::wr(w)
 }
 
+# Column j: the curve whose only non-zero coefficient is index[j], equal to one.
+# In the periodic transform the k-th wavelet of detail level l is the first
+# one circularly shifted by (k - 1) T / 2^l points, so one inverse transform
+# per level suffices.
 basis_matrix <- function(index, settings) {
   n <- settings$n_t
-  psi <- vapply(index, function(i) {
-    e <- numeric(n)
-    e[i] <- 1
-    full_curve(e, settings)
-  }, numeric(n))
-  matrix(psi, nrow = n)
+  zero <- wavethresh::wd(numeric(n), filter.number = settings$filter.number, family = settings$family,
+                         bc = "periodic")
+  psi <- matrix(0, n, length(index))
+  lev <- index_level(index) - 1L
+  for (l in unique(lev)) {
+    cols <- which(lev == l)
+    if (l < 0L) {
+      psi[, cols] <- wavethresh::wr(wavethresh::putC(zero, 0, 1))
+      next
+    }
+    first <- wavethresh::wr(wavethresh::putD(zero, l, c(1, numeric(2L^l - 1L))))
+    for (j in cols) {
+      sh <- (index[j] - 2L^l - 1L) * (n %/% 2L^l)
+      psi[, j] <- if (sh == 0L) first else c(first[(n - sh + 1L):n], first[seq_len(n - sh)])
+    }
+  }
+  psi
 }
 
 new_wv_basis <- function(index, level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL) {
