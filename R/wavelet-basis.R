@@ -504,6 +504,10 @@ plot.wv_reconstruction <- function(x, ...) {
 #' @param field A `wv_field` object with at least two replicates.
 #' @param site Site to check (name or position; default the first).
 #' @param seed Seed for the simulated processes; `NULL` draws one from R's RNG.
+#' @param project If `TRUE`, the field residuals are projected on the retained
+#'   basis first, so both panels hold processes in the span of `Psi` (the
+#'   simulated ones always are); by default they are the raw residuals, as in
+#'   the report.
 #' @return A `wv_error_processes` data frame with columns `site`, `process`
 #'   (`"field residuals"` or `"simulated"`), `replicate`, `t`, `y`; attributes
 #'   `sigma2` (per retained coefficient) and `seed`.
@@ -516,7 +520,7 @@ plot.wv_reconstruction <- function(x, ...) {
 #' ep <- error_processes(basis, field, seed = 1)
 #' ep
 #' autoplot(ep)
-error_processes <- function(basis, field, site = 1L, seed = NULL) {
+error_processes <- function(basis, field, site = 1L, seed = NULL, project = FALSE) {
   check_class(basis, "wv_basis")
   check_class(field, "wv_field")
   check_same_grid(basis$t, field$t, "basis", "field")
@@ -528,6 +532,7 @@ error_processes <- function(basis, field, site = 1L, seed = NULL) {
   w <- basis_coef(basis, m)
   sigma2 <- colSums(sweep(w, 2L, colMeans(w))^2) / (n_rep - 1L)
   resid <- sweep(m, 2L, colMeans(m))
+  if (isTRUE(project)) resid <- basis_curves(basis, basis_coef(basis, resid))
   z <- with_seed(seed, matrix(stats::rnorm(n_rep * length(sigma2)), n_rep))
   sim <- basis_curves(basis, sweep(z, 2L, sqrt(sigma2), `*`))
   out <- rbind(

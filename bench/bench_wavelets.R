@@ -113,3 +113,5 @@ cat(sprintf("\nRelative L2 reconstruction error: median %.4f, worst %.4f (%s %s 
 print(chk)
 cat("\nError-process check, site 1:\n")
 print(error_processes(basis, reg, site = 1, seed = 1))
+cat("\nSame, with the field residuals projected on the retained basis:\n")
+print(error_processes(basis, reg, site = 1, seed = 1, project = TRUE))

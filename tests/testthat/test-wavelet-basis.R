@@ -134,6 +134,9 @@ test_that("error processes: residuals about the mean and draws from the coeffici
   # simulated processes lie in the span of the basis
   expect_equal(basis_curves(b, basis_coef(b, sim_m)), sim_m, tolerance = 1e-9)
   expect_s3_class(autoplot(ep), "ggplot")
+  pr <- as.data.frame(error_processes(b, bed$field, site = "s1", seed = 11, project = TRUE))
+  pr_m <- unname(do.call(rbind, split(pr$y[pr$process == "field residuals"], pr$replicate[pr$process == "field residuals"])))
+  expect_equal(basis_coef(b, pr_m), sweep(w, 2, colMeans(w)), tolerance = 1e-9)
   one <- field_runs(bed$field$curves$s1[1, , drop = FALSE], bed$field$t)
   expect_error(error_processes(b, one), class = "wavevalid_error_input")
 })
