@@ -1,0 +1,376 @@
+#' Register field curves to a reference by landmarks
+#'
+#' Aligns the peaks and valleys of every field replicate with those of a
+#' reference curve by a piecewise-linear time warp, as in Appendix B of the
+#' method's report, generalised to any number of event windows.
+#'
+#' In each window the landmarks are the location of the minimum and of the
+#' maximum (or only one of them, see `features`) of the reference curve and of
+#' each replicate, ordered by time. The warp of a replicate maps its landmarks
+#' onto the reference's, is linear in between, and keeps the two ends of the
+#' grid fixed. The registered curve is the replicate evaluated at the inverse
+#' warp of the grid (linear interpolation between grid points).
+#'
+#' The time jitter of a field test is a property of the test run, not of the
+#' measurement site, so by default the landmarks of a replicate are found on
+#' one site (`landmark_site`, the first site unless stated) and the same warp is
+#' applied to every site of that replicate. With `landmark_site = NULL` every
+#' site is registered on its own landmarks.
+#'
+#' Registration is refused (error of class `wavevalid_error_input`) when a
+#' window is not an increasing pair of times, falls outside the grid, or
+#' overlaps another window, and when the landmarks of a replicate come in a
+#' different order from the reference's (the warp would not be monotone).
+#'
+#' @param field A `wv_field` object.
+#' @param reference Either a `wv_runs` object on the same grid (the reference
+#'   of each site is then the mean of the model runs at that site, as in the
+#'   report) or a named list, by site, of reference curves (numeric vectors on
+#'   the field grid).
+#' @param windows A list of increasing pairs of times, one per event, in
+#'   increasing and non-overlapping order, e.g. `list(c(6, 11), c(37, 41))`.
+#' @param landmark_site The site (name or position) whose curves set the
+#'   landmarks of each replicate, or `NULL` to register each site on its own
+#'   landmarks.
+#' @param features Which landmarks to use in each window: `"min"`, `"max"` or
+#'   both (default).
+#' @return A registered `wv_field`: the same object with registered curves and
+#'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
+#'   window, feature) and columns `site` (the site whose curve set the
+#'   landmark), `replicate`, `window`, `feature` (`"min"` or `"max"`),
+#'   `t_before` (landmark time in the replicate as measured) and `t_after` (the
+#'   reference's landmark time it is moved to). The warp of a replicate is the
+#'   piecewise-linear map through `(t_1, t_1)`, the `(t_before, t_after)` pairs
+#'   and `(t_T, t_T)`; attributes `range`, `windows`, `landmark_site` and
+#'   `sites` (the sites each warp was applied to) complete it. Plot the warps
+#'   with `autoplot(x$warps)`.
+#' @export
+#' @examples
+#' t <- seq(0, 10, length.out = 256)
+#' bump <- function(t, at) exp(-(t - at)^2) - 0.8 * exp(-(t - at - 1.5)^2)
+#' ref <- bump(t, 3)
+#' reps <- rbind(bump(t, 2.8), bump(t, 3.3), bump(t, 3.1))
+#' field <- field_runs(reps, t)
+#' reg <- register_curves(field, list(site1 = ref), windows = list(c(1, 7)))
+#' reg
+#' reg$warps
+#' autoplot(reg$warps)
+register_curves <- function(field, reference, windows, landmark_site = 1L,
+                            features = c("min", "max")) {
+  check_class(field, "wv_field")
+  t <- field$t
+  sites <- names(field$curves)
+  ref <- resolve_reference(reference, t, sites)
+  windows <- check_windows(windows, t)
+  features <- check_features(features)
+  if (!is.null(landmark_site)) landmark_site <- resolve_site(landmark_site, sites, "landmark_site")
+
+  curves <- field$curves
+  n_rep <- vapply(curves, nrow, integer(1))
+  if (length(unique(n_rep)) > 1L && !is.null(landmark_site)) {
+    wv_abort(c(
+      "Every site must have the same replicates to share one warp per replicate.",
+      "x" = "Replicates by site: {paste(sites, n_rep, sep = ' = ', collapse = ', ')}.",
+      "i" = "Use {.code landmark_site = NULL} to register each site on its own landmarks."
+    ))
+  }
+  marker_sites <- if (is.null(landmark_site)) sites else landmark_site
+  rows <- list()
+  for (s in marker_sites) {
+    ref_lm <- curve_landmarks(ref[[s]], t, windows, features)
+    targets <- if (is.null(landmark_site)) s else sites
+    for (r in seq_len(n_rep[[s]])) {
+      rep_lm <- curve_landmarks(curves[[s]][r, ], t, windows, features)
+      knots <- warp_knots_from(rep_lm, ref_lm, t, site = s, replicate = r)
+      for (s2 in targets) curves[[s2]][r, ] <- apply_inverse_warp(curves[[s2]][r, ], t, knots)
+      rows[[length(rows) + 1L]] <- data.frame(
+        site = s, replicate = r, window = ref_lm$window, feature = ref_lm$feature,
+        t_before = rep_lm$t, t_after = ref_lm$t, stringsAsFactors = FALSE
+      )
+    }
+  }
+  warps <- new_wv_warps(do.call(rbind, rows), range = range(t), windows = windows,
+                        landmark_site = if (is.null(landmark_site)) NA_character_ else landmark_site,
+                        sites = sites)
+  validate_wv_warps(warps)
+  validate_wv_field(new_wv_field(t, curves, field$x_nom, warps))
+}
+
+# --- landmarks and warps ----------------------------------------------------
+
+# Landmarks of one curve: one row per (window, feature), ordered by time within
+# each window.
+curve_landmarks <- function(y, t, windows, features) {
+  out <- lapply(seq_along(windows), function(w) {
+    idx <- which(t >= windows[[w]][1] & t <= windows[[w]][2])
+    tt <- t[idx]
+    yy <- y[idx]
+    at <- c(min = tt[which.min(yy)], max = tt[which.max(yy)])[features]
+    data.frame(window = w, feature = names(at), t = unname(at), stringsAsFactors = FALSE)
+  })
+  out <- do.call(rbind, out)
+  out[order(out$window, out$t), , drop = FALSE]
+}
+
+# Knots (before -> after) of the warp of one replicate, checked for monotonicity.
+warp_knots_from <- function(rep_lm, ref_lm, t, site, replicate, call = rlang::caller_env()) {
+  for (w in unique(ref_lm$window)) {
+    f_ref <- ref_lm$feature[ref_lm$window == w]
+    f_rep <- rep_lm$feature[rep_lm$window == w]
+    if (!identical(f_ref, f_rep) || anyDuplicated(ref_lm$t[ref_lm$window == w]) ||
+        anyDuplicated(rep_lm$t[rep_lm$window == w])) {
+      wv_abort(c(
+        "Landmarks of replicate {replicate} (site {.val {site}}) are out of order in window {w}.",
+        "x" = "Reference order: {paste(f_ref, collapse = ' < ')} at t = {paste(signif(ref_lm$t[ref_lm$window == w], 5), collapse = ', ')}; replicate order: {paste(f_rep, collapse = ' < ')} at t = {paste(signif(rep_lm$t[rep_lm$window == w], 5), collapse = ', ')}.",
+        "i" = "The warp would not be monotone. Narrow the window around the event, use {.arg features} to keep one landmark, or drop the replicate."
+      ), call = call)
+    }
+  }
+  # rows of rep_lm and ref_lm correspond: same windows, same features, same order
+  before <- c(t[1], rep_lm$t, t[length(t)])
+  after <- c(t[1], ref_lm$t, t[length(t)])
+  keep <- !(duplicated(before) & duplicated(after))
+  before <- before[keep]
+  after <- after[keep]
+  if (any(diff(before) <= 0) || any(diff(after) <= 0)) {
+    wv_abort(c(
+      "The warp of replicate {replicate} (site {.val {site}}) is not monotone.",
+      "x" = "A landmark sits on the end of the grid in the replicate but not in the reference (or the reverse).",
+      "i" = "Move the windows away from the ends of the grid."
+    ), call = call)
+  }
+  list(before = before, after = after)
+}
+
+# Registered curve: y evaluated at the inverse warp of the grid.
+apply_inverse_warp <- function(y, t, knots) {
+  t_src <- stats::approx(knots$after, knots$before, xout = t, rule = 2)$y
+  stats::approx(t, y, xout = t_src, rule = 2)$y
+}
+
+# Knots of the warp of one replicate from a wv_warps table.
+warp_knots <- function(warps, replicate, site = NULL) {
+  d <- warps[warps$replicate == replicate, , drop = FALSE]
+  if (!is.null(site)) d <- d[d$site == site, , drop = FALSE]
+  rg <- attr(warps, "range")
+  before <- c(rg[1], d$t_before, rg[2])
+  after <- c(rg[1], d$t_after, rg[2])
+  keep <- !(duplicated(before) & duplicated(after))
+  list(before = before[keep], after = after[keep])
+}
+
+# --- input checks ------------------------------------------------------------
+
+resolve_reference <- function(reference, t, sites, call = rlang::caller_env()) {
+  if (inherits(reference, "wv_runs")) {
+    check_same_grid(reference$t, t, "reference", "field", call = call)
+    missing <- setdiff(sites, names(reference$curves))
+    if (length(missing)) {
+      wv_abort("{.arg reference} has no model runs for field site{?s} {.val {missing}}.", call = call)
+    }
+    return(lapply(reference$curves[sites], colMeans))
+  }
+  if (!is.list(reference) || is.null(names(reference))) {
+    wv_abort(c(
+      "{.arg reference} must be a {.cls wv_runs} object or a named list of reference curves, one per site.",
+      "x" = "It is {.obj_type_friendly {reference}}."
+    ), call = call)
+  }
+  missing <- setdiff(sites, names(reference))
+  if (length(missing)) {
+    wv_abort("{.arg reference} has no curve for field site{?s} {.val {missing}}.", call = call)
+  }
+  out <- lapply(sites, function(s) {
+    y <- reference[[s]]
+    if (!is.numeric(y) || length(y) != length(t) || any(!is.finite(y))) {
+      wv_abort(c(
+        "The reference curve of site {.val {s}} must be a finite numeric vector on the field grid.",
+        "x" = "It has {length(y)} value{?s}; the field grid has {length(t)} points."
+      ), call = call)
+    }
+    as.numeric(y)
+  })
+  stats::setNames(out, sites)
+}
+
+check_windows <- function(windows, t, call = rlang::caller_env()) {
+  if (is.numeric(windows) && length(windows) == 2L) windows <- list(windows)
+  if (!is.list(windows) || length(windows) == 0L) {
+    wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.",
+             call = call)
+  }
+  for (w in seq_along(windows)) {
+    x <- windows[[w]]
+    if (!is.numeric(x) || length(x) != 2L || any(!is.finite(x)) || x[1] >= x[2]) {
+      wv_abort(c(
+        "Window {w} must be an increasing pair of finite times.",
+        "x" = "It is {.code {deparse(x)}}."
+      ), call = call)
+    }
+    if (x[1] < t[1] || x[2] > t[length(t)]) {
+      wv_abort(c(
+        "Window {w} ({x[1]}, {x[2]}) falls outside the grid [{signif(t[1], 5)}, {signif(t[length(t)], 5)}].",
+        "i" = "Give windows inside the time range of the curves."
+      ), call = call)
+    }
+    if (sum(t >= x[1] & t <= x[2]) < 2L) {
+      wv_abort("Window {w} ({x[1]}, {x[2]}) holds fewer than two grid points; widen it.", call = call)
+    }
+    if (w > 1L && x[1] <= windows[[w - 1L]][2]) {
+      wv_abort(c(
+        "Windows must be in increasing order and must not overlap.",
+        "x" = "Window {w} starts at {x[1]}, before window {w - 1} ends at {windows[[w - 1L]][2]}."
+      ), call = call)
+    }
+  }
+  lapply(windows, as.numeric)
+}
+
+check_features <- function(features, call = rlang::caller_env()) {
+  if (!is.character(features) || length(features) == 0L || !all(features %in% c("min", "max")) ||
+      anyDuplicated(features)) {
+    wv_abort("{.arg features} must be {.val min}, {.val max} or both.", call = call)
+  }
+  intersect(c("min", "max"), features)
+}
+
+resolve_site <- function(site, sites, arg, call = rlang::caller_env()) {
+  if (is.numeric(site) && length(site) == 1L && site %in% seq_along(sites)) return(sites[site])
+  if (is.character(site) && length(site) == 1L && site %in% sites) return(site)
+  wv_abort(c(
+    "{.arg {arg}} must name one site (or give its position).",
+    "x" = "Sites are {.val {sites}}."
+  ), call = call)
+}
+
+check_same_grid <- function(t1, t2, arg1, arg2, call = rlang::caller_env()) {
+  if (length(t1) != length(t2)) {
+    wv_abort(c(
+      "{.arg {arg1}} and {.arg {arg2}} must be on the same time grid.",
+      "x" = "{.arg {arg1}} has {length(t1)} time points and {.arg {arg2}} has {length(t2)}.",
+      "i" = "Interpolate both to one grid first (e.g. {.fn stats::approx} onto the model-run grid)."
+    ), call = call)
+  }
+  d <- max(abs(t1 - t2))
+  if (d > 1e-8 * max(1, abs(t1), abs(t2))) {
+    i <- which.max(abs(t1 - t2))
+    wv_abort(c(
+      "{.arg {arg1}} and {.arg {arg2}} must be on the same time grid.",
+      "x" = "Both have {length(t1)} points but differ by up to {signif(d, 3)} (point {i}: {signif(t1[i], 6)} vs {signif(t2[i], 6)}); ranges [{signif(min(t1), 5)}, {signif(max(t1), 5)}] and [{signif(min(t2), 5)}, {signif(max(t2), 5)}].",
+      "i" = "Interpolate both to one grid first (e.g. {.fn stats::approx} onto the model-run grid)."
+    ), call = call)
+  }
+  invisible(TRUE)
+}
+
+# --- wv_warps class ------------------------------------------------------------
+
+new_wv_warps <- function(x, range, windows, landmark_site, sites) {
+  rownames(x) <- NULL
+  structure(x, range = range, windows = windows, landmark_site = landmark_site, sites = sites,
+            class = c("wv_warps", "data.frame"))
+}
+
+validate_wv_warps <- function(x, call = rlang::caller_env()) {
+  need <- c("site", "replicate", "window", "feature", "t_before", "t_after")
+  miss <- setdiff(need, names(x))
+  if (length(miss)) wv_abort("{.cls wv_warps} lacks column{?s} {.field {miss}}.", call = call, class = "state")
+  rg <- attr(x, "range")
+  if (!is.numeric(rg) || length(rg) != 2L) wv_abort("{.cls wv_warps} needs a {.field range} attribute.", call = call,
+                                                    class = "state")
+  x
+}
+
+#' @export
+print.wv_warps <- function(x, ...) {
+  n_rep <- length(unique(x$replicate))
+  ls <- attr(x, "landmark_site")
+  shift <- abs(x$t_before - x$t_after)
+  cli::cat_line(sprintf("<wv_warps> piecewise-linear warps of %d replicate%s, %d window%s, %d landmark%s each",
+                        n_rep, if (n_rep == 1) "" else "s", length(attr(x, "windows")),
+                        if (length(attr(x, "windows")) == 1) "" else "s",
+                        length(unique(paste(x$window, x$feature))),
+                        if (length(unique(paste(x$window, x$feature))) == 1) "" else "s"))
+  cli::cat_line(if (is.na(ls)) "  landmarks found on each site separately"
+                else sprintf("  landmarks found on site %s, warps applied to all sites", ls))
+  cli::cat_line(sprintf("  landmark shift: median %s, max %s", format(signif(stats::median(shift), 3)),
+                        format(signif(max(shift), 3))))
+  print(as.data.frame(unclass_warps(x)), row.names = FALSE)
+  invisible(x)
+}
+
+unclass_warps <- function(x) {
+  attr(x, "range") <- attr(x, "windows") <- attr(x, "landmark_site") <- attr(x, "sites") <- NULL
+  class(x) <- "data.frame"
+  x
+}
+
+#' @export
+as.data.frame.wv_warps <- function(x, ...) unclass_warps(x)
+
+#' @export
+summary.wv_warps <- function(object, ...) {
+  d <- unclass_warps(object)
+  d$shift <- d$t_before - d$t_after
+  by_rep <- stats::aggregate(shift ~ site + replicate, data = d, FUN = function(s) max(abs(s)))
+  names(by_rep)[3] <- "max_abs_shift"
+  structure(list(by_replicate = by_rep, landmark_site = attr(object, "landmark_site")),
+            class = "summary_wv_warps")
+}
+
+#' @export
+print.summary_wv_warps <- function(x, ...) {
+  cli::cat_line("Largest landmark shift by replicate:")
+  print(x$by_replicate, row.names = FALSE)
+  invisible(x)
+}
+
+#' Plot registration warps
+#'
+#' Draws, for every replicate, the time shift of its warp, `h(t) - t`, where
+#' `h` maps the time of the replicate as measured onto the registered
+#' (reference) time; the landmarks are marked and the event windows shaded.
+#'
+#' @param object A `wv_warps` object (the `warps` element of a registered
+#'   `wv_field`).
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @export
+#' @examples
+#' t <- seq(0, 10, length.out = 256)
+#' bump <- function(t, at) exp(-(t - at)^2) - 0.8 * exp(-(t - at - 1.5)^2)
+#' field <- field_runs(rbind(bump(t, 2.8), bump(t, 3.3)), t)
+#' reg <- register_curves(field, list(site1 = bump(t, 3)), windows = list(c(1, 7)))
+#' autoplot(reg$warps)
+autoplot.wv_warps <- function(object, ...) {
+  rg <- attr(object, "range")
+  keys <- unique(as.data.frame(object)[, c("site", "replicate")])
+  lines <- do.call(rbind, lapply(seq_len(nrow(keys)), function(k) {
+    kn <- warp_knots(object, keys$replicate[k], keys$site[k])
+    data.frame(site = keys$site[k], replicate = factor(keys$replicate[k]), t = kn$before,
+               shift = kn$after - kn$before)
+  }))
+  pts <- as.data.frame(object)
+  pts$replicate <- factor(pts$replicate)
+  pts$shift <- pts$t_after - pts$t_before
+  win <- do.call(rbind, lapply(attr(object, "windows"), function(w) data.frame(xmin = w[1], xmax = w[2])))
+  p <- ggplot2::ggplot() +
+    ggplot2::geom_rect(data = win, ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = -Inf, ymax = Inf),
+                       fill = "grey90") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey50", linewidth = 0.3) +
+    ggplot2::geom_line(data = lines, ggplot2::aes(.data$t, .data$shift, colour = .data$replicate)) +
+    ggplot2::geom_point(data = pts, ggplot2::aes(.data$t_before, .data$shift, colour = .data$replicate,
+                                                 shape = .data$feature)) +
+    ggplot2::labs(x = "time as measured", y = "registered time - measured time", colour = "replicate",
+                  shape = "landmark", title = "Registration warps") +
+    ggplot2::coord_cartesian(xlim = rg) +
+    ggplot2::theme_bw()
+  if (length(unique(object$site)) > 1L) p <- p + ggplot2::facet_wrap(~site)
+  p
+}
+
+#' @export
+plot.wv_warps <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}

@@ -1,0 +1,121 @@
+# Two events, each a dip then a peak, over a slow wave.
+rms <- function(x) sqrt(mean(x^2))
+event_curve <- function(t, at = c(5, 14), amp = c(1, 0.7)) {
+  y <- 0.05 * sin(2 * pi * t / 9)
+  for (e in seq_along(at)) {
+    s <- t - at[e]
+    y <- y - amp[e] * (s > 0) * exp(-0.8 * pmax(s, 0)) * sin(2 * pi * 0.8 * pmax(s, 0))
+  }
+  y
+}
+
+grid <- function(n = 1024) 20 * (0:(n - 1)) / n
+windows <- list(c(4, 8), c(13, 17))
+
+# Replicate seen through a known warp: measured time t maps to reference time
+# h(t), piecewise linear through (before, after); y_r(t) = ref(h(t)).
+warped <- function(f, t, before, after) f(stats::approx(before, after, xout = t)$y)
+
+test_that("registration recovers a known piecewise-linear warp", {
+  t <- grid()
+  ref <- event_curve(t)
+  ref_lm <- curve_landmarks(ref, t, windows, c("min", "max"))
+  shifts <- c(0.3, 0.5, -0.4, -0.2)
+  before <- c(0, ref_lm$t + shifts, 20)
+  after <- c(0, ref_lm$t, 20)
+  reps <- rbind(warped(event_curve, t, before, after), event_curve(t), warped(event_curve, t, before, after))
+  reps[3, ] <- warped(event_curve, t, c(0, ref_lm$t - shifts, 20), after)
+  field <- field_runs(reps, t)
+  reg <- register_curves(field, list(site1 = ref), windows)
+
+  expect_s3_class(reg, "wv_field")
+  expect_s3_class(reg$warps, "wv_warps")
+  w <- reg$warps
+  expect_equal(nrow(w), 3 * 4)
+  step <- diff(t)[1]
+  expect_true(all(abs(w$t_before[w$replicate == 1] - (ref_lm$t + shifts)) <= step + 1e-9))
+  expect_true(all(abs(w$t_before[w$replicate == 3] - (ref_lm$t - shifts)) <= step + 1e-9))
+  expect_equal(w$t_after[w$replicate == 1], ref_lm$t)
+  expect_equal(w$feature[1:4], c("min", "max", "min", "max"))
+  # the unwarped replicate is left alone
+  expect_equal(reg$curves$site1[2, ], ref)
+  # registered curves match the reference far better than the raw ones
+  for (r in c(1, 3)) {
+    raw <- rms(reps[r, ] - ref)
+    after_reg <- rms(reg$curves$site1[r, ] - ref)
+    expect_lt(after_reg, 0.01 * diff(range(ref)))
+    expect_lt(after_reg, raw / 5)
+  }
+  expect_output(print(reg), "registered")
+})
+
+test_that("one warp per replicate is applied to every site; landmark_site = NULL registers each site", {
+  t <- grid()
+  ref1 <- event_curve(t)
+  ref2 <- event_curve(t, amp = c(0.5, 1.2)) + 0.1
+  lm <- curve_landmarks(ref1, t, windows, c("min", "max"))
+  before <- c(0, lm$t + c(0.4, 0.4, -0.3, -0.3), 20)
+  after <- c(0, lm$t, 20)
+  f2 <- function(x) event_curve(x, amp = c(0.5, 1.2)) + 0.1
+  field <- field_runs(list(a = rbind(warped(event_curve, t, before, after), ref1),
+                           b = rbind(warped(f2, t, before, after), ref2)), t)
+  reg <- register_curves(field, list(a = ref1, b = ref2), windows)
+  expect_equal(unique(reg$warps$site), "a")
+  expect_equal(attr(reg$warps, "landmark_site"), "a")
+  expect_lt(rms(reg$curves$b[1, ] - ref2), 0.01 * diff(range(ref2)))
+
+  # landmarks on site b give the same warp here (same time jitter)
+  reg_b <- register_curves(field, list(a = ref1, b = ref2), windows, landmark_site = "b")
+  expect_equal(unique(reg_b$warps$site), "b")
+  expect_lt(rms(reg_b$curves$a[1, ] - ref1), 0.01 * diff(range(ref1)))
+
+  reg_each <- register_curves(field, list(a = ref1, b = ref2), windows, landmark_site = NULL)
+  expect_setequal(unique(reg_each$warps$site), c("a", "b"))
+  expect_true(is.na(attr(reg_each$warps, "landmark_site")))
+  expect_s3_class(autoplot(reg_each$warps), "ggplot")
+  expect_s3_class(summary(reg$warps), "summary_wv_warps")
+})
+
+test_that("a wv_runs reference means the mean of the runs per site", {
+  t <- grid(256)
+  runs <- model_runs(data.frame(a = 1:3),
+                     rbind(event_curve(t), event_curve(t, amp = c(1.2, 0.6)), event_curve(t, amp = c(0.8, 0.8))), t)
+  field <- field_runs(rbind(event_curve(t, at = c(5.3, 13.8)), event_curve(t, at = c(4.8, 14.2))), t)
+  a <- register_curves(field, runs, windows)
+  b <- register_curves(field, list(site1 = colMeans(runs$curves$site1)), windows)
+  expect_equal(a$curves, b$curves)
+  expect_equal(as.data.frame(a$warps), as.data.frame(b$warps))
+})
+
+test_that("only one feature per window can be used", {
+  t <- grid()
+  ref <- event_curve(t)
+  field <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3))), t)
+  reg <- register_curves(field, list(site1 = ref), windows, features = "max")
+  expect_equal(reg$warps$feature, c("max", "max"))
+  expect_true(all(abs(reg$warps$t_before - reg$warps$t_after - c(0.2, 0.3)) <= diff(t)[1] + 1e-9))
+})
+
+test_that("bad windows, out-of-order landmarks and mismatched grids are refused", {
+  t <- grid()
+  ref <- list(site1 = event_curve(t))
+  field <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3))), t)
+  cls <- "wavevalid_error_input"
+  expect_error(register_curves(field, ref, list(c(8, 4))), class = cls)
+  expect_error(register_curves(field, ref, list(c(4, 8, 9))), class = cls)
+  expect_error(register_curves(field, ref, list(c(-1, 8))), class = cls)
+  expect_error(register_curves(field, ref, list(c(15, 25))), class = cls)
+  expect_error(register_curves(field, ref, list(c(4, 10), c(9, 15))), class = cls)
+  expect_error(register_curves(field, ref, list(c(13, 17), c(4, 8))), class = cls)
+  # a replicate whose peak comes before its dip: the warp would fold time
+  flipped <- field_runs(rbind(-event_curve(t, at = c(5.2, 14.3))), t)
+  expect_error(register_curves(flipped, ref, windows), class = cls)
+  expect_snapshot(register_curves(flipped, ref, windows), error = TRUE)
+  # reference on another grid, or missing a site
+  expect_error(register_curves(field, list(site1 = ref$site1[-1]), windows), class = cls)
+  runs_other <- model_runs(data.frame(a = 1:2), rbind(ref$site1, ref$site1), t * 1.01)
+  expect_error(register_curves(field, runs_other, windows), class = cls)
+  expect_error(register_curves(field, list(other = ref$site1), windows), class = cls)
+  expect_error(register_curves(field, ref, windows, landmark_site = "nope"), class = cls)
+  expect_error(register_curves(field, ref, windows, features = "peak"), class = cls)
+})

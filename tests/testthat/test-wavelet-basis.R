@@ -1,0 +1,164 @@
+# Small irregular curves: damped oscillations at two events plus AR noise.
+small_bed <- function(n = 256, k = 6, r = 3) {
+  t <- 10 * (0:(n - 1)) / n
+  f <- function(a, b) {
+    s1 <- pmax(t - 2, 0)
+    s2 <- pmax(t - 6, 0)
+    -a * (t > 2) * exp(-b * s1) * sin(2 * pi * s1) - 0.6 * a * (t > 6) * exp(-b * s2) * sin(2 * pi * s2)
+  }
+  design <- data.frame(a = seq(0.8, 1.2, length.out = k), b = seq(1.3, 0.7, length.out = k))
+  runs1 <- t(mapply(f, design$a, design$b)) + 0.02 * t(replicate(k, cumsum(rnorm(n)) / 4))
+  runs2 <- 0.5 * runs1 + 0.1
+  field1 <- t(replicate(r, f(1, 1) + as.numeric(stats::filter(rnorm(n, sd = 0.03), 0.8, method = "recursive"))))
+  field2 <- t(replicate(r, 0.5 * f(1, 1) + 0.1 + rnorm(n, sd = 0.02)))
+  list(runs = model_runs(design, list(s1 = runs1, s2 = runs2), t),
+       field = field_runs(list(s1 = field1, s2 = field2), t))
+}
+
+# Zero-filled transform with the given full coefficient vector, built with
+# wavethresh's own accessors.
+wr_of <- function(coef) {
+  n <- length(coef)
+  w <- wavethresh::wd(numeric(n), filter.number = 2, family = "DaubExPhase")
+  w <- wavethresh::putC(w, 0, coef[1])
+  for (l in 0:(log2(n) - 1)) w <- wavethresh::putD(w, l, coef[2^l + seq_len(2^l)])
+  wavethresh::wr(w)
+}
+
+test_that("indices follow the wavethresh layout and the report's levels", {
+  expect_equal(index_level(1:16), c(0, 1, 2, 2, 3, 3, 3, 3, rep(4, 8)))
+  withr::local_seed(1)
+  y <- cumsum(rnorm(64))
+  w <- wavethresh::wd(y, filter.number = 2, family = "DaubExPhase")
+  fc <- full_coef(y, list(filter.number = 2, family = "DaubExPhase"))
+  expect_length(fc, 64)
+  expect_equal(fc[1], wavethresh::accessC(w, 0))
+  for (l in 0:5) expect_equal(fc[2^l + seq_len(2^l)], wavethresh::accessD(w, l))
+  # orthonormal transform: energy is kept
+  expect_equal(sum(fc^2), sum(y^2))
+})
+
+test_that("keeping every coefficient gives an exact round trip", {
+  withr::local_seed(2)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field, fraction = 1)
+  expect_equal(b$index, 1:256)
+  m <- bed$runs$curves$s1
+  expect_equal(basis_curves(b, basis_coef(b, m)), m, tolerance = 1e-9)
+  expect_equal(wavelet_reconstruct(b, wavelet_coef(b, bed$field)), bed$field$curves, tolerance = 1e-9)
+  chk <- reconstruction_check(b, bed$runs, bed$field)
+  expect_lt(max(chk$rel_l2), 1e-9)
+})
+
+test_that("Psi has orthonormal columns and matches wavethresh's inverse transform", {
+  withr::local_seed(3)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field)
+  expect_equal(crossprod(b$Psi), diag(length(b$index)), tolerance = 1e-9)
+  expect_equal(b$level, index_level(b$index))
+  coef <- numeric(256)
+  coef[b$index] <- rnorm(length(b$index))
+  expect_equal(as.vector(b$Psi %*% coef[b$index]), wr_of(coef), tolerance = 1e-9)
+  # basis_coef gives wavethresh's coefficients at the retained indices
+  y <- bed$field$curves$s1[2, ]
+  w <- wavethresh::wd(y, filter.number = 2, family = "DaubExPhase")
+  full <- c(wavethresh::accessC(w, 0), unlist(lapply(0:7, function(l) wavethresh::accessD(w, l))))
+  expect_equal(as.vector(basis_coef(b, y)), full[b$index], tolerance = 1e-9)
+  expect_equal(unname(wavelet_coef(b, y)[1, ]), full[b$index], tolerance = 1e-9)
+  expect_equal(colnames(wavelet_coef(b, y)), paste0("w", b$index))
+})
+
+test_that("I holds the whole kept levels and every curve's top coefficients, and nothing else", {
+  withr::local_seed(4)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:2, fraction = 0.05)
+  expect_true(all(1:8 %in% b$index))
+  expected <- 1:8
+  for (s in c("s1", "s2")) {
+    for (m in list(bed$runs$curves[[s]], bed$field$curves[[s]])) {
+      for (r in seq_len(nrow(m))) {
+        a <- abs(full_coef(m[r, ], b$settings))
+        top <- order(a, decreasing = TRUE)[seq_len(floor(0.05 * 256))]
+        expect_true(all(top %in% b$index))
+        expected <- union(expected, which(a >= stats::quantile(a, 0.95)))
+      }
+    }
+  }
+  expect_equal(b$index, sort(as.integer(expected)))
+  expect_equal(b$index, sort(unique(unlist(b$by_site))))
+  expect_true(all(lengths(b$by_site) <= length(b$index)))
+  # with no thresholded coefficients, I is exactly the kept levels
+  b0 <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:3, fraction = 0)
+  expect_equal(b0$index, 1:16)
+  expect_equal(b0$level, c(0L, 1L, 2L, 2L, rep(3L, 4), rep(4L, 8)))
+})
+
+test_that("print and summary of a basis", {
+  withr::local_seed(5)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field)
+  expect_snapshot(print(b))
+  expect_snapshot(print(summary(b)))
+  expect_s3_class(autoplot(b), "ggplot")
+  expect_s3_class(autoplot(b, type = "reconstruction", curve = bed$field$curves$s1[1, ]), "ggplot")
+})
+
+test_that("reconstruction errors are the norm of the part outside the basis", {
+  withr::local_seed(6)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field)
+  chk <- reconstruction_check(b, bed$runs, bed$field)
+  expect_equal(nrow(chk), 2 * (6 + 3))
+  y <- bed$field$curves$s2[3, ]
+  fc <- full_coef(y, b$settings)
+  lost <- sqrt(sum(fc[-b$index]^2) / sum(y^2))
+  row <- chk$site == "s2" & chk$source == "field" & chk$id == 3
+  expect_equal(chk$rel_l2[row], lost, tolerance = 1e-9)
+  expect_s3_class(autoplot(chk), "ggplot")
+  expect_s3_class(summary(chk), "summary_wv_reconstruction")
+})
+
+test_that("error processes: residuals about the mean and draws from the coefficient model", {
+  withr::local_seed(7)
+  bed <- small_bed(r = 4)
+  b <- wavelet_basis(bed$runs, bed$field)
+  ep <- error_processes(b, bed$field, site = "s1", seed = 11)
+  expect_identical(ep, error_processes(b, bed$field, site = "s1", seed = 11))
+  d <- as.data.frame(ep)
+  res <- d[d$process == "field residuals", ]
+  expect_equal(as.vector(tapply(res$y, res$t, sum)), rep(0, 256), tolerance = 1e-9)
+  w <- basis_coef(b, bed$field$curves$s1)
+  expect_equal(attr(ep, "sigma2"), apply(w, 2, stats::var), tolerance = 1e-12)
+  sim <- d[d$process == "simulated", ]
+  sim_m <- unname(do.call(rbind, split(sim$y, sim$replicate)))
+  # simulated processes lie in the span of the basis
+  expect_equal(basis_curves(b, basis_coef(b, sim_m)), sim_m, tolerance = 1e-9)
+  expect_s3_class(autoplot(ep), "ggplot")
+  pr <- as.data.frame(error_processes(b, bed$field, site = "s1", seed = 11, project = TRUE))
+  pr_m <- unname(do.call(rbind, split(pr$y[pr$process == "field residuals"], pr$replicate[pr$process == "field residuals"])))
+  expect_equal(basis_coef(b, pr_m), sweep(w, 2, colMeans(w)), tolerance = 1e-9)
+  one <- field_runs(bed$field$curves$s1[1, , drop = FALSE], bed$field$t)
+  expect_error(error_processes(b, one), class = "wavevalid_error_input")
+})
+
+test_that("inputs are checked", {
+  withr::local_seed(8)
+  bed <- small_bed()
+  cls <- "wavevalid_error_input"
+  shifted <- field_runs(bed$field$curves, bed$field$t + 0.5)
+  expect_error(wavelet_basis(bed$runs, shifted), class = cls)
+  expect_snapshot(wavelet_basis(bed$runs, shifted), error = TRUE)
+  short <- field_runs(lapply(bed$field$curves, function(m) m[, 1:128]), bed$field$t[1:128])
+  expect_error(wavelet_basis(bed$runs, short), class = cls)
+  odd <- new_wv_runs(bed$runs$design, bed$runs$t[1:100], lapply(bed$runs$curves, function(m) m[, 1:100]))
+  expect_error(wavelet_basis(odd), class = cls)
+  expect_error(wavelet_basis(bed$runs, keep_levels = 8), class = cls)
+  expect_error(wavelet_basis(bed$runs, fraction = 1.5), class = cls)
+  expect_error(wavelet_basis(bed$runs, family = "Haar"), class = cls)
+  other_site <- field_runs(list(zz = bed$field$curves$s1), bed$field$t)
+  expect_error(wavelet_basis(bed$runs, other_site), class = cls)
+  expect_snapshot(wavelet_basis(bed$runs, other_site), error = TRUE)
+  b <- wavelet_basis(bed$runs)
+  expect_error(wavelet_coef(b, matrix(0, 2, 100)), class = cls)
+  expect_error(wavelet_reconstruct(b, matrix(0, 2, length(b$index) + 1)), class = cls)
+})
