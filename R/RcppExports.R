@@ -2,6 +2,14 @@
 # Generator token: 10BE3573-1514-4C36-9D1C-5A225CD40393
 
 gasp_bank_predict_cpp <- function(bank, Z) {
-    .Call('_wavevalid_gasp_bank_predict_cpp', PACKAGE = 'wavevalid', bank, Z)
+    .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
+}
+
+suspension_simulate_cpp <- function(params, strength, t, nsub) {
+    .Call(`_wavevalid_suspension_simulate_cpp`, params, strength, t, nsub)
+}
+
+suspension_road_cpp <- function(x) {
+    .Call(`_wavevalid_suspension_road_cpp`, x)
 }
 

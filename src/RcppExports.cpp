@@ -23,9 +23,36 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// suspension_simulate_cpp
+Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub);
+RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
+    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_simulate_cpp(params, strength, t, nsub));
+    return rcpp_result_gen;
+END_RCPP
+}
+// suspension_road_cpp
+Rcpp::NumericVector suspension_road_cpp(const Rcpp::NumericVector& x);
+RcppExport SEXP _wavevalid_suspension_road_cpp(SEXP xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type x(xSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_road_cpp(x));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
+    {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
+    {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
     {NULL, NULL, 0}
 };
 
