@@ -5,7 +5,11 @@ gasp_bank_predict_cpp <- function(bank, Z) {
     .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
 }
 
-gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
-    .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
+suspension_simulate_cpp <- function(params, strength, t, nsub) {
+    .Call(`_wavevalid_suspension_simulate_cpp`, params, strength, t, nsub)
+}
+
+suspension_road_cpp <- function(x) {
+    .Call(`_wavevalid_suspension_road_cpp`, x)
 }
 

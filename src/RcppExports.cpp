@@ -23,24 +23,36 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// gasp_bank_predict_augmented_cpp
-Rcpp::List gasp_bank_predict_augmented_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Zstar, const Eigen::Map<Eigen::MatrixXd>& Wstar, const Eigen::Map<Eigen::MatrixXd>& Znew);
-RcppExport SEXP _wavevalid_gasp_bank_predict_augmented_cpp(SEXP bankSEXP, SEXP ZstarSEXP, SEXP WstarSEXP, SEXP ZnewSEXP) {
+// suspension_simulate_cpp
+Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub);
+RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Zstar(ZstarSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Wstar(WstarSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Znew(ZnewSEXP);
-    rcpp_result_gen = Rcpp::wrap(gasp_bank_predict_augmented_cpp(bank, Zstar, Wstar, Znew));
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
+    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_simulate_cpp(params, strength, t, nsub));
+    return rcpp_result_gen;
+END_RCPP
+}
+// suspension_road_cpp
+Rcpp::NumericVector suspension_road_cpp(const Rcpp::NumericVector& x);
+RcppExport SEXP _wavevalid_suspension_road_cpp(SEXP xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type x(xSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_road_cpp(x));
     return rcpp_result_gen;
 END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
-    {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
+    {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
+    {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
     {NULL, NULL, 0}
 };
 

@@ -1,0 +1,199 @@
+# The wv_testbed class (print, summary, plot) and its storage as CSV files.
+
+# --- class -------------------------------------------------------------------
+
+new_wv_testbed <- function(x) structure(x, class = "wv_testbed")
+
+validate_wv_testbed <- function(x, call = rlang::caller_env()) {
+  need <- list(c("iu"), c("A", "runs"), c("A", "field"), c("B", "runs"), c("B", "field"),
+               c("added_mass", "runs"), c("added_mass", "field"), c("truth", "u"),
+               c("truth", "delta"), c("truth", "reality"), c("truth", "reality_B"))
+  for (p in need) {
+    if (is.null(x[[p]])) wv_abort("The test bed lacks {.field {paste(p, collapse = '$')}}.", call = call)
+  }
+  check_class(x$iu, "wv_iu", "iu", call = call)
+  for (cond in c("A", "B", "added_mass")) {
+    check_class(x[[cond]]$runs, "wv_runs", paste0(cond, "$runs"), call = call)
+    check_class(x[[cond]]$field, "wv_field", paste0(cond, "$field"), call = call)
+  }
+  x
+}
+
+#' @export
+print.wv_testbed <- function(x, ...) {
+  hid <- paste(x$truth$hidden, collapse = ", ")
+  cli::cat_line(sprintf("<wv_testbed> suspension test bed (seed %s, hidden mechanism: %s)", x$truth$seed, hid))
+  cli::cat_line(sprintf("  %d inputs: %s; sites %s; %d time points in [0, 65)", nrow(x$iu),
+                        paste(x$iu$name, collapse = ", "), paste(names(x$A$runs$curves), collapse = ", "),
+                        length(x$A$runs$t)))
+  n_field <- function(f) nrow(f$curves[[1]])
+  cli::cat_line(sprintf("  A: %d model runs, %d field replicates", nrow(x$A$runs$design), n_field(x$A$field)))
+  cli::cat_line(sprintf("  B: %d model runs, %d held-out field replicates (new nominals)",
+                        nrow(x$B$runs$design), n_field(x$B$field)))
+  cli::cat_line(sprintf("  added mass: %d model runs, %d field replicate", nrow(x$added_mass$runs$design),
+                        n_field(x$added_mass$field)))
+  cli::cat_line("  event windows: ", paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]),
+                                                  character(1)), collapse = ", "))
+  invisible(x)
+}
+
+#' @export
+summary.wv_testbed <- function(object, ...) {
+  load_range <- function(cond) vapply(object[[cond]]$runs$curves, function(m) c(min = min(m), max = max(m)), numeric(2))
+  structure(list(
+    seed = object$truth$seed,
+    hidden = object$truth$hidden,
+    truth = c(object$truth$u, object$truth$delta),
+    delta_B = object$truth$delta_B,
+    x_nom_B = object$truth$x_nom_B,
+    runs = c(A = nrow(object$A$runs$design), B = nrow(object$B$runs$design),
+             added_mass = nrow(object$added_mass$runs$design)),
+    replicates = c(A = nrow(object$A$field$curves[[1]]), B = nrow(object$B$field$curves[[1]]),
+                   added_mass = nrow(object$added_mass$field$curves[[1]])),
+    load_range_A = load_range("A")
+  ), class = "summary_wv_testbed")
+}
+
+#' @export
+print.summary_wv_testbed <- function(x, ...) {
+  cli::cat_line(sprintf("Suspension test bed, seed %s, hidden mechanism: %s", x$seed,
+                        paste(x$hidden, collapse = ", ")))
+  print(data.frame(condition = names(x$runs), model_runs = x$runs, field_replicates = x$replicates,
+                   row.names = NULL), row.names = FALSE)
+  cli::cat_line("True u* and delta* (condition A):")
+  print(signif(x$truth, 3))
+  cli::cat_line("Nominal x and delta* of condition B:")
+  print(signif(rbind(x_nom_B = x$x_nom_B, delta_B = x$delta_B), 3))
+  cli::cat_line("Load range of the model runs of A (kN):")
+  print(signif(x$load_range_A, 4))
+  invisible(x)
+}
+
+#' Plot the test bed
+#'
+#' @param object A `wv_testbed`.
+#' @param condition `"A"`, `"B"` or `"added_mass"`.
+#' @param windows Time windows to zoom into (default the two event windows;
+#'   `NULL` for the whole record).
+#' @param ... Unused.
+#' @return A ggplot of the model runs (grey) and field replicates of that
+#'   condition.
+#' @export
+#' @examples
+#' tb <- load_testbed()
+#' autoplot(tb, "B")
+autoplot.wv_testbed <- function(object, condition = c("A", "B", "added_mass"),
+                                windows = object$windows, ...) {
+  condition <- match.arg(condition)
+  autoplot(object[[condition]]$runs, field = object[[condition]]$field, windows = windows)
+}
+
+#' @export
+plot.wv_testbed <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+# --- CSV storage ---------------------------------------------------------------
+
+testbed_files <- function() {
+  c("testbed_iu.csv", "testbed_design.csv", "testbed_runs.csv.xz", "testbed_field.csv.xz",
+    "testbed_reality.csv.xz", "testbed_truth.csv", "testbed_warps.csv")
+}
+
+# Writes a test bed as CSV files in `dir` (curves rounded to `digits`
+# significant digits). Used by data-raw/make-testbed.R.
+write_testbed <- function(tb, dir, digits = 6L) {
+  dir.create(dir, showWarnings = FALSE, recursive = TRUE)
+  conds <- c("A", "B", "added_mass")
+  long <- function(curves, id_name, condition) {
+    do.call(rbind, lapply(names(curves), function(s) {
+      d <- curves_long(curves[[s]], tb$A$runs$t, s, id_name)
+      d <- d[order(d[[id_name]], d$t), ]
+      cbind(condition = condition, d[c(id_name, "site", "t", "y")])
+    }))
+  }
+  write_xz <- function(d, file) {
+    d$y <- signif(d$y, digits)
+    con <- xzfile(file.path(dir, file), "w", compression = 9)
+    on.exit(close(con))
+    utils::write.csv(d, con, row.names = FALSE)
+  }
+  utils::write.csv(as.data.frame(tb$iu), file.path(dir, "testbed_iu.csv"), row.names = FALSE)
+  design <- do.call(rbind, lapply(conds, function(cd) {
+    cbind(condition = cd, run = seq_len(nrow(tb[[cd]]$runs$design)), tb[[cd]]$runs$design)
+  }))
+  utils::write.csv(design, file.path(dir, "testbed_design.csv"), row.names = FALSE)
+  write_xz(do.call(rbind, lapply(conds, function(cd) long(tb[[cd]]$runs$curves, "run", cd))),
+           "testbed_runs.csv.xz")
+  write_xz(do.call(rbind, lapply(conds, function(cd) long(tb[[cd]]$field$curves, "replicate", cd))),
+           "testbed_field.csv.xz")
+  real <- list(A = tb$truth$reality, B = tb$truth$reality_B, added_mass = tb$truth$reality_added_mass)
+  write_xz(do.call(rbind, lapply(conds, function(cd) {
+    long(lapply(real[[cd]], function(y) matrix(y, nrow = 1L)), "replicate", cd)
+  }))[c("condition", "site", "t", "y")], "testbed_reality.csv.xz")
+  tr <- tb$truth
+  vec <- function(what, v) data.frame(what = what, name = names(v), value = unname(v))
+  truth <- rbind(vec("u", tr$u), vec("delta", tr$delta), vec("delta_B", tr$delta_B),
+                 vec("x_nom_B", tr$x_nom_B), vec("added_mass", tb$added_mass$delta),
+                 data.frame(what = "seed", name = "seed", value = tr$seed),
+                 data.frame(what = "hidden", name = tr$hidden, value = 1))
+  utils::write.csv(truth, file.path(dir, "testbed_truth.csv"), row.names = FALSE)
+  utils::write.csv(tr$warps, file.path(dir, "testbed_warps.csv"), row.names = FALSE)
+  invisible(file.path(dir, testbed_files()))
+}
+
+read_testbed <- function(dir) {
+  rd <- function(f) utils::read.csv(file.path(dir, f), stringsAsFactors = FALSE)
+  iu_df <- rd("testbed_iu.csv")
+  iu <- iu_map(iu_df$name, iu_df$type, iu_df$lower, iu_df$upper, iu_df$nominal,
+               ifelse(is.na(iu_df$prior_sd), 1, iu_df$prior_sd))
+  design <- rd("testbed_design.csv")
+  runs <- rd("testbed_runs.csv.xz")
+  field <- rd("testbed_field.csv.xz")
+  real <- rd("testbed_reality.csv.xz")
+  truth <- rd("testbed_truth.csv")
+  warps <- rd("testbed_warps.csv")
+  t <- testbed_grid()
+  sites <- c("site1", "site2")
+  to_curves <- function(d, id_name) {
+    stats::setNames(lapply(sites, function(s) {
+      ds <- d[d$site == s, ]
+      ds <- ds[order(ds[[id_name]], ds$t), ]
+      matrix(ds$y, ncol = length(t), byrow = TRUE)
+    }), sites)
+  }
+  tv <- function(what) {
+    v <- truth[truth$what == what, ]
+    stats::setNames(v$value, v$name)
+  }
+  build_cond <- function(cd, x_nom) {
+    dd <- design[design$condition == cd, setdiff(names(design), c("condition", "run"))]
+    rownames(dd) <- NULL
+    list(runs = new_wv_runs(dd, t, to_curves(runs[runs$condition == cd, ], "run")),
+         field = new_wv_field(t, to_curves(field[field$condition == cd, ], "replicate"), x_nom))
+  }
+  x_nom_A <- stats::setNames(iu$nominal[iu$type == "variation"], iu$name[iu$type == "variation"])
+  dm <- tv("added_mass")
+  x_nom_m <- x_nom_A
+  x_nom_m[names(dm)] <- x_nom_m[names(dm)] + dm
+  reality <- lapply(c("A", "B", "added_mass"), function(cd) {
+    lapply(to_curves(cbind(real[real$condition == cd, ], replicate = 1L), "replicate"), as.numeric)
+  })
+  B <- build_cond("B", tv("x_nom_B"))
+  B$x_nom <- tv("x_nom_B")
+  am <- build_cond("added_mass", x_nom_m)
+  am$delta <- dm
+  rownames(warps) <- NULL
+  validate_wv_testbed(new_wv_testbed(list(
+    iu = iu,
+    A = build_cond("A", x_nom_A),
+    B = B,
+    added_mass = am,
+    truth = list(u = tv("u"), delta = tv("delta"), delta_B = tv("delta_B"), x_nom_B = tv("x_nom_B"),
+                 reality = reality[[1]], reality_B = reality[[2]], reality_added_mass = reality[[3]],
+                 warps = warps, hidden = truth$name[truth$what == "hidden"],
+                 seed = as.integer(tv("seed"))),
+    windows = testbed_windows()
+  )))
+}
