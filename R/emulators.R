@@ -1,0 +1,646 @@
+#' GASP emulators of the wavelet coefficients
+#'
+#' Fits one Gaussian process (GASP) emulator to every retained wavelet
+#' coefficient of the model runs at every site (report section 3.3 and 4):
+#' constant mean `mu`, variance `1 / lambda` and correlation
+#' `exp(-sum_p beta_p |z_p - z'_p|^(2 - alpha_p))` on the inputs scaled to the
+#' unit cube by the design's column minima and ranges, with `beta >= 0` and
+#' `alpha` in \[0, 1\]. The hyperparameters maximise the likelihood with `mu` and
+#' `lambda` profiled out.
+#'
+#' The `"gasp"` engine maximises the profile log-likelihood with its analytic
+#' gradient in C++ (a projected limited-memory BFGS over `log(beta)` and
+#' `alpha`) from `starts` deterministic starting points: the best isotropic
+#' point on a grid and Halton points around it. The `"dicekriging"` engine
+#' calls [DiceKriging::km()] with the power-exponential covariance
+#' `exp(-sum (|h| / theta)^p)`, `p` in \[1, 2\], and converts with
+#' `beta = theta^-p`, `alpha = 2 - p`. Both engines then compute `mu`,
+#' `lambda`, the weights and Cholesky factors with the same code.
+#'
+#' A nugget is added to the correlation matrix only when it is numerically
+#' singular (1e-8, 1e-6, ...); it is reported in `params$nugget`, with a
+#' warning. A coefficient that is constant across the runs gets a flat
+#' emulator (`beta = 0`, a tiny variance and a unit nugget), with a warning.
+#'
+#' Fits run through [future.apply::future_lapply()] in chunks of coefficients,
+#' so the [future::plan()] decides where; the result does not depend on it.
+#'
+#' @param runs A `wv_runs` object ([model_runs()]).
+#' @param basis A `wv_basis` object ([wavelet_basis()]) on the grid of `runs`.
+#' @param engine `"gasp"` (default) or `"dicekriging"`.
+#' @param starts Number of starting points per coefficient (`"gasp"` engine).
+#' @param log_beta_range Box for `log(beta)` on the unit-cube scale (`"gasp"`
+#'   engine).
+#' @param chunk_size Coefficients fitted per future.
+#' @param seed Seed for the random starting points of `"dicekriging"`; `NULL`
+#'   draws one from R's RNG. The `"gasp"` engine is deterministic.
+#' @param ... Further arguments to [DiceKriging::km()] (`"dicekriging"`
+#'   engine), e.g. `lower`, `upper`, `optim.method`.
+#' @return A `wv_emulators` object: a list with `params` (data frame, one row
+#'   per site and coefficient: `site`, `index`, `level`, `mu`, `lambda`,
+#'   `nugget`, `loglik`, `converged`, then `beta_<input>` and `alpha_<input>`),
+#'   `inputs`, `design` (K x p matrix), `banks` (named list by site of the
+#'   predictor's matrices, see Details), `basis`, `engine`, `t`.
+#'
+#'   Each bank holds `X` (scaled design), `beta`, `alpha` (n x p), `mu`,
+#'   `lambda`, `nugget` (n), `weights` (K x n, `R^-1 (y - mu)`), `chol`
+#'   (K x K x n lower Cholesky factors of `R`), `y` (K x n coefficients),
+#'   `lower`, `width` (p).
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' basis <- wavelet_basis(runs)
+#' em <- fit_emulators(runs, basis)
+#' em
+#' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
+fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 4,
+                          log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
+  check_class(runs, "wv_runs")
+  check_class(basis, "wv_basis")
+  engine <- rlang::arg_match(engine)
+  check_number(starts, min = 1, max = 100, integer = TRUE)
+  check_number(chunk_size, min = 1, integer = TRUE)
+  if (!is.numeric(log_beta_range) || length(log_beta_range) != 2L || any(!is.finite(log_beta_range)) ||
+      log_beta_range[1] >= log_beta_range[2]) {
+    wv_abort("{.arg log_beta_range} must be two increasing finite numbers, e.g. {.code c(-8, 6)}.")
+  }
+  seed <- resolve_seed(seed)
+  prep <- emulator_inputs(runs, basis)
+  W <- prep$W
+  sites <- names(W)
+
+  flat <- lapply(W, function(m) apply(m, 2L, function(v) diff(range(v)) <= 1e-12 * max(abs(v))))
+  tasks <- list()
+  for (s in sites) {
+    cols <- which(!flat[[s]])
+    for (ch in split(cols, ceiling(seq_along(cols) / chunk_size))) {
+      tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L)
+    }
+  }
+  n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
+  worker <- emulator_worker(engine, prep$X, W, starts, log_beta_range, seed, list(...))
+  results <- run_chunks(tasks, worker, n_fit, engine)
+
+  banks <- list()
+  params <- list()
+  n_nugget <- 0L
+  for (s in sites) {
+    n <- ncol(W[[s]])
+    p <- ncol(prep$X)
+    beta <- matrix(0, n, p)
+    alpha <- matrix(0, n, p)
+    nugget <- rep(1, n)
+    converged <- rep(NA, n)
+    for (r in results[vapply(tasks, function(x) x$site == s, logical(1))]) {
+      beta[r$cols, ] <- r$beta
+      alpha[r$cols, ] <- r$alpha
+      nugget[r$cols] <- r$nugget
+      converged[r$cols] <- r$converged
+    }
+    bank <- emulator_bank(prep$X, W[[s]], beta, alpha, nugget, flat[[s]], prep$lower, prep$width)
+    n_nugget <- n_nugget + sum(bank$nugget[!flat[[s]]] > 0)
+    banks[[s]] <- bank
+    params[[s]] <- emulator_params(s, basis, bank, converged, colnames(prep$X))
+  }
+  n_flat <- sum(vapply(flat, sum, integer(1)))
+  if (n_flat > 0L) {
+    wv_warn(c(
+      "{n_flat} coefficient{?s} {?is/are} constant across the runs and got a flat emulator (beta = 0).",
+      "i" = "Their predictions are the constant with a negligible variance."
+    ), class = "flat_coefficient")
+  }
+  if (n_nugget > 0L) {
+    wv_warn(c(
+      "{n_nugget} coefficient{?s} needed a nugget to keep the correlation matrix positive definite.",
+      "i" = "See {.code params$nugget}; the emulators then smooth slightly instead of interpolating."
+    ), class = "nugget")
+  }
+  params <- do.call(rbind, params)
+  rownames(params) <- NULL
+  if (engine == "dicekriging" && any(!params$converged, na.rm = TRUE)) {
+    wv_warn(c(
+      "DiceKriging::km() failed on {sum(!params$converged, na.rm = TRUE)} coefficient{?s}.",
+      "i" = "The {.val gasp} engine fitted {?it/them} instead (rows with {.code converged = FALSE})."
+    ), class = "engine_fallback")
+  }
+  validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis, engine,
+                                         runs$t, seed))
+}
+
+new_wv_emulators <- function(params, inputs, design, banks, basis, engine, t, seed = NULL) {
+  structure(list(params = params, inputs = inputs, design = design, banks = banks, basis = basis,
+                 engine = engine, t = t, seed = seed), class = "wv_emulators")
+}
+
+validate_wv_emulators <- function(x, call = rlang::caller_env()) {
+  p <- length(x$inputs)
+  if (!is.matrix(x$design) || ncol(x$design) != p) {
+    wv_abort("{.field design} must be a matrix with one column per input.", class = "state", call = call)
+  }
+  for (s in names(x$banks)) {
+    b <- x$banks[[s]]
+    n <- length(b$mu)
+    k <- nrow(b$X)
+    if (!identical(dim(b$chol), c(k, k, n)) || !identical(dim(b$weights), c(k, n)) ||
+        !identical(dim(b$beta), c(n, p)) || !identical(dim(b$alpha), c(n, p))) {
+      wv_abort("The bank of site {.val {s}} has inconsistent dimensions.", class = "state", call = call)
+    }
+  }
+  need <- c("site", "index", "level", "mu", "lambda", "nugget", "loglik",
+            paste0("beta_", x$inputs), paste0("alpha_", x$inputs))
+  miss <- setdiff(need, names(x$params))
+  if (length(miss)) {
+    wv_abort("{.field params} lacks column{?s} {.val {miss}}.", class = "state", call = call)
+  }
+  x
+}
+
+# Coefficients of the runs on the basis: named list by site of K x n matrices.
+emulator_coefficients <- function(runs, basis) {
+  sites <- names(runs$curves)
+  if (!is.null(basis$sites)) sites <- intersect(sites, basis$sites)
+  out <- lapply(sites, function(s) {
+    W <- runs$curves[[s]] %*% basis$Psi
+    colnames(W) <- basis$index
+    W
+  })
+  stats::setNames(out, sites)
+}
+
+# Checks the design and coefficients before any fitting; returns the raw and
+# scaled design, the scaling and the coefficients by site.
+emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
+  n_t <- length(runs$t)
+  if (!is.matrix(basis$Psi) || nrow(basis$Psi) != n_t ||
+      (!is.null(basis$t) && (length(basis$t) != n_t || max(abs(basis$t - runs$t)) > 1e-8 * max(1, abs(runs$t))))) {
+    wv_abort(c(
+      "{.arg basis} is not on the grid of {.arg runs}.",
+      "x" = "The runs have {n_t} time points; the basis has {NROW(basis$Psi)}{if (!is.null(basis$t) && length(basis$t) == n_t) ' on different times' else ''}.",
+      "i" = "Build the basis with {.code wavelet_basis(runs)} on the same runs."
+    ), call = call)
+  }
+  if (is.null(basis$sites)) basis$sites <- names(runs$curves)
+  sites <- intersect(names(runs$curves), basis$sites)
+  if (!length(sites)) {
+    wv_abort("No site of {.arg runs} ({.val {names(runs$curves)}}) is in the basis ({.val {basis$sites}}).",
+             call = call)
+  }
+  design <- as.matrix(runs$design)
+  storage.mode(design) <- "double"
+  k <- nrow(design)
+  p <- ncol(design)
+  if (any(!is.finite(design))) {
+    wv_abort("The design must be finite; it has {sum(!is.finite(design))} NA or infinite value{?s}.", call = call)
+  }
+  if (k < p + 2L) {
+    wv_abort(c(
+      "Too few runs to fit the emulators: {k} run{?s} for {p} input{?s}.",
+      "i" = "A GASP with {p} inputs needs at least {p + 2} runs (about 10 per input is usual)."
+    ), call = call)
+  }
+  dup <- duplicated(design) | duplicated(design, fromLast = TRUE)
+  if (any(dup)) {
+    wv_abort(c(
+      "The design has duplicated rows: run{?s} {which(dup)}.",
+      "i" = "A GASP interpolates, so every run must be at its own input; remove the duplicates."
+    ), call = call)
+  }
+  lower <- apply(design, 2L, min)
+  width <- apply(design, 2L, max) - lower
+  if (any(width <= 0)) {
+    wv_abort("Input{?s} {.val {colnames(design)[width <= 0]}} {?does/do} not vary in the design; drop {?it/them} from the runs.",
+             call = call)
+  }
+  W <- emulator_coefficients(runs, basis)[sites]
+  for (s in sites) {
+    bad <- which(!is.finite(W[[s]]), arr.ind = TRUE)
+    if (nrow(bad)) {
+      wv_abort(c(
+        "The wavelet coefficients of site {.val {s}} have {nrow(bad)} non-finite value{?s}.",
+        "x" = "Run{?s} {unique(bad[, 1])} {?has/have} NA or infinite output.",
+        "i" = "Remove failed runs (model_runs() drops them) before fitting."
+      ), call = call)
+    }
+  }
+  X <- sweep(sweep(design, 2L, lower, "-"), 2L, width, "/")
+  list(design = design, X = X, lower = lower, width = width, W = W)
+}
+
+# The function a future evaluates on one chunk of coefficients.
+emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args) {
+  force(X)
+  force(W)
+  function(task) {
+    Y <- W[[task$site]][, task$cols, drop = FALSE]
+    if (engine == "gasp") {
+      f <- gasp_fit_cpp(X, Y, as.integer(starts), log_beta_range[1], log_beta_range[2], 200L, 25L)
+      f$cols <- task$cols
+      return(f)
+    }
+    dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
+  }
+}
+
+dicekriging_fit <- function(X, Y, km_args, seed, cols) {
+  old <- if (exists(".Random.seed", envir = globalenv())) get(".Random.seed", envir = globalenv()) else NULL
+  on.exit(if (!is.null(old)) assign(".Random.seed", old, envir = globalenv()))
+  set.seed(seed)
+  p <- ncol(X)
+  n <- ncol(Y)
+  beta <- alpha <- matrix(0, n, p)
+  design <- as.data.frame(X)
+  args <- utils::modifyList(list(
+    formula = ~1, design = design, covtype = "powexp",
+    lower = c(rep(1e-10, p), rep(1, p)), upper = c(rep(2, p), rep(2, p)),
+    control = list(trace = FALSE)
+  ), km_args)
+  failed <- rep(FALSE, n)
+  for (i in seq_len(n)) {
+    args$response <- Y[, i]
+    fit <- NULL
+    utils::capture.output(fit <- tryCatch(suppressWarnings(do.call(DiceKriging::km, args)),
+                                          error = function(e) NULL))
+    if (is.null(fit)) {
+      failed[i] <- TRUE
+      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 4L, -8, 6, 200L, 25L)
+      beta[i, ] <- g$beta
+      alpha[i, ] <- g$alpha
+      next
+    }
+    cv <- fit@covariance
+    beta[i, ] <- cv@range.val^(-cv@shape.val)
+    alpha[i, ] <- pmin(pmax(2 - cv@shape.val, 0), 1)
+  }
+  list(beta = beta, alpha = alpha, nugget = rep(0, n), converged = !failed, cols = cols)
+}
+
+# Runs the chunk tasks through future.apply in batches so that a progress bar
+# can follow; the result does not depend on the plan.
+run_chunks <- function(tasks, worker, n_fit, engine) {
+  if (!length(tasks)) return(list())
+  quiet <- isTRUE(getOption("wavevalid.quiet", FALSE))
+  batch <- max(1L, 2L * future::nbrOfWorkers())
+  groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
+  if (!quiet) {
+    cli::cli_progress_bar(paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
+                          total = n_fit, .envir = environment())
+  }
+  out <- vector("list", length(tasks))
+  for (g in groups) {
+    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = TRUE,
+                                          future.packages = "wavevalid")
+    if (!quiet) {
+      cli::cli_progress_update(inc = sum(vapply(tasks[g], function(x) length(x$cols), integer(1))),
+                               .envir = environment())
+    }
+  }
+  if (!quiet) cli::cli_progress_done(.envir = environment())
+  out
+}
+
+# Assembles a site's bank from hyperparameters (flat coefficients: beta = 0,
+# unit nugget, variance 1e-16 of the data scale).
+emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
+  k <- nrow(X)
+  n <- ncol(Y)
+  fit <- which(!flat)
+  mu <- lambda <- loglik <- numeric(n)
+  weights <- matrix(0, k, n)
+  chol <- array(0, c(k, k, n))
+  if (length(fit)) {
+    f <- gasp_finalize_cpp(X, Y[, fit, drop = FALSE], beta[fit, , drop = FALSE],
+                           alpha[fit, , drop = FALSE], nugget[fit])
+    mu[fit] <- f$mu
+    lambda[fit] <- f$lambda
+    nugget[fit] <- f$nugget
+    loglik[fit] <- f$loglik
+    weights[, fit] <- f$weights
+    chol[, , fit] <- f$chol
+  }
+  if (any(flat)) {
+    L1 <- t(chol(matrix(1, k, k) + diag(k)))
+    for (i in which(flat)) {
+      mu[i] <- Y[1, i]
+      lambda[i] <- 1 / (1e-8 * max(1, abs(Y[1, i])))^2
+      nugget[i] <- 1
+      loglik[i] <- NA_real_
+      beta[i, ] <- 0
+      alpha[i, ] <- 0
+      chol[, , i] <- L1
+    }
+  }
+  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = nugget,
+       weights = weights, chol = chol, y = Y, lower = lower, width = width, loglik = loglik)
+}
+
+emulator_params <- function(site, basis, bank, converged, inputs) {
+  n <- length(bank$mu)
+  idx <- basis$index %||% seq_len(n)
+  lev <- basis$level %||% rep(NA_integer_, n)
+  out <- data.frame(site = rep(site, n), index = as.integer(idx), level = as.integer(lev),
+                    mu = bank$mu, lambda = bank$lambda, nugget = bank$nugget, loglik = bank$loglik,
+                    converged = converged, stringsAsFactors = FALSE)
+  b <- bank$beta
+  a <- bank$alpha
+  colnames(b) <- paste0("beta_", inputs)
+  colnames(a) <- paste0("alpha_", inputs)
+  cbind(out, as.data.frame(b), as.data.frame(a))
+}
+
+#' @export
+print.wv_emulators <- function(x, ...) {
+  p <- x$params
+  n_site <- length(x$banks)
+  cli::cli_text("{.cls wv_emulators}: {nrow(p)} GASP emulator{?s} ({x$engine} engine), {length(unique(p$index))} coefficient{?s} at {n_site} site{?s}.")
+  cli::cli_text("{nrow(x$design)} runs of {length(x$inputs)} input{?s}: {.val {x$inputs}}.")
+  ll <- p$loglik[is.finite(p$loglik)]
+  if (length(ll)) {
+    cli::cli_text("Maximised log-likelihood: median {signif(stats::median(ll), 4)}, range [{signif(min(ll), 4)}, {signif(max(ll), 4)}].")
+  }
+  n_nug <- sum(p$nugget > 0 & is.finite(p$loglik))
+  n_flat <- sum(!is.finite(p$loglik))
+  if (n_nug) cli::cli_text("{n_nug} emulator{?s} with a nugget.")
+  if (n_flat) cli::cli_text("{n_flat} flat emulator{?s} (constant coefficient).")
+  invisible(x)
+}
+
+#' Summary of GASP emulators
+#'
+#' Leave-one-out quality of the emulators by site and resolution level.
+#'
+#' @param object A `wv_emulators` object.
+#' @param ... Unused.
+#' @return A `summary_wv_emulators` object: a list with `engine`, `n_runs`,
+#'   `inputs` and `by_level`, a data frame with, per site and level, the
+#'   number of coefficients, the median log-likelihood, the root mean square of
+#'   the studentised LOO residuals (about 1 for a well-calibrated emulator),
+#'   the share of them beyond 3 in absolute value, and the counts of emulators
+#'   with a nugget and of flat emulators.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' em <- fit_emulators(runs, wavelet_basis(runs))
+#' summary(em)
+summary.wv_emulators <- function(object, ...) {
+  p <- object$params
+  loo <- loo_residuals(object)
+  key <- paste(p$site, p$level, sep = "\r")
+  lkey <- paste(loo$site, loo$level, sep = "\r")
+  groups <- unique(key)
+  by_level <- do.call(rbind, lapply(groups, function(g) {
+    rows <- key == g
+    r <- loo$residual[lkey == g]
+    r <- r[is.finite(r)]
+    data.frame(site = p$site[rows][1], level = p$level[rows][1], n = sum(rows),
+               median_loglik = if (any(is.finite(p$loglik[rows]))) stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
+               loo_rms = if (length(r)) sqrt(mean(r^2)) else NA_real_,
+               loo_beyond_3 = if (length(r)) mean(abs(r) > 3) else NA_real_,
+               nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
+               flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)
+  }))
+  rownames(by_level) <- NULL
+  structure(list(engine = object$engine, n_runs = nrow(object$design), inputs = object$inputs,
+                 by_level = by_level), class = "summary_wv_emulators")
+}
+
+#' @export
+print.summary_wv_emulators <- function(x, ...) {
+  cli::cli_text("GASP emulators ({x$engine} engine), {x$n_runs} runs, {length(x$inputs)} inputs.")
+  cli::cli_text("Leave-one-out studentised residuals by site and level:")
+  b <- x$by_level
+  b$median_loglik <- signif(b$median_loglik, 4)
+  b$loo_rms <- signif(b$loo_rms, 3)
+  b$loo_beyond_3 <- signif(b$loo_beyond_3, 3)
+  print(b, row.names = FALSE)
+  invisible(x)
+}
+
+#' Predictions of GASP emulators
+#'
+#' Predictive means and variances (report eq. 11) of every coefficient at new
+#' inputs.
+#'
+#' @param object A `wv_emulators` object.
+#' @param newdata A data frame or matrix with one column per input (matched by
+#'   name when named) and one row per point.
+#' @param site Site name; `NULL` for every site.
+#' @param ... Unused.
+#' @return For one `site`: a list with `mean` and `var`, N x n matrices (rows:
+#'   points, columns: coefficients, named by their index). For `site = NULL`:
+#'   a named list of such lists, one per site.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' em <- fit_emulators(runs, wavelet_basis(runs))
+#' pr <- predict(em, data.frame(a = c(0.2, 0.7), b = 0.5), site = "site1")
+#' dim(pr$mean)
+predict.wv_emulators <- function(object, newdata, site = NULL, ...) {
+  Z <- emulator_newdata(object, newdata)
+  sites <- site %||% names(object$banks)
+  miss <- setdiff(sites, names(object$banks))
+  if (length(miss)) {
+    wv_abort("No emulators for site{?s} {.val {miss}}; sites are {.val {names(object$banks)}}.")
+  }
+  out <- lapply(sites, function(s) {
+    pr <- gasp_bank_predict_cpp(object$banks[[s]], Z)
+    cn <- as.character(object$params$index[object$params$site == s])
+    colnames(pr$mean) <- colnames(pr$var) <- cn
+    pr
+  })
+  names(out) <- sites
+  if (!is.null(site) && length(site) == 1L) out[[1]] else out
+}
+
+emulator_newdata <- function(object, newdata, call = rlang::caller_env()) {
+  if (is.null(dim(newdata)) && is.numeric(newdata)) {
+    newdata <- matrix(newdata, nrow = 1L, dimnames = list(NULL, names(newdata)))
+  }
+  if (!is.data.frame(newdata) && !is.matrix(newdata)) {
+    wv_abort("{.arg newdata} must be a data frame or matrix with one column per input.", call = call)
+  }
+  nm <- colnames(newdata)
+  if (!is.null(nm)) {
+    miss <- setdiff(object$inputs, nm)
+    if (length(miss)) {
+      wv_abort("{.arg newdata} lacks input{?s} {.val {miss}}.", call = call)
+    }
+    newdata <- newdata[, object$inputs, drop = FALSE]
+  } else if (ncol(newdata) != length(object$inputs)) {
+    wv_abort("{.arg newdata} has {ncol(newdata)} columns; the emulators have {length(object$inputs)} inputs.",
+             call = call)
+  }
+  Z <- as.matrix(newdata)
+  storage.mode(Z) <- "double"
+  if (any(!is.finite(Z))) wv_abort("{.arg newdata} must be finite.", call = call)
+  Z
+}
+
+#' Add one run to GASP emulators without refitting
+#'
+#' The predictor of report eq. (26): the design is augmented by one point
+#' `z` with known coefficient values `w` (for instance a draw of the model
+#' coefficients at the tested system's inputs), keeping every hyperparameter
+#' (`beta`, `alpha`, `mu`, `lambda`, nugget) fixed. The Cholesky factors gain
+#' one row and the weights are updated by the block-inverse formula, at
+#' O(K^2) cost per coefficient.
+#'
+#' @param object A `wv_emulators` object.
+#' @param z The new input point: a named numeric vector or one-row data frame.
+#' @param w Its coefficient values: for one site a numeric vector (one value
+#'   per coefficient), otherwise a named list by site.
+#' @return A `wv_emulators` object with the augmented design and banks
+#'   (`params` unchanged).
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' em <- fit_emulators(runs, wavelet_basis(runs))
+#' z <- c(a = 0.5, b = 0.5)
+#' em2 <- augment_emulators(em, z, predict(em, z, site = "site1")$mean[1, ])
+#' nrow(em2$design)
+augment_emulators <- function(object, z, w) {
+  check_class(object, "wv_emulators")
+  Z <- emulator_newdata(object, z)
+  if (nrow(Z) != 1L) wv_abort("{.arg z} must be a single point.")
+  sites <- names(object$banks)
+  if (!is.list(w)) {
+    if (length(sites) != 1L) wv_abort("{.arg w} must be a named list by site: {.val {sites}}.")
+    w <- stats::setNames(list(w), sites)
+  }
+  miss <- setdiff(sites, names(w))
+  if (length(miss)) wv_abort("{.arg w} lacks site{?s} {.val {miss}}.")
+  for (s in sites) {
+    v <- as.numeric(w[[s]])
+    n <- length(object$banks[[s]]$mu)
+    if (length(v) != n || any(!is.finite(v))) {
+      wv_abort("{.arg w} for site {.val {s}} must hold {n} finite values, one per coefficient; it has {length(v)}.")
+    }
+    object$banks[[s]] <- bank_augment(object$banks[[s]], Z[1, ], v)
+  }
+  object$design <- rbind(object$design, Z)
+  object
+}
+
+# eq. (26) on one bank (list form), in C++.
+bank_augment <- function(bank, z, w) {
+  out <- gasp_bank_augment_cpp(bank, as.numeric(z), as.numeric(w))
+  out$y <- rbind(bank$y, w)
+  rownames(out$y) <- NULL
+  colnames(out$y) <- colnames(bank$y)
+  out$loglik <- bank$loglik
+  out
+}
+
+#' Leave-one-out residuals of GASP emulators
+#'
+#' Studentised leave-one-out cross-validation residuals of every emulator in
+#' closed form, with the hyperparameters and `mu` fixed at their estimates:
+#' for run k, the prediction error is `e_k = [R^-1 (y - mu)]_k / [R^-1]_kk`
+#' and its variance `1 / (lambda [R^-1]_kk)`.
+#'
+#' @param object A `wv_emulators` object.
+#' @return A data frame with one row per site, coefficient and run: `site`,
+#'   `index`, `level`, `run`, `observed`, `predicted` (LOO mean), `sd` (LOO
+#'   standard deviation) and `residual` (`(observed - predicted) / sd`). Flat
+#'   emulators give `NA` residuals.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' em <- fit_emulators(runs, wavelet_basis(runs))
+#' head(loo_residuals(em))
+loo_residuals <- function(object) {
+  check_class(object, "wv_emulators")
+  out <- lapply(names(object$banks), function(s) {
+    b <- object$banks[[s]]
+    p <- object$params[object$params$site == s, , drop = FALSE]
+    k <- nrow(b$X)
+    n <- length(b$mu)
+    res <- lapply(seq_len(n), function(i) {
+      Ri_diag <- colSums(forwardsolve(b$chol[, , i], diag(k))^2)
+      e <- b$weights[, i] / Ri_diag
+      sd <- sqrt(1 / (b$lambda[i] * Ri_diag))
+      flat <- !is.finite(p$loglik[i])
+      data.frame(site = s, index = p$index[i], level = p$level[i], run = seq_len(k),
+                 observed = b$y[, i], predicted = b$y[, i] - e, sd = sd,
+                 residual = if (flat) NA_real_ else e / sd, stringsAsFactors = FALSE)
+    })
+    do.call(rbind, res)
+  })
+  out <- do.call(rbind, out)
+  rownames(out) <- NULL
+  out
+}
+
+#' Plot GASP emulators
+#'
+#' `type = "parameters"` draws the report's Figure 4: `(beta, alpha)` of every
+#' coefficient, one panel per input (beta on a log scale). `type = "loo"`
+#' draws the studentised leave-one-out residuals by resolution level, with
+#' reference lines at -2 and 2.
+#'
+#' @param object A `wv_emulators` object.
+#' @param type `"parameters"` or `"loo"`.
+#' @param site Site to show; `NULL` for every site (coloured by site).
+#' @param x A `wv_emulators` object (for `plot()`).
+#' @param ... Passed to `autoplot()` by `plot()`.
+#' @return A ggplot object.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' em <- fit_emulators(runs, wavelet_basis(runs))
+#' autoplot(em)
+#' autoplot(em, type = "loo")
+autoplot.wv_emulators <- function(object, type = c("parameters", "loo"), site = NULL, ...) {
+  type <- rlang::arg_match(type)
+  p <- object$params
+  if (!is.null(site)) p <- p[p$site %in% site, , drop = FALSE]
+  p <- p[is.finite(p$loglik), , drop = FALSE]
+  if (type == "parameters") {
+    long <- do.call(rbind, lapply(object$inputs, function(v) {
+      data.frame(site = p$site, index = p$index, input = v, beta = p[[paste0("beta_", v)]],
+                 alpha = p[[paste0("alpha_", v)]], stringsAsFactors = FALSE)
+    }))
+    long$input <- factor(long$input, levels = object$inputs)
+    long$beta <- pmax(long$beta, 1e-6)
+    return(ggplot2::ggplot(long, ggplot2::aes(x = .data$beta, y = .data$alpha, colour = .data$site)) +
+      ggplot2::geom_point(alpha = 0.6, size = 1) +
+      ggplot2::scale_x_log10() +
+      ggplot2::facet_wrap(~input) +
+      ggplot2::labs(x = expression(beta ~ "(unit-cube scale)"), y = expression(alpha), colour = "site",
+                    title = "GASP correlation parameters by input") +
+      ggplot2::theme_bw())
+  }
+  loo <- loo_residuals(object)
+  if (!is.null(site)) loo <- loo[loo$site %in% site, , drop = FALSE]
+  loo <- loo[is.finite(loo$residual), , drop = FALSE]
+  ggplot2::ggplot(loo, ggplot2::aes(x = factor(.data$level), y = .data$residual, colour = .data$site)) +
+    ggplot2::geom_hline(yintercept = c(-2, 2), linetype = 2, colour = "grey40") +
+    ggplot2::geom_jitter(width = 0.2, height = 0, alpha = 0.4, size = 0.8) +
+    ggplot2::labs(x = "resolution level", y = "studentised LOO residual", colour = "site",
+                  title = "Leave-one-out residuals of the emulators") +
+    ggplot2::theme_bw()
+}
+
+#' @rdname autoplot.wv_emulators
+#' @export
+plot.wv_emulators <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
