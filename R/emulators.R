@@ -72,7 +72,10 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
   W <- prep$W
   sites <- names(W)
 
-  flat <- lapply(W, function(m) apply(m, 2L, function(v) diff(range(v)) <= 1e-12 * max(abs(v))))
+  flat <- lapply(W, function(m) {
+    scale <- max(abs(m))
+    apply(m, 2L, function(v) diff(range(v)) <= 1e-10 * scale)
+  })
   tasks <- list()
   for (s in sites) {
     cols <- which(!flat[[s]])
@@ -201,10 +204,10 @@ emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
       "i" = "A GASP with {p} inputs needs at least {p + 2} runs (about 10 per input is usual)."
     ), call = call)
   }
-  dup <- duplicated(design) | duplicated(design, fromLast = TRUE)
-  if (any(dup)) {
+  dup <- which(duplicated(design) | duplicated(design, fromLast = TRUE))
+  if (length(dup)) {
     wv_abort(c(
-      "The design has duplicated rows: run{?s} {which(dup)}.",
+      "The design has duplicated rows: runs {dup}.",
       "i" = "A GASP interpolates, so every run must be at its own input; remove the duplicates."
     ), call = call)
   }
@@ -218,9 +221,10 @@ emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
   for (s in sites) {
     bad <- which(!is.finite(W[[s]]), arr.ind = TRUE)
     if (nrow(bad)) {
+      bad_runs <- unique(bad[, 1])
       wv_abort(c(
         "The wavelet coefficients of site {.val {s}} have {nrow(bad)} non-finite value{?s}.",
-        "x" = "Run{?s} {unique(bad[, 1])} {?has/have} NA or infinite output.",
+        "x" = "{cli::qty(length(bad_runs))}Run{?s} {bad_runs} {?has/have} NA or infinite output.",
         "i" = "Remove failed runs (model_runs() drops them) before fitting."
       ), call = call)
     }
