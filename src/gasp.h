@@ -278,8 +278,9 @@ struct GaspFit {
   bool converged = false;
 };
 
-// Fits one coefficient: data-driven isotropic start plus Halton starts around
-// it; nugget increased along `ladder` while the optimum is numerically singular.
+// Fits one coefficient: data-driven isotropic start plus Halton starts over
+// log beta in [-4, 2], alpha in [0, 1]; nugget increased along `ladder`
+// while the optimum is numerically singular.
 inline GaspFit gasp_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int n_starts,
                         const GaspSettings& set) {
   static const double ladder[] = {0.0, 1e-8, 1e-6, 1e-4, 1e-2};
@@ -296,7 +297,8 @@ inline GaspFit gasp_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int 
     // data-driven start: best common log beta on a grid, alpha = 0.5
     Eigen::VectorXd th(2 * p);
     double best_iso = -std::numeric_limits<double>::infinity(), lb_iso = 0.0;
-    for (double lb = set.lb_lo + 1.0; lb <= set.lb_hi - 0.5; lb += 1.0) {
+    // (kept below 3: larger values make R close to the identity, a plateau)
+    for (double lb = set.lb_lo + 1.0; lb <= std::min(3.0, set.lb_hi); lb += 1.0) {
       th.head(p).setConstant(lb);
       th.tail(p).setConstant(0.5);
       const double v = lik.eval(th, nug, nullptr, set.rcond_fail);
@@ -312,7 +314,7 @@ inline GaspFit gasp_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int 
         x0.tail(p).setConstant(0.5);
       } else {
         for (int q = 0; q < p; ++q) {
-          x0(q) = lb_iso + 4.0 * (halton(s, primes[q % n_primes]) - 0.5);
+          x0(q) = -4.0 + 6.0 * halton(s, primes[q % n_primes]);  // log beta in [-4, 2]
           x0(p + q) = halton(s, primes[(p + q) % n_primes]);
         }
       }
