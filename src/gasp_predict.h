@@ -23,6 +23,7 @@ struct GaspBank {
   Eigen::MatrixXd weights;  // K x n, R_i^{-1}(y_i - mu_i)
   std::vector<Eigen::MatrixXd> L;  // n lower Cholesky factors, K x K
   Eigen::VectorXd lower, width;    // p: z_scaled = (z - lower) / width
+  Eigen::VectorXd nugget;          // n, added to the diagonal of R_i
 
   int n_coef() const { return static_cast<int>(mu.size()); }
   int n_runs() const { return static_cast<int>(X.rows()); }
@@ -78,6 +79,51 @@ struct GaspBank {
         v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
       }
     }
+  }
+
+  // The predictor of eq. (26): the same hyperparameters, the design augmented
+  // by one raw input z with coefficient values w (length n). Each Cholesky
+  // factor gains one row, [L 0; l' d] with l = L^-1 r(z), d^2 = 1 + g - l'l,
+  // and the weights follow from the block inverse:
+  //   a0 = [a - R^-1 r c; c],  c = (w - mu - r'a) / d^2.
+  // A point that (numerically) coincides with the design has d^2 floored at
+  // 1e-12 (a nugget for the new point only).
+  GaspBank augment(const Eigen::VectorXd& z, const Eigen::VectorXd& w) const {
+    const int K = n_runs(), p = n_inputs(), n = n_coef();
+    GaspBank out;
+    out.X.resize(K + 1, p);
+    out.X.topRows(K) = X;
+    out.X.row(K) = ((z - lower).array() / width.array()).matrix().transpose();
+    out.beta = beta;
+    out.alpha = alpha;
+    out.mu = mu;
+    out.lambda = lambda;
+    out.lower = lower;
+    out.width = width;
+    out.nugget = nugget;
+    out.weights.resize(K + 1, n);
+    out.L.resize(n);
+    Eigen::MatrixXd d1, d2, logd;
+    distances(z, d1, d2, logd);
+    Eigen::VectorXd r;
+    for (int i = 0; i < n; ++i) {
+      corr_vector(i, d1, d2, logd, r);
+      Eigen::VectorXd l = L[i].triangularView<Eigen::Lower>().solve(r);
+      double dd = 1.0 + nugget(i) - l.squaredNorm();
+      if (!(dd > 1e-12)) dd = 1e-12;
+      const double d = std::sqrt(dd);
+      Eigen::MatrixXd& L0 = out.L[i];
+      L0.setZero(K + 1, K + 1);
+      L0.topLeftCorner(K, K) = L[i];
+      L0.block(K, 0, 1, K) = l.transpose();
+      L0(K, K) = d;
+      const Eigen::VectorXd a = weights.col(i);
+      const double c = (w(i) - mu(i) - r.dot(a)) / dd;
+      Eigen::VectorXd Rir = L[i].transpose().triangularView<Eigen::Upper>().solve(l);
+      out.weights.col(i).head(K) = a - c * Rir;
+      out.weights(K, i) = c;
+    }
+    return out;
   }
 };
 

@@ -1,0 +1,356 @@
+#' GASP emulators of the wavelet coefficients
+#'
+#' Fits one Gaussian process (GASP) emulator to every retained wavelet
+#' coefficient of the model runs at every site (report section 3.3 and 4):
+#' constant mean `mu`, variance `1 / lambda` and correlation
+#' `exp(-sum_p beta_p |z_p - z'_p|^(2 - alpha_p))` on the inputs scaled to the
+#' unit cube by the design's column minima and ranges, with `beta >= 0` and
+#' `alpha` in \[0, 1\]. The hyperparameters maximise the likelihood with `mu` and
+#' `lambda` profiled out.
+#'
+#' The `"gasp"` engine maximises the profile log-likelihood with its analytic
+#' gradient in C++ (a projected limited-memory BFGS over `log(beta)` and
+#' `alpha`) from `starts` deterministic starting points: the best isotropic
+#' point on a grid and Halton points around it. The `"dicekriging"` engine
+#' calls [DiceKriging::km()] with the power-exponential covariance
+#' `exp(-sum (|h| / theta)^p)`, `p` in \[1, 2\], and converts with
+#' `beta = theta^-p`, `alpha = 2 - p`. Both engines then compute `mu`,
+#' `lambda`, the weights and Cholesky factors with the same code.
+#'
+#' A nugget is added to the correlation matrix only when it is numerically
+#' singular (1e-8, 1e-6, ...); it is reported in `params$nugget`, with a
+#' warning. A coefficient that is constant across the runs gets a flat
+#' emulator (`beta = 0`, a tiny variance and a unit nugget), with a warning.
+#'
+#' Fits run through [future.apply::future_lapply()] in chunks of coefficients,
+#' so the [future::plan()] decides where; the result does not depend on it.
+#'
+#' @param runs A `wv_runs` object ([model_runs()]).
+#' @param basis A `wv_basis` object ([wavelet_basis()]) on the grid of `runs`.
+#' @param engine `"gasp"` (default) or `"dicekriging"`.
+#' @param starts Number of starting points per coefficient (`"gasp"` engine).
+#' @param log_beta_range Box for `log(beta)` on the unit-cube scale (`"gasp"`
+#'   engine).
+#' @param chunk_size Coefficients fitted per future.
+#' @param seed Seed for the random starting points of `"dicekriging"`; `NULL`
+#'   draws one from R's RNG. The `"gasp"` engine is deterministic.
+#' @param ... Further arguments to [DiceKriging::km()] (`"dicekriging"`
+#'   engine), e.g. `lower`, `upper`, `optim.method`.
+#' @return A `wv_emulators` object: a list with `params` (data frame, one row
+#'   per site and coefficient: `site`, `index`, `level`, `mu`, `lambda`,
+#'   `nugget`, `loglik`, `converged`, then `beta_<input>` and `alpha_<input>`),
+#'   `inputs`, `design` (K x p matrix), `banks` (named list by site of the
+#'   predictor's matrices, see Details), `basis`, `engine`, `t`.
+#'
+#'   Each bank holds `X` (scaled design), `beta`, `alpha` (n x p), `mu`,
+#'   `lambda`, `nugget` (n), `weights` (K x n, `R^-1 (y - mu)`), `chol`
+#'   (K x K x n lower Cholesky factors of `R`), `y` (K x n coefficients),
+#'   `lower`, `width` (p).
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+#' curves <- t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t))
+#' runs <- model_runs(design, curves, t)
+#' basis <- wavelet_basis(runs)
+#' em <- fit_emulators(runs, basis)
+#' em
+#' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
+fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 4,
+                          log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
+  check_class(runs, "wv_runs")
+  check_class(basis, "wv_basis")
+  engine <- rlang::arg_match(engine)
+  check_number(starts, min = 1, max = 100, integer = TRUE)
+  check_number(chunk_size, min = 1, integer = TRUE)
+  if (!is.numeric(log_beta_range) || length(log_beta_range) != 2L || any(!is.finite(log_beta_range)) ||
+      log_beta_range[1] >= log_beta_range[2]) {
+    wv_abort("{.arg log_beta_range} must be two increasing finite numbers, e.g. {.code c(-8, 6)}.")
+  }
+  seed <- resolve_seed(seed)
+  prep <- emulator_inputs(runs, basis)
+  W <- prep$W
+  sites <- names(W)
+
+  flat <- lapply(W, function(m) {
+    scale <- max(abs(m))
+    apply(m, 2L, function(v) diff(range(v)) <= 1e-10 * scale)
+  })
+  tasks <- list()
+  for (s in sites) {
+    cols <- which(!flat[[s]])
+    for (ch in split(cols, ceiling(seq_along(cols) / chunk_size))) {
+      tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L)
+    }
+  }
+  n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
+  worker <- emulator_worker(engine, prep$X, W, starts, log_beta_range, seed, list(...))
+  results <- run_chunks(tasks, worker, n_fit, engine)
+
+  banks <- list()
+  params <- list()
+  n_nugget <- 0L
+  for (s in sites) {
+    n <- ncol(W[[s]])
+    p <- ncol(prep$X)
+    beta <- matrix(0, n, p)
+    alpha <- matrix(0, n, p)
+    nugget <- rep(1, n)
+    converged <- rep(NA, n)
+    for (r in results[vapply(tasks, function(x) x$site == s, logical(1))]) {
+      beta[r$cols, ] <- r$beta
+      alpha[r$cols, ] <- r$alpha
+      nugget[r$cols] <- r$nugget
+      converged[r$cols] <- r$converged
+    }
+    bank <- emulator_bank(prep$X, W[[s]], beta, alpha, nugget, flat[[s]], prep$lower, prep$width)
+    n_nugget <- n_nugget + sum(bank$nugget[!flat[[s]]] > 0)
+    banks[[s]] <- bank
+    params[[s]] <- emulator_params(s, basis, bank, converged, colnames(prep$X))
+  }
+  n_flat <- sum(vapply(flat, sum, integer(1)))
+  if (n_flat > 0L) {
+    wv_warn(c(
+      "{n_flat} coefficient{?s} {?is/are} constant across the runs and got a flat emulator (beta = 0).",
+      "i" = "Their predictions are the constant with a negligible variance."
+    ), class = "flat_coefficient")
+  }
+  if (n_nugget > 0L) {
+    wv_warn(c(
+      "{n_nugget} coefficient{?s} needed a nugget to keep the correlation matrix positive definite.",
+      "i" = "See {.code params$nugget}; the emulators then smooth slightly instead of interpolating."
+    ), class = "nugget")
+  }
+  params <- do.call(rbind, params)
+  rownames(params) <- NULL
+  if (engine == "dicekriging" && any(!params$converged, na.rm = TRUE)) {
+    wv_warn(c(
+      "DiceKriging::km() failed on {sum(!params$converged, na.rm = TRUE)} coefficient{?s}.",
+      "i" = "The {.val gasp} engine fitted {?it/them} instead (rows with {.code converged = FALSE})."
+    ), class = "engine_fallback")
+  }
+  validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis, engine,
+                                         runs$t, seed))
+}
+
+new_wv_emulators <- function(params, inputs, design, banks, basis, engine, t, seed = NULL) {
+  structure(list(params = params, inputs = inputs, design = design, banks = banks, basis = basis,
+                 engine = engine, t = t, seed = seed), class = "wv_emulators")
+}
+
+validate_wv_emulators <- function(x, call = rlang::caller_env()) {
+  p <- length(x$inputs)
+  if (!is.matrix(x$design) || ncol(x$design) != p) {
+    wv_abort("{.field design} must be a matrix with one column per input.", class = "state", call = call)
+  }
+  for (s in names(x$banks)) {
+    b <- x$banks[[s]]
+    n <- length(b$mu)
+    k <- nrow(b$X)
+    if (!identical(dim(b$chol), c(k, k, n)) || !identical(dim(b$weights), c(k, n)) ||
+        !identical(dim(b$beta), c(n, p)) || !identical(dim(b$alpha), c(n, p))) {
+      wv_abort("The bank of site {.val {s}} has inconsistent dimensions.", class = "state", call = call)
+    }
+  }
+  need <- c("site", "index", "level", "mu", "lambda", "nugget", "loglik",
+            paste0("beta_", x$inputs), paste0("alpha_", x$inputs))
+  miss <- setdiff(need, names(x$params))
+  if (length(miss)) {
+    wv_abort("{.field params} lacks column{?s} {.val {miss}}.", class = "state", call = call)
+  }
+  x
+}
+
+# Coefficients of the runs on the basis: named list by site of K x n matrices.
+emulator_coefficients <- function(runs, basis) {
+  sites <- names(runs$curves)
+  if (!is.null(basis$sites)) sites <- intersect(sites, basis$sites)
+  out <- lapply(sites, function(s) {
+    W <- runs$curves[[s]] %*% basis$Psi
+    colnames(W) <- basis$index
+    W
+  })
+  stats::setNames(out, sites)
+}
+
+# Checks the design and coefficients before any fitting; returns the raw and
+# scaled design, the scaling and the coefficients by site.
+emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
+  n_t <- length(runs$t)
+  if (!is.matrix(basis$Psi) || nrow(basis$Psi) != n_t ||
+      (!is.null(basis$t) && (length(basis$t) != n_t || max(abs(basis$t - runs$t)) > 1e-8 * max(1, abs(runs$t))))) {
+    wv_abort(c(
+      "{.arg basis} is not on the grid of {.arg runs}.",
+      "x" = "The runs have {n_t} time points; the basis has {NROW(basis$Psi)}{if (!is.null(basis$t) && length(basis$t) == n_t) ' on different times' else ''}.",
+      "i" = "Build the basis with {.code wavelet_basis(runs)} on the same runs."
+    ), call = call)
+  }
+  if (is.null(basis$sites)) basis$sites <- names(runs$curves)
+  sites <- intersect(names(runs$curves), basis$sites)
+  if (!length(sites)) {
+    wv_abort("No site of {.arg runs} ({.val {names(runs$curves)}}) is in the basis ({.val {basis$sites}}).",
+             call = call)
+  }
+  design <- as.matrix(runs$design)
+  storage.mode(design) <- "double"
+  k <- nrow(design)
+  p <- ncol(design)
+  if (any(!is.finite(design))) {
+    wv_abort("The design must be finite; it has {sum(!is.finite(design))} NA or infinite value{?s}.", call = call)
+  }
+  if (k < p + 2L) {
+    wv_abort(c(
+      "Too few runs to fit the emulators: {k} run{?s} for {p} input{?s}.",
+      "i" = "A GASP with {p} inputs needs at least {p + 2} runs (about 10 per input is usual)."
+    ), call = call)
+  }
+  dup <- which(duplicated(design) | duplicated(design, fromLast = TRUE))
+  if (length(dup)) {
+    wv_abort(c(
+      "The design has duplicated rows: runs {dup}.",
+      "i" = "A GASP interpolates, so every run must be at its own input; remove the duplicates."
+    ), call = call)
+  }
+  lower <- apply(design, 2L, min)
+  width <- apply(design, 2L, max) - lower
+  if (any(width <= 0)) {
+    wv_abort("Input{?s} {.val {colnames(design)[width <= 0]}} {?does/do} not vary in the design; drop {?it/them} from the runs.",
+             call = call)
+  }
+  W <- emulator_coefficients(runs, basis)[sites]
+  for (s in sites) {
+    bad <- which(!is.finite(W[[s]]), arr.ind = TRUE)
+    if (nrow(bad)) {
+      bad_runs <- unique(bad[, 1])
+      wv_abort(c(
+        "The wavelet coefficients of site {.val {s}} have {nrow(bad)} non-finite value{?s}.",
+        "x" = "{cli::qty(length(bad_runs))}Run{?s} {bad_runs} {?has/have} NA or infinite output.",
+        "i" = "Remove failed runs (model_runs() drops them) before fitting."
+      ), call = call)
+    }
+  }
+  X <- sweep(sweep(design, 2L, lower, "-"), 2L, width, "/")
+  list(design = design, X = X, lower = lower, width = width, W = W)
+}
+
+# The function a future evaluates on one chunk of coefficients.
+emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args) {
+  force(X)
+  force(W)
+  function(task) {
+    Y <- W[[task$site]][, task$cols, drop = FALSE]
+    if (engine == "gasp") {
+      f <- gasp_fit_cpp(X, Y, as.integer(starts), log_beta_range[1], log_beta_range[2], 200L, 25L)
+      f$cols <- task$cols
+      return(f)
+    }
+    dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
+  }
+}
+
+dicekriging_fit <- function(X, Y, km_args, seed, cols) {
+  old <- if (exists(".Random.seed", envir = globalenv())) get(".Random.seed", envir = globalenv()) else NULL
+  on.exit(if (!is.null(old)) assign(".Random.seed", old, envir = globalenv()))
+  set.seed(seed)
+  p <- ncol(X)
+  n <- ncol(Y)
+  beta <- alpha <- matrix(0, n, p)
+  design <- as.data.frame(X)
+  args <- utils::modifyList(list(
+    formula = ~1, design = design, covtype = "powexp",
+    lower = c(rep(1e-10, p), rep(1, p)), upper = c(rep(2, p), rep(2, p)),
+    control = list(trace = FALSE)
+  ), km_args)
+  failed <- rep(FALSE, n)
+  for (i in seq_len(n)) {
+    args$response <- Y[, i]
+    fit <- NULL
+    utils::capture.output(fit <- tryCatch(suppressWarnings(do.call(DiceKriging::km, args)),
+                                          error = function(e) NULL))
+    if (is.null(fit)) {
+      failed[i] <- TRUE
+      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 4L, -8, 6, 200L, 25L)
+      beta[i, ] <- g$beta
+      alpha[i, ] <- g$alpha
+      next
+    }
+    cv <- fit@covariance
+    beta[i, ] <- cv@range.val^(-cv@shape.val)
+    alpha[i, ] <- pmin(pmax(2 - cv@shape.val, 0), 1)
+  }
+  list(beta = beta, alpha = alpha, nugget = rep(0, n), converged = !failed, cols = cols)
+}
+
+# Runs the chunk tasks through future.apply in batches so that a progress bar
+# can follow; the result does not depend on the plan.
+run_chunks <- function(tasks, worker, n_fit, engine) {
+  if (!length(tasks)) return(list())
+  quiet <- isTRUE(getOption("wavevalid.quiet", FALSE))
+  batch <- max(1L, 2L * future::nbrOfWorkers())
+  groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
+  if (!quiet) {
+    cli::cli_progress_bar(paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
+                          total = n_fit, .envir = environment())
+  }
+  out <- vector("list", length(tasks))
+  for (g in groups) {
+    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = TRUE,
+                                          future.packages = "wavevalid")
+    if (!quiet) {
+      cli::cli_progress_update(inc = sum(vapply(tasks[g], function(x) length(x$cols), integer(1))),
+                               .envir = environment())
+    }
+  }
+  if (!quiet) cli::cli_progress_done(.envir = environment())
+  out
+}
+
+# Assembles a site's bank from hyperparameters (flat coefficients: beta = 0,
+# unit nugget, variance 1e-16 of the data scale).
+emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
+  k <- nrow(X)
+  n <- ncol(Y)
+  fit <- which(!flat)
+  mu <- lambda <- loglik <- numeric(n)
+  weights <- matrix(0, k, n)
+  chol <- array(0, c(k, k, n))
+  if (length(fit)) {
+    f <- gasp_finalize_cpp(X, Y[, fit, drop = FALSE], beta[fit, , drop = FALSE],
+                           alpha[fit, , drop = FALSE], nugget[fit])
+    mu[fit] <- f$mu
+    lambda[fit] <- f$lambda
+    nugget[fit] <- f$nugget
+    loglik[fit] <- f$loglik
+    weights[, fit] <- f$weights
+    chol[, , fit] <- f$chol
+  }
+  if (any(flat)) {
+    L1 <- t(chol(matrix(1, k, k) + diag(k)))
+    for (i in which(flat)) {
+      mu[i] <- Y[1, i]
+      lambda[i] <- 1 / (1e-8 * max(1, abs(Y[1, i])))^2
+      nugget[i] <- 1
+      loglik[i] <- NA_real_
+      beta[i, ] <- 0
+      alpha[i, ] <- 0
+      chol[, , i] <- L1
+    }
+  }
+  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = nugget,
+       weights = weights, chol = chol, y = Y, lower = lower, width = width, loglik = loglik)
+}
+
+emulator_params <- function(site, basis, bank, converged, inputs) {
+  n <- length(bank$mu)
+  idx <- basis$index %||% seq_len(n)
+  lev <- basis$level %||% rep(NA_integer_, n)
+  out <- data.frame(site = rep(site, n), index = as.integer(idx), level = as.integer(lev),
+                    mu = bank$mu, lambda = bank$lambda, nugget = bank$nugget, loglik = bank$loglik,
+                    converged = converged, stringsAsFactors = FALSE)
+  b <- bank$beta
+  a <- bank$alpha
+  colnames(b) <- paste0("beta_", inputs)
+  colnames(a) <- paste0("alpha_", inputs)
+  cbind(out, as.data.frame(b), as.data.frame(a))
+}
+

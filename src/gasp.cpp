@@ -1,0 +1,87 @@
+// R glue for GASP fitting (numerics in gasp.h).
+#include <RcppEigen.h>
+#include "gasp.h"
+
+// [[Rcpp::depends(RcppEigen)]]
+
+// Profile log-likelihood and its gradient in (log beta, alpha) at theta.
+// [[Rcpp::export]]
+Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y,
+                           const Eigen::Map<Eigen::VectorXd>& theta, double nugget) {
+  if (theta.size() != 2 * X.cols()) Rcpp::stop("theta must have 2 p values");
+  if (y.size() != X.rows()) Rcpp::stop("y must have one value per design row");
+  wavevalid::GaspLik lik(X, y);
+  Eigen::VectorXd grad;
+  const double ll = lik.eval(theta, nugget, &grad, 0.0);
+  if (!std::isfinite(ll)) grad = Eigen::VectorXd::Constant(theta.size(), NA_REAL);
+  return Rcpp::List::create(Rcpp::Named("loglik") = ll, Rcpp::Named("gradient") = grad,
+                            Rcpp::Named("mu") = lik.mu(), Rcpp::Named("sigma2") = lik.sigma2());
+}
+
+// Maximum-likelihood fit of every column of Y (K x n) on the scaled design X.
+// [[Rcpp::export]]
+Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
+                        int starts, double lb_lo, double lb_hi, int maxit, int maxit_explore) {
+  const int K = X.rows(), p = X.cols(), n = Y.cols();
+  if (Y.rows() != K) Rcpp::stop("Y must have one row per design row");
+  wavevalid::GaspSettings set;
+  set.lb_lo = lb_lo;
+  set.lb_hi = lb_hi;
+  set.maxit = maxit;
+  set.maxit_explore = maxit_explore;
+  Eigen::MatrixXd beta(n, p), alpha(n, p);
+  Rcpp::NumericVector nugget(n), loglik(n);
+  Rcpp::IntegerVector n_eval(n);
+  Rcpp::LogicalVector converged(n);
+  const Eigen::MatrixXd Xc = X;
+  for (int i = 0; i < n; ++i) {
+    Rcpp::checkUserInterrupt();
+    const Eigen::VectorXd y = Y.col(i);
+    wavevalid::GaspFit f = wavevalid::gasp_fit(Xc, y, starts, set);
+    if (!std::isfinite(f.loglik)) {
+      Rcpp::stop("the likelihood of coefficient %d is numerically singular at every start and nugget", i + 1);
+    }
+    beta.row(i) = f.theta.head(p).array().exp().matrix().transpose();
+    alpha.row(i) = f.theta.tail(p).transpose();
+    nugget[i] = f.nugget;
+    loglik[i] = f.loglik;
+    n_eval[i] = f.n_eval;
+    converged[i] = f.converged;
+  }
+  return Rcpp::List::create(Rcpp::Named("beta") = beta, Rcpp::Named("alpha") = alpha,
+                            Rcpp::Named("nugget") = nugget, Rcpp::Named("loglik") = loglik,
+                            Rcpp::Named("n_eval") = n_eval, Rcpp::Named("converged") = converged);
+}
+
+// Emulator quantities (mu, lambda, weights, Cholesky factors, log-likelihood)
+// of every column of Y at given beta, alpha (n x p) and nugget (n).
+// [[Rcpp::export]]
+Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
+                             const Eigen::Map<Eigen::MatrixXd>& beta, const Eigen::Map<Eigen::MatrixXd>& alpha,
+                             const Eigen::Map<Eigen::VectorXd>& nugget) {
+  const int K = X.rows(), n = Y.cols();
+  if (Y.rows() != K || beta.rows() != n || alpha.rows() != n || nugget.size() != n ||
+      beta.cols() != X.cols() || alpha.cols() != X.cols()) {
+    Rcpp::stop("gasp_finalize_cpp: inconsistent dimensions");
+  }
+  const Eigen::MatrixXd Xc = X;
+  Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
+  Eigen::MatrixXd weights(K, n);
+  Rcpp::NumericVector ch(static_cast<R_xlen_t>(K) * K * n);
+  for (int i = 0; i < n; ++i) {
+    if (i % 16 == 0) Rcpp::checkUserInterrupt();
+    wavevalid::GaspFinal f = wavevalid::gasp_finalize(Xc, Y.col(i), beta.row(i).transpose(),
+                                                      alpha.row(i).transpose(), nugget(i));
+    if (!f.ok) Rcpp::stop("the correlation matrix of coefficient %d is not positive definite", i + 1);
+    mu[i] = f.mu;
+    lambda[i] = f.lambda;
+    nug[i] = f.nugget;
+    loglik[i] = f.loglik;
+    weights.col(i) = f.weights;
+    std::copy(f.L.data(), f.L.data() + K * K, ch.begin() + static_cast<R_xlen_t>(i) * K * K);
+  }
+  ch.attr("dim") = Rcpp::IntegerVector::create(K, K, n);
+  return Rcpp::List::create(Rcpp::Named("mu") = mu, Rcpp::Named("lambda") = lambda,
+                            Rcpp::Named("nugget") = nug, Rcpp::Named("loglik") = loglik,
+                            Rcpp::Named("weights") = weights, Rcpp::Named("chol") = ch);
+}

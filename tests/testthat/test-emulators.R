@@ -1,0 +1,229 @@
+# A small problem: K runs of p inputs, curves on 64 points, and a wv_basis
+# built by hand (scaling coefficient and the first detail levels).
+hand_basis <- function(t, index) {
+  n_t <- length(t)
+  w0 <- wavethresh::wd(rep(0, n_t), filter.number = 2, family = "DaubExPhase")
+  Psi <- vapply(index, function(i) {
+    w <- w0
+    if (i == 1L) {
+      w <- wavethresh::putC(w, 0, 1)
+    } else {
+      l <- floor(log2(i - 1))
+      v <- rep(0, 2^l)
+      v[i - 2^l] <- 1
+      w <- wavethresh::putD(w, l, v)
+    }
+    wavethresh::wr(w)
+  }, numeric(n_t))
+  level <- ifelse(index == 1L, 0L, floor(log2(index - 1)) + 1L)
+  structure(list(index = as.integer(index), level = as.integer(level), Psi = Psi, t = t,
+                 sites = "site1", settings = list(filter.number = 2, family = "DaubExPhase")),
+            class = "wv_basis")
+}
+
+small_problem <- function(K = 20, p = 3, n_coef = 8) {
+  t <- seq(0, 1, length.out = 64)
+  design <- vapply(seq_len(p), function(j) (sample.int(K) - stats::runif(K)) / K, numeric(K))
+  colnames(design) <- paste0("x", seq_len(p))
+  curves <- t(apply(design, 1, function(z) {
+    sin(2 * pi * t * (1 + 0.5 * z[1])) + z[2]^2 * t + 0.3 * cos(3 * z[3]) * exp(-10 * (t - 0.5)^2)
+  }))
+  runs <- model_runs(as.data.frame(design), curves, t, site = "site1")
+  list(runs = runs, basis = hand_basis(t, seq_len(n_coef)))
+}
+
+test_that("the analytic gradient matches finite differences", {
+  withr::local_seed(1)
+  K <- 25
+  p <- 3
+  X <- matrix(stats::runif(K * p), K, p)
+  y <- sin(3 * X[, 1]) + X[, 2]^2 + 0.2 * X[, 3]
+  for (r in 1:4) {
+    th <- c(stats::runif(p, -2, 2), stats::runif(p, 0.05, 0.95))
+    g <- gasp_loglik_cpp(X, y, th, 0)$gradient
+    fd <- vapply(seq_along(th), function(j) {
+      h <- 1e-6
+      a <- th
+      b <- th
+      a[j] <- a[j] + h
+      b[j] <- b[j] - h
+      (gasp_loglik_cpp(X, y, a, 0)$loglik - gasp_loglik_cpp(X, y, b, 0)$loglik) / (2 * h)
+    }, numeric(1))
+    expect_equal(g, fd, tolerance = 1e-5)
+  }
+})
+
+test_that("the profile log-likelihood equals DiceKriging's at the same parameters", {
+  withr::local_seed(2)
+  K <- 20
+  p <- 2
+  X <- matrix(stats::runif(K * p), K, p)
+  y <- cos(4 * X[, 1]) * X[, 2]
+  beta <- c(0.7, 2.5)
+  alpha <- c(0.3, 0.8)
+  ll <- gasp_loglik_cpp(X, y, c(log(beta), alpha), 0)
+  pw <- 2 - alpha
+  theta <- beta^(-1 / pw)
+  m <- DiceKriging::km(~1, design = data.frame(X), response = y, covtype = "powexp",
+                       coef.cov = c(theta, pw), control = list(trace = FALSE))
+  expect_equal(ll$loglik, DiceKriging::logLikFun(c(theta, pw), m), tolerance = 1e-8)
+})
+
+test_that("the fit maximises the likelihood within the box", {
+  withr::local_seed(3)
+  K <- 25
+  X <- matrix(stats::runif(K * 2), K, 2)
+  y <- sin(5 * X[, 1]) + 0.5 * X[, 2]
+  f <- gasp_fit_cpp(X, cbind(y), 4L, -8, 6, 200L, 25L)
+  th <- c(log(f$beta), f$alpha)
+  expect_equal(f$loglik, gasp_loglik_cpp(X, y, th, f$nugget)$loglik)
+  for (r in 1:20) {
+    other <- c(stats::runif(2, -3, 4), stats::runif(2))
+    expect_gte(f$loglik, gasp_loglik_cpp(X, y, other, f$nugget)$loglik - 1e-6)
+  }
+})
+
+test_that("the predictor interpolates the design runs", {
+  withr::local_seed(4)
+  pr <- small_problem()
+  em <- fit_emulators(pr$runs, pr$basis)
+  expect_s3_class(em, "wv_emulators")
+  expect_true(all(em$params$nugget == 0))
+  out <- predict(em, pr$runs$design, site = "site1")
+  y <- pr$runs$curves$site1 %*% pr$basis$Psi
+  expect_equal(unname(out$mean), unname(y), tolerance = 1e-6)
+  expect_lt(max(out$var), 1e-8 * max(1 / em$params$lambda))
+  # away from the design, the variance is positive and below 1 / lambda
+  far <- predict(em, data.frame(x1 = 0.51, x2 = 0.49, x3 = 0.5), site = "site1")
+  expect_true(all(far$var > 0 & far$var <= 1 / em$params$lambda + 1e-12))
+  expect_equal(names(em$params)[1:7], c("site", "index", "level", "mu", "lambda", "nugget", "loglik"))
+  expect_true(all(c(paste0("beta_", em$inputs), paste0("alpha_", em$inputs)) %in% names(em$params)))
+})
+
+test_that("the eq. 26 update equals the bank rebuilt on the augmented design", {
+  withr::local_seed(5)
+  pr <- small_problem()
+  em <- fit_emulators(pr$runs, pr$basis)
+  z <- c(x1 = 0.33, x2 = 0.71, x3 = 0.12)
+  w <- predict(em, z, site = "site1")$mean[1, ] + stats::rnorm(8, sd = 0.01)
+  aug <- augment_emulators(em, z, w)
+  b <- em$banks$site1
+  Xa <- rbind(b$X, (z - b$lower) / b$width)
+  Ya <- rbind(b$y, w)
+  ref <- gasp_finalize_cpp(Xa, Ya, b$beta, b$alpha, b$nugget)
+  rebuilt <- b
+  rebuilt$X <- Xa
+  rebuilt$weights <- Ya - matrix(b$mu, nrow(Ya), ncol(Ya), byrow = TRUE)
+  for (i in seq_along(b$mu)) {
+    L <- ref$chol[, , i]
+    rebuilt$weights[, i] <- backsolve(t(L), forwardsolve(L, Ya[, i] - b$mu[i]))
+  }
+  rebuilt$chol <- ref$chol
+  expect_equal(aug$banks$site1$chol, ref$chol, tolerance = 1e-10)
+  expect_equal(unname(aug$banks$site1$weights), unname(rebuilt$weights), tolerance = 1e-8)
+  Znew <- matrix(stats::runif(15), 5, 3, dimnames = list(NULL, c("x1", "x2", "x3")))
+  p1 <- gasp_bank_predict_cpp(aug$banks$site1, Znew)
+  p2 <- gasp_bank_predict_cpp(rebuilt, Znew)
+  expect_equal(p1$mean, p2$mean, tolerance = 1e-8)
+  expect_equal(p1$var, p2$var, tolerance = 1e-8)
+  # the augmented predictor interpolates the new point
+  pz <- predict(aug, z, site = "site1")
+  expect_equal(unname(pz$mean[1, ]), unname(w), tolerance = 1e-6)
+})
+
+test_that("the two engines agree on predictions of a smooth function", {
+  withr::local_seed(6)
+  pr <- small_problem(K = 25, n_coef = 4)
+  g <- fit_emulators(pr$runs, pr$basis, engine = "gasp")
+  d <- fit_emulators(pr$runs, pr$basis, engine = "dicekriging", seed = 1)
+  expect_identical(d$engine, "dicekriging")
+  Z <- matrix(stats::runif(60, 0.1, 0.9), 20, 3, dimnames = list(NULL, c("x1", "x2", "x3")))
+  pg <- predict(g, Z, site = "site1")$mean
+  pd <- predict(d, Z, site = "site1")$mean
+  y <- pr$runs$curves$site1 %*% pr$basis$Psi
+  span <- apply(y, 2, function(v) diff(range(v)))
+  expect_true(all(sweep(abs(pg - pd), 2, span, "/") < 0.05))
+  # the gasp engine's likelihood is at least DiceKriging's
+  expect_true(all(g$params$loglik >= d$params$loglik - 0.1))
+})
+
+test_that("closed-form LOO residuals equal brute-force leave-one-out", {
+  withr::local_seed(7)
+  pr <- small_problem(K = 15, n_coef = 3)
+  em <- fit_emulators(pr$runs, pr$basis)
+  loo <- loo_residuals(em)
+  b <- em$banks$site1
+  for (i in seq_along(b$mu)) {
+    R <- b$chol[, , i] %*% t(b$chol[, , i])
+    for (k in c(1, 7, 15)) {
+      Rk <- R[-k, -k]
+      r <- R[k, -k]
+      m <- b$mu[i] + sum(r * solve(Rk, b$y[-k, i] - b$mu[i]))
+      v <- (R[k, k] - sum(r * solve(Rk, r))) / b$lambda[i]
+      row <- loo[loo$index == em$params$index[i] & loo$run == k, ]
+      expect_equal(row$predicted, unname(m), tolerance = 1e-7)
+      expect_equal(row$sd, sqrt(v), tolerance = 1e-7)
+      expect_equal(row$residual, unname((b$y[k, i] - m) / sqrt(v)), tolerance = 1e-6)
+    }
+  }
+})
+
+test_that("the fit does not depend on the future plan", {
+  skip_on_cran()
+  skip_if_not_installed("future")
+  withr::local_seed(8)
+  pr <- small_problem(K = 15, n_coef = 6)
+  withr::local_options(wavevalid.quiet = TRUE)
+  seq_fit <- fit_emulators(pr$runs, pr$basis, chunk_size = 2)
+  old <- future::plan(future::multisession, workers = 2)
+  withr::defer(future::plan(old))
+  par_fit <- fit_emulators(pr$runs, pr$basis, chunk_size = 2)
+  expect_identical(par_fit$params, seq_fit$params)
+  expect_identical(par_fit$banks, seq_fit$banks)
+})
+
+test_that("bad inputs give classed errors or warnings", {
+  withr::local_seed(9)
+  withr::local_options(wavevalid.quiet = TRUE)
+  pr <- small_problem(K = 12, n_coef = 4)
+  # duplicated design rows
+  dup <- pr$runs
+  dup$design[5, ] <- dup$design[2, ]
+  expect_error(fit_emulators(dup, pr$basis), class = "wavevalid_error_input")
+  expect_error(fit_emulators(dup, pr$basis), "2 and 5")
+  # too few runs for the dimension
+  few <- pr$runs
+  few$design <- few$design[1:4, ]
+  few$curves$site1 <- few$curves$site1[1:4, ]
+  expect_error(fit_emulators(few, pr$basis), class = "wavevalid_error_input")
+  # non-finite values
+  nf <- pr$runs
+  nf$curves$site1[3, 10] <- NA
+  expect_error(fit_emulators(nf, pr$basis), class = "wavevalid_error_input")
+  # grid mismatch
+  other <- hand_basis(seq(0, 1, length.out = 128), 1:4)
+  expect_error(fit_emulators(pr$runs, other), class = "wavevalid_error_input")
+  expect_error(fit_emulators(pr$runs, list()), class = "wavevalid_error_input")
+  # a constant coefficient gets a flat emulator with a warning
+  flat <- pr$runs
+  flat$curves$site1 <- flat$curves$site1 - (flat$curves$site1 %*% pr$basis$Psi[, 2]) %*% t(pr$basis$Psi[, 2])
+  expect_warning(em <- fit_emulators(flat, pr$basis), class = "wavevalid_warning_flat_coefficient")
+  expect_equal(unname(unlist(em$params[2, paste0("beta_", em$inputs)])), c(0, 0, 0))
+  out <- predict(em, data.frame(x1 = 0.3, x2 = 0.3, x3 = 0.3), site = "site1")
+  expect_equal(unname(out$mean[1, 2]), em$params$mu[2])
+  expect_lt(out$var[1, 2], 1e-12)
+  expect_error(predict(em, data.frame(x1 = 1)), class = "wavevalid_error_input")
+})
+
+test_that("print, summary and plots work", {
+  withr::local_seed(10)
+  withr::local_options(wavevalid.quiet = TRUE)
+  pr <- small_problem(K = 12, n_coef = 4)
+  em <- fit_emulators(pr$runs, pr$basis)
+  expect_invisible(print(em))
+  s <- summary(em)
+  expect_s3_class(s, "summary_wv_emulators")
+  expect_equal(sum(s$by_level$n), 4)
+  expect_s3_class(autoplot(em), "ggplot")
+  expect_s3_class(autoplot(em, type = "loo"), "ggplot")
+})
