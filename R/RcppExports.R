@@ -2,6 +2,10 @@
 # Generator token: 10BE3573-1514-4C36-9D1C-5A225CD40393
 
 gasp_bank_predict_cpp <- function(bank, Z) {
-    .Call('_wavevalid_gasp_bank_predict_cpp', PACKAGE = 'wavevalid', bank, Z)
+    .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
+}
+
+calibrate_chain_cpp <- function(sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress) {
+    .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress)
 }
 

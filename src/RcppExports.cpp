@@ -23,9 +23,33 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// calibrate_chain_cpp
+Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors, int n_groups, const Eigen::Map<Eigen::VectorXd>& z_init, const Eigen::Map<Eigen::VectorXd>& tau2_init, bool fix_tau2, int n_draws, int n_inner, double step, double seed, int chain, int debug_break, Rcpp::RObject progress);
+RcppExport SEXP _wavevalid_calibrate_chain_cpp(SEXP sitesSEXP, SEXP priorsSEXP, SEXP n_groupsSEXP, SEXP z_initSEXP, SEXP tau2_initSEXP, SEXP fix_tau2SEXP, SEXP n_drawsSEXP, SEXP n_innerSEXP, SEXP stepSEXP, SEXP seedSEXP, SEXP chainSEXP, SEXP debug_breakSEXP, SEXP progressSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type sites(sitesSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type priors(priorsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_groups(n_groupsSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type z_init(z_initSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type tau2_init(tau2_initSEXP);
+    Rcpp::traits::input_parameter< bool >::type fix_tau2(fix_tau2SEXP);
+    Rcpp::traits::input_parameter< int >::type n_draws(n_drawsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_inner(n_innerSEXP);
+    Rcpp::traits::input_parameter< double >::type step(stepSEXP);
+    Rcpp::traits::input_parameter< double >::type seed(seedSEXP);
+    Rcpp::traits::input_parameter< int >::type chain(chainSEXP);
+    Rcpp::traits::input_parameter< int >::type debug_break(debug_breakSEXP);
+    Rcpp::traits::input_parameter< Rcpp::RObject >::type progress(progressSEXP);
+    rcpp_result_gen = Rcpp::wrap(calibrate_chain_cpp(sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
+    {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 13},
     {NULL, NULL, 0}
 };
 
