@@ -81,6 +81,7 @@ struct GaspBank {
     }
   }
 
+<<<<<<< HEAD
   // The predictor of eq. (26): the same hyperparameters, the design augmented
   // by one raw input z with coefficient values w (length n). Each Cholesky
   // factor gains one row, [L 0; l' d] with l = L^-1 r(z), d^2 = 1 + g - l'l,
@@ -124,6 +125,60 @@ struct GaspBank {
       out.weights(K, i) = c;
     }
     return out;
+=======
+  // Scratch space for predict_into(), sized once per bank.
+  struct Workspace {
+    Eigen::VectorXd zs;
+    Eigen::MatrixXd d1, d2, logd;
+    Eigen::ArrayXd s;
+    Eigen::VectorXd r;
+  };
+
+  void init_workspace(Workspace& ws) const {
+    const int K = n_runs(), p = n_inputs();
+    ws.zs.resize(p);
+    ws.d1.resize(K, p);
+    ws.d2.resize(K, p);
+    ws.logd.resize(K, p);
+    ws.s.resize(K);
+    ws.r.resize(K);
+  }
+
+  // As predict(), without allocation: m and v must already have length n and
+  // ws must come from init_workspace(). Inputs whose beta is zero for every
+  // coefficient cost nothing beyond their distance column.
+  void predict_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
+                    Workspace& ws, bool want_var = true) const {
+    const int n = n_coef(), p = n_inputs();
+    for (int q = 0; q < p; ++q) {
+      const double zq = (z(q) - lower(q)) / width(q);
+      ws.d1.col(q) = (X.col(q).array() - zq).abs().matrix();
+    }
+    ws.d2.array() = ws.d1.array().square();
+    ws.logd.array() = ws.d1.array().log();
+    for (int i = 0; i < n; ++i) {
+      ws.s.setZero();
+      for (int q = 0; q < p; ++q) {
+        const double b = beta(i, q);
+        if (b == 0.0) continue;
+        const double a = alpha(i, q);
+        if (a == 0.0) {
+          ws.s += b * ws.d2.col(q).array();
+        } else if (a == 1.0) {
+          ws.s += b * ws.d1.col(q).array();
+        } else {
+          ws.s += b * ((2.0 - a) * ws.logd.col(q).array()).exp();
+        }
+      }
+      ws.r.array() = (-ws.s).exp();
+      m(i) = mu(i) + ws.r.dot(weights.col(i));
+      if (want_var) {
+        L[i].triangularView<Eigen::Lower>().solveInPlace(ws.r);
+        const double q = 1.0 - ws.r.squaredNorm();
+        v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
+      }
+    }
+>>>>>>> sampler
   }
 };
 

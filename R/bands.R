@@ -1,0 +1,278 @@
+#' Bias, reality and pure-model prediction with tolerance bands
+#'
+#' Curves are rebuilt draw by draw from the posterior coefficient draws of a
+#' [calibrate()] fit (report section 5.2), one site at a time:
+#' bias `b^h = Psi w^b_h`, reality `y^R_h = Psi (w^M_h + w^b_h)`.
+#'
+#' Two bands are given at each `t`:
+#' * `lower`, `upper`: pointwise `(1 - level) / 2` and `(1 + level) / 2`
+#'   quantiles of the curve draws (eq. 22-23);
+#' * `lower_curve`, `upper_curve`: a simultaneous band holding whole curves.
+#'   Each curve draw is scored by its largest standardised distance from the
+#'   pointwise mean, `max_t |y_h(t) - mean(t)| / sd(t)`; the `ceiling(level * H)`
+#'   curves with the smallest scores are kept and the band is their pointwise
+#'   envelope. At most `100 (1 - level)`% of the curve draws leave it, and,
+#'   because the score follows the pointwise spread, it is close to the
+#'   narrowest band with that property.
+#'
+#' `model_prediction()` gives the pure-model prediction of eq. (24): `mean` is
+#' `Psi m(z_hat)`, the emulator mean at the posterior mean of the inputs. Its
+#' error as a prediction of reality is judged from the draws
+#' `y^R_h - mean` (section 5.2): `error_mean`, `error_lower`, `error_upper`
+#' are their pointwise mean and quantiles; `lower`, `upper` (= `mean` plus the
+#' error quantiles) and `lower_curve`, `upper_curve` bound reality around the
+#' pure-model curve.
+#'
+#' @param fit A `wv_fit` object.
+#' @param level Probability content of the bands (default 0.9).
+#' @return A data frame with columns `site`, `t`, `mean`, `lower`, `upper`,
+#'   `lower_curve`, `upper_curve` (and the `error_*` columns for
+#'   `model_prediction()`).
+#' @name bands
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' head(bias(fit))
+#' head(reality(fit, level = 0.8))
+#' head(model_prediction(fit))
+NULL
+
+#' @rdname bands
+#' @export
+bias <- function(fit, level = 0.9) {
+  check_class(fit, "wv_fit")
+  check_level(level)
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    band_frame(curve_draws(fit, s, "bias"), fit$basis$t, s, level)
+  }))
+}
+
+#' @rdname bands
+#' @export
+reality <- function(fit, level = 0.9) {
+  check_class(fit, "wv_fit")
+  check_level(level)
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    band_frame(curve_draws(fit, s, "reality"), fit$basis$t, s, level)
+  }))
+}
+
+#' @rdname bands
+#' @export
+model_prediction <- function(fit, level = 0.9) {
+  check_class(fit, "wv_fit")
+  check_level(level)
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    y_hat <- pure_model_curve(fit, s)
+    err <- sweep(curve_draws(fit, s, "reality"), 2L, y_hat)
+    b <- band_frame(err, fit$basis$t, s, level)
+    data.frame(site = s, t = fit$basis$t, mean = y_hat,
+               lower = y_hat + b$lower, upper = y_hat + b$upper,
+               lower_curve = y_hat + b$lower_curve, upper_curve = y_hat + b$upper_curve,
+               error_mean = b$mean, error_lower = b$lower, error_upper = b$upper,
+               stringsAsFactors = FALSE)
+  }))
+}
+
+# Posterior mean of the inputs (own units).
+posterior_mean_inputs <- function(fit) {
+  colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
+}
+
+# Pure-model curve of eq. (24) at one site: Psi m(z_hat).
+pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
+  bank <- fit$emulators$banks[[site]]
+  m <- gasp_bank_predict_cpp(bank, matrix(z[fit$inputs], nrow = 1L))$mean
+  drop(fit$basis$Psi %*% t(m))
+}
+
+# H x T matrix of curve draws at one site: "bias" (Psi w^b), "reality"
+# (Psi (w^M + w^b)), "model" (Psi w^M) or "field_run" (reality plus
+# eps ~ N(0, sigma2) on every coefficient).
+curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL) {
+  what <- match.arg(what)
+  if (!site %in% names(fit$wb)) {
+    wv_abort("{.arg site} must be one of {.val {names(fit$wb)}}, not {.val {site}}.")
+  }
+  W <- switch(what,
+    bias = fit$wb[[site]],
+    reality = fit$wM[[site]] + fit$wb[[site]],
+    model = fit$wM[[site]],
+    field_run = {
+      S <- fit$sigma2[[site]]
+      eps <- with_draw_seed(seed, matrix(stats::rnorm(length(S)), nrow(S)) * sqrt(S))
+      fit$wM[[site]] + fit$wb[[site]] + eps
+    }
+  )
+  W %*% t(fit$basis$Psi)
+}
+
+with_draw_seed <- function(seed, code) {
+  if (is.null(seed)) return(code)
+  had <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
+  old <- if (had) get(".Random.seed", envir = globalenv(), inherits = FALSE)
+  on.exit(if (had) assign(".Random.seed", old, envir = globalenv())
+          else rm(".Random.seed", envir = globalenv()))
+  set.seed(seed)
+  code
+}
+
+band_frame <- function(Y, t, site, level) {
+  a <- (1 - level) / 2
+  q <- pointwise_quantiles(Y, c(a, 1 - a))
+  sim <- simultaneous_band(Y, level)
+  data.frame(site = site, t = t, mean = colMeans(Y), lower = q[1, ], upper = q[2, ],
+             lower_curve = sim$lower, upper_curve = sim$upper, stringsAsFactors = FALSE)
+}
+
+# Type-7 quantiles of every column of Y (2 x T), by sorting once per column.
+pointwise_quantiles <- function(Y, probs) {
+  H <- nrow(Y)
+  S <- apply(Y, 2L, sort.int)
+  if (H == 1L) S <- matrix(S, nrow = 1L)
+  pos <- 1 + (H - 1) * probs
+  lo <- floor(pos)
+  hi <- ceiling(pos)
+  f <- pos - lo
+  S[lo, , drop = FALSE] * (1 - f) + S[hi, , drop = FALSE] * f
+}
+
+simultaneous_band <- function(Y, level) {
+  H <- nrow(Y)
+  centre <- colMeans(Y)
+  s <- sqrt(colSums(sweep(Y, 2L, centre)^2) / max(H - 1, 1))
+  s <- pmax(s, 1e-12 * max(s, 1e-300))
+  score <- apply(abs(sweep(sweep(Y, 2L, centre), 2L, s, "/")), 1L, max)
+  keep <- order(score)[seq_len(ceiling(level * H))]
+  list(lower = apply(Y[keep, , drop = FALSE], 2L, min),
+       upper = apply(Y[keep, , drop = FALSE], 2L, max),
+       score = score, keep = keep)
+}
+
+# --- figures ---------------------------------------------------------------------
+
+#' Plot a calibration fit
+#'
+#' * `"inputs"`: posterior histogram of every input with its prior density
+#'   (report Figure 5);
+#' * `"bias"`: posterior mean of the bias with its pointwise band, by site
+#'   (Figure 6);
+#' * `"reality"`: bias-corrected prediction with its band, pure-model
+#'   prediction and the field replicates (Figure 7);
+#' * `"trace"`: trace of every input by chain.
+#'
+#' @param object A `wv_fit` object.
+#' @param type One of `"inputs"`, `"bias"`, `"reality"`, `"trace"`.
+#' @param level Probability content of the bands.
+#' @param windows Optional list of `c(from, to)` time windows to zoom into.
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' autoplot(fit, "inputs")
+#' autoplot(fit, "reality")
+autoplot.wv_fit <- function(object, type = c("inputs", "bias", "reality", "trace"), level = 0.9,
+                            windows = NULL, ...) {
+  type <- match.arg(type)
+  switch(type,
+    inputs = plot_fit_inputs(object),
+    trace = plot_fit_trace(object),
+    bias = plot_fit_band(with_windows(bias(object, level), windows), NULL, NULL, "bias",
+                         sprintf("Bias with %g%% pointwise band", 100 * level)),
+    reality = plot_fit_band(with_windows(reality(object, level), windows),
+                            with_windows(model_prediction(object, level), windows),
+                            with_windows(field_long(object$field), windows), "output",
+                            sprintf("Bias-corrected prediction with %g%% band", 100 * level))
+  )
+}
+
+#' @export
+plot.wv_fit <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+plot_fit_inputs <- function(fit) {
+  X <- as.matrix(fit$draws)
+  d <- do.call(rbind, lapply(fit$inputs, function(v) data.frame(input = v, value = X[, v])))
+  pr <- fit$prior_iu
+  dens <- do.call(rbind, lapply(seq_along(fit$inputs), function(k) {
+    v <- seq(pr$lower[k], pr$upper[k], length.out = 201)
+    data.frame(input = fit$inputs[k], value = v, density = iu_prior_density(pr, k, v))
+  }))
+  d$input <- factor(d$input, levels = fit$inputs)
+  dens$input <- factor(dens$input, levels = fit$inputs)
+  ggplot2::ggplot(d, ggplot2::aes(.data$value)) +
+    ggplot2::geom_histogram(ggplot2::aes(y = ggplot2::after_stat(density)), bins = 30,
+                            fill = "grey75", colour = "grey40") +
+    ggplot2::geom_line(data = dens, ggplot2::aes(.data$value, .data$density)) +
+    ggplot2::facet_wrap(~input, scales = "free") +
+    ggplot2::labs(x = "input value (own units)", y = "density",
+                  title = "Posterior draws of each input with its prior") +
+    ggplot2::theme_bw()
+}
+
+plot_fit_trace <- function(fit) {
+  d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {
+    m <- as.matrix(fit$draws[[ch]])
+    do.call(rbind, lapply(fit$inputs, function(v) {
+      data.frame(chain = factor(ch), draw = seq_len(nrow(m)), input = v, value = m[, v])
+    }))
+  }))
+  d$input <- factor(d$input, levels = fit$inputs)
+  ggplot2::ggplot(d, ggplot2::aes(.data$draw, .data$value, colour = .data$chain)) +
+    ggplot2::geom_line(linewidth = 0.3) +
+    ggplot2::facet_wrap(~input, scales = "free_y") +
+    ggplot2::labs(x = "saved draw", y = "value", colour = "chain") +
+    ggplot2::theme_bw()
+}
+
+field_long <- function(field) {
+  do.call(rbind, lapply(names(field$curves), function(s) {
+    m <- field$curves[[s]]
+    data.frame(site = s, t = rep(field$t, each = nrow(m)), replicate = factor(rep(seq_len(nrow(m)), length(field$t))),
+               y = as.vector(m))
+  }))
+}
+
+with_windows <- function(d, windows) {
+  if (is.null(windows) || is.null(d)) return(d)
+  ok <- is.list(windows) && all(vapply(windows, function(w) is.numeric(w) && length(w) == 2L && w[1] < w[2],
+                                       logical(1)))
+  if (!ok) wv_abort("{.arg windows} must be a list of increasing pairs {.code c(from, to)}.")
+  do.call(rbind, lapply(windows, function(w) {
+    x <- d[d$t >= w[1] & d$t <= w[2], , drop = FALSE]
+    x$window <- sprintf("[%g, %g]", w[1], w[2])
+    x
+  }))
+}
+
+plot_fit_band <- function(band, model, field, ylab, title) {
+  p <- ggplot2::ggplot(band, ggplot2::aes(.data$t))
+  if (!is.null(field)) {
+    p <- p + ggplot2::geom_line(data = field, ggplot2::aes(.data$t, .data$y, group = .data$replicate),
+                                colour = "goldenrod2", linewidth = 0.3)
+  }
+  p <- p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "steelblue", alpha = 0.25)
+  if (is.null(model)) p <- p + ggplot2::geom_hline(yintercept = 0, colour = "grey50")
+  if (!is.null(model)) {
+    p <- p + ggplot2::geom_line(data = model, ggplot2::aes(.data$t, .data$mean), colour = "grey50")
+  }
+  p <- p +
+    ggplot2::geom_line(ggplot2::aes(y = .data$lower), linetype = "dashed", linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$upper), linetype = "dashed", linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean)) +
+    ggplot2::labs(x = "t", y = ylab, title = title) +
+    ggplot2::theme_bw()
+  if ("window" %in% names(band)) {
+    p + ggplot2::facet_grid(site ~ window, scales = "free")
+  } else {
+    p + ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y")
+  }
+}
+
+utils::globalVariables("density")

@@ -1,0 +1,92 @@
+# A small, fully specified calibration problem for examples: a wavelet basis
+# on 32 points, GASP emulators with given hyperparameters (mu and lambda by
+# profile likelihood), a field of four replicates at one site.
+
+# Wavelet basis of the given coefficient positions (1 = scaling coefficient,
+# 2^l + k = k-th detail coefficient of wavethresh level l) on a dyadic grid t.
+basis_from_index <- function(t, index, filter.number = 2, family = "DaubExPhase") {
+  n_t <- length(t)
+  J <- as.integer(round(log2(n_t)))
+  zero <- wavethresh::wd(rep(0, n_t), filter.number = filter.number, family = family)
+  Psi <- vapply(index, function(j) {
+    w <- zero
+    if (j == 1L) {
+      w <- wavethresh::putC(w, 0L, 1)
+    } else {
+      l <- floor(log2(j - 1))
+      v <- numeric(2^l)
+      v[j - 2^l] <- 1
+      w <- wavethresh::putD(w, l, v)
+    }
+    wavethresh::wr(w)
+  }, numeric(n_t))
+  level <- ifelse(index == 1L, 0L, floor(log2(pmax(index - 1, 1))) + 1L)
+  structure(list(index = as.integer(index), level = as.integer(level), Psi = Psi, t = t,
+                 sites = NULL,
+                 settings = list(filter.number = filter.number, family = family,
+                                 keep_levels = NA, fraction = NA)),
+            class = "wv_basis")
+}
+
+# One bank of GASP emulators with fixed beta/alpha (n x p); mu and lambda by
+# profile maximum likelihood; design scaled to the unit cube.
+bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
+  X_raw <- as.matrix(X_raw)
+  K <- nrow(X_raw)
+  p <- ncol(X_raw)
+  n <- ncol(Y)
+  lower <- apply(X_raw, 2, min)
+  width <- apply(X_raw, 2, function(v) diff(range(v)))
+  X <- sweep(sweep(X_raw, 2, lower), 2, width, "/")
+  beta <- matrix(beta, n, p, byrow = is.null(dim(beta)))
+  alpha <- matrix(alpha, n, p, byrow = is.null(dim(alpha)))
+  mu <- lambda <- numeric(n)
+  weights <- matrix(0, K, n)
+  chol <- array(0, c(K, K, n))
+  for (i in seq_len(n)) {
+    D <- matrix(0, K, K)
+    for (q in seq_len(p)) D <- D + beta[i, q] * abs(outer(X[, q], X[, q], "-"))^(2 - alpha[i, q])
+    Rm <- exp(-D) + diag(nugget, K)
+    L <- t(base::chol(Rm))
+    Ri <- function(v) backsolve(t(L), forwardsolve(L, v))
+    one <- rep(1, K)
+    mu[i] <- sum(Ri(Y[, i])) / sum(Ri(one))
+    e <- Y[, i] - mu[i]
+    weights[, i] <- Ri(e)
+    lambda[i] <- K / sum(e * weights[, i])
+    chol[, , i] <- L
+  }
+  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = rep(nugget, n),
+       weights = weights, chol = chol, y = Y, lower = lower, width = width)
+}
+
+example_calibration_inputs <- function(seed = 1) {
+  withr_seed <- function(code) {
+    old <- if (exists(".Random.seed", globalenv())) get(".Random.seed", globalenv()) else NULL
+    on.exit(if (is.null(old)) rm(".Random.seed", envir = globalenv()) else assign(".Random.seed", old, globalenv()))
+    set.seed(seed)
+    code
+  }
+  withr_seed({
+    t <- seq(0, 1, length.out = 33)[-33]
+    iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1),
+                 nominal = c(0.5, 0.5))
+    model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2)
+    design <- cbind(u1 = (0:11 + stats::runif(12)) / 12, x1 = (sample(12) - stats::runif(12)) / 12)
+    curves <- t(apply(design, 1, function(z) model(z[1], z[2])))
+    basis <- basis_from_index(t, 1:16)
+    Y <- curves %*% basis$Psi
+    bank <- bank_fixed_hyper(design, Y, beta = c(2, 2), alpha = c(0, 0))
+    params <- data.frame(site = "site1", index = basis$index, level = basis$level, mu = bank$mu,
+                         lambda = bank$lambda, nugget = bank$nugget, loglik = NA_real_,
+                         beta_u1 = bank$beta[, 1], alpha_u1 = bank$alpha[, 1],
+                         beta_x1 = bank$beta[, 2], alpha_x1 = bank$alpha[, 2])
+    emulators <- structure(list(params = params, inputs = c("u1", "x1"), design = design,
+                                banks = list(site1 = bank), basis = basis, engine = "gasp", t = t),
+                           class = "wv_emulators")
+    truth <- model(0.3, 0.55) + 0.1 * exp(-((t - 0.25) / 0.05)^2)
+    reps <- t(replicate(4, truth + stats::rnorm(length(t), sd = 0.03)))
+    field <- new_wv_field(t, list(site1 = reps), x_nom = c(x1 = 0.5))
+    list(emulators = emulators, field = field, iu = iu)
+  })
+}

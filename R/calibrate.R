@@ -1,0 +1,396 @@
+#' Calibrate the model against field data: the modular posterior
+#'
+#' Draws from the posterior of the method (eq. 15-19 of Bayarri et al.):
+#' calibration parameters `u`, manufacturing variations `delta` (reported as
+#' `x_nom + delta`, in each input's own units), bias variances `tau2` by
+#' (site, resolution level), field variances `sigma2`, bias coefficients `w^b`
+#' and model coefficients `w^M`.
+#'
+#' Per site the field replicates are projected on the basis
+#' (`W = curves %*% Psi`); their mean `wbar`, sum of squares `s2` and the number
+#' of replicates `R` are the data. For each saved draw the sampler
+#' 1. draws `sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2)` (the replicates
+#'    alone fix sigma: the modularization of the method), or uses `sigma2`;
+#' 2. runs `n_inner` cycles of Metropolis-Hastings on `(delta, u, tau2)`
+#'    targeting `prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + tau2_j(i))`
+#'    times the priors, with `pi(tau2_j) ~ 1 / (tau2_j + mean(sigma2_j) / R)`:
+#'    a joint log-uniform step on every `tau2` (factor `e^0.7`) and a joint step
+#'    on every input from a 50/50 mixture of a uniform on its support and a
+#'    uniform on `current +/- step * range`, with the full mixture densities in
+#'    the Hastings ratio;
+#' 3. draws `w^b` (eq. 17) and `w^M` (eq. 16, with the variance
+#'    `V (sigma2 / R) / (V + sigma2 / R)`).
+#'
+#' Variation inputs have prior `N(x_nom, prior_sd^2)` truncated to the I/U
+#' range shifted by `x_nom - nominal` (`x_nom` from `field$x_nom` when given,
+#' else the nominals of `iu`); calibration inputs are uniform on their range.
+#' The chain starts at the nominals. Several sites share the inputs; each has
+#' its own emulators, data, `sigma2` and `tau2` groups.
+#'
+#' The loop runs in C++. Each chain is one future
+#' (`future.apply::future_lapply()`), so `future::plan()` decides where chains
+#' run, and `seed` alone decides the draws.
+#'
+#' @param emulators A `wv_emulators` object ([fit_emulators()]).
+#' @param field A `wv_field` object on the grid of the emulators' basis.
+#' @param iu A `wv_iu` object holding every input of the emulators.
+#' @param n_draws Saved draws per chain.
+#' @param n_inner Metropolis-Hastings cycles between saved draws (thinning).
+#' @param chains Number of chains.
+#' @param seed `NULL` (drawn from R's RNG) or a whole number.
+#' @param sigma2 Optional fixed field variances: a numeric vector (one value or
+#'   one per coefficient) for a single site, or a named list of such vectors by
+#'   site. Needed for sites with fewer than two replicates.
+#' @param step Half-width of the local proposal as a fraction of each input's
+#'   range (the method's 0.05 on a coded range of about 0.5-0.75).
+#' @param fix_tau2 Optional fixed bias variances (one value, or a vector named
+#'   by group `"site:level"`); they are then not sampled. Mostly for checks.
+#' @param quiet Suppress the progress bar (default `getOption("wavevalid.quiet")`).
+#' @param ... Must be empty.
+#' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
+#'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
+#'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
+#'   stacked), `chain`, `emulators`, `basis`, `field`, `iu`, `prior_iu` (the
+#'   I/U map shifted to `x_nom`), `x_nom`, `wbar`, `s2`, `n_rep`, `groups`,
+#'   `acceptance`, `rhat`, `ess`, `flags`, `seed`, `settings`.
+#' @seealso [bias()], [reality()], [model_prediction()], [validate()].
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 2, seed = 1, quiet = TRUE)
+#' fit
+calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
+                      seed = NULL, sigma2 = NULL, step = 0.1, fix_tau2 = NULL,
+                      quiet = getOption("wavevalid.quiet", FALSE), ...) {
+  rlang::check_dots_empty()
+  check_class(emulators, "wv_emulators")
+  check_class(field, "wv_field")
+  check_class(iu, "wv_iu")
+  check_number(n_draws, min = 1, integer = TRUE)
+  check_number(n_inner, min = 1, integer = TRUE)
+  check_number(chains, min = 1, integer = TRUE)
+  check_number(step, min = 1e-6, max = 1)
+  seed <- resolve_seed(seed)
+  spec <- calibration_spec(emulators, field, iu, sigma2)
+  tau <- resolve_fix_tau2(fix_tau2, spec$groups)
+  runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet)
+  fit <- assemble_fit(spec, runs, emulators, field, iu,
+                      settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
+                                      step = step, fix_tau2 = tau$values[tau$fixed]),
+                      seed = seed)
+  warn_fit_flags(fit)
+  fit
+}
+
+# --- data and priors ----------------------------------------------------------
+
+calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::caller_env()) {
+  basis <- emulators$basis
+  check_class(basis, "wv_basis", arg = "emulators$basis", call = call)
+  if (length(field$t) != length(basis$t) || max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
+    wv_abort(c(
+      "{.arg field} must be on the grid of the emulators' basis.",
+      "x" = "The field grid has {length(field$t)} point{?s} on [{signif(min(field$t), 4)}, {signif(max(field$t), 4)}]; the basis grid has {length(basis$t)} on [{signif(min(basis$t), 4)}, {signif(max(basis$t), 4)}].",
+      "i" = "Build the field with {.fn field_runs} on the grid of the model runs (and register it with {.fn register_curves})."
+    ), call = call)
+  }
+  inputs <- emulators$inputs
+  miss <- setdiff(inputs, iu$name)
+  if (length(miss)) {
+    wv_abort(c(
+      "Every input of the emulators must be in the I/U map.",
+      "x" = "{.val {miss}} {?is/are} missing from {.arg iu}.",
+      "i" = "Add {?it/them} with {.fn iu_map}."
+    ), call = call)
+  }
+  sites <- names(field$curves)
+  nobank <- setdiff(sites, names(emulators$banks))
+  if (length(nobank)) {
+    wv_abort("Field site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
+             call = call)
+  }
+  k <- match(inputs, iu$name)
+  x_nom <- stats::setNames(iu$nominal[k], inputs)
+  if (!is.null(field$x_nom)) {
+    use <- intersect(names(field$x_nom), inputs)
+    x_nom[use] <- field$x_nom[use]
+  }
+  var <- iu$type[k] == "variation"
+  shift <- ifelse(var, x_nom - iu$nominal[k], 0)
+  priors <- list(lower = iu$lower[k] + shift, upper = iu$upper[k] + shift, normal = var,
+                 mean = ifelse(var, x_nom, 0), sd = ifelse(var, iu$prior_sd[k], 1))
+  prior_iu <- iu[k, , drop = FALSE]
+  prior_iu$lower <- priors$lower
+  prior_iu$upper <- priors$upper
+  prior_iu$nominal <- ifelse(var, x_nom, iu$nominal[k])
+  rownames(prior_iu) <- NULL
+
+  sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
+  groups <- NULL
+  site_data <- list()
+  wbar <- s2 <- n_rep <- list()
+  for (s in sites) {
+    W <- field$curves[[s]] %*% basis$Psi
+    R <- nrow(W)
+    if (R < 2L && is.null(sigma2[[s]])) {
+      wv_abort(c(
+        "Site {.val {s}} has {R} field replicate{?s}; estimating the field variances needs at least 2.",
+        "i" = "Give fixed variances through {.arg sigma2}."
+      ), class = "input", call = call)
+    }
+    wbar[[s]] <- colMeans(W)
+    s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
+    n_rep[[s]] <- R
+    lv <- sort(unique(basis$level))
+    g0 <- if (is.null(groups)) 0L else nrow(groups)
+    groups <- rbind(groups, data.frame(name = paste0(s, ":", lv), site = s, level = lv,
+                                       stringsAsFactors = FALSE))
+    site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
+                           sigma2 = sigma2[[s]], group = g0 + match(basis$level, lv) - 1L)
+  }
+  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
+       groups = groups, z_init = x_nom, wbar = wbar, s2 = s2, n_rep = n_rep, basis = basis)
+}
+
+resolve_sigma2 <- function(sigma2, sites, n, call = rlang::caller_env()) {
+  out <- stats::setNames(vector("list", length(sites)), sites)
+  if (is.null(sigma2)) return(out)
+  if (is.numeric(sigma2) && length(sites) == 1L) sigma2 <- stats::setNames(list(sigma2), sites)
+  if (!is.list(sigma2) || is.null(names(sigma2)) || !all(names(sigma2) %in% sites)) {
+    wv_abort("{.arg sigma2} must be a numeric vector (one site) or a list named by site ({.val {sites}}).",
+             call = call)
+  }
+  for (s in names(sigma2)) {
+    v <- sigma2[[s]]
+    if (!is.numeric(v) || !length(v) %in% c(1L, n) || any(!is.finite(v)) || any(v <= 0)) {
+      wv_abort("{.arg sigma2} for site {.val {s}} must be positive, one value or {n} (one per coefficient).",
+               call = call)
+    }
+    out[[s]] <- rep_len(as.numeric(v), n)
+  }
+  out
+}
+
+resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
+  G <- nrow(groups)
+  if (is.null(fix_tau2)) return(list(fixed = rep(FALSE, G), values = numeric(0)))
+  if (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0)) {
+    wv_abort("{.arg fix_tau2} must hold positive numbers.", call = call)
+  }
+  if (is.null(names(fix_tau2))) {
+    if (length(fix_tau2) != 1L && length(fix_tau2) != G) {
+      wv_abort("{.arg fix_tau2} must have one value or one per group ({G}: {.val {groups$name}}).", call = call)
+    }
+    vals <- rep_len(fix_tau2, G)
+  } else {
+    if (!setequal(names(fix_tau2), groups$name)) {
+      wv_abort("{.arg fix_tau2} must be named by every group: {.val {groups$name}}.", call = call)
+    }
+    vals <- unname(fix_tau2[groups$name])
+  }
+  list(fixed = rep(TRUE, G), values = stats::setNames(vals, groups$name))
+}
+
+# --- running the chains -------------------------------------------------------
+
+# One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2
+# ratio) exists only to show that the simulation-based checks detect errors.
+run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
+                       quiet = FALSE) {
+  fix <- any(tau$fixed)
+  tau_init <- if (fix) unname(tau$values) else numeric(0)
+  chain_fun <- function(ch) {
+    progress <- NULL
+    if (!isTRUE(quiet)) {
+      id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
+      progress <- function(h) cli::cli_progress_update(id = id, set = h)
+    }
+    calibrate_chain_cpp(spec$sites, spec$priors, nrow(spec$groups), as.numeric(spec$z_init),
+                        as.numeric(tau_init), fix, as.integer(n_draws), as.integer(n_inner),
+                        as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
+                        progress)
+  }
+  future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
+}
+
+assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
+  sites <- names(spec$sites)
+  tau_names <- paste0("tau2[", spec$groups$name, "]")
+  chain_mcmc <- lapply(runs, function(r) {
+    m <- cbind(r$inputs, r$tau2)
+    colnames(m) <- c(spec$inputs, tau_names)
+    coda::mcmc(m, thin = settings$n_inner)
+  })
+  draws <- coda::mcmc.list(chain_mcmc)
+  stack <- function(what) {
+    stats::setNames(lapply(seq_along(sites), function(s) {
+      m <- do.call(rbind, lapply(runs, function(r) r[[what]][[s]]))
+      colnames(m) <- paste0("w", spec$basis$index)
+      m
+    }), sites)
+  }
+  acceptance <- data.frame(chain = seq_along(runs),
+                           tau2 = vapply(runs, function(r) r$acc_tau, numeric(1)),
+                           inputs = vapply(runs, function(r) r$acc_input, numeric(1)))
+  fit <- new_wv_fit(list(
+    draws = draws, wM = stack("wM"), wb = stack("wb"), sigma2 = stack("sigma2"),
+    chain = rep(seq_along(runs), each = settings$n_draws),
+    emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
+    inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
+    groups = spec$groups, acceptance = acceptance, seed = seed, settings = settings
+  ))
+  diag <- fit_diagnostics(fit)
+  fit$rhat <- diag$rhat
+  fit$ess <- diag$ess
+  fit$flags <- diag$flags
+  validate_wv_fit(fit)
+}
+
+new_wv_fit <- function(x) structure(x, class = "wv_fit")
+
+validate_wv_fit <- function(x, call = rlang::caller_env()) {
+  need <- c("draws", "wM", "wb", "sigma2", "chain", "basis", "field", "iu", "inputs")
+  miss <- setdiff(need, names(x))
+  if (length(miss)) wv_abort("A {.cls wv_fit} needs {.field {miss}}.", class = "state", call = call)
+  H <- length(x$chain)
+  for (s in names(x$wb)) {
+    if (nrow(x$wb[[s]]) != H || nrow(x$wM[[s]]) != H || ncol(x$wb[[s]]) != ncol(x$basis$Psi)) {
+      wv_abort("Site {.val {s}}: coefficient draws do not match the chains and the basis.",
+               class = "state", call = call)
+    }
+  }
+  x
+}
+
+# --- diagnostics ---------------------------------------------------------------
+
+fit_diagnostics <- function(fit) {
+  inp <- fit$inputs
+  ess <- coda::effectiveSize(fit$draws)
+  rhat <- stats::setNames(rep(NA_real_, length(inp)), inp)
+  if (length(fit$draws) >= 2L) {
+    sub <- coda::mcmc.list(lapply(fit$draws, function(m) m[, inp, drop = FALSE]))
+    r <- tryCatch(coda::gelman.diag(sub, autoburnin = FALSE, multivariate = FALSE)$psrf[, 1],
+                  error = function(e) rep(NA_real_, length(inp)))
+    rhat[] <- r
+  }
+  list(rhat = rhat, ess = ess, flags = boundary_flags(fit, rhat))
+}
+
+# Inputs whose posterior piles at a bound (> 25% of draws within 2% of the
+# range from it while the prior puts at most half as much there), and inputs
+# with R-hat above 1.1.
+boundary_flags <- function(fit, rhat) {
+  X <- as.matrix(fit$draws)
+  pr <- fit$prior_iu
+  out <- data.frame(input = character(0), bound = character(0), posterior = numeric(0),
+                    prior = numeric(0), stringsAsFactors = FALSE)
+  for (k in seq_along(fit$inputs)) {
+    lo <- pr$lower[k]
+    hi <- pr$upper[k]
+    d <- 0.02 * (hi - lo)
+    x <- X[, fit$inputs[k]]
+    for (side in c("lower", "upper")) {
+      zone <- if (side == "lower") c(lo, lo + d) else c(hi - d, hi)
+      post <- mean(x >= zone[1] & x <= zone[2])
+      prior <- prior_mass(pr, k, zone)
+      if (post > 0.25 && prior < post / 2) {
+        out[nrow(out) + 1L, ] <- list(fit$inputs[k], side, post, prior)
+      }
+    }
+  }
+  list(boundary = out, rhat = names(rhat)[!is.na(rhat) & rhat > 1.1])
+}
+
+prior_mass <- function(pr, k, zone) {
+  if (pr$type[k] == "calibration") return(diff(zone) / (pr$upper[k] - pr$lower[k]))
+  cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
+  (cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k]))
+}
+
+warn_fit_flags <- function(fit) {
+  f <- fit$flags
+  if (length(f$rhat)) {
+    wv_warn(c("The chains have not mixed: R-hat > 1.1 for {.val {f$rhat}}.",
+              "i" = "Run longer chains (larger {.arg n_draws} or {.arg n_inner})."), class = "mixing")
+  }
+  if (nrow(f$boundary)) {
+    msg <- sprintf("%s at its %s bound (%.0f%% of draws, prior %.0f%%)", f$boundary$input,
+                   f$boundary$bound, 100 * f$boundary$posterior, 100 * f$boundary$prior)
+    wv_warn(c("The posterior piles up at a bound of the range of {.val {unique(f$boundary$input)}}.",
+              stats::setNames(msg, rep("*", length(msg))),
+              "i" = "The input may be acting as a tuning knob for a missing effect; see {.fn where_fails}."),
+            class = "boundary")
+  }
+  invisible(fit)
+}
+
+#' @importFrom coda as.mcmc.list
+#' @export
+as.mcmc.list.wv_fit <- function(x, ...) x$draws
+
+#' @export
+print.wv_fit <- function(x, ...) {
+  H <- nrow(x$draws[[1]])
+  n <- ncol(x$basis$Psi)
+  sites <- names(x$wb)
+  cli::cat_line(sprintf("<wv_fit> %d site%s (%s), %d coefficients, %d draws x %d chain%s (thinning %d)",
+                        length(sites), if (length(sites) == 1) "" else "s", paste(sites, collapse = ", "),
+                        n, H, length(x$draws), if (length(x$draws) == 1) "" else "s",
+                        x$settings$n_inner))
+  acc <- x$acceptance
+  cli::cat_line("Acceptance by chain: tau2 ", paste(format_rate(acc$tau2), collapse = " "),
+                "; inputs ", paste(format_rate(acc$inputs), collapse = " "))
+  print(input_table(x), row.names = FALSE, digits = 3)
+  if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
+  b <- x$flags$boundary
+  if (nrow(b)) {
+    cli::cat_line("! Posterior piled at a bound: ",
+                  paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior), collapse = ", "))
+  }
+  invisible(x)
+}
+
+format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
+
+input_table <- function(x) {
+  X <- as.matrix(x$draws)
+  data.frame(input = x$inputs, type = x$prior_iu$type,
+             mean = colMeans(X[, x$inputs, drop = FALSE]),
+             q2.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
+             q97.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+             rhat = unname(x$rhat[x$inputs]), ess = round(unname(x$ess[x$inputs])),
+             stringsAsFactors = FALSE)
+}
+
+#' @export
+summary.wv_fit <- function(object, ...) {
+  X <- as.matrix(object$draws)
+  tau_cols <- setdiff(colnames(X), object$inputs)
+  tau <- data.frame(group = object$groups$name, site = object$groups$site, level = object$groups$level,
+                    mean = colMeans(X[, tau_cols, drop = FALSE]),
+                    q2.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
+                    q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+                    stringsAsFactors = FALSE)
+  rownames(tau) <- NULL
+  structure(list(inputs = input_table(object), tau2 = tau, acceptance = object$acceptance,
+                 flags = object$flags, settings = object$settings,
+                 n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
+            class = "summary_wv_fit")
+}
+
+#' @export
+print.summary_wv_fit <- function(x, ...) {
+  cli::cat_line("Calibration of ", x$n_coef, " coefficients at ", length(x$sites), " site(s): ",
+                paste(x$sites, collapse = ", "))
+  cli::cat_line(x$settings$chains, " chain(s) of ", x$settings$n_draws, " draws, ",
+                x$settings$n_inner, " cycles between draws")
+  cli::cat_line("Inputs:")
+  print(x$inputs, row.names = FALSE, digits = 3)
+  cli::cat_line("Bias variances tau2 by site and level:")
+  print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
+  cli::cat_line("Acceptance rates:")
+  print(x$acceptance, row.names = FALSE, digits = 3)
+  invisible(x)
+}

@@ -1,0 +1,38 @@
+#' Validate a computer model in one call
+#'
+#' The whole path from curves to posterior: registers the field curves on the
+#' model's event landmarks when `windows` is given ([register_curves()]),
+#' builds the wavelet basis ([wavelet_basis()]), fits one emulator per retained
+#' coefficient ([fit_emulators()]) and calibrates ([calibrate()]).
+#'
+#' @param runs A `wv_runs` object (model runs).
+#' @param field A `wv_field` object (field replicates).
+#' @param iu A `wv_iu` object (I/U map).
+#' @param windows Optional list of `c(from, to)` event windows; when given,
+#'   the field curves are registered first.
+#' @param reference Reference curves for the registration (passed to
+#'   [register_curves()]).
+#' @param basis_args A list of further arguments to [wavelet_basis()].
+#' @param engine Emulator engine, passed to [fit_emulators()].
+#' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
+#'   ...).
+#' @return A `wv_fit` object (see [calibrate()]).
+#' @export
+#' @examples
+#' \donttest{
+#' tb <- load_testbed()
+#' fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = list(c(6, 11), c(37, 41)),
+#'                 n_draws = 200, n_inner = 50, seed = 1)
+#' fit
+#' }
+validate <- function(runs, field, iu, windows = NULL, reference = NULL, basis_args = list(),
+                     engine = "gasp", ...) {
+  check_class(runs, "wv_runs")
+  check_class(field, "wv_field")
+  check_class(iu, "wv_iu")
+  if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  if (!is.null(windows)) field <- register_curves(field, reference, windows)
+  basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
+  emulators <- fit_emulators(runs, basis, engine)
+  calibrate(emulators, field, iu, ...)
+}

@@ -1,0 +1,330 @@
+// Modular Metropolis-Hastings sampler for the posterior of the method
+// (eq. 15-19, App. C), free of R types.
+//
+// For each saved draw h:
+//   1. sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2) (or fixed values);
+//   2. n_inner cycles of
+//      (a) a joint tau2 step: each tau2_g proposed log-uniformly on
+//          [tau2_g e^-0.7, tau2_g e^0.7]; Hastings factor prod tau2_new / tau2_old;
+//      (b) a joint input step: each coordinate from the 50/50 mixture of
+//          Uniform(support) and Uniform([x - h, x + h] cap support), with the
+//          full mixture densities in the Hastings ratio;
+//      target (eq. 18): prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + tau2_g(i))
+//      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R);
+//   3. w^b_i from eq. (17), then w^M_i from eq. (16).
+#ifndef WAVEVALID_SAMPLER_H
+#define WAVEVALID_SAMPLER_H
+
+#include <Eigen/Dense>
+#include <vector>
+#include <random>
+#include <functional>
+#include <cmath>
+#include <limits>
+#include <cstdint>
+#include "gasp_predict.h"
+
+namespace wavevalid {
+
+struct SiteData {
+  const GaspBank* bank = nullptr;
+  Eigen::VectorXd wbar, s2;      // n
+  double R = 1.0;                // number of replicates
+  bool fixed_sigma2 = false;
+  Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
+  std::vector<int> group;        // n, global tau2 group of each coefficient
+};
+
+struct InputPrior {
+  double lower = 0.0, upper = 1.0;  // support
+  bool normal = false;              // truncated normal (variation) or uniform
+  double mean = 0.0, sd = 1.0;
+};
+
+struct SamplerSettings {
+  int n_draws = 1000;
+  int n_inner = 200;
+  double step = 0.1;                // local half-width as a fraction of the range
+  std::uint64_t seed = 1;
+  int chain = 1;
+  bool fix_tau2 = false;
+  Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
+  Eigen::VectorXd z_init;           // p
+  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio
+  int report_every = 50;
+};
+
+struct SamplerOutput {
+  Eigen::MatrixXd inputs;  // H x p
+  Eigen::MatrixXd tau2;    // H x G
+  std::vector<Eigen::MatrixXd> sigma2, wb, wM;  // per site, H x n
+  double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
+};
+
+class Sampler {
+ public:
+  Sampler(std::vector<SiteData> sites, std::vector<InputPrior> priors, int n_groups,
+          SamplerSettings settings)
+      : sites_(std::move(sites)), priors_(std::move(priors)), G_(n_groups), set_(settings) {
+    p_ = static_cast<int>(priors_.size());
+    const std::size_t S = sites_.size();
+    m_.resize(S); v_.resize(S); mp_.resize(S); vp_.resize(S); ws_.resize(S);
+    sigma2_.resize(S); base_.resize(S); resid2_.resize(S);
+    group_site_.assign(G_, -1);
+    group_count_.assign(G_, 0);
+    for (std::size_t s = 0; s < S; ++s) {
+      const int n = sites_[s].bank->n_coef();
+      m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
+      sigma2_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
+      sites_[s].bank->init_workspace(ws_[s]);
+      for (int i = 0; i < n; ++i) {
+        const int g = sites_[s].group[i];
+        group_site_[g] = static_cast<int>(s);
+        group_count_[g] += 1;
+      }
+    }
+    half_.resize(p_);
+    for (int k = 0; k < p_; ++k) half_(k) = set_.step * (priors_[k].upper - priors_[k].lower);
+    std::seed_seq sq{static_cast<std::uint32_t>(set_.seed & 0xffffffffu),
+                     static_cast<std::uint32_t>(set_.seed >> 32),
+                     static_cast<std::uint32_t>(set_.chain), 0x9e3779b9u};
+    rng_.seed(sq);
+  }
+
+  // progress(h) is called every report_every draws (and may throw to interrupt).
+  SamplerOutput run(const std::function<void(int)>& progress) {
+    const int H = set_.n_draws, S = static_cast<int>(sites_.size());
+    SamplerOutput out;
+    out.inputs.resize(H, p_);
+    out.tau2.resize(H, G_);
+    out.sigma2.resize(S); out.wb.resize(S); out.wM.resize(S);
+    for (int s = 0; s < S; ++s) {
+      const int n = sites_[s].bank->n_coef();
+      out.sigma2[s].resize(H, n); out.wb[s].resize(H, n); out.wM[s].resize(H, n);
+    }
+    z_ = set_.z_init;
+    predict_all(z_, m_, v_);
+    tau2_ = Eigen::VectorXd::Zero(G_);
+    sigbar_ = Eigen::VectorXd::Zero(G_);
+    bool tau_ready = false;
+
+    for (int h = 0; h < H; ++h) {
+      draw_sigma2();
+      if (!tau_ready) { init_tau2(); tau_ready = true; }
+      refresh_cache();
+      double ll = loglik(tau2_);
+      for (int it = 0; it < set_.n_inner; ++it) {
+        if (!set_.fix_tau2 && G_ > 0) ll = tau_step(ll);
+        ll = input_step(ll);
+      }
+      out.inputs.row(h) = z_.transpose();
+      out.tau2.row(h) = tau2_.transpose();
+      draw_coefficients(h, out);
+      if ((h + 1) % set_.report_every == 0 || h + 1 == H) progress(h + 1);
+    }
+    out.acc_tau = acc_tau_; out.n_tau = n_tau_;
+    out.acc_input = acc_input_; out.n_input = n_input_;
+    return out;
+  }
+
+ private:
+  std::vector<SiteData> sites_;
+  std::vector<InputPrior> priors_;
+  int G_, p_ = 0;
+  SamplerSettings set_;
+  std::mt19937_64 rng_;
+  std::uniform_real_distribution<double> unif_{0.0, 1.0};
+  std::normal_distribution<double> norm_{0.0, 1.0};
+
+  Eigen::VectorXd z_, zp_, half_, tau2_, sigbar_;
+  std::vector<Eigen::VectorXd> m_, v_, mp_, vp_, sigma2_, base_, resid2_;
+  std::vector<GaspBank::Workspace> ws_;
+  std::vector<int> group_site_, group_count_;
+  double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
+
+  void predict_all(const Eigen::VectorXd& z, std::vector<Eigen::VectorXd>& m,
+                   std::vector<Eigen::VectorXd>& v) {
+    for (std::size_t s = 0; s < sites_.size(); ++s)
+      sites_[s].bank->predict_into(z, m[s], v[s], ws_[s], true);
+  }
+
+  void draw_sigma2() {
+    sigbar_.setZero();
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      const int n = d.bank->n_coef();
+      if (d.fixed_sigma2) {
+        sigma2_[s] = d.sigma2_fixed;
+      } else {
+        std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
+        for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
+      }
+      for (int i = 0; i < n; ++i) sigbar_(d.group[i]) += sigma2_[s](i);
+    }
+    for (int g = 0; g < G_; ++g) {
+      if (group_count_[g] > 0) sigbar_(g) /= group_count_[g];
+    }
+  }
+
+  // base = V + sigma2 / R, resid2 = (wbar - m)^2 at the current inputs.
+  void refresh_cache() {
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      base_[s] = v_[s] + sigma2_[s] / d.R;
+      resid2_[s] = (d.wbar - m_[s]).array().square().matrix();
+    }
+  }
+
+  void init_tau2() {
+    if (set_.fix_tau2 || set_.tau2_init.size() == G_) {
+      tau2_ = set_.tau2_init;
+      return;
+    }
+    Eigen::VectorXd num = Eigen::VectorXd::Zero(G_), scale = Eigen::VectorXd::Zero(G_);
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      for (int i = 0; i < d.bank->n_coef(); ++i) {
+        const double b = v_[s](i) + sigma2_[s](i) / d.R;
+        const double r = d.wbar(i) - m_[s](i);
+        num(d.group[i]) += r * r - b;
+        scale(d.group[i]) += b + r * r;
+      }
+    }
+    for (int g = 0; g < G_; ++g) {
+      const double c = group_count_[g] > 0 ? group_count_[g] : 1.0;
+      const double floor = std::max(1e-3 * scale(g) / c, 1e-12);
+      tau2_(g) = std::max(num(g) / c, floor);
+    }
+  }
+
+  double log_prior_tau(int g, double t2) const {
+    return -std::log(t2 + sigbar_(g) / sites_[group_site_[g]].R);
+  }
+
+  double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
+                     const Eigen::VectorXd& tau2) const {
+    double ll = 0.0;
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      const int n = d.bank->n_coef();
+      for (int i = 0; i < n; ++i) {
+        const double tot = v[s](i) + sigma2_[s](i) / d.R + tau2(d.group[i]);
+        const double r = d.wbar(i) - m[s](i);
+        ll -= 0.5 * (std::log(tot) + r * r / tot);
+      }
+    }
+    return ll;
+  }
+
+  double loglik(const Eigen::VectorXd& tau2) const {
+    double ll = 0.0;
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      const int n = d.bank->n_coef();
+      for (int i = 0; i < n; ++i) {
+        const double tot = base_[s](i) + tau2(d.group[i]);
+        ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+      }
+    }
+    return ll;
+  }
+
+  double tau_step(double ll_cur) {
+    Eigen::VectorXd prop(G_);
+    double lr = 0.0;
+    for (int g = 0; g < G_; ++g) {
+      prop(g) = tau2_(g) * std::exp(-0.7 + 1.4 * unif_(rng_));
+      lr += log_prior_tau(g, prop(g)) - log_prior_tau(g, tau2_(g));
+      if (set_.debug_break != 2) lr += std::log(prop(g) / tau2_(g));
+    }
+    const double ll_prop = loglik(prop);
+    lr += ll_prop - ll_cur;
+    n_tau_ += 1;
+    if (std::log(unif_(rng_)) < lr) {
+      tau2_ = prop;
+      acc_tau_ += 1;
+      return ll_prop;
+    }
+    return ll_cur;
+  }
+
+  double log_prior_input(int k, double x) const {
+    const InputPrior& pr = priors_[k];
+    if (x < pr.lower || x > pr.upper) return -std::numeric_limits<double>::infinity();
+    if (!pr.normal) return 0.0;
+    const double u = (x - pr.mean) / pr.sd;
+    return -0.5 * u * u;
+  }
+
+  // Mixture proposal density of `to` given `from` for coordinate k.
+  double proposal_density(int k, double from, double to) const {
+    const InputPrior& pr = priors_[k];
+    const double lo = std::max(pr.lower, from - half_(k));
+    const double hi = std::min(pr.upper, from + half_(k));
+    double d = 0.5 / (pr.upper - pr.lower);
+    if (to >= lo && to <= hi && hi > lo) d += 0.5 / (hi - lo);
+    return d;
+  }
+
+  double input_step(double ll_cur) {
+    if (p_ == 0) return ll_cur;
+    zp_ = z_;
+    double lr = 0.0;
+    for (int k = 0; k < p_; ++k) {
+      const InputPrior& pr = priors_[k];
+      const double x = z_(k);
+      double y;
+      if (unif_(rng_) < 0.5) {
+        y = pr.lower + (pr.upper - pr.lower) * unif_(rng_);
+      } else {
+        const double lo = std::max(pr.lower, x - half_(k));
+        const double hi = std::min(pr.upper, x + half_(k));
+        y = lo + (hi - lo) * unif_(rng_);
+      }
+      zp_(k) = y;
+      lr += log_prior_input(k, y) - log_prior_input(k, x);
+      if (set_.debug_break != 1)
+        lr += std::log(proposal_density(k, y, x)) - std::log(proposal_density(k, x, y));
+    }
+    predict_all(zp_, mp_, vp_);
+    const double ll_prop = loglik_with(mp_, vp_, tau2_);
+    lr += ll_prop - ll_cur;
+    n_input_ += 1;
+    if (std::log(unif_(rng_)) < lr) {
+      z_.swap(zp_);
+      m_.swap(mp_);
+      v_.swap(vp_);
+      refresh_cache();
+      acc_input_ += 1;
+      return ll_prop;
+    }
+    return ll_cur;
+  }
+
+  void draw_coefficients(int h, SamplerOutput& out) {
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      const int n = d.bank->n_coef();
+      for (int i = 0; i < n; ++i) {
+        const double V = v_[s](i), e = sigma2_[s](i) / d.R, m = m_[s](i);
+        const double t2 = tau2_(d.group[i]);
+        const double S = V + e;
+        const double wb = t2 / (S + t2) * (d.wbar(i) - m) +
+                          std::sqrt(t2 * S / (S + t2)) * norm_(rng_);
+        double wM;
+        if (S > 0.0) {
+          wM = V / S * (d.wbar(i) - wb) + e / S * m + std::sqrt(V * e / S) * norm_(rng_);
+        } else {
+          wM = m;
+        }
+        out.sigma2[s](h, i) = sigma2_[s](i);
+        out.wb[s](h, i) = wb;
+        out.wM[s](h, i) = wM;
+      }
+    }
+  }
+};
+
+}  // namespace wavevalid
+
+#endif

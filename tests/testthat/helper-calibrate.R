@@ -1,0 +1,91 @@
+# Hand-built inputs for the calibration tests: a wavelet basis, GASP banks
+# with known hyperparameters, emulator objects and field data.
+
+# GASP bank for fixed beta, alpha (n x p, or length p recycled over
+# coefficients): mu and lambda by profile maximum likelihood, weights
+# R^-1 (y - mu), lower Cholesky factors of R (nugget on the diagonal).
+make_bank <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
+  X_raw <- as.matrix(X_raw)
+  Y <- as.matrix(Y)
+  K <- nrow(X_raw)
+  p <- ncol(X_raw)
+  n <- ncol(Y)
+  lower <- apply(X_raw, 2, min)
+  width <- apply(X_raw, 2, max) - lower
+  X <- t((t(X_raw) - lower) / width)
+  if (is.null(dim(beta))) beta <- matrix(beta, n, p, byrow = TRUE)
+  if (is.null(dim(alpha))) alpha <- matrix(alpha, n, p, byrow = TRUE)
+  mu <- lambda <- numeric(n)
+  weights <- matrix(0, K, n)
+  chol <- array(0, c(K, K, n))
+  for (i in seq_len(n)) {
+    Rm <- matrix(0, K, K)
+    for (a in seq_len(K)) for (b in seq_len(K)) {
+      Rm[a, b] <- exp(-sum(beta[i, ] * abs(X[a, ] - X[b, ])^(2 - alpha[i, ])))
+    }
+    diag(Rm) <- diag(Rm) + nugget
+    Ri <- solve(Rm)
+    mu[i] <- sum(Ri %*% Y[, i]) / sum(Ri)
+    e <- Y[, i] - mu[i]
+    weights[, i] <- Ri %*% e
+    lambda[i] <- K / drop(t(e) %*% Ri %*% e)
+    chol[, , i] <- t(chol(Rm))
+  }
+  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = rep(nugget, n),
+       weights = weights, chol = chol, y = Y, lower = lower, width = width)
+}
+
+# Basis of wavethresh coefficients `index` on a grid of n_t points.
+make_basis <- function(n_t, index = seq_len(n_t), level = NULL) {
+  b <- wavevalid:::basis_from_index(seq(0, 1, length.out = n_t + 1)[-(n_t + 1)], index)
+  if (!is.null(level)) b$level <- as.integer(rep_len(level, length(index)))
+  b
+}
+
+# wv_emulators from banks (named by site) built with make_bank().
+make_emulators <- function(banks, basis, design) {
+  inputs <- colnames(design)
+  params <- do.call(rbind, lapply(names(banks), function(s) {
+    b <- banks[[s]]
+    d <- data.frame(site = s, index = basis$index, level = basis$level, mu = b$mu, lambda = b$lambda,
+                    nugget = b$nugget, loglik = NA_real_)
+    for (q in seq_along(inputs)) {
+      d[[paste0("beta_", inputs[q])]] <- b$beta[, q]
+      d[[paste0("alpha_", inputs[q])]] <- b$alpha[, q]
+    }
+    d
+  }))
+  structure(list(params = params, inputs = inputs, design = design, banks = banks, basis = basis,
+                 engine = "gasp", t = basis$t), class = "wv_emulators")
+}
+
+# A one-site problem: inputs u1 (calibration, [0, 1]) and, if two_inputs,
+# x1 (variation, nominal 0.5, [0, 1]); coefficient i of the model is a smooth
+# function of the inputs.
+small_problem <- function(n_t = 16, index = 1:8, level = NULL, two_inputs = TRUE, K = 14, beta = 3) {
+  basis <- make_basis(n_t, index, level)
+  n <- length(index)
+  design <- if (two_inputs) {
+    cbind(u1 = (seq_len(K) - 0.5) / K, x1 = ((seq_len(K) * 5) %% K + 0.5) / K)
+  } else {
+    cbind(u1 = seq(0, 1, length.out = K))
+  }
+  f <- function(z) {
+    u <- z[1]
+    x <- if (length(z) > 1) z[2] else 0.5
+    vapply(seq_len(n), function(i) sin(1.5 * i * u + 0.7 * i) + 0.8 * cos(i * x) * (i %% 2), numeric(1))
+  }
+  Y <- t(apply(design, 1, f))
+  bank <- make_bank(design, Y, beta = rep(beta, ncol(design)), alpha = rep(0, ncol(design)))
+  iu <- if (two_inputs) {
+    iu_map(c("u1", "x1"), c("calibration", "variation"), c(0, 0), c(1, 1), nominal = c(0.5, 0.5))
+  } else {
+    iu_map("u1", "calibration", 0, 1)
+  }
+  list(basis = basis, emulators = make_emulators(list(site1 = bank), basis, design), iu = iu, f = f)
+}
+
+# Field replicates (R x T) whose coefficients are W (R x n).
+field_from_coef <- function(basis, W, site = "site1") {
+  wavevalid:::new_wv_field(basis$t, stats::setNames(list(W %*% t(basis$Psi)), site))
+}
