@@ -80,7 +80,7 @@ print.summary_wv_testbed <- function(x, ...) {
 #'   condition.
 #' @export
 #' @examples
-#' tb <- load_testbed()
+#' tb <- testbed_suspension(seed = 2, hidden = "digressive_damper")
 #' autoplot(tb, "B")
 autoplot.wv_testbed <- function(object, condition = c("A", "B", "added_mass"),
                                 windows = object$windows, ...) {
@@ -144,14 +144,17 @@ write_testbed <- function(tb, dir, digits = 6L) {
 }
 
 read_testbed <- function(dir) {
-  rd <- function(f) utils::read.csv(file.path(dir, f), stringsAsFactors = FALSE)
+  rd <- function(f, classes = NA) {
+    utils::read.csv(file.path(dir, f), stringsAsFactors = FALSE, colClasses = classes)
+  }
+  long_classes <- c("character", "integer", "character", "numeric", "numeric")
   iu_df <- rd("testbed_iu.csv")
   iu <- iu_map(iu_df$name, iu_df$type, iu_df$lower, iu_df$upper, iu_df$nominal,
                ifelse(is.na(iu_df$prior_sd), 1, iu_df$prior_sd))
   design <- rd("testbed_design.csv")
-  runs <- rd("testbed_runs.csv.xz")
-  field <- rd("testbed_field.csv.xz")
-  real <- rd("testbed_reality.csv.xz")
+  runs <- rd("testbed_runs.csv.xz", long_classes)
+  field <- rd("testbed_field.csv.xz", long_classes)
+  real <- rd("testbed_reality.csv.xz", long_classes[-2])
   truth <- rd("testbed_truth.csv")
   warps <- rd("testbed_warps.csv")
   t <- testbed_grid()

@@ -16,9 +16,10 @@
 //
 // Four mechanisms can be switched on with a strength s in [0, 1]:
 // tire lift-off (the tire cannot pull the wheel down: at s = 1 a negative
-// tire force is set to zero), strut friction (smoothed Coulomb friction of
-// FRICTION_F0 * s newtons), digressive damper (above a knee velocity the
-// damping slope drops from c to c * (1 - s * (1 - DIGRESSIVE_RATIO))) and
+// tire force is set to zero), strut friction (smoothed Coulomb friction
+// s * FRICTION_F0 * v / sqrt(v^2 + FRICTION_VEPS^2) newtons at strut
+// velocity v), digressive damper (above a knee velocity the damping slope
+// drops from c to c * (1 - s * (1 - DIGRESSIVE_RATIO))) and
 // progressive bump stop (force k p (1 + s p / PROGRESSIVE_P0) at penetration p).
 #ifndef WAVEVALID_SUSPENSION_H
 #define WAVEVALID_SUSPENSION_H
@@ -201,7 +202,7 @@ class HalfCar {
     double f = preload + ks * d + fd;
     const double pen = d - gap;
     if (pen > 0.0) f += kbs * pen * (1.0 + s_.progressive * pen / PROGRESSIVE_P0);
-    if (s_.friction > 0.0) f += s_.friction * FRICTION_F0 * std::tanh(v / FRICTION_VEPS);
+    if (s_.friction > 0.0) f += s_.friction * FRICTION_F0 * v / std::sqrt(v * v + FRICTION_VEPS * FRICTION_VEPS);
     return f;
   }
 
