@@ -81,7 +81,6 @@ struct GaspBank {
     }
   }
 
-<<<<<<< HEAD
   // The predictor of eq. (26): the same hyperparameters, the design augmented
   // by one raw input z with coefficient values w (length n). Each Cholesky
   // factor gains one row, [L 0; l' d] with l = L^-1 r(z), d^2 = 1 + g - l'l,
@@ -125,7 +124,8 @@ struct GaspBank {
       out.weights(K, i) = c;
     }
     return out;
-=======
+  }
+
   // Scratch space for predict_into(), sized once per bank.
   struct Workspace {
     Eigen::VectorXd zs;
@@ -178,7 +178,6 @@ struct GaspBank {
         v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
       }
     }
->>>>>>> sampler
   }
 };
 
