@@ -100,14 +100,14 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::
   if (length(miss)) {
     wv_abort(c(
       "Every input of the emulators must be in the I/U map.",
-      "x" = "{.val {miss}} {?is/are} missing from {.arg iu}.",
-      "i" = "Add {?it/them} with {.fn iu_map}."
+      "x" = "{.val {miss}} {cli::qty(length(miss))}{?is/are} missing from {.arg iu}.",
+      "i" = "Add {cli::qty(length(miss))}{?it/them} with {.fn iu_map}."
     ), call = call)
   }
   sites <- names(field$curves)
   nobank <- setdiff(sites, names(emulators$banks))
   if (length(nobank)) {
-    wv_abort("Field site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
+    wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
              call = call)
   }
   k <- match(inputs, iu$name)

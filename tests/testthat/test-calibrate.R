@@ -9,7 +9,7 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
                                        sigma2 = sd_eps^2)
   G <- nrow(spec$groups)
   bank <- pb$emulators$banks$site1
-  burn <- 11L
+  burn <- 12L
   L <- n_draws - burn + 1L
   ranks <- matrix(NA_integer_, reps, 3, dimnames = list(NULL, c("u1", "wb1", "wM2")))
   for (r in seq_len(reps)) {
@@ -24,7 +24,7 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
     ranks[r, ] <- c(sum(out$inputs[keep, 1] < z), sum(out$wb[[1]][keep, 1] < wb[1]),
                     sum(out$wM[[1]][keep, 2] < wM[2]))
   }
-  # L draws give ranks 0..L; L + 1 = 50 values in 10 bins of 5.
+  # L = 49 kept draws give ranks 0..49: 50 values in 10 bins of 5.
   apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((L + 1) / 10) + 1, 10))$p.value)
 }
 
@@ -36,4 +36,161 @@ test_that("simulation-based calibration: ranks are uniform, and not when the Has
   withr::local_seed(20240611)
   p_broken <- sbc_pvalues(6000, debug_break = 1L)
   expect_lt(p_broken[["u1"]], 0.01)
+})
+
+# One input, one tau2 group, sigma2 known: the posterior of (u1, tau2) is
+# computable on a grid.
+grid_problem <- function() {
+  pb <- small_problem(two_inputs = FALSE, level = 4L)
+  n <- length(pb$basis$index)
+  R <- 3
+  sd_eps <- 0.6
+  bank <- pb$emulators$banks$site1
+  pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(0.3, 1))
+  W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) +
+    matrix(stats::rnorm(R * n, 0, sd_eps), R, n)
+  list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = sd_eps^2, R = R, wbar = colMeans(W))
+}
+
+grid_marginals <- function(gp) {
+  bank <- gp$pb$emulators$banks$site1
+  u <- seq(0.0005, 0.9995, by = 0.001)
+  lt <- seq(-12, 6, by = 0.01)
+  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
+  e <- gp$sigma2 / gp$R
+  logp <- outer(seq_along(u), seq_along(lt), Vectorize(function(a, b) {
+    t2 <- exp(lt[b])
+    sum(stats::dnorm(gp$wbar, P$mean[a, ], sqrt(P$var[a, ] + e + t2), log = TRUE)) -
+      log(t2 + gp$sigma2 / gp$R) + lt[b]
+  }))
+  d <- exp(logp - max(logp))
+  list(u = u, fu = rowSums(d) / sum(d), lt = lt, flt = colSums(d) / sum(d))
+}
+
+test_that("the sampler reproduces a posterior computed on a grid, and not with a broken tau2 ratio", {
+  withr::local_seed(11)
+  gp <- grid_problem()
+  gm <- grid_marginals(gp)
+  cdf_u <- stats::approxfun(gm$u, cumsum(gm$fu), yleft = 0, yright = 1)
+  cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1,
+                   seed = 5, sigma2 = gp$sigma2, quiet = TRUE)
+  X <- as.matrix(fit$draws)
+  expect_gt(stats::ks.test(X[, "u1"], cdf_u)$p.value, 0.01)
+  expect_gt(stats::ks.test(log(X[, "tau2[site1:4]"]), cdf_lt)$p.value, 0.01)
+  # the posterior is informative: not the uniform prior
+  expect_lt(stats::ks.test(X[, "u1"], "punif")$p.value, 0.01)
+
+  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  tau <- wavevalid:::resolve_fix_tau2(NULL, spec$groups)
+  broken <- wavevalid:::run_chains(spec, 1500, 30, 1, 5, 0.1, tau, debug_break = 2L, quiet = TRUE)[[1]]
+  expect_lt(stats::ks.test(log(broken$tau2[, 1]), cdf_lt)$p.value, 0.01)
+})
+
+test_that("w^b and w^M draws follow eq. 16-17 at fixed inputs", {
+  withr::local_seed(3)
+  gp <- grid_problem()
+  iu1 <- iu_map("u1", "calibration", 0.3, 0.3000001)
+  fit <- calibrate(gp$pb$emulators, gp$field, iu1, n_draws = 4000, n_inner = 1, chains = 1, seed = 2,
+                   sigma2 = gp$sigma2, fix_tau2 = 0.2, quiet = TRUE)
+  pr <- wavevalid:::gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(0.3, 1))
+  S <- drop(pr$var) + gp$sigma2 / gp$R
+  mb <- 0.2 / (S + 0.2) * (gp$wbar - drop(pr$mean))
+  vb <- 0.2 * S / (S + 0.2)
+  expect_equal(unname(colMeans(fit$wb$site1)), mb, tolerance = 4 * sqrt(max(vb) / 4000) / max(abs(mb)))
+  expect_equal(unname(apply(fit$wb$site1, 2, stats::var)), vb, tolerance = 0.1)
+  # w^M: mean V/S (wbar - w^b) + (sigma2/R)/S m; with V ~ 0 it is m
+  expect_equal(unname(colMeans(fit$wM$site1)), drop(pr$mean), tolerance = 1e-3)
+})
+
+test_that("same seed gives identical draws, sequentially and on two workers", {
+  # short chains: the mixing warning is expected and beside the point here
+  calibrate <- function(...) suppressWarnings(wavevalid::calibrate(...), classes = "wavevalid_warning_mixing")
+  ex <- wavevalid:::example_calibration_inputs()
+  f1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
+  f2 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
+  f3 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 10, quiet = TRUE)
+  expect_identical(as.matrix(f1$draws), as.matrix(f2$draws))
+  expect_identical(f1$wb, f2$wb)
+  expect_false(identical(as.matrix(f1$draws), as.matrix(f3$draws)))
+  expect_false(identical(f1$draws[[1]][, "u1"], f1$draws[[2]][, "u1"]))
+  withr::local_seed(1)
+  g1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, quiet = TRUE)
+  withr::local_seed(1)
+  g2 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, quiet = TRUE)
+  expect_identical(g1$seed, g2$seed)
+  expect_identical(as.matrix(g1$draws), as.matrix(g2$draws))
+
+  skip_on_cran()
+  skip_if_not_installed("future")
+  skip_if(length(find.package("wavevalid", lib.loc = .libPaths(), quiet = TRUE)) == 0L)
+  skip_if(isNamespaceLoaded("pkgload") && pkgload::is_dev_package("wavevalid"))
+  future::plan(future::multisession, workers = 2)
+  on.exit(future::plan(future::sequential), add = TRUE)
+  f4 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
+  expect_identical(as.matrix(f1$draws), as.matrix(f4$draws))
+})
+
+test_that("bad input gives classed errors", {
+  ex <- wavevalid:::example_calibration_inputs()
+  em <- ex$emulators
+  f <- ex$field
+  bad_grid <- wavevalid:::new_wv_field(seq(0, 2, length.out = 32), f$curves)
+  expect_error(calibrate(em, bad_grid, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+  one <- wavevalid:::new_wv_field(f$t, list(site1 = f$curves$site1[1, , drop = FALSE]))
+  expect_error(calibrate(em, one, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+  expect_s3_class(calibrate(em, one, ex$iu, sigma2 = 1e-3, n_draws = 5, n_inner = 2, chains = 1,
+                            seed = 1, quiet = TRUE), "wv_fit")
+  iu_short <- iu_map("u1", "calibration", 0, 1)
+  expect_error(calibrate(em, f, iu_short, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, n_draws = 0, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, n_draws = -5, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, chains = 1.5, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, fix_tau2 = -1, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")
+  other_site <- wavevalid:::new_wv_field(f$t, list(rear = f$curves$site1))
+  expect_error(calibrate(em, other_site, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+})
+
+test_that("a fit has the documented layout, mcmc.list and print", {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 50, chains = 2, seed = 3, quiet = TRUE)
+  ml <- coda::as.mcmc.list(fit)
+  expect_s3_class(ml, "mcmc.list")
+  expect_equal(colnames(ml[[1]])[1:2], c("u1", "x1"))
+  expect_true(all(grepl("^tau2\\[site1:[0-9]+\\]$", colnames(ml[[1]])[-(1:2)])))
+  expect_equal(dim(fit$wb$site1), c(200L, 16L))
+  expect_equal(fit$chain, rep(1:2, each = 100))
+  expect_named(fit$rhat, c("u1", "x1"))
+  expect_true(all(fit$acceptance$inputs > 0 & fit$acceptance$inputs < 1))
+  # variation inputs are reported in their own units around x_nom
+  X <- as.matrix(ml)
+  expect_true(all(X[, "x1"] >= 0 & X[, "x1"] <= 1))
+  expect_snapshot(print(fit))
+  expect_snapshot(print(summary(fit)))
+  expect_s3_class(autoplot(fit, "inputs"), "ggplot")
+  expect_s3_class(autoplot(fit, "trace"), "ggplot")
+})
+
+test_that("an input piled at its bound is flagged with a classed warning", {
+  ex <- wavevalid:::example_calibration_inputs()
+  f <- ex$field
+  # field beyond the model at x1 = 1 and no room for bias: x1 piles at its upper bound
+  t <- f$t
+  f$curves$site1 <- f$curves$site1 + 0.3 * sin(2 * pi * matrix(t, 4, 32, byrow = TRUE))
+  expect_warning(fit <- calibrate(ex$emulators, f, ex$iu, n_draws = 200, n_inner = 20, chains = 1,
+                                  seed = 4, fix_tau2 = 1e-4, quiet = TRUE),
+                 class = "wavevalid_warning_boundary")
+  expect_true("x1" %in% fit$flags$boundary$input)
+})
+
+test_that("validate() runs the whole path", {
+  skip_if_not(exists("fit_emulators", envir = asNamespace("wavevalid"), inherits = FALSE))
+  skip_if_not(exists("wavelet_basis", envir = asNamespace("wavevalid"), inherits = FALSE))
+  skip_on_cran()
+  ex <- wavevalid:::example_calibration_inputs()
+  runs <- model_runs(as.data.frame(ex$emulators$design),
+                     ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
+  fit <- validate(runs, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, quiet = TRUE)
+  expect_s3_class(fit, "wv_fit")
 })
