@@ -11,6 +11,65 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// gasp_loglik_cpp
+Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget);
+RcppExport SEXP _wavevalid_gasp_loglik_cpp(SEXP XSEXP, SEXP ySEXP, SEXP thetaSEXP, SEXP nuggetSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type y(ySEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type theta(thetaSEXP);
+    Rcpp::traits::input_parameter< double >::type nugget(nuggetSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_loglik_cpp(X, y, theta, nugget));
+    return rcpp_result_gen;
+END_RCPP
+}
+// gasp_fit_cpp
+Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, int starts, double lb_lo, double lb_hi, int maxit, int maxit_explore);
+RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP startsSEXP, SEXP lb_loSEXP, SEXP lb_hiSEXP, SEXP maxitSEXP, SEXP maxit_exploreSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< int >::type starts(startsSEXP);
+    Rcpp::traits::input_parameter< double >::type lb_lo(lb_loSEXP);
+    Rcpp::traits::input_parameter< double >::type lb_hi(lb_hiSEXP);
+    Rcpp::traits::input_parameter< int >::type maxit(maxitSEXP);
+    Rcpp::traits::input_parameter< int >::type maxit_explore(maxit_exploreSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, starts, lb_lo, lb_hi, maxit, maxit_explore));
+    return rcpp_result_gen;
+END_RCPP
+}
+// gasp_finalize_cpp
+Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, const Eigen::Map<Eigen::MatrixXd>& beta, const Eigen::Map<Eigen::MatrixXd>& alpha, const Eigen::Map<Eigen::VectorXd>& nugget);
+RcppExport SEXP _wavevalid_gasp_finalize_cpp(SEXP XSEXP, SEXP YSEXP, SEXP betaSEXP, SEXP alphaSEXP, SEXP nuggetSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type beta(betaSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type alpha(alphaSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type nugget(nuggetSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_finalize_cpp(X, Y, beta, alpha, nugget));
+    return rcpp_result_gen;
+END_RCPP
+}
+// gasp_bank_augment_cpp
+Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::VectorXd>& z, const Eigen::Map<Eigen::VectorXd>& w);
+RcppExport SEXP _wavevalid_gasp_bank_augment_cpp(SEXP bankSEXP, SEXP zSEXP, SEXP wSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type z(zSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type w(wSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_bank_augment_cpp(bank, z, w));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_bank_predict_cpp
 Rcpp::List gasp_bank_predict_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Z);
 RcppExport SEXP _wavevalid_gasp_bank_predict_cpp(SEXP bankSEXP, SEXP ZSEXP) {
@@ -20,6 +79,20 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
     Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Z(ZSEXP);
     rcpp_result_gen = Rcpp::wrap(gasp_bank_predict_cpp(bank, Z));
+    return rcpp_result_gen;
+END_RCPP
+}
+// gasp_bank_predict_augmented_cpp
+Rcpp::List gasp_bank_predict_augmented_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Zstar, const Eigen::Map<Eigen::MatrixXd>& Wstar, const Eigen::Map<Eigen::MatrixXd>& Znew);
+RcppExport SEXP _wavevalid_gasp_bank_predict_augmented_cpp(SEXP bankSEXP, SEXP ZstarSEXP, SEXP WstarSEXP, SEXP ZnewSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Zstar(ZstarSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Wstar(WstarSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Znew(ZnewSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_bank_predict_augmented_cpp(bank, Zstar, Wstar, Znew));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -46,10 +119,42 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// suspension_simulate_cpp
+Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub);
+RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
+    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_simulate_cpp(params, strength, t, nsub));
+    return rcpp_result_gen;
+END_RCPP
+}
+// suspension_road_cpp
+Rcpp::NumericVector suspension_road_cpp(const Rcpp::NumericVector& x);
+RcppExport SEXP _wavevalid_suspension_road_cpp(SEXP xSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type x(xSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_road_cpp(x));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
+    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 7},
+    {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
+    {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
+    {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 13},
+    {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
+    {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
     {NULL, NULL, 0}
 };
 
