@@ -48,13 +48,13 @@ const double BUMP_HEIGHT = 0.065;    // m
 const double ROAD_X0 = -4.0;         // first point of the tabulated road (m)
 const double ROAD_X1 = 140.0;        // last point (m)
 const double ROAD_DX = 0.01;         // tabulation step (m)
-const double ROUGH_G0 = 1.0e-4;      // displacement PSD at 0.1 cycle/m (m^3)
+const double ROUGH_G0 = 6.0e-6;     // displacement PSD at 0.1 cycle/m (m^3)
 const int ROUGH_N = 256;             // number of sinusoids
 const double ROUGH_NMIN = 0.03;      // cycles/m
-const double ROUGH_NMAX = 6.0;       // cycles/m
+const double ROUGH_NMAX = 2.5;       // cycles/m
 const std::uint64_t ROUGH_SEED = 20070301ULL;
 
-const double FRICTION_F0 = 250.0;      // N, Coulomb friction at strength 1
+const double FRICTION_F0 = 400.0;      // N, Coulomb friction at strength 1
 const double FRICTION_VEPS = 0.01;     // m/s, smoothing velocity
 const double DIGRESSIVE_KNEE = 0.35;   // m/s, knee of the damper law
 const double DIGRESSIVE_RATIO = 0.4;   // high-speed slope / low-speed slope at strength 1
