@@ -2,30 +2,11 @@
 # on 32 points, GASP emulators with given hyperparameters (mu and lambda by
 # profile likelihood), a field of four replicates at one site.
 
-# Wavelet basis of the given coefficient positions (1 = scaling coefficient,
-# 2^l + k = k-th detail coefficient of wavethresh level l) on a dyadic grid t.
+# Wavelet basis of the given coefficient positions on a dyadic grid t.
 basis_from_index <- function(t, index, filter.number = 2, family = "DaubExPhase") {
-  n_t <- length(t)
-  J <- as.integer(round(log2(n_t)))
-  zero <- wavethresh::wd(rep(0, n_t), filter.number = filter.number, family = family)
-  Psi <- vapply(index, function(j) {
-    w <- zero
-    if (j == 1L) {
-      w <- wavethresh::putC(w, 0L, 1)
-    } else {
-      l <- floor(log2(j - 1))
-      v <- numeric(2^l)
-      v[j - 2^l] <- 1
-      w <- wavethresh::putD(w, l, v)
-    }
-    wavethresh::wr(w)
-  }, numeric(n_t))
-  level <- ifelse(index == 1L, 0L, floor(log2(pmax(index - 1, 1))) + 1L)
-  structure(list(index = as.integer(index), level = as.integer(level), Psi = Psi, t = t,
-                 sites = NULL,
-                 settings = list(filter.number = filter.number, family = family,
-                                 keep_levels = NA, fraction = NA)),
-            class = "wv_basis")
+  settings <- basis_settings(length(t), filter.number, family, keep_levels = 0L, fraction = 0)
+  index <- as.integer(index)
+  new_wv_basis(index, index_level(index), basis_matrix(index, settings), t, sites = NULL, settings = settings)
 }
 
 # One bank of GASP emulators with fixed beta/alpha (n x p); mu and lambda by
@@ -61,13 +42,7 @@ bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
 }
 
 example_calibration_inputs <- function(seed = 1) {
-  withr_seed <- function(code) {
-    old <- if (exists(".Random.seed", globalenv())) get(".Random.seed", globalenv()) else NULL
-    on.exit(if (is.null(old)) rm(".Random.seed", envir = globalenv()) else assign(".Random.seed", old, globalenv()))
-    set.seed(seed)
-    code
-  }
-  withr_seed({
+  with_rng_seed(seed, {
     t <- seq(0, 1, length.out = 33)[-33]
     iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1),
                  nominal = c(0.5, 0.5))

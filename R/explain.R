@@ -120,7 +120,7 @@ candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) 
 # model output when the input moves by its whole range.
 shift_candidates <- function(fit) {
   em <- fit$emulators
-  zhat <- posterior_mean_inputs(fit)
+  zhat <- posterior_mean_inputs(fit)[em$inputs]
   sites <- names(fit$wb)
   width <- vapply(em$inputs, function(p) {
     k <- match(p, fit$iu$name)
@@ -140,11 +140,6 @@ shift_candidates <- function(fit) {
   if (is.null(dim(out))) out <- matrix(out, ncol = length(em$inputs))
   colnames(out) <- paste0("shift:", em$inputs)
   out[, colSums(out^2) > 0, drop = FALSE]
-}
-
-posterior_mean_inputs <- function(fit) {
-  m <- colMeans(as.matrix(fit$draws))
-  m[fit$emulators$inputs]
 }
 
 # Per-draw bias variance tau^2 of each coefficient's (site, level) group:

@@ -97,8 +97,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
   H <- nrow(wM)
   yM <- wM %*% t(Psi)
   yR <- yM + wb %*% t(Psi)
-  zhat <- posterior_mean_inputs(fit)
-  pure <- drop(Psi %*% drop(gasp_bank_predict_cpp(fit$emulators$banks[[s]], matrix(zhat, 1))$mean))
+  pure <- pure_model_curve(fit, s)
   yNew <- switch(type,
     reality = , field_run = yM,
     added_load = sweep(yM, 2, new_model$D[[s]], `+`),
@@ -124,29 +123,12 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     eps <- sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
     pred <- pred + eps %*% t(Psi)
   }
-  band <- curve_summary(pred, level)
+  band <- band_frame(pred, fit$basis$t, s, level)
+  band$model <- pure
   list(
-    summary = data.frame(site = s, t = fit$basis$t, band, model = pure, stringsAsFactors = FALSE),
+    summary = band,
     draws = if (keep_draws) pred,
     n_guarded = n_guarded
-  )
-}
-
-# Pointwise mean and quantile band of H x T curve draws, and the band of whole
-# curves: the envelope of the `level` share of curves whose largest
-# standardised distance from the pointwise mean is smallest.
-curve_summary <- function(Y, level) {
-  a <- (1 - level) / 2
-  m <- colMeans(Y)
-  q <- apply(Y, 2, stats::quantile, probs = c(a, 1 - a), names = FALSE)
-  s <- sqrt(pmax(colMeans(Y^2) - m^2, 0))
-  s[s == 0] <- 1
-  dev <- apply(abs(sweep(Y, 2, m)) / rep(s, each = nrow(Y)), 1, max)
-  inside <- dev <= stats::quantile(dev, level, names = FALSE, type = 1)
-  data.frame(
-    mean = m, lower = q[1, ], upper = q[2, ],
-    lower_curve = apply(Y[inside, , drop = FALSE], 2, min),
-    upper_curve = apply(Y[inside, , drop = FALSE], 2, max)
   )
 }
 
@@ -234,7 +216,8 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   zpure <- colMeans(post)
   nom_full <- iu$nominal[match(var_inputs, iu$name)]
   names(nom_full) <- var_inputs
-  if (!is.null(nominal)) nom_full[names(nominal)] <- nominal
+  given <- intersect(names(nominal), var_inputs)
+  nom_full[given] <- nominal[given]
   zpure[var_inputs] <- if (is.null(x_new)) nom_full else replace(nom_full, names(x_new), x_new)
   res <- lapply(names(fit$wb), function(s) {
     pr <- if (augmented) {

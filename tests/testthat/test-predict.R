@@ -1,0 +1,99 @@
+example_fit <- function(seed = 3) {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 60, n_inner = 10, chains = 1,
+                                    seed = seed, quiet = TRUE))
+  list(fit = fit, ex = ex)
+}
+
+# A wv_runs of two runs on the example's grid: at the nominal inputs, then with x1 + dx.
+example_pair <- function(ex, dx = 0.2) {
+  model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * ex$field$t) + u * exp(-((ex$field$t - 0.6) / 0.08)^2)
+  design <- data.frame(u1 = c(0.5, 0.5), x1 = c(0.5, 0.5 + dx))
+  model_runs(design, rbind(model(0.5, 0.5), model(0.5, 0.5 + dx)), ex$field$t, site = "site1")
+}
+
+test_that("predictions have the documented structure and are reproducible with a seed", {
+  e <- example_fit()
+  p1 <- predict(e$fit, type = "field_run", seed = 9)
+  p2 <- predict(e$fit, type = "field_run", seed = 9)
+  expect_s3_class(p1, "wv_prediction")
+  expect_identical(as.data.frame(p1), as.data.frame(p2))
+  expect_named(as.data.frame(p1), c("site", "t", "mean", "lower", "upper", "lower_curve", "upper_curve", "model"))
+  p3 <- predict(e$fit, type = "field_run", seed = 10)
+  expect_false(identical(as.data.frame(p1)$upper, as.data.frame(p3)$upper))
+  r <- predict(e$fit, type = "reality", seed = 9)
+  # the reality prediction is the band of bias() shifted by the model draws: same as reality()
+  expect_equal(as.data.frame(r)$mean, reality(e$fit)$mean)
+  # measurement error widens the band
+  expect_gt(median(p1$summary$upper - p1$summary$lower), median(r$summary$upper - r$summary$lower))
+  expect_snapshot(print(p1))
+  expect_s3_class(autoplot(p1), "ggplot")
+})
+
+test_that("a new vehicle at the tested vehicle's inputs reproduces the reality prediction", {
+  e <- example_fit()
+  fit <- e$fit
+  # every draw of the variation input at one value: a new vehicle with that value is the tested one
+  for (k in seq_along(fit$draws)) fit$draws[[k]][, "x1"] <- 0.42
+  nv <- predict(fit, type = "new_vehicle", x_new = c(x1 = 0.42), noise = FALSE, seed = 1)
+  re <- predict(fit, type = "reality", seed = 1)
+  expect_equal(nv$summary[c("mean", "lower", "upper")], re$summary[c("mean", "lower", "upper")], tolerance = 1e-6)
+  # drawn from the prior instead, the new vehicle is more uncertain than a new run of the tested one
+  nv_prior <- predict(e$fit, type = "new_vehicle", seed = 1)
+  fr <- predict(e$fit, type = "field_run", seed = 1)
+  expect_gt(median(nv_prior$summary$upper - nv_prior$summary$lower), median(fr$summary$upper - fr$summary$lower))
+})
+
+test_that("with zero bias the multiplicative and additive carry-over agree", {
+  e <- example_fit()
+  fit <- e$fit
+  fit$wb <- lapply(fit$wb, function(m) m * 0)
+  pair <- example_pair(e$ex)
+  a <- predict(fit, type = "added_load", new_runs = pair, bias = "additive", seed = 4)
+  m <- predict(fit, type = "added_load", new_runs = pair, bias = "multiplicative", seed = 4)
+  expect_equal(a$summary, m$summary)
+  # with bias they differ
+  a2 <- predict(e$fit, type = "added_load", new_runs = pair, bias = "additive", seed = 4)
+  m2 <- predict(e$fit, type = "added_load", new_runs = pair, bias = "multiplicative", seed = 4)
+  expect_false(isTRUE(all.equal(a2$summary$mean, m2$summary$mean)))
+})
+
+test_that("an added load translates the field-run prediction by the difference of the runs", {
+  e <- example_fit()
+  pair <- example_pair(e$ex)
+  fr <- predict(e$fit, type = "field_run", seed = 4)
+  al <- predict(e$fit, type = "added_load", new_runs = pair, seed = 4)
+  D <- pair$curves$site1[2, ] - pair$curves$site1[1, ]
+  expect_equal(al$summary$mean, fr$summary$mean + D)
+  expect_equal(al$summary$model, fr$summary$model + D)
+})
+
+test_that("new nominals fit new emulators and carry the bias over", {
+  e <- example_fit()
+  model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * e$ex$field$t) + u * exp(-((e$ex$field$t - 0.6) / 0.08)^2)
+  withr::local_seed(5)
+  d <- data.frame(u1 = (0:13 + runif(14)) / 14, x1 = 0.2 + (sample(14) - runif(14)) / 14 * 0.6)
+  runs_B <- model_runs(d, t(apply(d, 1, function(z) model(z[1], z[2]))), e$ex$field$t, site = "site1")
+  p <- suppressWarnings(predict(e$fit, type = "new_nominal", new_runs = runs_B, x_nom = c(x1 = 0.5), seed = 2))
+  expect_s3_class(p, "wv_prediction")
+  expect_true(all(p$summary$lower <= p$summary$mean & p$summary$mean <= p$summary$upper))
+  expect_s3_class(autoplot(p), "ggplot")
+})
+
+test_that("bad input to predict gives classed errors", {
+  e <- example_fit()
+  pair <- example_pair(e$ex)
+  t2 <- seq(0, 2, length.out = 32)
+  off_grid <- model_runs(pair$design, pair$curves$site1, t2, site = "site1")
+  expect_error(predict(e$fit, type = "added_load", new_runs = off_grid), class = "wavevalid_error_input")
+  other <- model_runs(data.frame(u1 = c(0.5, 0.5), x9 = c(0.5, 0.7)), pair$curves$site1, pair$t, site = "site1")
+  expect_error(predict(e$fit, type = "added_load", new_runs = other), class = "wavevalid_error_input")
+  expect_snapshot(predict(e$fit, type = "added_load", new_runs = other), error = TRUE)
+  expect_error(predict(e$fit, type = "added_load"), class = "wavevalid_error_input")
+  expect_error(predict(e$fit, type = "reality", new_runs = pair), class = "wavevalid_error_input")
+  expect_error(predict(e$fit, type = "new_vehicle", x_new = c(u1 = 0.3)), class = "wavevalid_error_input")
+  expect_error(predict(e$fit, level = 1.5), class = "wavevalid_error_input")
+  three <- model_runs(data.frame(u1 = c(0.5, 0.5, 0.5), x1 = c(0.5, 0.6, 0.7)),
+                      rbind(pair$curves$site1, pair$curves$site1[1, ]), pair$t, site = "site1")
+  expect_error(predict(e$fit, type = "added_load", new_runs = three), class = "wavevalid_error_input")
+})
