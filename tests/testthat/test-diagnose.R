@@ -1,0 +1,97 @@
+# The example problem: reality has a bump at t = 0.25 that the model lacks.
+diag_setup <- function() {
+  ex <- wavevalid:::example_calibration_inputs()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) +
+    0.3 * exp(-((t - 0.25) / 0.05)^2)
+  ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 20, chains = 2,
+                                    seed = 11, quiet = TRUE))
+  list(ex = ex, fit = fit, t = t,
+       candidates = list(bump = exp(-((t - 0.25) / 0.05)^2),
+                         late_bump = exp(-((t - 0.8) / 0.05)^2),
+                         wiggle = sin(6 * pi * t)))
+}
+
+test_that("where_fails finds the interval where the missing bump acts", {
+  d <- diag_setup()
+  wf <- where_fails(d$fit)
+  expect_s3_class(wf, "wv_fails")
+  expect_named(wf, c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias", "share_of_signal", "sign"))
+  expect_gt(nrow(wf), 0L)
+  top <- wf[1, ]
+  expect_true(top$start <= 0.3 && top$end >= 0.2)
+  expect_equal(top$sign, "reality above model")
+  expect_true(all(diff(wf$integrated_abs_bias) <= 0))
+  lv <- attr(wf, "levels")
+  expect_equal(sum(lv$share), 1)
+  expect_s3_class(attr(wf, "boundary"), "data.frame")
+  expect_s3_class(autoplot(wf), "ggplot")
+  expect_s3_class(autoplot(wf, type = "levels"), "ggplot")
+})
+
+test_that("explain_bias ranks the true mechanism first and the decoys low", {
+  d <- diag_setup()
+  ex <- explain_bias(d$fit, d$candidates, seed = 1)
+  expect_s3_class(ex, "wv_explain")
+  expect_named(ex, c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
+                     "share_explained"))
+  expect_equal(ex$candidate[1], "bump")
+  expect_gte(ex$inclusion_prob[1], 0.9)
+  expect_true(all(ex$inclusion_prob[ex$candidate %in% c("late_bump", "wiggle")] < 0.5))
+  # the bump enters reality with amplitude 0.3; the bias prior shrinks it towards zero
+  expect_true(ex$amplitude_lower[1] < 0.3 && ex$amplitude_upper[1] > 0.15)
+  expect_true(any(grepl("^shift:", ex$candidate)))
+  expect_identical(explain_bias(d$fit, d$candidates, seed = 1), ex)
+  expect_s3_class(autoplot(ex), "ggplot")
+})
+
+test_that("explain_bias refuses bad candidates and shares the inclusion of twins", {
+  d <- diag_setup()
+  expect_error(explain_bias(d$fit, list(a = rep(1, 10))), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, list(d$candidates$bump)), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, list(z = numeric(length(d$t)))), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, list(a = c(NA, d$candidates$bump[-1]))), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, "bump"), class = "wavevalid_error_input")
+  expect_snapshot(explain_bias(d$fit, list(a = rep(1, 10))), error = TRUE)
+  twins <- explain_bias(d$fit, list(bump = d$candidates$bump, twin = d$candidates$bump), shifts = FALSE, seed = 1)
+  p <- stats::setNames(twins$inclusion_prob, twins$candidate)
+  expect_equal(unname(p["bump"]), unname(p["twin"]), tolerance = 1e-8)
+  single <- explain_bias(d$fit, list(bump = d$candidates$bump), shifts = FALSE, seed = 1)
+  expect_equal(unname(p["bump"] + p["twin"]), single$inclusion_prob, tolerance = 1e-8)
+  expect_gt(single$inclusion_prob, 0.5)
+})
+
+test_that("adding the missing effect makes the error fall", {
+  skip_on_cran()
+  d <- diag_setup()
+  t <- d$t
+  model <- function(u, x, s) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) +
+    s * 0.5 * exp(-((t - 0.25) / 0.05)^2)
+  withr::local_seed(21)
+  K <- 24
+  design <- data.frame(u1 = (sample(K) - runif(K)) / K, x1 = (sample(K) - runif(K)) / K,
+                       s_bump = (sample(K) - runif(K)) / K)
+  runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
+  iu_after <- iu_map(c("u1", "x1", "s_bump"), c("calibration", "variation", "calibration"),
+                     lower = c(0, 0, 0), upper = c(1, 1, 1), nominal = c(0.5, 0.5, 0.5))
+  basis <- wavelet_basis(runs, d$ex$field, fraction = 1)
+  em <- suppressWarnings(fit_emulators(runs, basis))
+  after <- suppressWarnings(calibrate(em, d$ex$field, iu_after, n_draws = 150, n_inner = 20, chains = 2,
+                                      seed = 12, quiet = TRUE))
+  cmp <- compare_validations(d$fit, after)
+  expect_s3_class(cmp, "wv_comparison")
+  expect_named(cmp, c("metric", "before", "after", "change"))
+  expect_true(all(c("bias_rms", "bias_peak", "band_width", "model_rmse") %in% cmp$metric))
+  expect_lt(cmp$change[cmp$metric == "bias_rms"], -0.5)
+  expect_lt(cmp$change[cmp$metric == "model_rmse"], 0)
+  # held-out replicates of the same system
+  withr::local_seed(22)
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + 0.3 * exp(-((t - 0.25) / 0.05)^2)
+  hold <- field_runs(t(replicate(3, truth + rnorm(length(t), sd = 0.03))), t, site = "site1")
+  cmp2 <- compare_validations(d$fit, after, holdout = hold)
+  expect_true(all(c("holdout_rmse", "holdout_coverage") %in% cmp2$metric))
+  expect_lt(cmp2$after[cmp2$metric == "holdout_rmse"], cmp2$before[cmp2$metric == "holdout_rmse"])
+  expect_s3_class(autoplot(cmp2), "ggplot")
+  expect_error(compare_validations(d$fit, "after"), class = "wavevalid_error_input")
+})
