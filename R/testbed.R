@@ -430,3 +430,34 @@ build_testbed <- function(seed, hidden) {
     windows = testbed_windows()
   ))
 }
+
+#' Signatures of the test bed's mechanisms
+#'
+#' The change of the load at each site when a mechanism is switched on at full
+#' strength in the model, at given inputs: the candidate curves that
+#' [explain_bias()] takes.
+#'
+#' @param inputs Named coded values of the model's inputs (e.g. the posterior
+#'   means of a fit); inputs not given take their nominal 0.5.
+#' @param mechanisms Names from [testbed_mechanisms()].
+#' @return A named list (one element per mechanism) of named lists by site of
+#'   curves on the test bed's grid.
+#' @export
+#' @examples
+#' sig <- testbed_signatures(c(u1 = 0.5, u2 = 0.5), "progressive_bumpstop")
+#' range(sig$progressive_bumpstop$site1)
+testbed_signatures <- function(inputs, mechanisms = testbed_mechanisms()) {
+  if (!is.numeric(inputs) || is.null(names(inputs)) || any(!is.finite(inputs))) {
+    wv_abort("{.arg inputs} must be a named numeric vector of coded input values.")
+  }
+  mechanisms <- setdiff(check_hidden(mechanisms), "none")
+  base <- as.data.frame(as.list(inputs))
+  off <- simulate_suspension(base)
+  out <- lapply(mechanisms, function(m) {
+    d <- base
+    d[[paste0("s_", m)]] <- 1
+    on <- simulate_suspension(d, mechanism = m)
+    Map(function(a, b) a[1, ] - b[1, ], on$curves, off$curves)
+  })
+  stats::setNames(out, mechanisms)
+}

@@ -28,16 +28,7 @@ fails <- where_fails(fit)
 print(fails)
 save_plot(autoplot(fails), "05-where-it-fails.png")
 
-z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-signature <- function(mechanism) {
-  d <- as.data.frame(as.list(z_hat))
-  d[[paste0("s_", mechanism)]] <- 1
-  on <- simulate_suspension(d, mechanism = mechanism)
-  off <- simulate_suspension(as.data.frame(as.list(z_hat)))
-  Map(function(a, b) a[1, ] - b[1, ], on$curves, off$curves)
-}
-mechanisms <- testbed_mechanisms()
-candidates <- stats::setNames(lapply(mechanisms, signature), mechanisms)
+candidates <- testbed_signatures(colMeans(as.matrix(fit$draws))[fit$inputs])
 expl <- explain_bias(fit, candidates, seed = 1)
 print(expl)
 save_plot(autoplot(expl), "06-missing-effect.png")
