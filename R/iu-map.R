@@ -30,6 +30,16 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
     wv_abort("{.arg name} must be a non-empty character vector of input names.")
   }
   n <- length(name)
+  for (arg in c("lower", "upper")) {
+    v <- get(arg)
+    if (!is.numeric(v)) wv_abort("{.arg {arg}} must be numeric, not {.obj_type_friendly {v}}.")
+  }
+  for (arg in c("nominal", "prior_sd")) {
+    v <- get(arg)
+    if (!is.numeric(v) && !(arg == "prior_sd" && all(is.na(v)))) {
+      wv_abort("{.arg {arg}} must be numeric, not {.obj_type_friendly {v}}.")
+    }
+  }
   if (!is.character(type)) {
     wv_abort("{.arg type} must be a character vector of {.val calibration} or {.val variation}.")
   }
