@@ -76,11 +76,18 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
     scale <- max(abs(m))
     apply(m, 2L, function(v) diff(range(v)) <= 1e-10 * scale)
   })
+  # chunks of coefficients of one level: within a chunk each fit starts also
+  # from the fitted parameters of the previous coefficients (same level)
+  level <- basis$level %||% rep(0L, length(basis$index))
   tasks <- list()
   for (s in sites) {
     cols <- which(!flat[[s]])
-    for (ch in split(cols, ceiling(seq_along(cols) / chunk_size))) {
-      tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L)
+    for (lv in unique(level[cols])) {
+      cl <- cols[level[cols] == lv]
+      for (ch in split(cl, ceiling(seq_along(cl) / chunk_size))) {
+        tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L,
+                                            group = rep(as.integer(lv), length(ch)))
+      }
     }
   }
   n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
@@ -240,12 +247,18 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
   function(task) {
     Y <- W[[task$site]][, task$cols, drop = FALSE]
     if (engine == "gasp") {
-      f <- gasp_fit_cpp(X, Y, as.integer(starts), log_beta_range[1], log_beta_range[2], 200L, 25L)
+      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range))
       f$cols <- task$cols
       return(f)
     }
     dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
   }
+}
+
+# Settings of the gasp engine's optimiser (fields of GaspSettings in gasp.h).
+gasp_control <- function(starts, log_beta_range) {
+  list(n_local = as.integer(starts), lb_lo = log_beta_range[1], lb_hi = log_beta_range[2],
+       maxit = 200L, n_screen = 8L, memory = 30L, ftol = 1e-8, pgtol = 1e-5)
 }
 
 dicekriging_fit <- function(X, Y, km_args, seed, cols) {
@@ -269,7 +282,7 @@ dicekriging_fit <- function(X, Y, km_args, seed, cols) {
                                           error = function(e) NULL))
     if (is.null(fit)) {
       failed[i] <- TRUE
-      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 4L, -8, 6, 200L, 25L)
+      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 1L, gasp_control(2L, c(-8, 6)))
       beta[i, ] <- g$beta
       alpha[i, ] <- g$alpha
       next

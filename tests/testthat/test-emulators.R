@@ -74,7 +74,7 @@ test_that("the fit maximises the likelihood within the box", {
   K <- 25
   X <- matrix(stats::runif(K * 2), K, 2)
   y <- sin(5 * X[, 1]) + 0.5 * X[, 2]
-  f <- gasp_fit_cpp(X, cbind(y), 4L, -8, 6, 200L, 25L)
+  f <- gasp_fit_cpp(X, cbind(y), 1L, list(n_local = 4L))
   th <- c(log(f$beta), f$alpha)
   expect_equal(f$loglik, gasp_loglik_cpp(X, y, th, f$nugget)$loglik)
   for (r in 1:20) {
