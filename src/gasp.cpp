@@ -43,6 +43,8 @@ Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<E
   set.pgtol = num("pgtol", set.pgtol);
   set.memory = static_cast<int>(num("memory", set.memory));
   set.gauss_first = static_cast<int>(num("gauss_first", set.gauss_first));
+  set.precondition = static_cast<int>(num("precondition", set.precondition));
+  set.iso_half = static_cast<int>(num("iso_half", set.iso_half));
   set.screen_lo = num("screen_lo", set.screen_lo);
   set.screen_hi = num("screen_hi", set.screen_hi);
   if (set.lb_lo >= set.lb_hi || set.maxit < 1 || set.n_local < 1 || set.n_screen < 0 || set.memory < 1) {
