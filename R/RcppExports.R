@@ -5,8 +5,8 @@ gasp_loglik_cpp <- function(X, y, theta, nugget) {
     .Call(`_wavevalid_gasp_loglik_cpp`, X, y, theta, nugget)
 }
 
-gasp_fit_cpp <- function(X, Y, starts, lb_lo, lb_hi, maxit, maxit_explore) {
-    .Call(`_wavevalid_gasp_fit_cpp`, X, Y, starts, lb_lo, lb_hi, maxit, maxit_explore)
+gasp_fit_cpp <- function(X, Y, group, control, n_warm = 2L) {
+    .Call(`_wavevalid_gasp_fit_cpp`, X, Y, group, control, n_warm)
 }
 
 gasp_finalize_cpp <- function(X, Y, beta, alpha, nugget) {

@@ -10,8 +10,13 @@
 #'
 #' The `"gasp"` engine maximises the profile log-likelihood with its analytic
 #' gradient in C++ (a projected limited-memory BFGS over `log(beta)` and
-#' `alpha`) from `starts` deterministic starting points: the best isotropic
-#' point on a grid and Halton points around it. The `"dicekriging"` engine
+#' `alpha`, preconditioned for the near-collinearity of `log(beta)` and
+#' `alpha`). Each coefficient's fit first screens the likelihood, without
+#' gradient, at cheap starting points: the fitted parameters of the previous
+#' two coefficients of the same level (fits run level by level), isotropic
+#' Gaussian points on a grid of `log(beta)` and a fixed Latin hypercube; the
+#' optimiser then starts from the best `starts` of them. The pairwise
+#' distances of the design are computed once per chunk of coefficients. The `"dicekriging"` engine
 #' calls [DiceKriging::km()] with the power-exponential covariance
 #' `exp(-sum (|h| / theta)^p)`, `p` in \[1, 2\], and converts with
 #' `beta = theta^-p`, `alpha = 2 - p`. Both engines then compute `mu`,
@@ -28,10 +33,14 @@
 #' @param runs A `wv_runs` object ([model_runs()]).
 #' @param basis A `wv_basis` object ([wavelet_basis()]) on the grid of `runs`.
 #' @param engine `"gasp"` (default) or `"dicekriging"`.
-#' @param starts Number of starting points per coefficient (`"gasp"` engine).
+#' @param starts Number of local optimisations per coefficient, from the best
+#'   screened starting points (`"gasp"` engine); more is slower and more
+#'   thorough.
 #' @param log_beta_range Box for `log(beta)` on the unit-cube scale (`"gasp"`
 #'   engine).
-#' @param chunk_size Coefficients fitted per future.
+#' @param chunk_size Coefficients (of one level) fitted per future; warm
+#'   starts pass between coefficients of a chunk, so the result depends on
+#'   `chunk_size` but not on the plan.
 #' @param seed Seed for the random starting points of `"dicekriging"`; `NULL`
 #'   draws one from R's RNG. The `"gasp"` engine is deterministic.
 #' @param ... Further arguments to [DiceKriging::km()] (`"dicekriging"`
@@ -56,7 +65,7 @@
 #' em <- fit_emulators(runs, basis)
 #' em
 #' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
-fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 4,
+fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 1,
                           log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(basis, "wv_basis")
@@ -76,11 +85,18 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
     scale <- max(abs(m))
     apply(m, 2L, function(v) diff(range(v)) <= 1e-10 * scale)
   })
+  # chunks of coefficients of one level: within a chunk each fit starts also
+  # from the fitted parameters of the previous coefficients (same level)
+  level <- basis$level %||% rep(0L, length(basis$index))
   tasks <- list()
   for (s in sites) {
     cols <- which(!flat[[s]])
-    for (ch in split(cols, ceiling(seq_along(cols) / chunk_size))) {
-      tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L)
+    for (lv in unique(level[cols])) {
+      cl <- cols[level[cols] == lv]
+      for (ch in split(cl, ceiling(seq_along(cl) / chunk_size))) {
+        tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L,
+                                            group = rep(as.integer(lv), length(ch)))
+      }
     }
   }
   n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
@@ -240,12 +256,19 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
   function(task) {
     Y <- W[[task$site]][, task$cols, drop = FALSE]
     if (engine == "gasp") {
-      f <- gasp_fit_cpp(X, Y, as.integer(starts), log_beta_range[1], log_beta_range[2], 200L, 25L)
+      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range))
       f$cols <- task$cols
       return(f)
     }
     dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
   }
+}
+
+# Settings of the gasp engine's optimiser (fields of GaspSettings in gasp.h).
+gasp_control <- function(starts, log_beta_range) {
+  list(n_local = as.integer(starts), lb_lo = log_beta_range[1], lb_hi = log_beta_range[2],
+       maxit = 200L, n_screen = 8L, memory = 30L, ftol = 1e-8, pgtol = 1e-5, precondition = 1L,
+       iso_half = 0L)
 }
 
 dicekriging_fit <- function(X, Y, km_args, seed, cols) {
@@ -269,7 +292,7 @@ dicekriging_fit <- function(X, Y, km_args, seed, cols) {
                                           error = function(e) NULL))
     if (is.null(fit)) {
       failed[i] <- TRUE
-      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 4L, -8, 6, 200L, 25L)
+      g <- gasp_fit_cpp(X, Y[, i, drop = FALSE], 1L, gasp_control(2L, c(-8, 6)))
       beta[i, ] <- g$beta
       alpha[i, ] <- g$alpha
       next

@@ -26,19 +26,17 @@ BEGIN_RCPP
 END_RCPP
 }
 // gasp_fit_cpp
-Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, int starts, double lb_lo, double lb_hi, int maxit, int maxit_explore);
-RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP startsSEXP, SEXP lb_loSEXP, SEXP lb_hiSEXP, SEXP maxitSEXP, SEXP maxit_exploreSEXP) {
+Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::IntegerVector group, Rcpp::List control, int n_warm);
+RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP groupSEXP, SEXP controlSEXP, SEXP n_warmSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
     Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Y(YSEXP);
-    Rcpp::traits::input_parameter< int >::type starts(startsSEXP);
-    Rcpp::traits::input_parameter< double >::type lb_lo(lb_loSEXP);
-    Rcpp::traits::input_parameter< double >::type lb_hi(lb_hiSEXP);
-    Rcpp::traits::input_parameter< int >::type maxit(maxitSEXP);
-    Rcpp::traits::input_parameter< int >::type maxit_explore(maxit_exploreSEXP);
-    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, starts, lb_lo, lb_hi, maxit, maxit_explore));
+    Rcpp::traits::input_parameter< Rcpp::IntegerVector >::type group(groupSEXP);
+    Rcpp::traits::input_parameter< Rcpp::List >::type control(controlSEXP);
+    Rcpp::traits::input_parameter< int >::type n_warm(n_warmSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, group, control, n_warm));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -147,7 +145,7 @@ END_RCPP
 
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
-    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 7},
+    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},

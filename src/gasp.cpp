@@ -10,7 +10,8 @@ Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Ma
                            const Eigen::Map<Eigen::VectorXd>& theta, double nugget) {
   if (theta.size() != 2 * X.cols()) Rcpp::stop("theta must have 2 p values");
   if (y.size() != X.rows()) Rcpp::stop("y must have one value per design row");
-  wavevalid::GaspLik lik(X, y);
+  const wavevalid::GaspDist D(X);
+  wavevalid::GaspLik lik(D, y);
   Eigen::VectorXd grad;
   const double ll = lik.eval(theta, nugget, &grad, 0.0);
   if (!std::isfinite(ll)) grad = Eigen::VectorXd::Constant(theta.size(), NA_REAL);
@@ -19,38 +20,67 @@ Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Ma
 }
 
 // Maximum-likelihood fit of every column of Y (K x n) on the scaled design X.
+// Columns are fitted in order; the fitted parameters of the last `n_warm`
+// columns with the same `group` value are warm starts of the next one.
+// `control`: named list of GaspSettings fields (lb_lo, lb_hi, maxit, n_local,
+// n_screen, ftol, memory); absent fields keep their defaults.
 // [[Rcpp::export]]
 Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
-                        int starts, double lb_lo, double lb_hi, int maxit, int maxit_explore) {
+                        Rcpp::IntegerVector group, Rcpp::List control, int n_warm = 2) {
   const int K = X.rows(), p = X.cols(), n = Y.cols();
   if (Y.rows() != K) Rcpp::stop("Y must have one row per design row");
+  if (group.size() != n) Rcpp::stop("group must have one value per column of Y");
   wavevalid::GaspSettings set;
-  set.lb_lo = lb_lo;
-  set.lb_hi = lb_hi;
-  set.maxit = maxit;
-  set.maxit_explore = maxit_explore;
+  auto num = [&control](const char* name, double def) {
+    return control.containsElementNamed(name) ? Rcpp::as<double>(control[name]) : def;
+  };
+  set.lb_lo = num("lb_lo", set.lb_lo);
+  set.lb_hi = num("lb_hi", set.lb_hi);
+  set.maxit = static_cast<int>(num("maxit", set.maxit));
+  set.n_local = static_cast<int>(num("n_local", set.n_local));
+  set.n_screen = static_cast<int>(num("n_screen", set.n_screen));
+  set.ftol = num("ftol", set.ftol);
+  set.pgtol = num("pgtol", set.pgtol);
+  set.memory = static_cast<int>(num("memory", set.memory));
+  set.gauss_first = static_cast<int>(num("gauss_first", set.gauss_first));
+  set.precondition = static_cast<int>(num("precondition", set.precondition));
+  set.iso_half = static_cast<int>(num("iso_half", set.iso_half));
+  set.screen_lo = num("screen_lo", set.screen_lo);
+  set.screen_hi = num("screen_hi", set.screen_hi);
+  if (set.lb_lo >= set.lb_hi || set.maxit < 1 || set.n_local < 1 || set.n_screen < 0 || set.memory < 1) {
+    Rcpp::stop("invalid control settings");
+  }
+  const wavevalid::GaspDist D(X);
+  const Eigen::MatrixXd pts = wavevalid::gasp_screen_points(p, set);
   Eigen::MatrixXd beta(n, p), alpha(n, p);
   Rcpp::NumericVector nugget(n), loglik(n);
-  Rcpp::IntegerVector n_eval(n);
+  Rcpp::IntegerVector n_eval(n), n_grad(n);
   Rcpp::LogicalVector converged(n);
-  const Eigen::MatrixXd Xc = X;
+  std::vector<Eigen::VectorXd> fitted(n);
   for (int i = 0; i < n; ++i) {
     Rcpp::checkUserInterrupt();
+    std::vector<Eigen::VectorXd> warm;
+    for (int j = i - 1; j >= 0 && static_cast<int>(warm.size()) < n_warm; --j) {
+      if (group[j] == group[i] && fitted[j].size() > 0) warm.push_back(fitted[j]);
+    }
     const Eigen::VectorXd y = Y.col(i);
-    wavevalid::GaspFit f = wavevalid::gasp_fit(Xc, y, starts, set);
+    wavevalid::GaspFit f = wavevalid::gasp_fit(D, y, warm, pts, set);
     if (!std::isfinite(f.loglik)) {
       Rcpp::stop("the likelihood of coefficient %d is numerically singular at every start and nugget", i + 1);
     }
+    fitted[i] = f.theta;
     beta.row(i) = f.theta.head(p).array().exp().matrix().transpose();
     alpha.row(i) = f.theta.tail(p).transpose();
     nugget[i] = f.nugget;
     loglik[i] = f.loglik;
     n_eval[i] = f.n_eval;
+    n_grad[i] = f.n_grad;
     converged[i] = f.converged;
   }
   return Rcpp::List::create(Rcpp::Named("beta") = beta, Rcpp::Named("alpha") = alpha,
                             Rcpp::Named("nugget") = nugget, Rcpp::Named("loglik") = loglik,
-                            Rcpp::Named("n_eval") = n_eval, Rcpp::Named("converged") = converged);
+                            Rcpp::Named("n_eval") = n_eval, Rcpp::Named("n_grad") = n_grad,
+                            Rcpp::Named("converged") = converged);
 }
 
 // Emulator quantities (mu, lambda, weights, Cholesky factors, log-likelihood)

@@ -20,86 +20,121 @@
 #include <cmath>
 #include <limits>
 #include <algorithm>
+#include <cstdint>
+#include <utility>
 
 namespace wavevalid {
 
 struct GaspSettings {
   double lb_lo = -8.0;       // lower bound of log beta
   double lb_hi = 6.0;        // upper bound of log beta
-  int maxit = 200;           // iterations of the final polish of the best start
-  int maxit_explore = 25;    // iterations per start before the best one is polished
+  int maxit = 200;           // iterations of each local optimisation
+  int n_local = 1;           // local optimisations, from the best screened points
+  int n_screen = 8;          // space-filling screening points
+  double screen_lo = -6.0;   // log beta range of the screening points
+  double screen_hi = 2.0;
   double pgtol = 1e-5;       // projected-gradient tolerance
   double ftol = 1e-8;        // change of the objective (per unit of |loglik|)
   double rcond_fail = 1e-14; // below: the point counts as numerically singular
   double rcond_ok = 1e-12;   // below at the optimum: retry with a larger nugget
-  int memory = 8;            // L-BFGS memory
+  int memory = 30;           // L-BFGS memory
+  int gauss_first = 0;       // 1: optimise with alpha = 0 first, then free alpha
+  int precondition = 1;      // 1: 2 x 2 preconditioner per input in L-BFGS
+  int iso_half = 0;          // 1: isotropic screening points also at alpha = 0.5
 };
 
-// Pairwise distances of a scaled design, stored over the K(K-1)/2 pairs j < k.
-class GaspLik {
- public:
-  GaspLik(const Eigen::MatrixXd& X, const Eigen::VectorXd& y) : X_(X), y_(y) {
-    K_ = static_cast<int>(X.rows());
-    p_ = static_cast<int>(X.cols());
-    P_ = K_ * (K_ - 1) / 2;
-    logd_.resize(P_, p_);
-    d1_.resize(P_, p_);
-    int idx = 0;
-    for (int k = 0; k < K_; ++k) {
-      for (int j = k + 1; j < K_; ++j) {
-        for (int q = 0; q < p_; ++q) {
+// Pairwise |d| and log|d| per input of a scaled design over the K(K-1)/2
+// pairs j > k (k-major), computed once per design and shared by the fits of
+// all coefficients.
+struct GaspDist {
+  int K = 0, p = 0, P = 0;
+  Eigen::MatrixXd logd, d1, d2;  // P x p
+  explicit GaspDist(const Eigen::MatrixXd& X) {
+    K = static_cast<int>(X.rows());
+    p = static_cast<int>(X.cols());
+    P = K * (K - 1) / 2;
+    logd.resize(P, p);
+    d1.resize(P, p);
+    for (int q = 0; q < p; ++q) {
+      int idx = 0;
+      for (int k = 0; k < K; ++k) {
+        for (int j = k + 1; j < K; ++j) {
           const double d = std::abs(X(j, q) - X(k, q));
-          logd_(idx, q) = d > 0.0 ? std::log(d) : -1e300;  // exp(-1e300 * (2 - a)) = 0
-          d1_(idx, q) = d;
+          logd(idx, q) = d > 0.0 ? std::log(d) : -1e300;  // exp(-1e300 * (2 - a)) = 0
+          d1(idx, q) = d;
+          ++idx;
         }
-        ++idx;
       }
     }
-    d2_ = d1_.array().square().matrix();
+    d2 = d1.array().square().matrix();
+    // mean and variance of log|d| per input, for the optimiser's preconditioner
+    c.resize(p);
+    v.resize(p);
+    for (int q = 0; q < p; ++q) {
+      double s1 = 0.0, s2 = 0.0;
+      int m = 0;
+      for (int i = 0; i < P; ++i) {
+        if (d1(i, q) > 0.0) { s1 += logd(i, q); s2 += logd(i, q) * logd(i, q); ++m; }
+      }
+      c(q) = m > 0 ? s1 / m : 0.0;
+      v(q) = m > 1 ? std::max(s2 / m - c(q) * c(q), 1e-2) : 1.0;
+    }
+  }
+  Eigen::VectorXd c, v;  // mean and variance of log|d| per input
+};
+
+// Profile log-likelihood of one coefficient y on a design (through its
+// distances). value() factorises R and keeps what gradient() needs, so the
+// gradient is computed only at points where it is used.
+class GaspLik {
+ public:
+  GaspLik(const GaspDist& D, const Eigen::VectorXd& y) : D_(D), y_(y) {
+    K_ = D.K;
+    p_ = D.p;
+    P_ = D.P;
     T_.resize(P_, p_);
+    S_.resize(P_);
     R_.resize(K_, K_);
+    Linv_.resize(K_, K_);
+    Ri_.resize(K_, K_);
+    Mp_.resize(P_);
     ones_ = Eigen::VectorXd::Ones(K_);
-    I_ = Eigen::MatrixXd::Identity(K_, K_);
   }
 
   int n_runs() const { return K_; }
   int n_inputs() const { return p_; }
-  int n_eval = 0;
+  const GaspDist& dist() const { return D_; }
+  int n_eval = 0, n_grad = 0;
 
   // Fills R (correlation + nugget) for theta; keeps T_ = beta d^(2 - alpha) per pair.
   void build(const Eigen::VectorXd& theta, double nugget) {
-    Eigen::ArrayXd S = Eigen::ArrayXd::Zero(P_);
+    S_.setZero();
     for (int q = 0; q < p_; ++q) {
-      const double b = std::exp(theta(q));
+      const double lb = theta(q);
       const double a = theta(p_ + q);
       if (a == 0.0) {
-        T_.col(q) = b * d2_.col(q);
+        T_.col(q).noalias() = std::exp(lb) * D_.d2.col(q);
       } else if (a == 1.0) {
-        T_.col(q) = b * d1_.col(q);
+        T_.col(q).noalias() = std::exp(lb) * D_.d1.col(q);
       } else {
-        T_.col(q) = b * ((2.0 - a) * logd_.col(q).array()).exp().matrix();
+        T_.col(q) = ((2.0 - a) * D_.logd.col(q).array() + lb).exp().matrix();
       }
-      S += T_.col(q).array();
+      S_ += T_.col(q).array();
     }
-    C_ = (-S).exp();
+    C_ = (-S_).exp();
     int idx = 0;
     for (int k = 0; k < K_; ++k) {
       R_(k, k) = 1.0 + nugget;
-      for (int j = k + 1; j < K_; ++j) {
-        R_(j, k) = C_(idx);
-        R_(k, j) = C_(idx);
-        ++idx;
-      }
+      for (int j = k + 1; j < K_; ++j) R_(j, k) = C_(idx++);
     }
   }
 
-  // Profile log-likelihood at theta; gradient in grad if non-null.
-  // Returns -inf when R is numerically singular.
-  double eval(const Eigen::VectorXd& theta, double nugget, Eigen::VectorXd* grad,
-              double rcond_fail) {
+  // Profile log-likelihood at theta; -inf when R is numerically singular.
+  double value(const Eigen::VectorXd& theta, double nugget, double rcond_fail) {
     ++n_eval;
+    ok_ = false;
     build(theta, nugget);
-    llt_.compute(R_);
+    llt_.compute(R_);  // reads the lower triangle only
     if (llt_.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
     rcond_ = llt_.rcond();
     if (!(rcond_ >= rcond_fail)) return -std::numeric_limits<double>::infinity();
@@ -114,28 +149,52 @@ class GaspLik {
     double logdet = 0.0;
     for (int k = 0; k < K_; ++k) logdet += std::log(L(k, k));
     logdet *= 2.0;
-    const double ll = -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
-    if (grad) {
-      Eigen::MatrixXd Linv = I_;
-      llt_.matrixL().solveInPlace(Linv);
-      Eigen::MatrixXd Ri = Eigen::MatrixXd::Zero(K_, K_);
-      Ri.selfadjointView<Eigen::Lower>().rankUpdate(Linv.transpose());
-      // Off-diagonal pair weights of M = (u u'/s2 - R^-1); diagonal of dR is 0.
-      Eigen::ArrayXd Mp(P_);
-      int idx = 0;
-      for (int k = 0; k < K_; ++k) {
-        for (int j = k + 1; j < K_; ++j) {
-          Mp(idx++) = u_(j) * u_(k) / s2 - Ri(j, k);  // lower triangle of Ri
-        }
-      }
-      Mp *= C_;  // dR_jk = C_jk * d(-S_jk); factor 2 (symmetry) times 1/2
-      grad->resize(2 * p_);
-      for (int q = 0; q < p_; ++q) {
-        const Eigen::ArrayXd t = T_.col(q).array();
-        (*grad)(q) = -(Mp * t).sum();
-        (*grad)(p_ + q) = (Mp * t * logd_.col(q).array().max(-745.0)).sum();
+    ok_ = true;
+    return -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+  }
+
+  // Gradient in (log beta, alpha) at the point of the last successful value():
+  //   dl/dtheta = 1/2 tr[(u u' / s2 - R^-1) dR/dtheta], dR_jk = -C_jk dS_jk.
+  void gradient(Eigen::VectorXd& grad) {
+    ++n_grad;
+    grad.resize(2 * p_);
+    // R^-1 = L^-T L^-1 (lower triangle) from the Cholesky factor, using the
+    // triangular structure of both factors (K^3 / 3 flops in all)
+    const Eigen::MatrixXd& L = llt_.matrixLLT();
+    Linv_.setZero();
+    for (int j = 0; j < K_; ++j) {  // column j of L^-1: forward substitution from e_j
+      Linv_(j, j) = 1.0;
+      for (int k = j; k < K_; ++k) {
+        const double xk = Linv_(k, j) / L(k, k);
+        Linv_(k, j) = xk;
+        const int rest = K_ - k - 1;
+        if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
       }
     }
+    for (int k = 0; k < K_; ++k) {
+      for (int j = k; j < K_; ++j) {
+        Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
+      }
+    }
+    int idx = 0;
+    const double is2 = 1.0 / sigma2_;
+    for (int k = 0; k < K_; ++k) {
+      const double uk = u_(k) * is2;
+      for (int j = k + 1; j < K_; ++j) {
+        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);  // factor 2 (symmetry) times 1/2
+        ++idx;
+      }
+    }
+    for (int q = 0; q < p_; ++q) {
+      const Eigen::ArrayXd mt = Mp_ * T_.col(q).array();
+      grad(q) = -mt.sum();
+      grad(p_ + q) = (mt * D_.logd.col(q).array().max(-745.0)).sum();
+    }
+  }
+
+  double eval(const Eigen::VectorXd& theta, double nugget, Eigen::VectorXd* grad, double rcond_fail) {
+    const double ll = value(theta, nugget, rcond_fail);
+    if (grad && std::isfinite(ll)) gradient(*grad);
     return ll;
   }
 
@@ -144,14 +203,15 @@ class GaspLik {
   double rcond() const { return rcond_; }
 
  private:
-  Eigen::MatrixXd X_;
+  const GaspDist& D_;
   Eigen::VectorXd y_;
   int K_, p_, P_;
-  Eigen::MatrixXd logd_, d1_, d2_, T_, R_, I_;
-  Eigen::ArrayXd C_;
+  Eigen::MatrixXd T_, R_, Linv_, Ri_;
+  Eigen::ArrayXd S_, C_, Mp_;
   Eigen::VectorXd ones_, u_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
   double mu_ = 0.0, sigma2_ = 0.0, rcond_ = 0.0;
+  bool ok_ = false;
 };
 
 struct GaspOptResult {
@@ -162,10 +222,27 @@ struct GaspOptResult {
 };
 
 // Projected L-BFGS maximising the profile log-likelihood on the box [lo, hi].
+// Stops when the projected gradient is below pgtol or the objective changed
+// by less than ftol * max(1, |loglik|) in two successive iterations.
 inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugget,
                                    const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
                                    const GaspSettings& set) {
   const int n = static_cast<int>(x.size());
+  const int p = lik.n_inputs();
+  // Initial inverse Hessian of the two-loop recursion: per input, the inverse
+  // of the 2 x 2 Gram matrix of (1, -log|d|) over the pairs, which undoes the
+  // near-collinearity of log beta and alpha (beta d^(2 - alpha)).
+  const Eigen::VectorXd& cm = lik.dist().c;
+  const Eigen::VectorXd& vm = lik.dist().v;
+  auto apply_h0 = [&](const Eigen::VectorXd& z) {
+    Eigen::VectorXd out(n);
+    for (int i = 0; i < p; ++i) {
+      const double a = z(i), b = z(p + i), c = cm(i), v = vm(i);
+      out(i) = ((c * c + v) * a + c * b) / v;
+      out(p + i) = (c * a + b) / v;
+    }
+    return out;
+  };
   x = x.cwiseMax(lo).cwiseMin(hi);
   Eigen::VectorXd g(n), g_new(n);
   // minimise f = -loglik
@@ -202,8 +279,15 @@ inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugge
       for (int i = 0; i < n; ++i) if (!fr(i)) q(i) = 0.0;
     }
     double gamma = 1.0;
-    if (m > 0) gamma = S[m - 1].dot(Y[m - 1]) / Y[m - 1].squaredNorm();
-    Eigen::VectorXd d = gamma * q;
+    Eigen::VectorXd d;
+    if (set.precondition && n == 2 * p) {
+      if (m > 0) gamma = S[m - 1].dot(Y[m - 1]) / Y[m - 1].dot(apply_h0(Y[m - 1]));
+      d = gamma * apply_h0(q);
+      for (int i = 0; i < n; ++i) if (!fr(i)) d(i) = 0.0;
+    } else {
+      if (m > 0) gamma = S[m - 1].dot(Y[m - 1]) / Y[m - 1].squaredNorm();
+      d = gamma * q;
+    }
     for (int j = 0; j < m; ++j) {
       const double be = rho[j] * Y[j].dot(d);
       d += S[j] * (al[j] - be);
@@ -222,13 +306,14 @@ inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugge
       const double dn = d.lpNorm<Eigen::Infinity>();
       if (dn > 1.0) d /= dn;
     }
-    // backtracking Armijo search along the projected path
+    // backtracking Armijo search along the projected path; the gradient is
+    // computed only at the accepted point
     double step = 1.0, f_new = std::numeric_limits<double>::infinity();
     Eigen::VectorXd x_new(n);
     bool ok = false;
     for (int ls = 0; ls < 40; ++ls) {
       x_new = (x + step * d).cwiseMax(lo).cwiseMin(hi);
-      f_new = -lik.eval(x_new, nugget, &g_new, set.rcond_fail);
+      f_new = -lik.value(x_new, nugget, set.rcond_fail);
       if (std::isfinite(f_new) && f_new <= f + 1e-4 * g.dot(x_new - x)) {
         ok = true;
         break;
@@ -242,6 +327,7 @@ inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugge
       }
       break;
     }
+    lik.gradient(g_new);
     g_new = -g_new;
     const Eigen::VectorXd s = x_new - x, yv = g_new - g;
     const double sy = s.dot(yv);
@@ -263,64 +349,111 @@ inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugge
   return res;
 }
 
-// Radical inverse in base b (Halton sequence), for deterministic starts.
-inline double halton(int i, int b) {
-  double f = 1.0, r = 0.0;
-  while (i > 0) { f /= b; r += f * (i % b); i /= b; }
-  return r;
+// Space-filling screening points (columns: log beta_1..p, alpha_1..p): a
+// Latin hypercube from a fixed-seed generator (splitmix64), so the same on
+// every platform and for every coefficient. Log beta in [screen_lo,
+// screen_hi]; alpha in [0, 1], with the lowest quarter of each alpha
+// stratum set to 0 (the Gaussian end, where most optima lie).
+inline Eigen::MatrixXd gasp_screen_points(int p, const GaspSettings& set) {
+  const int n = std::max(0, set.n_screen);
+  Eigen::MatrixXd pts(2 * p, n);
+  if (n == 0) return pts;
+  uint64_t state = 0x9e3779b97f4a7c15ULL;
+  auto next = [&state]() {
+    uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    z = z ^ (z >> 31);
+    return static_cast<double>(z >> 11) / 9007199254740992.0;  // 2^53
+  };
+  std::vector<int> perm(n);
+  for (int r = 0; r < 2 * p; ++r) {
+    for (int i = 0; i < n; ++i) perm[i] = i;
+    for (int i = n - 1; i > 0; --i) {  // Fisher-Yates
+      const int j = static_cast<int>(next() * (i + 1));
+      std::swap(perm[i], perm[std::min(j, i)]);
+    }
+    for (int i = 0; i < n; ++i) {
+      const double v = (perm[i] + next()) / n;
+      if (r < p) {
+        pts(r, i) = set.screen_lo + (set.screen_hi - set.screen_lo) * v;
+      } else {
+        pts(r, i) = v < 0.25 ? 0.0 : (v - 0.25) / 0.75;
+      }
+    }
+  }
+  return pts;
 }
 
 struct GaspFit {
   Eigen::VectorXd theta;  // (log beta, alpha)
   double nugget = 0.0;
   double loglik = -std::numeric_limits<double>::infinity();
-  int n_eval = 0;
+  int n_eval = 0, n_grad = 0;
   bool converged = false;
 };
 
-// Fits one coefficient: data-driven isotropic start plus Halton starts over
-// log beta in [-4, 2], alpha in [0, 1]; nugget increased along `ladder`
-// while the optimum is numerically singular.
-inline GaspFit gasp_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int n_starts,
+// Fits one coefficient. Screening: the likelihood (no gradient) at the warm
+// starts (fitted parameters of related coefficients), at isotropic points
+// (common log beta on a grid, alpha 0 and 0.5) and at the space-filling
+// points `screen` (2p x n). Then projected L-BFGS from the best n_local
+// distinct screened points; the best result is kept. The nugget is increased
+// along a ladder while the optimum is numerically singular.
+inline GaspFit gasp_fit(const GaspDist& D, const Eigen::VectorXd& y,
+                        const std::vector<Eigen::VectorXd>& warm, const Eigen::MatrixXd& screen,
                         const GaspSettings& set) {
   static const double ladder[] = {0.0, 1e-8, 1e-6, 1e-4, 1e-2};
-  GaspLik lik(X, y);
+  GaspLik lik(D, y);
   const int p = lik.n_inputs();
   Eigen::VectorXd lo(2 * p), hi(2 * p);
   lo.head(p).setConstant(set.lb_lo); hi.head(p).setConstant(set.lb_hi);
   lo.tail(p).setZero(); hi.tail(p).setOnes();
-  const int primes[] = {2, 3, 5, 7, 11, 13, 17, 19, 23, 29, 31, 37, 41, 43, 47, 53, 59, 61, 67, 71,
-                        73, 79, 83, 89, 97, 101, 103, 107, 109, 113, 127, 131, 137, 139, 149, 151};
-  const int n_primes = sizeof(primes) / sizeof(int);
+  std::vector<Eigen::VectorXd> cand;
+  for (const Eigen::VectorXd& w : warm) {
+    if (w.size() == 2 * p && w.allFinite()) cand.push_back(w.cwiseMax(lo).cwiseMin(hi));
+  }
+  // (common log beta kept below 3: larger values make R close to the identity, a plateau)
+  for (double a : {0.0, 0.5}) {
+    if (a > 0.0 && !set.iso_half) continue;
+    for (double lb = set.lb_lo + 1.0; lb <= std::min(3.0, set.lb_hi); lb += 1.0) {
+      Eigen::VectorXd th(2 * p);
+      th.head(p).setConstant(lb);
+      th.tail(p).setConstant(a);
+      cand.push_back(th);
+    }
+  }
+  for (int i = 0; i < screen.cols(); ++i) cand.push_back(screen.col(i).cwiseMax(lo).cwiseMin(hi));
+  const int nc = static_cast<int>(cand.size());
   GaspFit best;
   for (double nug : ladder) {
-    // data-driven start: best common log beta on a grid, alpha = 0.5
-    Eigen::VectorXd th(2 * p);
-    double best_iso = -std::numeric_limits<double>::infinity(), lb_iso = 0.0;
-    // (kept below 3: larger values make R close to the identity, a plateau)
-    for (double lb = set.lb_lo + 1.0; lb <= std::min(3.0, set.lb_hi); lb += 1.0) {
-      th.head(p).setConstant(lb);
-      th.tail(p).setConstant(0.5);
-      const double v = lik.eval(th, nug, nullptr, set.rcond_fail);
-      if (v > best_iso) { best_iso = v; lb_iso = lb; }
+    std::vector<std::pair<double, int>> scored;
+    for (int i = 0; i < nc; ++i) {
+      const double v = lik.value(cand[i], nug, set.rcond_fail);
+      if (std::isfinite(v)) scored.emplace_back(-v, i);
     }
-    if (!std::isfinite(best_iso)) continue;
+    if (scored.empty()) continue;
+    std::stable_sort(scored.begin(), scored.end(),
+                     [](const std::pair<double, int>& a, const std::pair<double, int>& b) {
+                       return a.first < b.first;
+                     });
     GaspFit fit;
     fit.nugget = nug;
-    for (int s = 0; s < std::max(1, n_starts); ++s) {
-      Eigen::VectorXd x0(2 * p);
-      if (s == 0) {
-        x0.head(p).setConstant(lb_iso);
-        x0.tail(p).setConstant(0.5);
-      } else {
-        for (int q = 0; q < p; ++q) {
-          x0(q) = -4.0 + 6.0 * halton(s, primes[q % n_primes]);  // log beta in [-4, 2]
-          x0(p + q) = halton(s, primes[(p + q) % n_primes]);
-        }
+    std::vector<Eigen::VectorXd> done;
+    for (const auto& sc : scored) {
+      if (static_cast<int>(done.size()) >= std::max(1, set.n_local)) break;
+      const Eigen::VectorXd& x0 = cand[sc.second];
+      bool dup = false;
+      for (const Eigen::VectorXd& d : done) dup = dup || (d - x0).lpNorm<Eigen::Infinity>() < 1e-6;
+      if (dup) continue;
+      done.push_back(x0);
+      Eigen::VectorXd x1 = x0;
+      if (set.gauss_first) {
+        Eigen::VectorXd hi0 = hi;
+        hi0.tail(p).setZero();
+        x1.tail(p).setZero();
+        x1 = gasp_optimise(lik, x1, nug, lo, hi0, set).theta;
       }
-      GaspSettings short_set = set;
-      short_set.maxit = std::min(set.maxit_explore, set.maxit);
-      GaspOptResult r = gasp_optimise(lik, x0, nug, lo, hi, short_set);
+      GaspOptResult r = gasp_optimise(lik, x1, nug, lo, hi, set);
       if (r.loglik > fit.loglik) {
         fit.loglik = r.loglik;
         fit.theta = r.theta;
@@ -328,19 +461,12 @@ inline GaspFit gasp_fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int 
       }
     }
     if (!std::isfinite(fit.loglik)) continue;
-    if (!fit.converged) {
-      GaspOptResult r = gasp_optimise(lik, fit.theta, nug, lo, hi, set);
-      if (r.loglik >= fit.loglik) {
-        fit.loglik = r.loglik;
-        fit.theta = r.theta;
-        fit.converged = r.converged;
-      }
-    }
-    lik.eval(fit.theta, nug, nullptr, 0.0);
+    lik.value(fit.theta, nug, 0.0);
     best = fit;
     if (lik.rcond() >= set.rcond_ok) break;
   }
   best.n_eval = lik.n_eval;
+  best.n_grad = lik.n_grad;
   return best;
 }
 

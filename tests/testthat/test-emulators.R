@@ -53,6 +53,26 @@ test_that("the analytic gradient matches finite differences", {
   }
 })
 
+test_that("the gradient is right at alpha on its bounds (the exact 0 and 1 shortcuts)", {
+  withr::local_seed(11)
+  K <- 20
+  p <- 2
+  X <- matrix(stats::runif(K * p), K, p)
+  y <- sin(3 * X[, 1]) + X[, 2]
+  th <- c(-0.5, 0.3, 0, 1)
+  # the shortcut values are the limits of the general formula
+  inner <- c(-0.5, 0.3, 1e-9, 1 - 1e-9)
+  expect_equal(gasp_loglik_cpp(X, y, th, 0)$loglik, gasp_loglik_cpp(X, y, inner, 0)$loglik, tolerance = 1e-8)
+  g <- gasp_loglik_cpp(X, y, th, 0)$gradient
+  h <- 1e-6
+  fd <- vapply(seq_along(th), function(j) {
+    a <- th
+    a[j] <- a[j] + if (j == 4) -h else h  # one-sided, into the box
+    (gasp_loglik_cpp(X, y, a, 0)$loglik - gasp_loglik_cpp(X, y, th, 0)$loglik) / (a[j] - th[j])
+  }, numeric(1))
+  expect_equal(g, fd, tolerance = 1e-4)
+})
+
 test_that("the profile log-likelihood equals DiceKriging's at the same parameters", {
   withr::local_seed(2)
   K <- 20
@@ -74,13 +94,42 @@ test_that("the fit maximises the likelihood within the box", {
   K <- 25
   X <- matrix(stats::runif(K * 2), K, 2)
   y <- sin(5 * X[, 1]) + 0.5 * X[, 2]
-  f <- gasp_fit_cpp(X, cbind(y), 4L, -8, 6, 200L, 25L)
+  f <- gasp_fit_cpp(X, cbind(y), 1L, list(n_local = 4L))
   th <- c(log(f$beta), f$alpha)
   expect_equal(f$loglik, gasp_loglik_cpp(X, y, th, f$nugget)$loglik)
   for (r in 1:20) {
     other <- c(stats::runif(2, -3, 4), stats::runif(2))
     expect_gte(f$loglik, gasp_loglik_cpp(X, y, other, f$nugget)$loglik - 1e-6)
   }
+})
+
+test_that("the optimiser settings, warm starts and control checks behave", {
+  withr::local_seed(12)
+  K <- 30
+  X <- matrix(stats::runif(K * 3), K, 3)
+  Y <- sapply(1:6, function(i) {
+    sin((2 + i / 3) * X[, 1]) + 0.5 * X[, 2]^2 + 0.1 * i * X[, 3] + 0.3 * abs(X[, 2] - 0.5) +
+      0.2 * sin(9 * X[, 3])
+  })
+  one <- gasp_fit_cpp(X, Y, rep(1L, 6), list())
+  alone <- gasp_fit_cpp(X, Y, 1:6, list())  # no warm starts
+  plain <- gasp_fit_cpp(X, Y, rep(1L, 6), list(precondition = 0L))
+  many <- gasp_fit_cpp(X, Y, rep(1L, 6), list(n_local = 4L))
+  # more local searches from the same screened points never lose
+  expect_true(all(many$loglik >= one$loglik - 1e-10))
+  for (f in list(one, alone, plain)) {
+    expect_true(all(f$converged))
+    expect_true(all(f$nugget == 0))
+  }
+  # the reported log-likelihood is that of the reported parameters
+  for (i in 1:6) {
+    th <- c(log(one$beta[i, ]), one$alpha[i, ])
+    expect_equal(one$loglik[i], gasp_loglik_cpp(X, Y[, i], th, one$nugget[i])$loglik)
+  }
+  # and the fit is deterministic
+  expect_identical(gasp_fit_cpp(X, Y, rep(1L, 6), list()), one)
+  expect_error(gasp_fit_cpp(X, Y, rep(1L, 6), list(n_local = 0L)), "control")
+  expect_error(gasp_fit_cpp(X, Y, 1L, list()), "group")
 })
 
 test_that("the predictor interpolates the design runs", {
