@@ -13,13 +13,38 @@
 #'    alone fix sigma: the modularization of the method), or uses `sigma2`;
 #' 2. runs `n_inner` cycles of Metropolis-Hastings on `(delta, u, tau2)`
 #'    targeting `prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + tau2_j(i))`
-#'    times the priors, with `pi(tau2_j) ~ 1 / (tau2_j + mean(sigma2_j) / R)`:
-#'    a joint log-uniform step on every `tau2` (factor `e^0.7`) and a joint step
-#'    on every input from a 50/50 mixture of a uniform on its support and a
-#'    uniform on `current +/- step * range`, with the full mixture densities in
-#'    the Hastings ratio;
+#'    times the priors, with `pi(tau2_j) ~ 1 / (tau2_j + mean(sigma2_j) / R)`;
 #' 3. draws `w^b` (eq. 17) and `w^M` (eq. 16, with the variance
 #'    `V (sigma2 / R) / (V + sigma2 / R)`).
+#'
+#' @section Proposals:
+#' `proposal = "report"` is the sampler of the report (Appendix C): each cycle
+#' is a joint log-uniform step on every `tau2` (factor `e^0.7`, Hastings factor
+#' `tau2_new / tau2_old`) and a joint step on every input, each coordinate from
+#' a 50/50 mixture of a uniform on its support and a uniform on
+#' `current +/- step * range`, with the full mixture densities in the Hastings
+#' ratio. These joint proposals do not mix when the posterior is narrow (many
+#' coefficients, several replicates, as in the suspension test bed): a joint
+#' move of all inputs, or of all `tau2` at once, is then almost never accepted
+#' and the chains stay where they start.
+#'
+#' `proposal = "adaptive"` (the default) departs from the report:
+#' * each `tau2` group is updated on its own (same log-uniform proposal and
+#'   Hastings factor); only that group's coefficients enter the ratio, so these
+#'   steps cost no emulator prediction;
+#' * the inputs move by a Gaussian random walk whose covariance is learned
+#'   during the burn-in (adaptive Metropolis, Haario, Saksman and Tamminen
+#'   2001): `(2.38^2 / d) (Sigma_hat + eps)` from the running covariance of the
+#'   chain, times a scale tuned towards acceptance 0.234, starting from a
+#'   diagonal proposal of 2% of each range. Proposals outside the support have
+#'   zero posterior density and are rejected (this keeps the kernel symmetric,
+#'   which reflection at the bounds would not be for a correlated proposal).
+#'   The burn-in starts from the best, by profile likelihood (`tau2` at its
+#'   moment estimate), of the nominal point and 200 draws from the prior of the
+#'   inputs, and is not saved. At its end the proposal (covariance and scale)
+#'   is frozen, so the saved chain is a time-homogeneous Metropolis-Hastings
+#'   chain; with probability 0.1 a cycle uses the report's mixture step instead
+#'   of the random walk, for global moves.
 #'
 #' Variation inputs have prior `N(x_nom, prior_sd^2)` truncated to the I/U
 #' range shifted by `x_nom - nominal` (`x_nom` from `field$x_nom` when given,
@@ -43,6 +68,12 @@
 #'   site. Needed for sites with fewer than two replicates.
 #' @param step Half-width of the local proposal as a fraction of each input's
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
+#' @param proposal `"adaptive"` (default) or `"report"`; see the section
+#'   Proposals.
+#' @param burnin Metropolis-Hastings cycles run before the first saved draw
+#'   and discarded (`sigma2` is drawn anew every `n_inner` of them). `NULL`
+#'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
+#'   adapts during these cycles, and 0 for `"report"`.
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector named
 #'   by group `"site:level"`); they are then not sampled. Mostly for checks.
 #' @param quiet Suppress the progress bar (default `getOption("wavevalid.quiet")`).
@@ -52,7 +83,11 @@
 #'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
 #'   stacked), `chain`, `emulators`, `basis`, `field`, `iu`, `prior_iu` (the
 #'   I/U map shifted to `x_nom`), `x_nom`, `wbar`, `s2`, `n_rep`, `groups`,
-#'   `acceptance`, `rhat`, `ess`, `flags`, `seed`, `settings`.
+#'   `acceptance` (by chain: `tau2`, `inputs` after the burn-in (random-walk
+#'   steps for `"adaptive"`), `global` (the mixture steps of `"adaptive"`),
+#'   `burnin`), `start` (the burn-in start of each chain), `proposal_cov` (the
+#'   frozen random-walk covariance of each chain), `rhat`, `ess`, `flags`,
+#'   `seed`, `settings`.
 #' @seealso [bias()], [reality()], [model_prediction()], [validate()].
 #' @export
 #' @examples
@@ -61,7 +96,8 @@
 #'                  chains = 2, seed = 1, quiet = TRUE)
 #' fit
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
-                      seed = NULL, sigma2 = NULL, step = 0.1, fix_tau2 = NULL,
+                      seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
+                      burnin = NULL, fix_tau2 = NULL,
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
   rlang::check_dots_empty()
   check_class(emulators, "wv_emulators")
@@ -71,13 +107,20 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(n_inner, min = 1, integer = TRUE)
   check_number(chains, min = 1, integer = TRUE)
   check_number(step, min = 1e-6, max = 1)
+  proposal <- rlang::arg_match(proposal)
+  if (is.null(burnin)) {
+    burnin <- if (proposal == "adaptive") max(5000, floor(n_draws * n_inner / 4)) else 0
+  }
+  check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
   seed <- resolve_seed(seed)
   spec <- calibration_spec(emulators, field, iu, sigma2)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
-  runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet)
+  runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
+                     proposal = proposal, burnin = burnin)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
-                                      step = step, fix_tau2 = tau$values[tau$fixed]),
+                                      step = step, proposal = proposal, burnin = burnin,
+                                      fix_tau2 = tau$values[tau$fixed]),
                       seed = seed)
   warn_fit_flags(fit)
   fit
@@ -197,7 +240,8 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
 # One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2
 # ratio) exists only to show that the simulation-based checks detect errors.
 run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
-                       quiet = FALSE) {
+                       quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1,
+                       n_search = 200L) {
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   chain_fun <- function(ch) {
@@ -209,7 +253,8 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
     calibrate_chain_cpp(spec$sites, spec$priors, nrow(spec$groups), as.numeric(spec$z_init),
                         as.numeric(tau_init), fix, as.integer(n_draws), as.integer(n_inner),
                         as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
-                        progress)
+                        progress, identical(proposal, "adaptive"), as.integer(burnin),
+                        as.numeric(p_global), as.integer(n_search))
   }
   future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }
@@ -232,13 +277,23 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
   }
   acceptance <- data.frame(chain = seq_along(runs),
                            tau2 = vapply(runs, function(r) r$acc_tau, numeric(1)),
-                           inputs = vapply(runs, function(r) r$acc_input, numeric(1)))
+                           inputs = vapply(runs, function(r) r$acc_input, numeric(1)),
+                           global = vapply(runs, function(r) r$acc_global, numeric(1)),
+                           burnin = vapply(runs, function(r) r$acc_burnin, numeric(1)))
+  start <- do.call(rbind, lapply(runs, function(r) r$z_start))
+  colnames(start) <- spec$inputs
+  prop_cov <- lapply(runs, function(r) {
+    m <- r$proposal_cov
+    if (length(m)) dimnames(m) <- list(spec$inputs, spec$inputs)
+    m
+  })
   fit <- new_wv_fit(list(
     draws = draws, wM = stack("wM"), wb = stack("wb"), sigma2 = stack("sigma2"),
     chain = rep(seq_along(runs), each = settings$n_draws),
     emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
-    groups = spec$groups, acceptance = acceptance, seed = seed, settings = settings
+    groups = spec$groups, acceptance = acceptance, start = start, proposal_cov = prop_cov,
+    seed = seed, settings = settings
   ))
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat
@@ -340,8 +395,12 @@ print.wv_fit <- function(x, ...) {
                         n, H, length(x$draws), if (length(x$draws) == 1) "" else "s",
                         x$settings$n_inner))
   acc <- x$acceptance
-  cli::cat_line("Acceptance by chain: tau2 ", paste(format_rate(acc$tau2), collapse = " "),
-                "; inputs ", paste(format_rate(acc$inputs), collapse = " "))
+  glob <- if (!is.null(acc$global) && any(!is.na(acc$global))) {
+    paste0("; global ", paste(format_rate(acc$global), collapse = " "))
+  } else ""
+  cli::cat_line("Acceptance by chain (", x$settings$proposal %||% "report", " proposal): tau2 ",
+                paste(format_rate(acc$tau2), collapse = " "),
+                "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
   if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
   b <- x$flags$boundary

@@ -1,53 +1,86 @@
-# Speed of calibrate(): (a) a full 1000 x 200 chain at the size of the test bed
-# (~230 coefficients, 66 runs, 9 inputs), (b) the C++ likelihood step against
-# a plain R implementation of eq. (11) + eq. (18), (c) effective samples per
-# second of the inputs.
+# Speed of calibrate() on the suspension test bed (seed 1, condition A, two
+# sites): (a) one full chain of n_draws x n_inner cycles (plus the burn-in),
+# (b) the cost of one Metropolis-Hastings cycle in C++ against plain R
+# implementations of eq. (11) + eq. (18): a loop over coefficients calling
+# DiceKriging::predict() on km objects with the fitted hyperparameters, and a
+# vectorised loop in base R; (c) effective samples per second of each input.
 # Run: R_LIBS=<lib> Rscript bench/bench_calibrate.R [n_draws] [n_inner]
 library(wavevalid)
+options(wavevalid.quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 n_draws <- if (length(args) >= 1) as.integer(args[1]) else 1000L
 n_inner <- if (length(args) >= 2) as.integer(args[2]) else 200L
 ns <- asNamespace("wavevalid")
-set.seed(1)
 
-n_t <- 4096L
-n_coef <- 230L
-K <- 66L
-inputs <- c("u1", "u2", paste0("x", 1:7))
-p <- length(inputs)
-iu <- iu_map(inputs, c("calibration", "calibration", rep("variation", 7)),
-             lower = rep(0.125, p), upper = rep(0.875, p), nominal = rep(0.5, p))
-design <- apply(matrix(runif(K * p), K, p), 2, function(v) (rank(v) - runif(K)) / K)
-design <- 0.125 + 0.75 * design
-colnames(design) <- inputs
-t <- 65 * (0:(n_t - 1)) / n_t
-index <- sort(c(1:8, sample(9:n_t, n_coef - 8)))
-basis <- ns$basis_from_index(t, index)
-# coefficient i: a smooth function of the inputs; GASP hyperparameters with
-# some zero betas as fitted emulators have
-A <- matrix(rnorm(n_coef * p), n_coef, p) / sqrt(seq_len(n_coef))
-Y <- sin(design %*% t(A) * 3) + 0.1 * matrix(rnorm(K * n_coef), K, n_coef)
-beta <- matrix(rexp(n_coef * p, 1 / 2), n_coef, p) * (matrix(runif(n_coef * p), n_coef, p) > 0.3)
-alpha <- matrix(sample(c(0, 0.5, 1), n_coef * p, TRUE, c(0.6, 0.3, 0.1)), n_coef, p)
-bank <- ns$bank_fixed_hyper(design, Y, beta, alpha, nugget = 1e-6)
-emulators <- structure(list(params = NULL, inputs = inputs, design = design, banks = list(site1 = bank),
-                            basis = basis, engine = "gasp", t = t), class = "wv_emulators")
-z_true <- rep(0.55, p)
-m_true <- ns$gasp_bank_predict_cpp(bank, matrix(z_true, 1))$mean
-W <- matrix(drop(m_true), 7, n_coef, byrow = TRUE) + matrix(rnorm(7 * n_coef, sd = 0.05), 7, n_coef)
-field <- ns$new_wv_field(t, list(site1 = W %*% t(basis$Psi)))
+t0 <- proc.time()[["elapsed"]]
+tb <- testbed_suspension(seed = 1)
+field <- register_curves(tb$A$field, tb$A$runs, tb$windows)
+basis <- wavelet_basis(tb$A$runs, field)
+emulators <- fit_emulators(tb$A$runs, basis)
+iu <- tb$iu
+p <- length(emulators$inputs)
+cat(sprintf("Test bed: %d coefficients per site, sites %s, %d runs, %d inputs (built in %.0f s)\n",
+            length(basis$index), paste(names(emulators$banks), collapse = ", "), nrow(emulators$design), p,
+            proc.time()[["elapsed"]] - t0))
 
-cat(sprintf("Problem: %d coefficients, %d runs, %d inputs, %d-point grid\n", n_coef, K, p, n_t))
-
-# (a) a full chain
+# (a) one full chain
 el <- system.time(fit <- calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                   seed = 1, quiet = TRUE))[["elapsed"]]
-n_iter <- n_draws * n_inner
-cat(sprintf("(a) one chain of %d x %d = %d iterations: %.1f s (%.1f us per iteration); acceptance tau2 %.2f, inputs %.2f\n",
-            n_draws, n_inner, n_iter, el, 1e6 * el / n_iter, fit$acceptance$tau2, fit$acceptance$inputs))
+                                   seed = 1))[["elapsed"]]
+n_iter <- n_draws * n_inner + fit$settings$burnin
+cat(sprintf("(a) one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.2f ms per cycle)\n",
+            n_draws, n_inner, fit$settings$burnin, n_iter, el, 1e3 * el / n_iter))
+cat(sprintf("    acceptance: tau2 %.2f, inputs %.2f (random walk), %.2f (global moves), burn-in %.2f\n",
+            fit$acceptance$tau2, fit$acceptance$inputs, fit$acceptance$global, fit$acceptance$burnin))
 
-# (b) per-iteration time against plain R (eq. 11 by a loop over coefficients, eq. 18)
+# (b) one cycle: C++ (short chain, no burn-in) against plain R
 spec <- ns$calibration_spec(emulators, field, iu)
+tau <- ns$resolve_fix_tau2(NULL, spec$groups)
+cpp <- system.time(ns$run_chains(spec, 20, 100, 1, 1, 0.1, tau, 0L, quiet = TRUE,
+                                 proposal = "adaptive", burnin = 0L))[["elapsed"]] / 2000
+
+# DiceKriging: one km object per (site, coefficient) with the fitted
+# hyperparameters; powexp correlation exp(-sum (|h| / theta)^p) with
+# p = 2 - alpha, theta = beta^(-1 / p) (beta = 0: theta = 1e8).
+km_bank <- function(bank) {
+  X <- as.data.frame(bank$X)
+  colnames(X) <- emulators$inputs
+  lapply(seq_along(bank$mu), function(i) {
+    pw <- 2 - bank$alpha[i, ]
+    theta <- ifelse(bank$beta[i, ] > 0, bank$beta[i, ]^(-1 / pw), 1e8)
+    v <- 1 / bank$lambda[i]
+    DiceKriging::km(~1, design = X, response = bank$y[, i], covtype = "powexp",
+                    coef.trend = bank$mu[i], coef.cov = c(theta, pw), coef.var = v,
+                    nugget = if (bank$nugget[i] > 0) bank$nugget[i] * v else NULL)
+  })
+}
+kms <- lapply(emulators$banks, km_bank)
+dk_predict <- function(models, bank, z) {
+  nd <- as.data.frame(matrix((z - bank$lower) / bank$width, 1, dimnames = list(NULL, emulators$inputs)))
+  pr <- lapply(models, function(m) DiceKriging::predict(m, newdata = nd, type = "SK", checkNames = FALSE,
+                                                         se.compute = TRUE, light.return = TRUE))
+  list(m = vapply(pr, function(x) x$mean, 0), v = vapply(pr, function(x) x$sd^2, 0))
+}
+loglik_r <- function(pred, tau2, sigma2, site) {
+  tot <- pred$v + sigma2 / site$R + tau2[site$group + 1]
+  sum(stats::dnorm(site$wbar, pred$m, sqrt(tot), log = TRUE))
+}
+set.seed(1)
+tau2 <- rep(0.01, nrow(spec$groups))
+draw_z <- function() spec$priors$lower + stats::runif(p) * (spec$priors$upper - spec$priors$lower)
+z_check <- draw_z()
+chk <- dk_predict(kms[[1]], emulators$banks[[1]], z_check)
+ref <- ns$gasp_bank_predict_cpp(emulators$banks[[1]], matrix(z_check, 1))
+cat(sprintf("    DiceKriging vs C++ predictions (site 1): max |mean diff| %.1e, max |var diff| %.1e\n",
+            max(abs(chk$m - drop(ref$mean))), max(abs(chk$v - drop(ref$var)))))
+n_dk <- 3
+el_dk <- system.time(for (k in seq_len(n_dk)) {
+  z <- draw_z()
+  for (s in names(spec$sites)) {
+    site <- spec$sites[[s]]
+    loglik_r(dk_predict(kms[[s]], site$bank, z), tau2, spec$s2[[s]] / 6, site)
+  }
+})[["elapsed"]] / n_dk
+
 r_predict <- function(bank, z) {
   zs <- (z - bank$lower) / bank$width
   D <- abs(sweep(bank$X, 2, zs))
@@ -62,23 +95,19 @@ r_predict <- function(bank, z) {
   }
   list(m = m, v = v)
 }
-r_iteration <- function(z, tau2, sigma2, site) {
-  pr <- r_predict(site$bank, z)
-  tot <- pr$v + sigma2 / site$R + tau2[site$group + 1]
-  sum(dnorm(site$wbar, pr$m, sqrt(tot), log = TRUE))
-}
-n_r <- 20
-sig2 <- spec$s2$site1 / 6
-tau2 <- rep(0.01, nrow(spec$groups))
+n_r <- 10
 el_r <- system.time(for (k in seq_len(n_r)) {
-  z <- spec$priors$lower + runif(p) * (spec$priors$upper - spec$priors$lower)
-  r_iteration(z, tau2, sig2, spec$sites$site1)
+  z <- draw_z()
+  for (s in names(spec$sites)) {
+    site <- spec$sites[[s]]
+    loglik_r(r_predict(site$bank, z), tau2, spec$s2[[s]] / 6, site)
+  }
 })[["elapsed"]] / n_r
-tau <- ns$resolve_fix_tau2(NULL, spec$groups)
-short <- system.time(ns$run_chains(spec, 20, 100, 1, 1, 0.1, tau, 0L, quiet = TRUE))[["elapsed"]] / 2000
-cat(sprintf("(b) per iteration: plain R %.2f ms, C++ %.1f us: ratio %.0fx\n", 1e3 * el_r, 1e6 * short, el_r / short))
+cat(sprintf("(b) per cycle: C++ %.2f ms; DiceKriging::predict loop %.0f ms (ratio %.0fx); vectorised base R %.0f ms (ratio %.0fx)\n",
+            1e3 * cpp, 1e3 * el_dk, el_dk / cpp, 1e3 * el_r, el_r / cpp))
 
-# (c) effective samples per second for the inputs
-ess <- coda::effectiveSize(fit$draws)[inputs]
-cat(sprintf("(c) effective samples per second (inputs): median %.1f, min %.1f (ESS median %.0f, min %.0f of %d draws)\n",
-            median(ess) / el, min(ess) / el, median(ess), min(ess), n_draws))
+# (c) effective samples per second for each input
+ess <- coda::effectiveSize(fit$draws)[emulators$inputs]
+cat("(c) effective samples per second of chain time (ESS of", n_draws, "draws):\n")
+print(data.frame(input = names(ess), ess = round(ess), ess_per_s = signif(ess / el, 3)), row.names = FALSE)
+cat(sprintf("Total bench time %.0f s\n", proc.time()[["elapsed"]] - t0))

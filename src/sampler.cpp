@@ -18,7 +18,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
                                const Eigen::Map<Eigen::VectorXd>& z_init,
                                const Eigen::Map<Eigen::VectorXd>& tau2_init, bool fix_tau2,
                                int n_draws, int n_inner, double step, double seed, int chain,
-                               int debug_break, Rcpp::RObject progress) {
+                               int debug_break, Rcpp::RObject progress, bool adaptive = false,
+                               int burnin = 0, double p_global = 0.1, int n_search = 200) {
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
@@ -71,6 +72,10 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   set.z_init = z_init;
   set.debug_break = debug_break;
   set.report_every = std::max(1, std::min(10, n_draws / 100));
+  set.adaptive = adaptive;
+  set.burnin = burnin;
+  set.p_global = p_global;
+  set.n_search = n_search;
 
   const bool has_progress = !progress.isNULL();
   Rcpp::Function* fn = nullptr;
@@ -85,6 +90,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   };
 
   wavevalid::Sampler sampler(data, pr, n_groups, set);
+  sampler.check_ = [] { Rcpp::checkUserInterrupt(); };
   wavevalid::SamplerOutput out = sampler.run(cb);
 
   Rcpp::List sigma2(S), wb(S), wM(S);
@@ -97,5 +103,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("inputs") = out.inputs, Rcpp::Named("tau2") = out.tau2,
       Rcpp::Named("sigma2") = sigma2, Rcpp::Named("wb") = wb, Rcpp::Named("wM") = wM,
       Rcpp::Named("acc_tau") = out.n_tau > 0 ? out.acc_tau / out.n_tau : NA_REAL,
-      Rcpp::Named("acc_input") = out.n_input > 0 ? out.acc_input / out.n_input : NA_REAL);
+      Rcpp::Named("acc_input") = out.n_input > 0 ? out.acc_input / out.n_input : NA_REAL,
+      Rcpp::Named("acc_global") = out.n_global > 0 ? out.acc_global / out.n_global : NA_REAL,
+      Rcpp::Named("acc_burnin") = out.n_burn > 0 ? out.acc_burn / out.n_burn : NA_REAL,
+      Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov);
 }

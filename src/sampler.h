@@ -12,6 +12,22 @@
 //      target (eq. 18): prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + tau2_g(i))
 //      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R);
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
+//
+// That is the report's sampler (proposal = REPORT). With a narrow posterior
+// (many coefficients, several replicates) its joint proposals are almost never
+// accepted, so the ADAPTIVE proposal replaces step 2 by
+//      (a) one log-uniform step per tau2 group (same factor e^0.7 and Hastings
+//          factor), using cached m, V at the current inputs;
+//      (b) a Gaussian random walk on all inputs (proposals outside the support
+//          have zero target density and are rejected, so the kernel stays
+//          symmetric), with probability 1 - p_global, else the report's mixture
+//          step with its Hastings ratio.
+// Before the first saved draw, `burnin` cycles (not saved) adapt the random
+// walk as in Haario et al. (2001): covariance (2.38^2 / d)(Sigma_hat + eps)
+// times a scale tuned by Robbins-Monro towards acceptance 0.234, starting from
+// a diagonal proposal of 2% of each range and from the best (by profile
+// likelihood) of n_search prior draws and the nominal start. The proposal is
+// then frozen: the saved chain is a time-homogeneous Metropolis-Hastings chain.
 #ifndef WAVEVALID_SAMPLER_H
 #define WAVEVALID_SAMPLER_H
 
@@ -52,6 +68,10 @@ struct SamplerSettings {
   Eigen::VectorXd z_init;           // p
   int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio
   int report_every = 50;
+  bool adaptive = false;            // ADAPTIVE proposal (else the report's)
+  int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
+  double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
+  int n_search = 200;               // ADAPTIVE: prior draws scored for the start
 };
 
 struct SamplerOutput {
@@ -59,6 +79,9 @@ struct SamplerOutput {
   Eigen::MatrixXd tau2;    // H x G
   std::vector<Eigen::MatrixXd> sigma2, wb, wM;  // per site, H x n
   double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
+  double acc_global = 0, n_global = 0, acc_burn = 0, n_burn = 0;
+  Eigen::VectorXd z_start;   // first point of the burn-in
+  Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
 };
 
 class Sampler {
@@ -107,16 +130,39 @@ class Sampler {
     tau2_ = Eigen::VectorXd::Zero(G_);
     sigbar_ = Eigen::VectorXd::Zero(G_);
     bool tau_ready = false;
+    init_walk();
+
+    // Burn-in: blocks of n_inner cycles, sigma2 drawn at the start of each.
+    if (set_.burnin > 0) {
+      draw_sigma2();
+      init_tau2();
+      tau_ready = true;
+      if (set_.adaptive && set_.n_search > 0) search_start();
+    }
+    out.z_start = z_;
+    int done = 0, since_report = 0;
+    while (done < set_.burnin) {
+      if (done > 0) draw_sigma2();
+      refresh_cache();
+      double ll = loglik(tau2_);
+      const int len = std::min(set_.n_inner, set_.burnin - done);
+      for (int it = 0; it < len; ++it) {
+        ll = cycle(ll, done + it);
+      }
+      done += len;
+      since_report += len;
+      if (since_report >= 50 * set_.n_inner) { progress(0); since_report = 0; }
+    }
+    if (set_.adaptive) freeze_walk();
+    acc_tau_ = n_tau_ = acc_input_ = n_input_ = acc_global_ = n_global_ = 0;
+    out.acc_burn = acc_burn_; out.n_burn = n_burn_;
 
     for (int h = 0; h < H; ++h) {
       draw_sigma2();
       if (!tau_ready) { init_tau2(); tau_ready = true; }
       refresh_cache();
       double ll = loglik(tau2_);
-      for (int it = 0; it < set_.n_inner; ++it) {
-        if (!set_.fix_tau2 && G_ > 0) ll = tau_step(ll);
-        ll = input_step(ll);
-      }
+      for (int it = 0; it < set_.n_inner; ++it) ll = cycle(ll, -1);
       out.inputs.row(h) = z_.transpose();
       out.tau2.row(h) = tau2_.transpose();
       draw_coefficients(h, out);
@@ -124,6 +170,8 @@ class Sampler {
     }
     out.acc_tau = acc_tau_; out.n_tau = n_tau_;
     out.acc_input = acc_input_; out.n_input = n_input_;
+    out.acc_global = acc_global_; out.n_global = n_global_;
+    out.prop_cov = set_.adaptive ? Eigen::MatrixXd(walk_chol_ * walk_chol_.transpose()) : Eigen::MatrixXd();
     return out;
   }
 
@@ -141,6 +189,35 @@ class Sampler {
   std::vector<GaspBank::Workspace> ws_;
   std::vector<int> group_site_, group_count_;
   double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
+  double acc_global_ = 0, n_global_ = 0, acc_burn_ = 0, n_burn_ = 0;
+  std::vector<std::vector<int>> members_;  // coefficients of each tau2 group (in its site)
+
+  // Adaptive random walk: proposal z + scale * walk_chol_ * N(0, I).
+  Eigen::MatrixXd walk_chol_, walk_cov_, acc_cov_;
+  Eigen::VectorXd acc_mean_, range_;
+  double log_scale_ = 0.0, acc_n_ = 0.0;
+  int adapt_n_ = 0;
+  bool use_acc_ = false;
+
+  // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
+  double cycle(double ll, int burn_it) {
+    if (!set_.adaptive) {
+      if (!set_.fix_tau2 && G_ > 0) ll = tau_step(ll);
+      return input_step(ll);
+    }
+    if (!set_.fix_tau2 && G_ > 0) ll = tau_steps_by_group();
+    if (p_ == 0) return ll;
+    if (burn_it < 0 && set_.p_global > 0.0 && unif_(rng_) < set_.p_global) {
+      const double a0 = acc_input_, n0 = n_input_;
+      ll = input_step(ll);
+      acc_global_ += acc_input_ - a0;
+      n_global_ += 1;
+      acc_input_ = a0;
+      n_input_ = n0;
+      return ll;
+    }
+    return walk_step(ll, burn_it);
+  }
 
   void predict_all(const Eigen::VectorXd& z, std::vector<Eigen::VectorXd>& m,
                    std::vector<Eigen::VectorXd>& v) {
@@ -180,12 +257,18 @@ class Sampler {
       tau2_ = set_.tau2_init;
       return;
     }
+    tau2_ = moment_tau2(m_, v_);
+  }
+
+  Eigen::VectorXd moment_tau2(const std::vector<Eigen::VectorXd>& m,
+                              const std::vector<Eigen::VectorXd>& v) const {
+    Eigen::VectorXd out(G_);
     Eigen::VectorXd num = Eigen::VectorXd::Zero(G_), scale = Eigen::VectorXd::Zero(G_);
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
       for (int i = 0; i < d.bank->n_coef(); ++i) {
-        const double b = v_[s](i) + sigma2_[s](i) / d.R;
-        const double r = d.wbar(i) - m_[s](i);
+        const double b = v[s](i) + sigma2_[s](i) / d.R;
+        const double r = d.wbar(i) - m[s](i);
         num(d.group[i]) += r * r - b;
         scale(d.group[i]) += b + r * r;
       }
@@ -193,8 +276,9 @@ class Sampler {
     for (int g = 0; g < G_; ++g) {
       const double c = group_count_[g] > 0 ? group_count_[g] : 1.0;
       const double floor = std::max(1e-3 * scale(g) / c, 1e-12);
-      tau2_(g) = std::max(num(g) / c, floor);
+      out(g) = std::max(num(g) / c, floor);
     }
+    return out;
   }
 
   double log_prior_tau(int g, double t2) const {
@@ -248,6 +332,174 @@ class Sampler {
     return ll_cur;
   }
 
+  double group_loglik(int g, double t2) const {
+    const int s = group_site_[g];
+    double ll = 0.0;
+    for (int i : members_[g]) {
+      const double tot = base_[s](i) + t2;
+      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+    }
+    return ll;
+  }
+
+  // One log-uniform step per group; only the group's coefficients enter.
+  double tau_steps_by_group() {
+    for (int g = 0; g < G_; ++g) {
+      if (members_[g].empty()) continue;
+      const double cur = tau2_(g);
+      const double prop = cur * std::exp(-0.7 + 1.4 * unif_(rng_));
+      double lr = group_loglik(g, prop) - group_loglik(g, cur) + log_prior_tau(g, prop) -
+                  log_prior_tau(g, cur);
+      if (set_.debug_break != 2) lr += std::log(prop / cur);
+      n_tau_ += 1.0 / G_;
+      if (std::log(unif_(rng_)) < lr) {
+        tau2_(g) = prop;
+        acc_tau_ += 1.0 / G_;
+      }
+    }
+    return loglik(tau2_);
+  }
+
+  double log_prior_inputs(const Eigen::VectorXd& z) const {
+    double lp = 0.0;
+    for (int k = 0; k < p_; ++k) lp += log_prior_input(k, z(k));
+    return lp;
+  }
+
+  void init_walk() {
+    range_.resize(p_);
+    for (int k = 0; k < p_; ++k) range_(k) = priors_[k].upper - priors_[k].lower;
+    walk_cov_ = Eigen::MatrixXd::Zero(p_, p_);
+    for (int k = 0; k < p_; ++k) walk_cov_(k, k) = std::pow(0.02 * range_(k), 2);
+    walk_chol_ = walk_cov_.llt().matrixL();
+    acc_mean_ = Eigen::VectorXd::Zero(p_);
+    acc_cov_ = Eigen::MatrixXd::Zero(p_, p_);
+    acc_n_ = 0.0;
+    log_scale_ = 0.0;
+    adapt_n_ = 0;
+    use_acc_ = false;
+    members_.assign(G_, std::vector<int>());
+    for (std::size_t s = 0; s < sites_.size(); ++s)
+      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) members_[sites_[s].group[i]].push_back(i);
+  }
+
+  // Proposal covariance from the running covariance of the chain.
+  void set_walk_from_accumulator() {
+    Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
+    for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
+    C *= 2.38 * 2.38 / p_;
+    Eigen::LLT<Eigen::MatrixXd> llt(C);
+    if (llt.info() == Eigen::Success) {
+      walk_cov_ = C;
+      walk_chol_ = llt.matrixL();
+    }
+  }
+
+  void accumulate(const Eigen::VectorXd& z) {
+    acc_n_ += 1.0;
+    const Eigen::VectorXd d = z - acc_mean_;
+    acc_mean_ += d / acc_n_;
+    acc_cov_ += d * (z - acc_mean_).transpose();
+  }
+
+  // Adaptive Metropolis: the running covariance is restarted at 1/4 and 1/2
+  // of the burn-in (to forget the way in from the start); the proposal uses it
+  // once it holds 20 p points. The scale follows acceptance 0.234.
+  double walk_step(double ll_cur, int burn_it) {
+    const bool adapt = burn_it >= 0;
+    if (adapt) {
+      const int b = set_.burnin;
+      if (burn_it == b / 4 || burn_it == b / 2) {
+        acc_n_ = 0.0;
+        acc_mean_.setZero();
+        acc_cov_.setZero();
+      }
+    }
+    Eigen::VectorXd e(p_);
+    for (int k = 0; k < p_; ++k) e(k) = norm_(rng_);
+    const double sc = std::exp(log_scale_);
+    zp_ = z_ + sc * (walk_chol_ * e);
+    double lr = -std::numeric_limits<double>::infinity();
+    double ll_prop = ll_cur;
+    const double lp = log_prior_inputs(zp_);
+    if (std::isfinite(lp)) {
+      predict_all(zp_, mp_, vp_);
+      ll_prop = loglik_with(mp_, vp_, tau2_);
+      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
+    }
+    const double u = std::log(unif_(rng_));
+    const bool accept = u < lr;
+    if (adapt) { n_burn_ += 1; } else { n_input_ += 1; }
+    if (accept) {
+      z_.swap(zp_);
+      m_.swap(mp_);
+      v_.swap(vp_);
+      refresh_cache();
+      if (adapt) { acc_burn_ += 1; } else { acc_input_ += 1; }
+    }
+    if (adapt) {
+      adapt_n_ += 1;
+      const double a = std::isfinite(lr) ? std::min(1.0, std::exp(std::min(lr, 0.0))) : 0.0;
+      log_scale_ += std::pow(adapt_n_, -0.6) * (a - 0.234) * 2.0;
+      log_scale_ = std::max(-15.0, std::min(5.0, log_scale_));
+      accumulate(z_);
+      if (acc_n_ >= 20.0 * p_) {
+        if (!use_acc_) { use_acc_ = true; log_scale_ = 0.0; adapt_n_ = 1; }
+        if (static_cast<int>(acc_n_) % 10 == 0) set_walk_from_accumulator();
+      }
+    }
+    return accept ? ll_prop : ll_cur;
+  }
+
+  // At the end of the burn-in: scale folded into the covariance, no more changes.
+  void freeze_walk() {
+    const double sc = std::exp(log_scale_);
+    walk_chol_ *= sc;
+    walk_cov_ *= sc * sc;
+    log_scale_ = 0.0;
+  }
+
+  double draw_prior_input(int k) {
+    const InputPrior& pr = priors_[k];
+    if (pr.normal) {
+      for (int t = 0; t < 1000; ++t) {
+        const double x = pr.mean + pr.sd * norm_(rng_);
+        if (x >= pr.lower && x <= pr.upper) return x;
+      }
+    }
+    return pr.lower + (pr.upper - pr.lower) * unif_(rng_);
+  }
+
+  // Moment estimates of tau2 at m, v (as init_tau2) and the log posterior
+  // there: the score of a candidate start.
+  double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
+    t2 = set_.fix_tau2 ? tau2_ : moment_tau2(m_, v_);
+    double lp = loglik_with(m_, v_, t2) + log_prior_inputs(z);
+    for (int g = 0; g < G_; ++g) lp += log_prior_tau(g, t2(g));
+    return lp;
+  }
+
+  // Start of the burn-in: the best of the current point and n_search prior draws.
+  void search_start() {
+    Eigen::VectorXd best_z = z_, t2;
+    double best = profile_score(z_, t2);
+    Eigen::VectorXd cand(p_);
+    for (int j = 0; j < set_.n_search; ++j) {
+      for (int k = 0; k < p_; ++k) cand(k) = draw_prior_input(k);
+      predict_all(cand, m_, v_);
+      const double sc = profile_score(cand, t2);
+      if (sc > best) { best = sc; best_z = cand; }
+      if ((j + 1) % 50 == 0) check_();
+    }
+    z_ = best_z;
+    predict_all(z_, m_, v_);
+    if (!set_.fix_tau2 && set_.tau2_init.size() != G_) tau2_ = moment_tau2(m_, v_);
+  }
+
+ public:
+  std::function<void()> check_ = [] {};
+
+ private:
   double log_prior_input(int k, double x) const {
     const InputPrior& pr = priors_[k];
     if (x < pr.lower || x > pr.upper) return -std::numeric_limits<double>::infinity();

@@ -1,15 +1,19 @@
 # Runs an SBC study: truth (u, w^M, w^b) from the model, field data from the
 # truth, ranks of the truth among thinned posterior draws. One input u1 with a
-# uniform prior, weak data, tau2 and sigma2 known.
+# uniform prior, weak data, tau2 and sigma2 known. The report's sampler starts
+# at 0.5 and drops 11 saved draws; the adaptive one adapts during `burnin`
+# cycles (not saved).
 sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inner = 20L,
-                        sd_eps = 3, R = 2, tau2 = 0.05) {
+                        sd_eps = 3, R = 2, tau2 = 0.05, proposal = "report", burnin = 300L,
+                        p_global = 0.1) {
   pb <- small_problem(two_inputs = FALSE)
   n <- length(pb$basis$index)
   spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)), pb$iu,
                                        sigma2 = sd_eps^2)
   G <- nrow(spec$groups)
   bank <- pb$emulators$banks$site1
-  burn <- 12L
+  adaptive <- proposal == "adaptive"
+  burn <- if (adaptive) 1L else 12L
   L <- n_draws - burn + 1L
   ranks <- matrix(NA_integer_, reps, 3, dimnames = list(NULL, c("u1", "wb1", "wM2")))
   for (r in seq_len(reps)) {
@@ -19,7 +23,8 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
     wb <- stats::rnorm(n, 0, sqrt(tau2))
     spec$sites$site1$wbar <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
     out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, G, 0.5, rep(tau2, G), TRUE,
-                                           n_draws, n_inner, step, r, 1L, debug_break, NULL)
+                                           n_draws, n_inner, step, r, 1L, debug_break, NULL,
+                                           adaptive, if (adaptive) burnin else 0L, p_global, 20L)
     keep <- burn:n_draws
     ranks[r, ] <- c(sum(out$inputs[keep, 1] < z), sum(out$wb[[1]][keep, 1] < wb[1]),
                     sum(out$wM[[1]][keep, 2] < wM[2]))
@@ -35,6 +40,20 @@ test_that("simulation-based calibration: ranks are uniform, and not when the Has
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
   withr::local_seed(20240611)
   p_broken <- sbc_pvalues(6000, debug_break = 1L)
+  expect_lt(p_broken[["u1"]], 0.01)
+})
+
+test_that("simulation-based calibration of the adaptive sampler", {
+  skip_on_cran()
+  withr::local_seed(20240612)
+  p_ok <- sbc_pvalues(4000, n_draws = 49L, n_inner = 10L, proposal = "adaptive")
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  # its global moves (the report's mixture step) without the mixture-density
+  # ratio; at the default rate of global moves (0.1) the error is too small to
+  # see in a few thousand replications, so they are made frequent here
+  withr::local_seed(20240612)
+  p_broken <- sbc_pvalues(10000, debug_break = 1L, n_draws = 49L, n_inner = 10L, proposal = "adaptive",
+                          p_global = 0.5)
   expect_lt(p_broken[["u1"]], 0.01)
 })
 
@@ -67,14 +86,14 @@ grid_marginals <- function(gp) {
   list(u = u, fu = rowSums(d) / sum(d), lt = lt, flt = colSums(d) / sum(d))
 }
 
-test_that("the sampler reproduces a posterior computed on a grid, and not with a broken tau2 ratio", {
+grid_check <- function(proposal, n_draws, n_inner) {
   withr::local_seed(11)
   gp <- grid_problem()
   gm <- grid_marginals(gp)
   cdf_u <- stats::approxfun(gm$u, cumsum(gm$fu), yleft = 0, yright = 1)
   cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
-  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1,
-                   seed = 5, sigma2 = gp$sigma2, quiet = TRUE)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
+                   seed = 5, sigma2 = gp$sigma2, proposal = proposal, quiet = TRUE)
   X <- as.matrix(fit$draws)
   expect_gt(stats::ks.test(X[, "u1"], cdf_u)$p.value, 0.01)
   expect_gt(stats::ks.test(log(X[, "tau2[site1:4]"]), cdf_lt)$p.value, 0.01)
@@ -83,8 +102,40 @@ test_that("the sampler reproduces a posterior computed on a grid, and not with a
 
   spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
   tau <- wavevalid:::resolve_fix_tau2(NULL, spec$groups)
-  broken <- wavevalid:::run_chains(spec, 1500, 30, 1, 5, 0.1, tau, debug_break = 2L, quiet = TRUE)[[1]]
+  broken <- wavevalid:::run_chains(spec, n_draws, n_inner, 1, 5, 0.1, tau, debug_break = 2L, quiet = TRUE,
+                                   proposal = proposal, burnin = fit$settings$burnin)[[1]]
   expect_lt(stats::ks.test(log(broken$tau2[, 1]), cdf_lt)$p.value, 0.01)
+}
+
+test_that("the sampler reproduces a posterior computed on a grid, and not with a broken tau2 ratio", {
+  grid_check("report", 1500, 30)
+})
+
+test_that("the adaptive sampler reproduces the grid posterior, and not with a broken tau2 ratio", {
+  grid_check("adaptive", 1500, 30)
+})
+
+test_that("the adaptive sampler mixes on a narrow posterior where the report's does not", {
+  withr::local_seed(7)
+  pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
+  truth <- c(0.35, 0.6)
+  n <- length(pb$basis$index)
+  W <- matrix(pb$f(truth), 7, n, byrow = TRUE) + matrix(stats::rnorm(7 * n, 0, 0.01), 7, n)
+  field <- field_from_coef(pb$basis, W)
+  fit <- calibrate(pb$emulators, field, pb$iu, n_draws = 300, n_inner = 10, chains = 2, seed = 3,
+                   quiet = TRUE)
+  expect_true(all(fit$rhat < 1.1), label = paste(signif(fit$rhat, 3), collapse = ", "))
+  X <- as.matrix(fit$draws)[, c("u1", "x1")]
+  q <- apply(X, 2, stats::quantile, c(0.005, 0.995))
+  expect_true(all(q[1, ] <= truth & truth <= q[2, ]), label = paste(signif(q, 3), collapse = ", "))
+  # the posterior is narrow: 99% intervals shorter than 5% of the ranges
+  expect_true(all(q[2, ] - q[1, ] < 0.05))
+  expect_gt(min(fit$acceptance$inputs), 0.1)
+  rep_fit <- suppressWarnings(
+    calibrate(pb$emulators, field, pb$iu, n_draws = 300, n_inner = 10, chains = 2, seed = 3,
+              proposal = "report", quiet = TRUE),
+    classes = "wavevalid_warning_mixing")
+  expect_lt(max(rep_fit$acceptance$inputs), min(fit$acceptance$inputs) / 5)
 })
 
 test_that("w^b and w^M draws follow eq. 16-17 at fixed inputs", {
