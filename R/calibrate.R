@@ -65,7 +65,10 @@
 #' @param seed `NULL` (drawn from R's RNG) or a whole number.
 #' @param sigma2 Optional fixed field variances: a numeric vector (one value or
 #'   one per coefficient) for a single site, or a named list of such vectors by
-#'   site. Needed for sites with fewer than two replicates.
+#'   site. Needed for sites with fewer than two replicates; `"finest"`
+#'   estimates them from the finest wavelet level of the field curves with
+#'   [field_noise()] (a departure from the method's replicate-based, modular
+#'   estimate, with a warning).
 #' @param step Half-width of the local proposal as a fraction of each input's
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
 #' @param proposal `"adaptive"` (default) or `"report"`; see the section
@@ -169,6 +172,13 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::
   prior_iu$nominal <- ifelse(var, x_nom, iu$nominal[k])
   rownames(prior_iu) <- NULL
 
+  if (identical(sigma2, "finest")) {
+    sigma2 <- unclass(field_noise(field, basis))
+    wv_warn(c(
+      "Field variances estimated from the finest wavelet level of the field curves, not from replicates.",
+      "i" = "The bands rest on that estimate and on the measurement noise being close to white."
+    ), class = "noise_estimate")
+  }
   sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
   groups <- NULL
   site_data <- list()
@@ -179,7 +189,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::
     if (R < 2L && is.null(sigma2[[s]])) {
       wv_abort(c(
         "Site {.val {s}} has {R} field replicate{?s}; estimating the field variances needs at least 2.",
-        "i" = "Give fixed variances through {.arg sigma2}."
+        "i" = "Give fixed variances through {.arg sigma2}, or {.code sigma2 = \"finest\"} to estimate them from the finest wavelet level."
       ), class = "input", call = call)
     }
     wbar[[s]] <- colMeans(W)
