@@ -12,7 +12,10 @@
 #' * `"field_run"`: reality plus a draw of the measurement error.
 #' * `"added_load"`: reality translated by `D(t)`, the difference of the two
 #'   model runs in `new_runs` (the nominal run first, then the changed run),
-#'   plus measurement error.
+#'   plus measurement error. Without runs, give the change of the nominal
+#'   inputs as `delta`: `D` is then the emulators' difference between each
+#'   posterior draw of the inputs moved by `delta` and the draw itself, which
+#'   follows the tested vehicle's inputs rather than the nominal ones.
 #' * `"new_vehicle"`: the variation inputs drawn from their prior (or fixed by
 #'   `x_new`), the calibration inputs from the posterior; the model output at
 #'   them from the emulators augmented with the posterior model coefficients
@@ -34,6 +37,8 @@
 #' @param new_runs A `wv_runs`: for `"added_load"` the nominal run and the run
 #'   with the changed inputs; for `"new_nominal"` the model runs under the new
 #'   nominals.
+#' @param delta For `"added_load"` without `new_runs`: the named change of the
+#'   nominal inputs.
 #' @param x_nom For `"new_nominal"`: named nominal values of the variation
 #'   inputs of the new system (default: the centre of each input's range in
 #'   `new_runs`).
@@ -54,7 +59,8 @@
 #'   what was used to build it. `as.data.frame()` returns `summary`.
 #' @export
 predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal"),
-                           bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, x_nom = NULL,
+                           bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, delta = NULL,
+                           x_nom = NULL,
                            x_new = NULL, noise = NULL, guard = 0.01, keep_draws = FALSE, seed = NULL, ...) {
   type <- match.arg(type)
   bias <- match.arg(bias)
@@ -65,7 +71,11 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   em <- object$emulators
   sites <- names(object$wb)
   new_model <- switch(type,
-    added_load = added_load_difference(object, new_runs),
+    added_load = if (is.null(new_runs) && !is.null(delta)) {
+      added_load_emulated(object, delta)
+    } else {
+      added_load_difference(object, new_runs)
+    },
     new_nominal = new_nominal_setup(object, new_runs, x_nom),
     new_vehicle = new_vehicle_setup(object, x_new),
     NULL
@@ -100,13 +110,13 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
   pure <- pure_model_curve(fit, s)
   yNew <- switch(type,
     reality = , field_run = yM,
-    added_load = sweep(yM, 2, new_model$D[[s]], `+`),
+    added_load = if (is.null(new_model[["Dw"]])) sweep(yM, 2, new_model[["D"]][[s]], `+`) else yM + new_model$Dw[[s]] %*% t(Psi),
     new_vehicle = , new_nominal = {
       w <- new_model$mean[[s]] + sqrt(new_model$var[[s]]) * matrix(stats::rnorm(length(wM)), H)
       w %*% t(Psi)
     }
   )
-  if (type == "added_load") pure <- pure + new_model$D[[s]]
+  if (type == "added_load") pure <- pure + (new_model[["D"]][[s]] %||% drop(Psi %*% colMeans(new_model$Dw[[s]])))
   if (type %in% c("new_vehicle", "new_nominal")) pure <- drop(Psi %*% new_model$pure[[s]])
   n_guarded <- 0
   if (bias == "additive" || type %in% c("reality", "field_run")) {
@@ -169,6 +179,26 @@ added_load_difference <- function(fit, new_runs, call = rlang::caller_env()) {
     D = lapply(new_runs$curves[names(fit$wb)], function(m) m[2, ] - m[1, ]),
     delta = delta[delta != 0]
   )
+}
+
+# Emulated change of the model coefficients, draw by draw, when the inputs of
+# each posterior draw move by delta.
+added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
+  inputs <- fit$emulators$inputs
+  if (!is.numeric(delta) || is.null(names(delta)) || any(!is.finite(delta)) || !all(names(delta) %in% inputs)) {
+    wv_abort(c(
+      "{.arg delta} must be a named numeric change of the fit's inputs.",
+      "i" = "The inputs are {.val {inputs}}."
+    ), call = call)
+  }
+  post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
+  moved <- post
+  for (p in names(delta)) moved[, p] <- moved[, p] + delta[[p]]
+  Dw <- lapply(names(fit$wb), function(s) {
+    bank <- fit$emulators$banks[[s]]
+    gasp_bank_predict_cpp(bank, moved)$mean - gasp_bank_predict_cpp(bank, post)$mean
+  })
+  list(Dw = stats::setNames(Dw, names(fit$wb)), delta = delta)
 }
 
 new_nominal_setup <- function(fit, new_runs, x_nom, call = rlang::caller_env()) {

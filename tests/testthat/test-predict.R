@@ -97,3 +97,16 @@ test_that("bad input to predict gives classed errors", {
                       rbind(pair$curves$site1, pair$curves$site1[1, ]), pair$t, site = "site1")
   expect_error(predict(e$fit, type = "added_load", new_runs = three), class = "wavevalid_error_input")
 })
+
+test_that("an added load given as a change of inputs uses the emulators draw by draw", {
+  e <- example_fit()
+  pair <- example_pair(e$ex, dx = 0.2)
+  by_runs <- predict(e$fit, type = "added_load", new_runs = pair, seed = 4)
+  by_emulator <- predict(e$fit, type = "added_load", delta = c(x1 = 0.2), seed = 4)
+  fr <- predict(e$fit, type = "field_run", seed = 4)
+  D <- pair$curves$site1[2, ] - pair$curves$site1[1, ]
+  shift <- by_emulator$summary$mean - fr$summary$mean
+  expect_lt(max(abs(shift - D)), 0.25 * max(abs(D)))
+  expect_error(predict(e$fit, type = "added_load", delta = c(x9 = 0.2)), class = "wavevalid_error_input")
+  expect_error(predict(e$fit, type = "added_load", delta = "x1"), class = "wavevalid_error_input")
+})
