@@ -119,3 +119,22 @@ test_that("bad windows, out-of-order landmarks and mismatched grids are refused"
   expect_error(register_curves(field, ref, windows, landmark_site = "nope"), class = cls)
   expect_error(register_curves(field, ref, windows, features = "peak"), class = cls)
 })
+
+test_that("on the test bed, registration brings every landmark onto the reference and shrinks the spread", {
+  tb <- testbed_suspension(seed = 1)
+  reg <- register_curves(tb$A$field, tb$A$runs, tb$windows)
+  t <- reg$t
+  dt <- diff(t[1:2])
+  ref <- colMeans(tb$A$runs$curves$site1)
+  for (w in tb$windows) {
+    inw <- which(t > w[1] & t < w[2])
+    ref_lm <- t[inw][c(which.min(ref[inw]), which.max(ref[inw]))]
+    for (r in seq_len(nrow(reg$curves$site1))) {
+      y <- reg$curves$site1[r, ]
+      lm <- t[inw][c(which.min(y[inw]), which.max(y[inw]))]
+      expect_true(all(abs(lm - ref_lm) <= dt + 1e-9))
+    }
+    spread <- function(m) mean(apply(m[, inw], 2, stats::sd))
+    expect_lt(spread(reg$curves$site1), 0.25 * spread(tb$A$field$curves$site1))
+  }
+})
