@@ -50,7 +50,7 @@ bench: install
 sanitize: deps
 	mkdir -p .sanitize && printf 'CXXFLAGS=-g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer\nLDFLAGS=-fsanitize=address,undefined\n' > .sanitize/Makevars
 	R_MAKEVARS_USER=$(CURDIR)/.sanitize/Makevars $(R) CMD INSTALL --preclean --no-test-load -l .sanitize .
-	LD_PRELOAD=$$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 R_LIBS=$(CURDIR)/.sanitize \
+	NOT_CRAN=true LD_PRELOAD=$$(gcc -print-file-name=libasan.so) ASAN_OPTIONS=detect_leaks=0 R_LIBS=$(CURDIR)/.sanitize \
 	  $(RSCRIPT) -e 'testthat::test_local(".", load_package = "installed", stop_on_failure = TRUE)'
 
 clean:
