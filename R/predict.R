@@ -331,14 +331,7 @@ autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = 
     s$upper <- s$upper_curve
   }
   field <- field %||% object$field
-  win <- function(d) {
-    if (is.null(windows)) return(cbind(d, window = rep("whole record", nrow(d))))
-    do.call(rbind, lapply(windows, function(w) {
-      sub <- d[d$t >= w[1] & d$t <= w[2], , drop = FALSE]
-      if (nrow(sub)) sub$window <- sprintf("%s < t < %s", w[1], w[2])
-      sub
-    }))
-  }
+  win <- function(d) with_windows(d, windows, whole = "whole record")
   s <- win(s)
   p <- ggplot2::ggplot(s, ggplot2::aes(.data$t))
   if (!is.null(object$runs)) {

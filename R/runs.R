@@ -367,22 +367,7 @@ plot.wv_field <- function(x, ...) {
 }
 
 plot_curves <- function(runs, field, windows) {
-  layers <- list()
-  add_window <- function(df) {
-    if (is.null(windows)) {
-      df$window <- "whole record"
-      return(df)
-    }
-    do.call(rbind, lapply(seq_along(windows), function(w) {
-      sub <- df[df$t >= windows[[w]][1] & df$t <= windows[[w]][2], , drop = FALSE]
-      if (nrow(sub)) sub$window <- sprintf("%s < t < %s", windows[[w]][1], windows[[w]][2])
-      sub
-    }))
-  }
-  if (!is.null(windows)) {
-    ok <- is.list(windows) && all(vapply(windows, function(w) is.numeric(w) && length(w) == 2L && w[1] < w[2], logical(1)))
-    if (!ok) wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.")
-  }
+  add_window <- function(df) with_windows(df, windows, whole = "whole record")
   p <- ggplot2::ggplot()
   if (!is.null(runs)) {
     d <- do.call(rbind, lapply(names(runs$curves), function(s) curves_long(runs$curves[[s]], runs$t, s, "run")))
