@@ -110,3 +110,18 @@ test_that("an added load given as a change of inputs uses the emulators draw by 
   expect_error(predict(e$fit, type = "added_load", delta = c(x9 = 0.2)), class = "wavevalid_error_input")
   expect_error(predict(e$fit, type = "added_load", delta = "x1"), class = "wavevalid_error_input")
 })
+
+test_that("a fit survives saveRDS/readRDS and still predicts, plots and diagnoses", {
+  e <- example_fit()
+  path <- withr::local_tempfile(fileext = ".rds")
+  saveRDS(e$fit, path)
+  back <- readRDS(path)
+  expect_identical(predict(back, type = "field_run", seed = 2)$summary,
+                   predict(e$fit, type = "field_run", seed = 2)$summary)
+  expect_identical(bias(back), bias(e$fit))
+  expect_s3_class(where_fails(back), "wv_fails")
+  expect_s3_class(autoplot(back, type = "reality"), "ggplot")
+  pair <- example_pair(e$ex)
+  expect_identical(predict(back, type = "added_load", new_runs = pair, seed = 2)$summary,
+                   predict(e$fit, type = "added_load", new_runs = pair, seed = 2)$summary)
+})
