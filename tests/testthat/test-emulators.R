@@ -1,24 +1,9 @@
 # A small problem: K runs of p inputs, curves on 64 points, and a wv_basis
 # built by hand (scaling coefficient and the first detail levels).
 hand_basis <- function(t, index) {
-  n_t <- length(t)
-  w0 <- wavethresh::wd(rep(0, n_t), filter.number = 2, family = "DaubExPhase")
-  Psi <- vapply(index, function(i) {
-    w <- w0
-    if (i == 1L) {
-      w <- wavethresh::putC(w, 0, 1)
-    } else {
-      l <- floor(log2(i - 1))
-      v <- rep(0, 2^l)
-      v[i - 2^l] <- 1
-      w <- wavethresh::putD(w, l, v)
-    }
-    wavethresh::wr(w)
-  }, numeric(n_t))
-  level <- ifelse(index == 1L, 0L, floor(log2(index - 1)) + 1L)
-  structure(list(index = as.integer(index), level = as.integer(level), Psi = Psi, t = t,
-                 sites = "site1", settings = list(filter.number = 2, family = "DaubExPhase")),
-            class = "wv_basis")
+  b <- wavevalid:::basis_from_index(t, index)
+  b$sites <- "site1"
+  b
 }
 
 small_problem <- function(K = 20, p = 3, n_coef = 8) {
