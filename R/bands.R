@@ -109,13 +109,7 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
 }
 
 with_draw_seed <- function(seed, code) {
-  if (is.null(seed)) return(code)
-  had <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
-  old <- if (had) get(".Random.seed", envir = globalenv(), inherits = FALSE)
-  on.exit(if (had) assign(".Random.seed", old, envir = globalenv())
-          else rm(".Random.seed", envir = globalenv()))
-  set.seed(seed)
-  code
+  if (is.null(seed)) code else with_rng_seed(seed, code)
 }
 
 band_frame <- function(Y, t, site, level) {

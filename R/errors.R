@@ -71,12 +71,22 @@ resolve_seed <- function(seed, call = rlang::caller_env()) {
 
 `%||%` <- function(x, y) if (is.null(x)) y else x
 
-# Evaluates expr with R's RNG seeded by seed, restoring the caller's RNG state.
-with_rng_seed <- function(seed, expr) {
-  env <- globalenv()
-  had <- exists(".Random.seed", envir = env, inherits = FALSE)
-  old <- if (had) get(".Random.seed", envir = env, inherits = FALSE)
-  on.exit(if (had) assign(".Random.seed", old, envir = env) else rm(".Random.seed", envir = env))
-  set.seed(seed)
-  expr
+# Evaluates code with R's RNG (default kinds) seeded by seed, restoring the
+# caller's RNG state and kind.
+with_rng_seed <- function(seed, code) {
+  old_kind <- RNGkind()
+  had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
+  if (had_seed) old_seed <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
+  on.exit({
+    if (had_seed) {
+      assign(".Random.seed", old_seed, envir = globalenv())
+    } else {
+      RNGkind(old_kind[1], old_kind[2], old_kind[3])
+      if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
+        rm(".Random.seed", envir = globalenv())
+      }
+    }
+  }, add = TRUE)
+  set.seed(seed, kind = "Mersenne-Twister", normal.kind = "Inversion", sample.kind = "Rejection")
+  force(code)
 }

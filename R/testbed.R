@@ -55,7 +55,7 @@
 testbed_suspension <- function(seed = 1, hidden = "none") {
   check_number(seed, "seed", integer = TRUE)
   hidden <- check_hidden(hidden)
-  with_local_seed(seed, build_testbed(seed, hidden))
+  with_rng_seed(seed, build_testbed(seed, hidden))
 }
 
 #' Names of the mechanisms reality can have and the model lacks
@@ -314,25 +314,6 @@ maximin_lhd <- function(n, p, n_start = 50L, n_swap = 2000L) {
     }
   }
   best
-}
-
-# Runs code with R's RNG set to `seed`, restoring the caller's RNG state.
-with_local_seed <- function(seed, code) {
-  old_kind <- RNGkind()
-  had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
-  if (had_seed) old_seed <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
-  on.exit({
-    if (had_seed) {
-      assign(".Random.seed", old_seed, envir = globalenv())
-    } else {
-      RNGkind(old_kind[1], old_kind[2], old_kind[3])
-      if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
-        rm(".Random.seed", envir = globalenv())
-      }
-    }
-  }, add = TRUE)
-  set.seed(seed, kind = "Mersenne-Twister", normal.kind = "Inversion", sample.kind = "Rejection")
-  force(code)
 }
 
 # Smooth monotone time warp: knots at the start, both events, between and at
