@@ -4,6 +4,20 @@
 #' [calibrate()] fit (report section 5.2), one site at a time:
 #' bias `b^h = Psi w^b_h`, reality `y^R_h = Psi (w^M_h + w^b_h)`.
 #'
+#' The retained basis leaves out the finest detail of the curves (the small
+#' features the emulators are not asked to follow). With `residual = TRUE`
+#' (default) reality also carries that detail as the field replicates show
+#' it: the part of their mean outside the retained basis, plus a draw of its
+#' sampling error (the replicates' own deviations outside the basis, mixed
+#' with Gaussian weights, so its covariance is the replicates' empirical
+#' covariance over the number of replicates, and scaled so that pointwise
+#' bands are Student t intervals; with a single replicate, white noise of the
+#' fit's field variance). This goes beyond the method's report,
+#' whose reality lives on the retained basis only (`residual = FALSE`); the
+#' bias is always the modelled bias on the retained basis. The draws of the
+#' detail use a stream fixed by the fit's seed, so the bands of a fit are
+#' reproducible.
+#'
 #' Two bands are given at each `t`:
 #' * `lower`, `upper`: pointwise `(1 - level) / 2` and `(1 + level) / 2`
 #'   quantiles of the curve draws (eq. 22-23);
@@ -25,6 +39,8 @@
 #'
 #' @param fit A `wv_fit` object.
 #' @param level Probability content of the bands (default 0.9).
+#' @param residual Add the detail of the field curves outside the retained
+#'   basis to reality (see Details).
 #' @return A data frame with columns `site`, `t`, `mean`, `lower`, `upper`,
 #'   `lower_curve`, `upper_curve` (and the `error_*` columns for
 #'   `model_prediction()`).
@@ -50,22 +66,24 @@ bias <- function(fit, level = 0.9) {
 
 #' @rdname bands
 #' @export
-reality <- function(fit, level = 0.9) {
+reality <- function(fit, level = 0.9, residual = TRUE) {
   check_class(fit, "wv_fit")
   check_level(level)
+  check_flag(residual)
   do.call(rbind, lapply(names(fit$wb), function(s) {
-    band_frame(curve_draws(fit, s, "reality"), fit$basis$t, s, level)
+    band_frame(curve_draws(fit, s, "reality", residual = residual), fit$basis$t, s, level)
   }))
 }
 
 #' @rdname bands
 #' @export
-model_prediction <- function(fit, level = 0.9) {
+model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   check_class(fit, "wv_fit")
   check_level(level)
+  check_flag(residual)
   do.call(rbind, lapply(names(fit$wb), function(s) {
     y_hat <- pure_model_curve(fit, s)
-    err <- sweep(curve_draws(fit, s, "reality"), 2L, y_hat)
+    err <- sweep(curve_draws(fit, s, "reality", residual = residual), 2L, y_hat)
     b <- band_frame(err, fit$basis$t, s, level)
     data.frame(site = s, t = fit$basis$t, mean = y_hat,
                lower = y_hat + b$lower, upper = y_hat + b$upper,
@@ -89,8 +107,10 @@ pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
 
 # H x T matrix of curve draws at one site: "bias" (Psi w^b), "reality"
 # (Psi (w^M + w^b)), "model" (Psi w^M) or "field_run" (reality plus
-# eps ~ N(0, sigma2) on every coefficient).
-curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL) {
+# eps ~ N(0, sigma2) on every coefficient); with `residual`, reality and
+# field runs also carry the field detail outside the basis (residual_draws()).
+curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL,
+                        residual = FALSE) {
   what <- match.arg(what)
   if (!site %in% names(fit$wb)) {
     wv_abort("{.arg site} must be one of {.val {names(fit$wb)}}, not {.val {site}}.")
@@ -105,7 +125,50 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
       fit$wM[[site]] + fit$wb[[site]] + eps
     }
   )
-  W %*% t(fit$basis$Psi)
+  Y <- W %*% t(fit$basis$Psi)
+  if (residual && what %in% c("reality", "field_run")) {
+    Y <- Y + with_rng_seed(if (is.null(seed)) residual_seed(fit, site) else seed + 1L,
+                           residual_draws(fit, site, nrow(Y), new_run = what == "field_run"))
+  }
+  Y
+}
+
+# H x T draws of the field detail outside the retained basis at one site: the
+# replicates' mean detail plus a draw of its sampling error (and, for a new
+# field run, of a new replicate's detail). With R >= 2 replicates the error
+# draws are G D, G an H x R matrix of N(0, c / (R - 1)) weights and D the
+# replicates' deviations from their mean outside the basis, whose covariance
+# is c times the replicates' empirical covariance; c = 1 / R for the mean
+# (plus 1 for a new replicate); each draw is scaled by sqrt((R - 1) / chi2),
+# chi2 on R - 1 degrees of freedom, so that pointwise bands are Student t
+# intervals. With one replicate: white noise of variance c times the median
+# field variance of each posterior draw.
+residual_draws <- function(fit, site, H, new_run = FALSE) {
+  Y <- fit$field$curves[[site]]
+  Psi <- fit$basis$Psi
+  outside <- function(M) M - (M %*% Psi) %*% t(Psi)
+  R <- nrow(Y)
+  ybar <- colMeans(Y)
+  detail <- drop(outside(matrix(ybar, nrow = 1L)))
+  scale <- 1 / R + as.numeric(new_run)
+  if (R >= 2L) {
+    D <- outside(sweep(Y, 2L, ybar))
+    E <- matrix(stats::rnorm(H * R, sd = sqrt(scale / (R - 1))), H) %*% D
+    # the replicates' variance is itself estimated on R - 1 degrees of freedom
+    E <- E * sqrt((R - 1) / stats::rchisq(H, R - 1))
+  } else {
+    S <- fit$sigma2[[site]]
+    idx <- rep_len(seq_len(nrow(S)), H)
+    s2 <- apply(S[idx, , drop = FALSE], 1L, stats::median)
+    E <- matrix(stats::rnorm(H * length(ybar)), H) * sqrt(scale * s2)
+  }
+  sweep(E, 2L, detail, `+`)
+}
+
+# A stream for the detail draws fixed by the fit, one per site.
+residual_seed <- function(fit, site) {
+  base <- if (is.numeric(fit$seed) && length(fit$seed) == 1L && is.finite(fit$seed)) fit$seed else 1L
+  as.integer((abs(base) %% 1e6) + match(site, names(fit$wb)))
 }
 
 with_draw_seed <- function(seed, code) {

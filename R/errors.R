@@ -90,3 +90,10 @@ with_rng_seed <- function(seed, code) {
   set.seed(seed, kind = "Mersenne-Twister", normal.kind = "Inversion", sample.kind = "Rejection")
   force(code)
 }
+
+check_flag <- function(x, arg = deparse(substitute(x)), call = rlang::caller_env()) {
+  if (!is.logical(x) || length(x) != 1L || is.na(x)) {
+    wv_abort("{.arg {arg}} must be {.code TRUE} or {.code FALSE}.", call = call)
+  }
+  invisible(x)
+}

@@ -44,6 +44,11 @@
 #'   `new_runs`).
 #' @param x_new For `"new_vehicle"`: optional named values at which to fix the
 #'   variation inputs of the new vehicle instead of drawing them.
+#' @param residual For the types that predict the tested vehicle
+#'   (`"reality"`, `"field_run"`, `"added_load"`): add the detail of its field
+#'   curves outside the retained basis, with its sampling error (see
+#'   [reality()]). The other types predict another vehicle, whose detail is
+#'   not observed, and ignore it.
 #' @param noise Add measurement error draws (default: yes for every type but
 #'   `"reality"`).
 #' @param guard Threshold for the multiplicative bias, relative to the largest
@@ -61,10 +66,13 @@
 predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal"),
                            bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, delta = NULL,
                            x_nom = NULL,
-                           x_new = NULL, noise = NULL, guard = 0.01, keep_draws = FALSE, seed = NULL, ...) {
+                           x_new = NULL, residual = TRUE, noise = NULL, guard = 0.01, keep_draws = FALSE,
+                           seed = NULL, ...) {
   type <- match.arg(type)
   bias <- match.arg(bias)
   check_level(level)
+  check_flag(residual)
+  residual <- residual && type %in% c("reality", "field_run", "added_load")
   check_number(guard, min = 0, max = 1)
   noise <- noise %||% (type != "reality")
   seed <- resolve_seed(seed)
@@ -84,14 +92,14 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
     wv_abort("{.arg new_runs} is used only by types {.val added_load} and {.val new_nominal}.")
   }
   out <- with_rng_seed(seed, lapply(sites, function(s) {
-    predict_site(object, s, type, bias, level, new_model, noise, guard, keep_draws)
+    predict_site(object, s, type, bias, level, new_model, noise, guard, keep_draws, residual)
   }))
   names(out) <- sites
   structure(list(
     summary = do.call(rbind, lapply(out, `[[`, "summary")),
     draws = if (keep_draws) lapply(out, `[[`, "draws"),
     n_guarded = vapply(out, `[[`, 0, "n_guarded"),
-    type = type, bias = bias, level = level, noise = noise, seed = seed,
+    type = type, bias = bias, level = level, noise = noise, residual = residual, seed = seed,
     runs = if (type == "new_nominal") new_runs,
     field = if (type %in% c("reality", "field_run", "new_vehicle")) object$field,
     x_nom = new_model$x_nom
@@ -100,7 +108,7 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
 
 # The model output draws of the new setting for one site (H x n coefficient
 # draws, or a curve shift) and the pure-model prediction.
-predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws) {
+predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws, residual = FALSE) {
   Psi <- fit$basis$Psi
   wM <- fit$wM[[s]]
   wb <- fit$wb[[s]]
@@ -133,6 +141,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     eps <- sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
     pred <- pred + eps %*% t(Psi)
   }
+  if (residual) pred <- pred + residual_draws(fit, s, H, new_run = noise)
   band <- band_frame(pred, fit$basis$t, s, level)
   band$model <- pure
   list(
@@ -282,6 +291,9 @@ print.wv_prediction <- function(x, ...) {
     cli::cat_line(sprintf("  %s: %d time points, median pointwise band width %.3g, whole-curve band width %.3g",
                           site, nrow(d), stats::median(d$upper - d$lower),
                           stats::median(d$upper_curve - d$lower_curve)))
+  }
+  if (isTRUE(x$residual)) {
+    cli::cat_line("  includes the field detail outside the retained basis (residual = TRUE)")
   }
   if (sum(x$n_guarded) > 0) {
     cli::cat_line(sprintf("  multiplicative bias replaced by additive at %d draw-time points near zero model output",

@@ -19,7 +19,7 @@ test_that("bias(), reality() and model_prediction() give tidy bands built from t
   expect_equal(nrow(b), length(fit$basis$t))
   expect_equal(b$mean, unname(colMeans(fit$wb$site1 %*% t(fit$basis$Psi))))
   expect_true(all(b$lower <= b$mean & b$mean <= b$upper))
-  r <- reality(fit, level = 0.5)
+  r <- reality(fit, level = 0.5, residual = FALSE)
   yR <- (fit$wM$site1 + fit$wb$site1) %*% t(fit$basis$Psi)
   expect_equal(r$upper, unname(apply(yR, 2, stats::quantile, 0.75)))
   expect_error(bias(fit, level = 1.2), class = "wavevalid_error_input")
@@ -34,4 +34,35 @@ test_that("bias(), reality() and model_prediction() give tidy bands built from t
   expect_gt(mean(apply(fr, 2, stats::var)), mean(apply(yR, 2, stats::var)))
   expect_s3_class(autoplot(fit, "bias", windows = list(c(0.1, 0.5))), "ggplot")
   expect_s3_class(autoplot(fit, "reality"), "ggplot")
+})
+
+test_that("the field detail outside the basis gets bands with their nominal coverage", {
+  # a basis of 16 orthonormal columns in 128 points; truth with detail outside it
+  set.seed(11)
+  n_t <- 128
+  Psi <- qr.Q(qr(matrix(stats::rnorm(n_t * 16), n_t)))
+  truth <- stats::rnorm(n_t)
+  detail <- truth - drop(Psi %*% crossprod(Psi, truth))
+  band_cover <- function(R, H = 400) {
+    Y <- matrix(truth, R, n_t, byrow = TRUE) + matrix(stats::rnorm(R * n_t, sd = 0.2), R)
+    fit <- list(field = list(curves = list(a = Y)), basis = list(Psi = Psi),
+                sigma2 = list(a = matrix(0.04, 10, 16)))
+    E <- wavevalid:::residual_draws(fit, "a", H)
+    q <- apply(E, 2, stats::quantile, c(0.05, 0.95))
+    mean(detail >= q[1, ] & detail <= q[2, ])
+  }
+  cover7 <- mean(replicate(150, band_cover(7)))
+  cover3 <- mean(replicate(150, band_cover(3)))
+  cover1 <- mean(replicate(150, band_cover(1)))
+  # nominal 90%: Student t intervals with 7 and 3 replicates, known variance with one
+  expect_gt(cover7, 0.87)
+  expect_lt(cover7, 0.93)
+  expect_gt(cover3, 0.86)
+  expect_lt(cover3, 0.94)
+  expect_gt(cover1, 0.87)
+  expect_lt(cover1, 0.95)
+  # without the t scaling three replicates would cover only about 75%
+  fit3 <- list(field = list(curves = list(a = matrix(truth, 3, n_t, byrow = TRUE))),
+               basis = list(Psi = Psi), sigma2 = list(a = matrix(0.04, 10, 16)))
+  expect_equal(colMeans(wavevalid:::residual_draws(fit3, "a", 5)), detail)
 })

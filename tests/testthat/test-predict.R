@@ -22,8 +22,10 @@ test_that("predictions have the documented structure and are reproducible with a
   p3 <- predict(e$fit, type = "field_run", seed = 10)
   expect_false(identical(as.data.frame(p1)$upper, as.data.frame(p3)$upper))
   r <- predict(e$fit, type = "reality", seed = 9)
-  # the reality prediction is the band of bias() shifted by the model draws: same as reality()
-  expect_equal(as.data.frame(r)$mean, reality(e$fit)$mean)
+  # on the retained basis the reality prediction is the band of reality()
+  r0 <- predict(e$fit, type = "reality", residual = FALSE, seed = 9)
+  expect_equal(as.data.frame(r0)$mean, reality(e$fit, residual = FALSE)$mean)
+  expect_false(isTRUE(all.equal(as.data.frame(r)$mean, as.data.frame(r0)$mean)))
   # measurement error widens the band
   expect_gt(median(p1$summary$upper - p1$summary$lower), median(r$summary$upper - r$summary$lower))
   expect_snapshot(print(p1))
@@ -36,7 +38,7 @@ test_that("a new vehicle at the tested vehicle's inputs reproduces the reality p
   # every draw of the variation input at one value: a new vehicle with that value is the tested one
   for (k in seq_along(fit$draws)) fit$draws[[k]][, "x1"] <- 0.42
   nv <- predict(fit, type = "new_vehicle", x_new = c(x1 = 0.42), noise = FALSE, seed = 1)
-  re <- predict(fit, type = "reality", seed = 1)
+  re <- predict(fit, type = "reality", residual = FALSE, seed = 1)
   expect_equal(nv$summary[c("mean", "lower", "upper")], re$summary[c("mean", "lower", "upper")], tolerance = 1e-6)
   # drawn from the prior instead, the new vehicle is more uncertain than a new run of the tested one
   nv_prior <- predict(e$fit, type = "new_vehicle", seed = 1)
