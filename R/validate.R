@@ -11,7 +11,9 @@
 #' @param windows Optional list of `c(from, to)` event windows; when given,
 #'   the field curves are registered first.
 #' @param reference Reference curves for the registration (passed to
-#'   [register_curves()]).
+#'   [register_curves()]; default: the mean of the model runs).
+#' @param knots_every Spacing of the further warp knots fitted between the
+#'   windows (passed to [register_curves()]; `NULL`: landmarks only).
 #' @param basis_args A list of further arguments to [wavelet_basis()].
 #' @param engine Emulator engine, passed to [fit_emulators()].
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
@@ -25,13 +27,13 @@
 #'                 n_draws = 200, n_inner = 50, seed = 1)
 #' fit
 #' }
-validate <- function(runs, field, iu, windows = NULL, reference = NULL, basis_args = list(),
-                     engine = "gasp", ...) {
+validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = NULL,
+                     basis_args = list(), engine = "gasp", ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
-  if (!is.null(windows)) field <- register_curves(field, reference, windows)
+  if (!is.null(windows)) field <- register_curves(field, reference %||% runs, windows, knots_every = knots_every)
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
   calibrate(emulators, field, iu, ...)

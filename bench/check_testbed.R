@@ -13,7 +13,7 @@ n_inner <- if (length(args) >= 3) as.integer(args[3]) else 100L
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 tb <- testbed_suspension(seed = 1, hidden = hidden)
 w <- tb$windows
-field <- register_curves(tb$A$field, tb$A$runs, w)
+field <- register_curves(tb$A$field, tb$A$runs, w, knots_every = 2)
 t0 <- clock()
 basis <- wavelet_basis(tb$A$runs, field)
 em <- fit_emulators(tb$A$runs, basis)
@@ -26,7 +26,7 @@ print(fit)
 
 # truth in registered time: the noise-free curve registered like the field data
 truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
-truth_reg <- register_curves(truth, tb$A$runs, w)
+truth_reg <- register_curves(truth, tb$A$runs, w, knots_every = 2)
 r <- reality(fit)
 cover <- function(band, curves) {
   vapply(names(curves), function(s) {
@@ -55,13 +55,13 @@ nv <- predict(fit, type = "new_vehicle", seed = 1)
 med_width <- function(p) stats::median(p$summary$upper - p$summary$lower)
 cat(sprintf("median 90%% band widths: new_vehicle %.3f > field_run %.3f > reality %.3f\n",
             med_width(nv), med_width(fr), med_width(pr)))
-fB <- register_curves(tb$B$field, tb$A$runs, w)
+fB <- register_curves(tb$B$field, tb$A$runs, w, knots_every = 2)
 for (b in c("additive", "multiplicative")) {
   pB <- predict(fit, type = "new_nominal", bias = b, new_runs = tb$B$runs, x_nom = tb$B$x_nom, seed = 1)
   cat(sprintf("condition B held-out replicates inside the 90%% new_nominal band (%s): %s\n", b,
               paste(sprintf("%s %.1f%%", names(fB$curves), 100 * cover(pB$summary, fB$curves)), collapse = ", ")))
 }
-fM <- register_curves(tb$added_mass$field, tb$A$runs, w)
+fM <- register_curves(tb$added_mass$field, tb$A$runs, w, knots_every = 2)
 pM <- predict(fit, type = "added_load", new_runs = tb$added_mass$runs, seed = 1)
 cat(sprintf("added-mass field run inside the 90%% added_load band (D from the two runs): %s\n",
             paste(sprintf("%s %.1f%%", names(fM$curves), 100 * cover(pM$summary, fM$curves)), collapse = ", ")))

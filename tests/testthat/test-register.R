@@ -138,3 +138,56 @@ test_that("on the test bed, registration brings every landmark onto the referenc
     expect_lt(spread(reg$curves$site1), 0.25 * spread(tb$A$field$curves$site1))
   }
 })
+
+# Small features between the events, as road roughness makes them.
+rough_curve <- function(t) {
+  event_curve(t) + 0.08 * sin(2 * pi * 1.7 * t) + 0.05 * sin(2 * pi * 2.9 * t + 1)
+}
+
+test_that("knots fitted between the windows undo a smooth jitter that landmarks leave", {
+  t <- grid(2048)
+  ref <- rough_curve(t)
+  # smooth monotone jitter: 0 at the ends, bends between the events
+  jitter <- function(tt, a) tt + a * sin(pi * tt / 20) + 0.5 * a * sin(3 * pi * tt / 20)
+  set.seed(3)
+  reps <- rbind(rough_curve(jitter(t, 0.12)), rough_curve(jitter(t, -0.1)), rough_curve(jitter(t, 0.07)))
+  reps <- reps + matrix(stats::rnorm(length(reps), sd = 0.01), nrow(reps))
+  field <- field_runs(reps, t)
+  lm_only <- register_curves(field, list(site1 = ref), windows)
+  fitted <- register_curves(field, list(site1 = ref), windows, knots_every = 1)
+  outside <- !(t > 4 & t < 8) & !(t > 13 & t < 17)
+  err <- function(reg) rms(sweep(reg$curves$site1, 2, ref)[, outside])
+  expect_lt(err(fitted), 0.3 * err(lm_only))
+  expect_lt(err(fitted), 0.03)
+  w <- fitted$warps
+  expect_true(all(w$feature %in% c("min", "max", "fitted")))
+  expect_true(all(is.na(w$window[w$feature == "fitted"])))
+  # every warp stays increasing
+  for (r in 1:3) expect_true(all(diff(wavevalid:::warp_knots(w, r)$before) > 0))
+  expect_snapshot(print(fitted$warps[fitted$warps$replicate == 1 & fitted$warps$feature != "fitted", ]))
+})
+
+test_that("the data inside the windows never move the fitted knots", {
+  t <- grid(2048)
+  ref <- rough_curve(t)
+  reps <- rbind(rough_curve(t + 0.05 * sin(pi * t / 20)), rough_curve(t - 0.04 * sin(pi * t / 20)))
+  changed <- reps
+  inside <- (t > 4.8 & t < 7.5) | (t > 13.8 & t < 16.5)
+  # a different shape after the landmarks of each event (same landmarks), away
+  # from the window ends by more than the jitter
+  changed[, inside] <- changed[, inside] * 0.7
+  a <- register_curves(field_runs(reps, t), list(site1 = ref), windows, knots_every = 1)
+  b <- register_curves(field_runs(changed, t), list(site1 = ref), windows, knots_every = 1)
+  fa <- a$warps[a$warps$feature == "fitted", ]
+  fb <- b$warps[b$warps$feature == "fitted", ]
+  expect_equal(fa$t_before, fb$t_before)
+})
+
+test_that("knots_every must be a sensible spacing", {
+  t <- grid()
+  field <- field_runs(rbind(event_curve(t)), t)
+  ref <- list(site1 = event_curve(t))
+  expect_error(register_curves(field, ref, windows, knots_every = 0), class = "wavevalid_error_input")
+  expect_error(register_curves(field, ref, windows, knots_every = 50), class = "wavevalid_error_input")
+  expect_error(register_curves(field, ref, windows, knots_every = "2"), class = "wavevalid_error_input")
+})
