@@ -15,7 +15,7 @@ save_plot <- function(p, name, width = 10, height = 5) {
 
 tb <- load_testbed()
 windows <- tb$windows
-field <- register_curves(tb$A$field, tb$A$runs, windows)
+field <- register_curves(tb$A$field, tb$A$runs, windows, knots_every = 2)
 save_plot(autoplot(tb$A$runs, field = field, windows = windows), "01-runs-and-field.png")
 
 fit <- validate(tb$A$runs, field, tb$iu, n_draws = 500, n_inner = 100, chains = 2, seed = 1)
@@ -33,10 +33,10 @@ expl <- explain_bias(fit, candidates, seed = 1)
 print(expl)
 save_plot(autoplot(expl), "06-missing-effect.png")
 
-field_B <- register_curves(tb$B$field, tb$A$runs, windows)
+field_B <- register_curves(tb$B$field, tb$A$runs, windows, knots_every = 2)
 pred_B <- predict(fit, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom, seed = 1)
 pred_mass <- predict(fit, type = "added_load", new_runs = tb$added_mass$runs, seed = 1)
-field_mass <- register_curves(tb$added_mass$field, tb$A$runs, windows)
+field_mass <- register_curves(tb$added_mass$field, tb$A$runs, windows, knots_every = 2)
 save_plot(autoplot(pred_B, field = field_B, windows = windows), "07-condition-B.png")
 save_plot(autoplot(pred_mass, field = field_mass, windows = windows), "08-added-mass.png")
 
