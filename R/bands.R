@@ -107,8 +107,9 @@ pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
 
 # H x T matrix of curve draws at one site: "bias" (Psi w^b), "reality"
 # (Psi (w^M + w^b)), "model" (Psi w^M) or "field_run" (reality plus
-# eps ~ N(0, sigma2) on every coefficient); with `residual`, reality and
-# field runs also carry the field detail outside the basis (residual_draws()).
+# eps ~ N(0, sigma2) on every coefficient); with `residual`, reality also
+# carries the field detail outside the basis (residual_draws(); predict_site()
+# adds it to field runs and added loads).
 curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL,
                         residual = FALSE) {
   what <- match.arg(what)
@@ -126,9 +127,8 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
     }
   )
   Y <- W %*% t(fit$basis$Psi)
-  if (residual && what %in% c("reality", "field_run")) {
-    Y <- Y + with_rng_seed(if (is.null(seed)) residual_seed(fit, site) else seed + 1L,
-                           residual_draws(fit, site, nrow(Y), new_run = what == "field_run"))
+  if (residual && what == "reality") {
+    Y <- Y + with_rng_seed(residual_seed(fit, site), residual_draws(fit, site, nrow(Y)))
   }
   Y
 }
@@ -145,8 +145,7 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
 # field variance of each posterior draw.
 residual_draws <- function(fit, site, H, new_run = FALSE) {
   Y <- fit$field$curves[[site]]
-  Psi <- fit$basis$Psi
-  outside <- function(M) M - (M %*% Psi) %*% t(Psi)
+  outside <- function(M) M - basis_curves(fit$basis, basis_coef(fit$basis, M))
   R <- nrow(Y)
   ybar <- colMeans(Y)
   detail <- drop(outside(matrix(ybar, nrow = 1L)))
@@ -167,8 +166,7 @@ residual_draws <- function(fit, site, H, new_run = FALSE) {
 
 # A stream for the detail draws fixed by the fit, one per site.
 residual_seed <- function(fit, site) {
-  base <- if (is.numeric(fit$seed) && length(fit$seed) == 1L && is.finite(fit$seed)) fit$seed else 1L
-  as.integer((abs(base) %% 1e6) + match(site, names(fit$wb)))
+  as.integer(fit$seed %% 1e6 + match(site, names(fit$wb)))
 }
 
 with_draw_seed <- function(seed, code) {

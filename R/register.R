@@ -192,29 +192,36 @@ fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid
   free <- match(at, after)
   reach <- every / 10
   eps <- 1e-3 * diff(t[1:2])
-  sse <- function(j, b) {
-    # squared distance for candidate positions b of knot j (vectorised over b)
+  # the points each knot moves (outside the windows) and their weight on it;
+  # the knot times in registered time never change
+  span <- lapply(free, function(j) {
     idx <- which(t >= after[j - 1L] & t <= after[j + 1L] & !inside)
-    if (length(idx) < 4L) return(rep(0, length(b)))
     tt <- t[idx]
     left <- tt <= after[j]
     w <- ifelse(left, (tt - after[j - 1L]) / (after[j] - after[j - 1L]), (after[j + 1L] - tt) / (after[j + 1L] - after[j]))
-    base <- ifelse(left, before[j - 1L], before[j + 1L])
-    src <- outer(base * (1 - w), rep(1, length(b))) + outer(w, b)
-    val <- matrix(stats::approx(t, y, xout = src, rule = 2)$y, nrow = length(idx))
-    colSums((val - ref[idx])^2)
+    list(idx = idx, left = left, w = w)
+  })
+  sse <- function(k, b) {
+    # squared distance for candidate positions b of knot free[k] (vectorised over b)
+    sp <- span[[k]]
+    if (length(sp$idx) < 4L) return(rep(0, length(b)))
+    j <- free[k]
+    base <- ifelse(sp$left, before[j - 1L], before[j + 1L])
+    src <- outer(base * (1 - sp$w), rep(1, length(b))) + outer(sp$w, b)
+    val <- matrix(stats::approx(t, y, xout = src, rule = 2)$y, nrow = length(sp$idx))
+    colSums((val - ref[sp$idx])^2)
   }
-  for (sweep in seq_len(sweeps)) {
+  for (pass in seq_len(sweeps)) {
     for (k in seq_along(free)) {
       j <- free[k]
       lo <- max(before[j - 1L] + eps, start[k] - reach)
       hi <- min(before[j + 1L] - eps, start[k] + reach)
       if (hi <= lo) next
       g <- seq(lo, hi, length.out = n_grid)
-      v <- sse(j, g)
+      v <- sse(k, g)
       if (all(v == 0)) next
       i <- which.min(v)
-      before[j] <- stats::optimize(function(b) sse(j, b), c(g[max(1L, i - 1L)], g[min(n_grid, i + 1L)]),
+      before[j] <- stats::optimize(function(b) sse(k, b), c(g[max(1L, i - 1L)], g[min(n_grid, i + 1L)]),
                                    tol = 1e-4 * diff(t[1:2]))$minimum
     }
   }

@@ -61,7 +61,7 @@ test_that("the field detail outside the basis gets bands with their nominal cove
   expect_lt(cover3, 0.94)
   expect_gt(cover1, 0.87)
   expect_lt(cover1, 0.95)
-  # without the t scaling three replicates would cover only about 75%
+  # replicates without spread: every draw is the mean's detail itself
   fit3 <- list(field = list(curves = list(a = matrix(truth, 3, n_t, byrow = TRUE))),
                basis = list(Psi = Psi), sigma2 = list(a = matrix(0.04, 10, 16)))
   expect_equal(colMeans(wavevalid:::residual_draws(fit3, "a", 5)), detail)
