@@ -131,7 +131,8 @@ struct GaspBank {
     Eigen::VectorXd zs;
     Eigen::MatrixXd d1, d2, logd;
     Eigen::ArrayXd s;
-    Eigen::VectorXd r;
+    Eigen::MatrixXd r;   // K x n: r_i(z) of the last mean_into(), one column per coefficient
+    Eigen::VectorXd x;   // K: forward substitution
   };
 
   void init_workspace(Workspace& ws) const {
@@ -141,14 +142,36 @@ struct GaspBank {
     ws.d2.resize(K, p);
     ws.logd.resize(K, p);
     ws.s.resize(K);
-    ws.r.resize(K);
+    ws.r.resize(K, n_coef());
+    ws.x.resize(K);
   }
 
-  // As predict(), without allocation: m and v must already have length n and
-  // ws must come from init_workspace(). Inputs whose beta is zero for every
-  // coefficient cost nothing beyond their distance column.
-  void predict_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
-                    Workspace& ws, bool want_var = true) const {
+  // The Cholesky factors packed for the variance pass: for each coefficient
+  // the lower triangle by columns, column j as 1 / L(j, j) followed by
+  // L(j + 1 .. K - 1, j). Half the memory of the square factors, read once
+  // per prediction in order.
+  std::vector<double> packed;
+
+  std::size_t packed_stride() const {
+    const std::size_t K = static_cast<std::size_t>(n_runs());
+    return K * (K + 1) / 2;
+  }
+
+  void pack() {
+    const int K = n_runs(), n = n_coef();
+    packed.resize(packed_stride() * static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) {
+      double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
+      for (int j = 0; j < K; ++j) {
+        *P++ = 1.0 / L[i](j, j);
+        for (int k = j + 1; k < K; ++k) *P++ = L[i](k, j);
+      }
+    }
+  }
+
+  // Means m (length n) at raw input z; keeps every r_i(z) in ws.r for
+  // var_into(). Inputs whose beta is zero for a coefficient cost nothing for it.
+  void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     const int n = n_coef(), p = n_inputs();
     for (int q = 0; q < p; ++q) {
       const double zq = (z(q) - lower(q)) / width(q);
@@ -170,14 +193,41 @@ struct GaspBank {
           ws.s += b * ((2.0 - a) * ws.logd.col(q).array()).exp();
         }
       }
-      ws.r.array() = (-ws.s).exp();
-      m(i) = mu(i) + ws.r.dot(weights.col(i));
-      if (want_var) {
-        L[i].triangularView<Eigen::Lower>().solveInPlace(ws.r);
-        const double q = 1.0 - ws.r.squaredNorm();
-        v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
-      }
+      ws.r.col(i).array() = (-ws.s).exp();
+      m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));
     }
+  }
+
+  // Variances v (length n) at the z of the last mean_into(ws):
+  // V_i = (1 - |L_i^-1 r_i|^2) / lambda_i, by column-oriented forward
+  // substitution on the packed factors (pack() must have been called).
+  void var_into(Eigen::VectorXd& v, Workspace& ws) const {
+    const int K = n_runs(), n = n_coef();
+    for (int i = 0; i < n; ++i) {
+      ws.x = ws.r.col(i);
+      double* x = ws.x.data();
+      const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
+      double q = 0.0;
+      for (int j = 0; j < K; ++j) {
+        const double xj = x[j] * (*P++);
+        q += xj * xj;
+        const int len = K - j - 1;
+        if (len > 0) {
+          Eigen::Map<Eigen::VectorXd>(x + j + 1, len) -= xj * Eigen::Map<const Eigen::VectorXd>(P, len);
+          P += len;
+        }
+      }
+      const double u = 1.0 - q;
+      v(i) = (u > 0.0 ? u : 0.0) / lambda(i);
+    }
+  }
+
+  // As predict(), without allocation: m and v must already have length n, ws
+  // must come from init_workspace() and the bank must be packed.
+  void predict_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
+                    Workspace& ws, bool want_var = true) const {
+    mean_into(z, m, ws);
+    if (want_var) var_into(v, ws);
   }
 };
 

@@ -26,6 +26,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   for (int s = 0; s < S; ++s) {
     Rcpp::List si = sites[s];
     banks[s] = wavevalid::bank_from_list(si["bank"]);
+    banks[s].pack();
     wavevalid::SiteData& d = data[s];
     d.wbar = Rcpp::as<Eigen::VectorXd>(si["wbar"]);
     d.s2 = Rcpp::as<Eigen::VectorXd>(si["s2"]);

@@ -38,6 +38,7 @@
 #include <cmath>
 #include <limits>
 #include <cstdint>
+#include <stdexcept>
 #include "gasp_predict.h"
 
 namespace wavevalid {
@@ -99,6 +100,8 @@ class Sampler {
       const int n = sites_[s].bank->n_coef();
       m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
       sigma2_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
+      if (sites_[s].bank->packed.size() != sites_[s].bank->packed_stride() * static_cast<std::size_t>(n))
+        throw std::invalid_argument("emulator bank not packed");
       sites_[s].bank->init_workspace(ws_[s]);
       for (int i = 0; i < n; ++i) {
         const int g = sites_[s].group[i];
