@@ -264,7 +264,7 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
   }
 }
 
-# Settings of the gasp engine's optimiser (fields of GaspSettings in gasp.h).
+# Settings of the gasp engine's optimiser (fields of GaspSettings in gasp_optim.h).
 gasp_control <- function(starts, log_beta_range) {
   list(n_local = as.integer(starts), lb_lo = log_beta_range[1], lb_hi = log_beta_range[2],
        maxit = 200L, n_screen = 8L, memory = 30L, ftol = 1e-8, pgtol = 1e-5, precondition = 1L,

@@ -1,6 +1,7 @@
-// R glue for GASP fitting (numerics in gasp.h).
+// R glue for GASP fitting (numerics in gasp_lik.h, gasp_optim.h and gasp_fit.h).
 #include <RcppEigen.h>
-#include "gasp.h"
+#include "gasp_lik.h"
+#include "gasp_fit.h"
 
 // [[Rcpp::depends(RcppEigen)]]
 

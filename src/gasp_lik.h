@@ -1,0 +1,254 @@
+// Profile likelihood of one GASP emulator (report section 4):
+//   w(z) ~ GP(mu, 1/lambda, c(z, z') = exp(-sum_p beta_p |z_p - z'_p|^(2 - alpha_p)))
+// on inputs scaled to the unit cube, with mu and lambda profiled out:
+//   mu_hat = 1'R^-1 y / 1'R^-1 1,   sigma2_hat = (y - mu_hat)'R^-1(y - mu_hat) / K,
+//   l(theta) = -K/2 log(2 pi sigma2_hat) - 1/2 log|R| - K/2,
+// the concentrated likelihood of DiceKriging for a constant trend.
+// theta = (log beta_1..p, alpha_1..p); R carries a fixed nugget g on its
+// diagonal (0 unless needed as a numerical safeguard).
+// The gradient is analytic: with u = R^-1 (y - mu_hat),
+//   dl/dtheta = 1/2 tr[(u u' / sigma2_hat - R^-1) dR/dtheta].
+// Also the emulator quantities at given parameters (gasp_finalize).
+// The optimiser is in gasp_optim.h, the fit of a coefficient in gasp_fit.h.
+// Free of R types.
+#ifndef WAVEVALID_GASP_LIK_H
+#define WAVEVALID_GASP_LIK_H
+
+#include <Eigen/Dense>
+#include <vector>
+#include <cmath>
+#include <limits>
+#include <algorithm>
+
+namespace wavevalid {
+
+// Pairwise |d| and log|d| per input of a scaled design over the K(K-1)/2
+// pairs j > k (k-major), computed once per design and shared by the fits of
+// all coefficients.
+struct GaspDist {
+  int K = 0, p = 0, P = 0;
+  Eigen::MatrixXd logd, d1, d2;  // P x p
+  explicit GaspDist(const Eigen::MatrixXd& X) {
+    K = static_cast<int>(X.rows());
+    p = static_cast<int>(X.cols());
+    P = K * (K - 1) / 2;
+    logd.resize(P, p);
+    d1.resize(P, p);
+    for (int q = 0; q < p; ++q) {
+      int idx = 0;
+      for (int k = 0; k < K; ++k) {
+        for (int j = k + 1; j < K; ++j) {
+          const double d = std::abs(X(j, q) - X(k, q));
+          logd(idx, q) = d > 0.0 ? std::log(d) : -1e300;  // exp(-1e300 * (2 - a)) = 0
+          d1(idx, q) = d;
+          ++idx;
+        }
+      }
+    }
+    d2 = d1.array().square().matrix();
+    // mean and variance of log|d| per input, for the optimiser's preconditioner
+    c.resize(p);
+    v.resize(p);
+    for (int q = 0; q < p; ++q) {
+      double s1 = 0.0, s2 = 0.0;
+      int m = 0;
+      for (int i = 0; i < P; ++i) {
+        if (d1(i, q) > 0.0) { s1 += logd(i, q); s2 += logd(i, q) * logd(i, q); ++m; }
+      }
+      c(q) = m > 0 ? s1 / m : 0.0;
+      v(q) = m > 1 ? std::max(s2 / m - c(q) * c(q), 1e-2) : 1.0;
+    }
+  }
+  Eigen::VectorXd c, v;  // mean and variance of log|d| per input
+};
+
+// Profile log-likelihood of one coefficient y on a design (through its
+// distances). value() factorises R and keeps what gradient() needs, so the
+// gradient is computed only at points where it is used.
+class GaspLik {
+ public:
+  GaspLik(const GaspDist& D, const Eigen::VectorXd& y) : D_(D), y_(y) {
+    K_ = D.K;
+    p_ = D.p;
+    P_ = D.P;
+    T_.resize(P_, p_);
+    S_.resize(P_);
+    R_.resize(K_, K_);
+    Linv_.resize(K_, K_);
+    Ri_.resize(K_, K_);
+    Mp_.resize(P_);
+    ones_ = Eigen::VectorXd::Ones(K_);
+  }
+
+  int n_runs() const { return K_; }
+  int n_inputs() const { return p_; }
+  const GaspDist& dist() const { return D_; }
+  int n_eval = 0, n_grad = 0;
+
+  // Fills R (correlation + nugget) for theta; keeps T_ = beta d^(2 - alpha) per pair.
+  void build(const Eigen::VectorXd& theta, double nugget) {
+    S_.setZero();
+    for (int q = 0; q < p_; ++q) {
+      const double lb = theta(q);
+      const double a = theta(p_ + q);
+      if (a == 0.0) {
+        T_.col(q).noalias() = std::exp(lb) * D_.d2.col(q);
+      } else if (a == 1.0) {
+        T_.col(q).noalias() = std::exp(lb) * D_.d1.col(q);
+      } else {
+        T_.col(q) = ((2.0 - a) * D_.logd.col(q).array() + lb).exp().matrix();
+      }
+      S_ += T_.col(q).array();
+    }
+    C_ = (-S_).exp();
+    int idx = 0;
+    for (int k = 0; k < K_; ++k) {
+      R_(k, k) = 1.0 + nugget;
+      for (int j = k + 1; j < K_; ++j) R_(j, k) = C_(idx++);
+    }
+  }
+
+  // Profile log-likelihood at theta; -inf when R is numerically singular.
+  double value(const Eigen::VectorXd& theta, double nugget, double rcond_fail) {
+    ++n_eval;
+    ok_ = false;
+    build(theta, nugget);
+    llt_.compute(R_);  // reads the lower triangle only
+    if (llt_.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
+    rcond_ = llt_.rcond();
+    if (!(rcond_ >= rcond_fail)) return -std::numeric_limits<double>::infinity();
+    const Eigen::VectorXd a = llt_.solve(ones_);
+    const Eigen::VectorXd b = llt_.solve(y_);
+    mu_ = ones_.dot(b) / ones_.dot(a);
+    u_ = b - mu_ * a;  // R^-1 (y - mu)
+    const double s2 = (y_.array() - mu_).matrix().dot(u_) / K_;
+    if (!(s2 > 0.0) || !std::isfinite(s2)) return -std::numeric_limits<double>::infinity();
+    sigma2_ = s2;
+    const Eigen::MatrixXd& L = llt_.matrixLLT();
+    double logdet = 0.0;
+    for (int k = 0; k < K_; ++k) logdet += std::log(L(k, k));
+    logdet *= 2.0;
+    ok_ = true;
+    return -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+  }
+
+  // Gradient in (log beta, alpha) at the point of the last successful value():
+  //   dl/dtheta = 1/2 tr[(u u' / s2 - R^-1) dR/dtheta], dR_jk = -C_jk dS_jk.
+  void gradient(Eigen::VectorXd& grad) {
+    ++n_grad;
+    grad.resize(2 * p_);
+    // R^-1 = L^-T L^-1 (lower triangle) from the Cholesky factor, using the
+    // triangular structure of both factors (K^3 / 3 flops in all)
+    const Eigen::MatrixXd& L = llt_.matrixLLT();
+    Linv_.setZero();
+    for (int j = 0; j < K_; ++j) {  // column j of L^-1: forward substitution from e_j
+      Linv_(j, j) = 1.0;
+      for (int k = j; k < K_; ++k) {
+        const double xk = Linv_(k, j) / L(k, k);
+        Linv_(k, j) = xk;
+        const int rest = K_ - k - 1;
+        if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
+      }
+    }
+    for (int k = 0; k < K_; ++k) {
+      for (int j = k; j < K_; ++j) {
+        Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
+      }
+    }
+    int idx = 0;
+    const double is2 = 1.0 / sigma2_;
+    for (int k = 0; k < K_; ++k) {
+      const double uk = u_(k) * is2;
+      for (int j = k + 1; j < K_; ++j) {
+        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);  // factor 2 (symmetry) times 1/2
+        ++idx;
+      }
+    }
+    for (int q = 0; q < p_; ++q) {
+      const Eigen::ArrayXd mt = Mp_ * T_.col(q).array();
+      grad(q) = -mt.sum();
+      grad(p_ + q) = (mt * D_.logd.col(q).array().max(-745.0)).sum();
+    }
+  }
+
+  double eval(const Eigen::VectorXd& theta, double nugget, Eigen::VectorXd* grad, double rcond_fail) {
+    const double ll = value(theta, nugget, rcond_fail);
+    if (grad && std::isfinite(ll)) gradient(*grad);
+    return ll;
+  }
+
+  double mu() const { return mu_; }
+  double sigma2() const { return sigma2_; }
+  double rcond() const { return rcond_; }
+
+ private:
+  const GaspDist& D_;
+  Eigen::VectorXd y_;
+  int K_, p_, P_;
+  Eigen::MatrixXd T_, R_, Linv_, Ri_;
+  Eigen::ArrayXd S_, C_, Mp_;
+  Eigen::VectorXd ones_, u_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  double mu_ = 0.0, sigma2_ = 0.0, rcond_ = 0.0;
+  bool ok_ = false;
+};
+
+// Quantities of a fitted emulator at given (beta, alpha, nugget): mu, lambda,
+// weights R^-1 (y - mu), lower Cholesky factor and log-likelihood. If R is not
+// positive definite at `nugget`, the nugget is increased along the ladder.
+struct GaspFinal {
+  double mu = 0.0, lambda = 0.0, nugget = 0.0, loglik = 0.0;
+  Eigen::VectorXd weights;
+  Eigen::MatrixXd L;
+  bool ok = false;
+};
+
+inline GaspFinal gasp_finalize(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                               const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
+                               double nugget) {
+  const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
+  GaspFinal out;
+  Eigen::MatrixXd R(K, K);
+  for (int k = 0; k < K; ++k) {
+    R(k, k) = 1.0;
+    for (int j = k + 1; j < K; ++j) {
+      double s = 0.0;
+      for (int q = 0; q < p; ++q) {
+        if (beta(q) == 0.0) continue;
+        const double d = std::abs(X(j, q) - X(k, q));
+        if (d > 0.0) s += beta(q) * std::pow(d, 2.0 - alpha(q));
+      }
+      R(j, k) = R(k, j) = std::exp(-s);
+    }
+  }
+  static const double ladder[] = {1e-8, 1e-6, 1e-4, 1e-2, 1.0};
+  std::vector<double> tries(1, nugget);
+  for (double g : ladder) if (g > nugget) tries.push_back(g);
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  for (double g : tries) {
+    Eigen::MatrixXd Rg = R;
+    Rg.diagonal().array() += g;
+    llt.compute(Rg);
+    if (llt.info() == Eigen::Success && llt.rcond() >= 1e-15) {
+      out.nugget = g;
+      out.ok = true;
+      break;
+    }
+  }
+  if (!out.ok) return out;
+  const Eigen::VectorXd ones = Eigen::VectorXd::Ones(K);
+  const Eigen::VectorXd a = llt.solve(ones), b = llt.solve(y);
+  out.mu = ones.dot(b) / ones.dot(a);
+  out.weights = b - out.mu * a;
+  const double s2 = (y.array() - out.mu).matrix().dot(out.weights) / K;
+  out.lambda = 1.0 / s2;
+  out.L = llt.matrixL();
+  double logdet = 0.0;
+  for (int k = 0; k < K; ++k) logdet += std::log(out.L(k, k));
+  out.loglik = -0.5 * K * std::log(2.0 * M_PI * s2) - logdet - 0.5 * K;
+  return out;
+}
+
+}  // namespace wavevalid
+
+#endif
