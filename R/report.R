@@ -53,6 +53,8 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   env$comparison <- comparison
   env$windows <- windows
   env$report_title <- title
+  old_options <- options(width = 110, knitr.kable.NA = "")
+  on.exit(options(old_options), add = TRUE)
   out_file <- normalizePath(file, mustWork = FALSE)
   dir.create(dirname(out_file), showWarnings = FALSE, recursive = TRUE)
   rmarkdown::render(rmd, output_file = basename(out_file), output_dir = dirname(out_file),
