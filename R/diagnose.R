@@ -19,6 +19,15 @@
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
 #'   each bound, `flagged` when it piles up there) and `bias` (the bias band).
 #' @export
+#' @examples
+#' # a small problem whose field has a bump near t = 0.25 that the model lacks
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' wf <- where_fails(fit)
+#' wf
+#' attr(wf, "levels")
+#' autoplot(wf)
 where_fails <- function(fit, level = 0.9, min_steps = 1L, ...) {
   check_class(fit, "wv_fit")
   check_level(level)
@@ -236,6 +245,18 @@ plot.wv_fails <- function(x, ...) {
 #'   prediction against the mean of the fitted field data) and, with a holdout,
 #'   `holdout_rmse` and `holdout_coverage`.
 #' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' before <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                     chains = 1, seed = 1, quiet = TRUE)
+#' # in practice `after` is the model with the added effect (see
+#' # vignette("missing-effect", package = "wavevalid")); here the same model
+#' # with the bias variances held small, to show the layout
+#' after <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                    chains = 1, seed = 1, fix_tau2 = 1e-4, quiet = TRUE)
+#' cmp <- compare_validations(before, after)
+#' cmp
+#' autoplot(cmp)
 compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
   check_class(before, "wv_fit")
   check_class(after, "wv_fit")

@@ -44,6 +44,17 @@
 #'   `subsets` (top subsets with their probabilities) and `fitted` (bias and
 #'   scaled candidates by site, for plotting).
 #' @export
+#' @examples
+#' # a small problem whose field has a bump near t = 0.25 that the model lacks
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' t <- ex$field$t
+#' candidates <- list(bump_early = exp(-((t - 0.25) / 0.05)^2),
+#'                    bump_late = exp(-((t - 0.75) / 0.05)^2))
+#' ex_b <- explain_bias(fit, candidates, seed = 1)
+#' ex_b
+#' autoplot(ex_b)
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, ...) {
   check_class(fit, "wv_fit")
