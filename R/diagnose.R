@@ -7,7 +7,13 @@
 #' `x5`).
 #'
 #' @param fit A `wv_fit`.
-#' @param level Probability of the pointwise bias band.
+#' @param level Probability of the bias band.
+#' @param band `"simultaneous"` (default): the narrowest band holding whole
+#'   bias curves with probability `level` (see [bias()]), so that a bias curve
+#'   that is zero everywhere is flagged nowhere with probability about
+#'   `level`; `"pointwise"`: the pointwise band, which excludes zero at about
+#'   `1 - level` of the grid points even where there is no bias, and so flags
+#'   many short intervals by chance.
 #' @param min_steps Shortest interval reported, in grid steps.
 #' @param ... Unused.
 #' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
@@ -28,9 +34,10 @@
 #' wf
 #' attr(wf, "levels")
 #' autoplot(wf)
-where_fails <- function(fit, level = 0.9, min_steps = 1L, ...) {
+where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L, ...) {
   check_class(fit, "wv_fit")
   check_level(level)
+  band <- rlang::arg_match(band)
   check_number(min_steps, min = 1, integer = TRUE)
   b <- bias(fit, level = level)
   r <- reality(fit, level = level)
@@ -38,7 +45,7 @@ where_fails <- function(fit, level = 0.9, min_steps = 1L, ...) {
   rows <- lapply(unique(b$site), function(s) {
     bs <- b[b$site == s, ]
     rs <- r[r$site == s, ]
-    excl <- bs$lower > 0 | bs$upper < 0
+    excl <- if (band == "simultaneous") bs$lower_curve > 0 | bs$upper_curve < 0 else bs$lower > 0 | bs$upper < 0
     runs <- rle(excl)
     ends <- cumsum(runs$lengths)
     starts <- ends - runs$lengths + 1L
@@ -69,6 +76,7 @@ where_fails <- function(fit, level = 0.9, min_steps = 1L, ...) {
   attr(out, "boundary") <- boundary_check(fit)
   attr(out, "bias") <- b
   attr(out, "level") <- level
+  attr(out, "band") <- band
   class(out) <- c("wv_fails", "data.frame")
   out
 }
@@ -134,8 +142,9 @@ boundary_check <- function(fit, margin = 0.02) {
 #' @export
 print.wv_fails <- function(x, ...) {
   lev <- attr(x, "level")
-  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% band of the bias excludes zero",
-                        nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev))
+  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the bias excludes zero",
+                        nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev,
+                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve"))
   if (nrow(x)) {
     df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
                                       "share_of_signal", "sign")], stringsAsFactors = FALSE)
@@ -202,6 +211,10 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
       ggplot2::theme_bw())
   }
   b <- attr(object, "bias")
+  if (!identical(attr(object, "band"), "pointwise")) {
+    b$lower <- b$lower_curve
+    b$upper <- b$upper_curve
+  }
   regions <- as.data.frame(unclass(object)[c("site", "start", "end")])
   p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
   if (nrow(regions)) {

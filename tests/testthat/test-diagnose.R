@@ -30,6 +30,25 @@ test_that("where_fails finds the interval where the missing bump acts", {
   expect_s3_class(autoplot(wf, type = "levels"), "ggplot")
 })
 
+test_that("without a missing effect the whole-curve band flags (almost) nothing, the pointwise band flags chance intervals", {
+  ex <- wavevalid:::example_calibration_inputs()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2)
+  steps <- function(wf) sum(round((wf$end - wf$start) / diff(t[1:2])))
+  flagged <- vapply(1:20, function(r) {
+    ex$field$curves$site1 <- withr::with_seed(100 + r, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
+    fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 10, chains = 1,
+                                      seed = r, quiet = TRUE))
+    c(simultaneous = steps(where_fails(fit)), pointwise = steps(where_fails(fit, band = "pointwise")))
+  }, numeric(2))
+  # a 90% whole-curve band misses a zero bias curve somewhere in about 10% of
+  # the fits; the pointwise band at about 10% of all points
+  expect_lte(mean(flagged["simultaneous", ] > 0), 0.3)
+  expect_gt(sum(flagged["pointwise", ]), 2 * sum(flagged["simultaneous", ]))
+  expect_identical(attr(where_fails(fit = suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20,
+    n_inner = 5, chains = 1, seed = 1, quiet = TRUE)), band = "pointwise"), "band"), "pointwise")
+})
+
 test_that("explain_bias ranks the true mechanism first and the decoys low", {
   d <- diag_setup()
   ex <- explain_bias(d$fit, d$candidates, seed = 1)
