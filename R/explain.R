@@ -1,6 +1,7 @@
 #' Which missing effect explains the bias?
 #'
-#' Regresses the posterior bias, draw by draw, on the wavelet coefficients of
+#' Regresses the bias (the field data's residuals from the emulated model at
+#' the posterior draws of the inputs), draw by draw, on the wavelet coefficients of
 #' candidate effect curves and compares subsets of candidates by their
 #' marginal likelihood. A candidate is the signature of a mechanism the user
 #' suspects the model lacks: typically the difference between a run with the
@@ -11,10 +12,17 @@
 #' candidates named `shift:<input>`, so that a bias a parameter change would
 #' absorb is told apart from a missing mechanism.
 #'
-#' For draw h, the bias coefficients `w^b` (all sites stacked) are regressed on
-#' the candidates' coefficients `C` by weighted least squares with weights
-#' `1 / tau^2_j(i)` (the draw's bias variance of each coefficient's level):
-#' `w^b = C_S a_S + e`, `e ~ N(0, phi diag(tau^2))`, with Zellner's g-prior
+#' For draw h, with inputs `z_h`, field variances `sigma^2_h` and bias level
+#' variances `tau^2_h`, the residuals of the field data from the emulated
+#' model, `r = wbar - m(z_h)` (all sites stacked), are regressed on the
+#' candidates' coefficients `C`: under the model, `r = w^b + e`, `e` the
+#' field and emulator error of variance `S = sigma^2_h / R + V(z_h)`; a
+#' candidate explains the mean of the bias, `w^b ~ N(C_S a_S, tau^2)`, so
+#' `r = C_S a_S + e'`, `e' ~ N(0, phi diag(S + tau^2))` (weighted least
+#' squares with weights `1 / (S + tau^2)`). Regressing the residuals rather
+#' than the posterior draws of `w^b` keeps the signal that the bias prior
+#' shrinks towards zero at the levels where `tau^2` is small against `S`.
+#' Zellner's g-prior
 #' `a_S ~ N(0, g phi (C_S' W C_S)^-1)`, `g = n` and `pi(phi) ∝ 1/phi`. The Bayes
 #' factor of a subset S against no candidate is then
 #' `(1 + g)^(-|S|/2) (1 - g / (1 + g) R^2_S)^(-n/2)`, with `R^2_S` the
@@ -40,7 +48,7 @@
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
 #'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
 #'   out), `amplitude_lower`, `amplitude_upper`, `share_explained` (mean share
-#'   of the bias energy that the candidate alone explains). Attributes
+#'   of the residual energy that the candidate alone explains). Attributes
 #'   `subsets` (top subsets with their probabilities) and `fitted` (bias and
 #'   scaled candidates by site, for plotting).
 #' @export
@@ -66,11 +74,11 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
   if (ncol(cand) == 0L) {
     wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
   }
-  sites <- names(fit$wb)
   H <- nrow(fit$wb[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
-  Y <- do.call(cbind, lapply(sites, function(s) fit$wb[[s]][keep, , drop = FALSE]))
-  Wt <- 1 / bias_level_variances(fit, keep)
+  rs <- residual_regression_data(fit, keep)
+  Y <- rs$residuals
+  Wt <- 1 / (rs$variance + bias_level_variances(fit, keep))
   seed <- resolve_seed(seed)
   res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level))
   out <- res$table
@@ -151,6 +159,20 @@ shift_candidates <- function(fit) {
   if (is.null(dim(out))) out <- matrix(out, ncol = length(em$inputs))
   colnames(out) <- paste0("shift:", em$inputs)
   out[, colSums(out^2) > 0, drop = FALSE]
+}
+
+# Residuals wbar - m(z_h) of the field data from the emulated model at the
+# kept draws' inputs, and their field and emulator variance
+# sigma^2_h / R + V(z_h): H x n matrices, sites stacked in the order of fit$wb.
+residual_regression_data <- function(fit, keep) {
+  Z <- as.matrix(fit$draws)[keep, fit$inputs, drop = FALSE]
+  parts <- lapply(names(fit$wb), function(s) {
+    pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
+    list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
+         v = pr$var + fit$sigma2[[s]][keep, , drop = FALSE] / fit$n_rep[[s]])
+  })
+  list(residuals = do.call(cbind, lapply(parts, `[[`, "r")),
+       variance = do.call(cbind, lapply(parts, `[[`, "v")))
 }
 
 # Per-draw bias variance tau^2 of each coefficient's (site, level) group:
