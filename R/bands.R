@@ -2,7 +2,10 @@
 #'
 #' Curves are rebuilt draw by draw from the posterior coefficient draws of a
 #' [calibrate()] fit (report section 5.2), one site at a time:
-#' bias `b^h = Psi w^b_h`, reality `y^R_h = Psi (w^M_h + w^b_h)`.
+#' bias `b^h = Psi w^b_h`, reality `y^R_h = Psi (w^M_h + w^b_h)`. They are
+#' rebuilt on demand, a block of time points at a time, while the bands are
+#' computed, so that the curve draws of a site (draws x time points) are never
+#' held whole.
 #'
 #' The retained basis leaves out the finest detail of the curves (the small
 #' features the emulators are not asked to follow). With `residual = TRUE`
@@ -60,7 +63,7 @@ bias <- function(fit, level = 0.9) {
   check_class(fit, "wv_fit")
   check_level(level)
   do.call(rbind, lapply(names(fit$wb), function(s) {
-    band_frame(curve_draws(fit, s, "bias"), fit$basis$t, s, level)
+    site_curves(fit, s, "bias", fun = function(src) band_frame(src, fit$basis$t, s, level))
   }))
 }
 
@@ -71,7 +74,8 @@ reality <- function(fit, level = 0.9, residual = TRUE) {
   check_level(level)
   check_flag(residual)
   do.call(rbind, lapply(names(fit$wb), function(s) {
-    band_frame(curve_draws(fit, s, "reality", residual = residual), fit$basis$t, s, level)
+    site_curves(fit, s, "reality", residual = residual,
+                fun = function(src) band_frame(src, fit$basis$t, s, level))
   }))
 }
 
@@ -83,8 +87,10 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   check_flag(residual)
   do.call(rbind, lapply(names(fit$wb), function(s) {
     y_hat <- pure_model_curve(fit, s)
-    err <- sweep(curve_draws(fit, s, "reality", residual = residual), 2L, y_hat)
-    b <- band_frame(err, fit$basis$t, s, level)
+    b <- site_curves(fit, s, "reality", residual = residual, fun = function(src) {
+      err <- curve_source(src$H, src$n, function(cols) src$block(cols) - rep(y_hat[cols], each = src$H))
+      band_frame(err, fit$basis$t, s, level)
+    })
     data.frame(site = s, t = fit$basis$t, mean = y_hat,
                lower = y_hat + b$lower, upper = y_hat + b$upper,
                lower_curve = y_hat + b$lower_curve, upper_curve = y_hat + b$upper_curve,
@@ -105,12 +111,39 @@ pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
   drop(fit$basis$Psi %*% t(m))
 }
 
-# H x T matrix of curve draws at one site: "bias" (Psi w^b), "reality"
-# (Psi (w^M + w^b)), "model" (Psi w^M) or "field_run" (reality plus
-# eps ~ N(0, sigma2) on every coefficient); with `residual`, reality also
-# carries the field detail outside the basis (residual_draws(); predict_site()
-# adds it to field runs and added loads).
-curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL,
+# --- curve draws on demand ------------------------------------------------------
+# A source of curve draws: H draws on n time points, handed out block by block
+# of time points by block(cols) (consecutive columns, in increasing order
+# within a pass over the blocks). Passes can be repeated and give the same
+# values. Summaries read the curves in a few passes, so that the H x n curves
+# of a site are never held whole; source_matrix() builds them when they are
+# wanted.
+curve_source <- function(H, n, block) list(H = H, n = n, block = block)
+
+matrix_source <- function(Y) curve_source(nrow(Y), ncol(Y), function(cols) Y[, cols, drop = FALSE])
+
+source_matrix <- function(src) {
+  Y <- matrix(0, src$H, src$n)
+  for (cols in col_blocks(src$n, src$H)) Y[, cols] <- src$block(cols)
+  Y
+}
+
+# Consecutive blocks of column indices, each of about `cells` matrix cells for
+# H rows: the unit of work of the curve summaries.
+col_blocks <- function(n_col, H, cells = 2^20) {
+  if (n_col < 1L) return(list())
+  size <- max(1L, min(n_col, floor(cells / max(H, 1L))))
+  starts <- seq.int(1L, n_col, by = size)
+  lapply(starts, function(a) a:min(n_col, a + size - 1L))
+}
+
+# Source of the curve draws at one site, rebuilt from the coefficient draws:
+# "bias" (Psi w^b), "reality" (Psi (w^M + w^b)), "model" (Psi w^M) or
+# "field_run" (reality plus eps ~ N(0, sigma2) on every coefficient, drawn
+# here); with `residual`, reality also carries the field detail outside the
+# basis (residual_source(), to be read within the fit's stream for the site:
+# see site_curves()).
+draw_source <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL,
                         residual = FALSE) {
   what <- match.arg(what)
   if (!site %in% names(fit$wb)) {
@@ -126,11 +159,30 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
       fit$wM[[site]] + fit$wb[[site]] + eps
     }
   )
-  Y <- W %*% t(fit$basis$Psi)
+  Psi <- fit$basis$Psi
+  extra <- if (residual && what == "reality") residual_source(fit, site, nrow(W))
+  curve_source(nrow(W), nrow(Psi), function(cols) {
+    Y <- W %*% t(Psi[cols, , drop = FALSE])
+    if (is.null(extra)) Y else Y + extra(cols)
+  })
+}
+
+# fun(source) for the curve draws of one site (see draw_source()); the draws of
+# the field detail come from a stream fixed by the fit's seed, so the bands of
+# a fit are reproducible and the caller's stream is left alone.
+site_curves <- function(fit, site, what, seed = NULL, residual = FALSE, fun) {
   if (residual && what == "reality") {
-    Y <- Y + with_rng_seed(residual_seed(fit, site), residual_draws(fit, site, nrow(Y)))
+    with_rng_seed(residual_seed(fit, site), fun(draw_source(fit, site, what, seed, residual = TRUE)))
+  } else {
+    fun(draw_source(fit, site, what, seed))
   }
-  Y
+}
+
+# H x T matrix of the curve draws at one site (see draw_source()).
+curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_run"), seed = NULL,
+                        residual = FALSE) {
+  what <- match.arg(what)
+  site_curves(fit, site, what, seed, residual, fun = source_matrix)
 }
 
 # H x T draws of the field detail outside the retained basis at one site: the
@@ -144,6 +196,14 @@ curve_draws <- function(fit, site, what = c("bias", "reality", "model", "field_r
 # intervals. With one replicate: white noise of variance c times the median
 # field variance of each posterior draw.
 residual_draws <- function(fit, site, H, new_run = FALSE) {
+  src <- residual_source(fit, site, H, new_run)
+  source_matrix(curve_source(H, ncol(fit$field$curves[[site]]), src))
+}
+
+# The draws of residual_draws() as a function of a block of time points: the
+# weights G and the chi2 scales are drawn here, the white noise of a single
+# replicate block by block (replayable_normals()).
+residual_source <- function(fit, site, H, new_run = FALSE) {
   Y <- fit$field$curves[[site]]
   outside <- function(M) M - basis_curves(fit$basis, basis_coef(fit$basis, M))
   R <- nrow(Y)
@@ -152,16 +212,47 @@ residual_draws <- function(fit, site, H, new_run = FALSE) {
   scale <- 1 / R + as.numeric(new_run)
   if (R >= 2L) {
     D <- outside(sweep(Y, 2L, ybar))
-    E <- matrix(stats::rnorm(H * R, sd = sqrt(scale / (R - 1))), H) %*% D
+    G <- matrix(stats::rnorm(H * R, sd = sqrt(scale / (R - 1))), H)
     # the replicates' variance is itself estimated on R - 1 degrees of freedom
-    E <- E * sqrt((R - 1) / stats::rchisq(H, R - 1))
+    chi <- sqrt((R - 1) / stats::rchisq(H, R - 1))
+    function(cols) (G %*% D[, cols, drop = FALSE]) * chi + rep(detail[cols], each = H)
   } else {
     S <- fit$sigma2[[site]]
     idx <- rep_len(seq_len(nrow(S)), H)
-    s2 <- apply(S[idx, , drop = FALSE], 1L, stats::median)
-    E <- matrix(stats::rnorm(H * length(ybar)), H) * sqrt(scale * s2)
+    sd_draw <- sqrt(scale * apply(S[idx, , drop = FALSE], 1L, stats::median))
+    normals <- replayable_normals(H)
+    function(cols) matrix(normals(cols), H) * sd_draw + rep(detail[cols], each = H)
   }
-  sweep(E, 2L, detail, `+`)
+}
+
+# Standard normal draws filling an H-row matrix block by block of columns.
+# The first pass over the blocks draws from the current stream, which ends as
+# if the whole matrix had been drawn at once; later passes replay the same
+# numbers from a private copy of the stream and leave the current one alone.
+replayable_normals <- function(H) {
+  start <- NULL
+  replay <- NULL
+  drawn <- 0L
+  function(cols) {
+    n <- H * length(cols)
+    if (cols[1L] > drawn) {
+      if (is.null(start)) start <<- rng_state()
+      drawn <<- cols[length(cols)]
+      return(stats::rnorm(n))
+    }
+    if (cols[1L] == 1L) replay <<- start
+    current <- rng_state()
+    on.exit(assign(".Random.seed", current, envir = globalenv()), add = TRUE)
+    assign(".Random.seed", replay, envir = globalenv())
+    z <- stats::rnorm(n)
+    replay <<- get(".Random.seed", envir = globalenv(), inherits = FALSE)
+    z
+  }
+}
+
+rng_state <- function() {
+  if (!exists(".Random.seed", envir = globalenv(), inherits = FALSE)) stats::runif(1L)
+  get(".Random.seed", envir = globalenv(), inherits = FALSE)
 }
 
 # A stream for the detail draws fixed by the fit, one per site.
@@ -173,36 +264,70 @@ with_draw_seed <- function(seed, code) {
   if (is.null(seed)) code else with_rng_seed(seed, code)
 }
 
-band_frame <- function(Y, t, site, level) {
+# --- bands ----------------------------------------------------------------------
+
+# x: an H x T matrix of curve draws or a curve source.
+band_frame <- function(x, t, site, level) {
   a <- (1 - level) / 2
-  q <- pointwise_quantiles(Y, c(a, 1 - a))
-  sim <- simultaneous_band(Y, level)
-  data.frame(site = site, t = t, mean = colMeans(Y), lower = q[1, ], upper = q[2, ],
-             lower_curve = sim$lower, upper_curve = sim$upper, stringsAsFactors = FALSE)
+  b <- curve_bands(if (is.matrix(x)) matrix_source(x) else x, level, c(a, 1 - a))
+  data.frame(site = site, t = t, mean = b$mean, lower = b$q[1, ], upper = b$q[2, ],
+             lower_curve = b$lower, upper_curve = b$upper, stringsAsFactors = FALSE)
 }
 
-# Type-7 quantiles of every column of Y (2 x T), by sorting once per column.
+# Pointwise mean and `probs` quantiles and the simultaneous band of a source's
+# curves, in three passes over blocks of time points: (1) mean, spread and
+# quantiles at each t; (2) each curve's largest standardised distance from the
+# mean, max_t |y_h(t) - mean(t)| / sd(t); (3) the envelope of the
+# ceiling(level * H) curves with the smallest distances.
+curve_bands <- function(src, level, probs = numeric()) {
+  H <- src$H
+  blocks <- col_blocks(src$n, H)
+  centre <- ss <- numeric(src$n)
+  q <- matrix(0, length(probs), src$n)
+  for (cols in blocks) {
+    Y <- src$block(cols)
+    centre[cols] <- colMeans(Y)
+    ss[cols] <- colSums((Y - rep(centre[cols], each = H))^2)
+    if (length(probs)) q[, cols] <- pointwise_quantiles(Y, probs)
+  }
+  s <- sqrt(ss / max(H - 1, 1))
+  s <- pmax(s, 1e-12 * max(s, 1e-300))
+  score <- rep(-Inf, H)
+  for (cols in blocks) {
+    Z <- abs((src$block(cols) - rep(centre[cols], each = H)) / rep(s[cols], each = H))
+    score <- pmax(score, apply(Z, 1L, max))
+  }
+  keep <- order(score)[seq_len(ceiling(level * H))]
+  lower <- upper <- numeric(src$n)
+  for (cols in blocks) {
+    Y <- src$block(cols)[keep, , drop = FALSE]
+    lower[cols] <- apply(Y, 2L, min)
+    upper[cols] <- apply(Y, 2L, max)
+  }
+  list(mean = centre, q = q, lower = lower, upper = upper, score = score, keep = keep)
+}
+
+# Type-7 quantiles of every column of Y (length(probs) x T), from the order
+# statistics they need (a partial sort of one column at a time).
 pointwise_quantiles <- function(Y, probs) {
   H <- nrow(Y)
-  S <- apply(Y, 2L, sort.int)
-  if (H == 1L) S <- matrix(S, nrow = 1L)
   pos <- 1 + (H - 1) * probs
   lo <- floor(pos)
   hi <- ceiling(pos)
   f <- pos - lo
-  S[lo, , drop = FALSE] * (1 - f) + S[hi, , drop = FALSE] * f
+  need <- unique(c(lo, hi))
+  out <- matrix(0, length(probs), ncol(Y))
+  for (j in seq_len(ncol(Y))) {
+    s <- sort.int(Y[, j], partial = need)
+    out[, j] <- s[lo] * (1 - f) + s[hi] * f
+  }
+  out
 }
 
+# Band holding the ceiling(level * H) curves of Y closest to the pointwise
+# mean (see curve_bands()).
 simultaneous_band <- function(Y, level) {
-  H <- nrow(Y)
-  centre <- colMeans(Y)
-  s <- sqrt(colSums(sweep(Y, 2L, centre)^2) / max(H - 1, 1))
-  s <- pmax(s, 1e-12 * max(s, 1e-300))
-  score <- apply(abs(sweep(sweep(Y, 2L, centre), 2L, s, "/")), 1L, max)
-  keep <- order(score)[seq_len(ceiling(level * H))]
-  list(lower = apply(Y[keep, , drop = FALSE], 2L, min),
-       upper = apply(Y[keep, , drop = FALSE], 2L, max),
-       score = score, keep = keep)
+  curve_bands(matrix_source(Y), level)[c("lower", "upper", "score", "keep")]
 }
 
 # --- figures ---------------------------------------------------------------------

@@ -106,47 +106,64 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   ), class = "wv_prediction")
 }
 
-# The model output draws of the new setting for one site (H x n coefficient
-# draws, or a curve shift) and the pure-model prediction.
+# The prediction draws at one site and their bands. The coefficient draws of
+# the new setting and of the measurement error are drawn first; the curves are
+# then rebuilt from them block by block of time points (a curve source, see
+# curve_bands()), so that they are held whole only with `keep_draws`.
 predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws, residual = FALSE) {
   Psi <- fit$basis$Psi
   wM <- fit$wM[[s]]
   wb <- fit$wb[[s]]
   H <- nrow(wM)
-  yM <- wM %*% t(Psi)
-  yR <- yM + wb %*% t(Psi)
+  n_t <- nrow(Psi)
   pure <- pure_model_curve(fit, s)
-  yNew <- switch(type,
-    reality = , field_run = yM,
-    added_load = if (is.null(new_model[["Dw"]])) sweep(yM, 2, new_model[["D"]][[s]], `+`) else yM + new_model$Dw[[s]] %*% t(Psi),
-    new_vehicle = , new_nominal = {
-      w <- new_model$mean[[s]] + sqrt(new_model$var[[s]]) * matrix(stats::rnorm(length(wM)), H)
-      w %*% t(Psi)
-    }
-  )
-  if (type == "added_load") pure <- pure + (new_model[["D"]][[s]] %||% drop(Psi %*% colMeans(new_model$Dw[[s]])))
+  # added load: a curve added to every draw (runs given) or a change of the
+  # model coefficients of every draw (change of inputs given)
+  shift <- if (type == "added_load") new_model[["D"]][[s]]
+  dW <- if (type == "added_load") new_model[["Dw"]][[s]]
+  # new vehicle or nominals: the model coefficient draws of the new setting
+  wNew <- if (type %in% c("new_vehicle", "new_nominal")) {
+    new_model$mean[[s]] + sqrt(new_model$var[[s]]) * matrix(stats::rnorm(length(wM)), H)
+  }
+  if (type == "added_load") pure <- pure + (shift %||% drop(Psi %*% colMeans(dW)))
   if (type %in% c("new_vehicle", "new_nominal")) pure <- drop(Psi %*% new_model$pure[[s]])
+  eps <- if (noise) sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
+  detail <- if (residual) residual_source(fit, s, H, new_run = noise)
+  additive <- bias == "additive" || type %in% c("reality", "field_run")
+  model_block <- function(cols) wM %*% t(Psi[cols, , drop = FALSE])
   n_guarded <- 0
-  if (bias == "additive" || type %in% c("reality", "field_run")) {
-    pred <- yNew + (yR - yM)
-  } else {
-    small <- abs(yM) < guard * apply(abs(yM), 1, max)
-    ratio <- yR / yM
-    pred <- yNew * ratio
-    pred[small] <- (yNew + (yR - yM))[small]
-    n_guarded <- sum(small)
+  if (!additive) {
+    # largest absolute model output of each draw, and the guarded points
+    peak <- rep(-Inf, H)
+    for (cols in col_blocks(n_t, H)) peak <- pmax(peak, apply(abs(model_block(cols)), 1L, max))
+    for (cols in col_blocks(n_t, H)) n_guarded <- n_guarded + sum(abs(model_block(cols)) < guard * peak)
   }
-  rm(yM, yR, yNew)
-  if (noise) {
-    eps <- sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
-    pred <- pred + eps %*% t(Psi)
-  }
-  if (residual) pred <- pred + residual_draws(fit, s, H, new_run = noise)
-  band <- band_frame(pred, fit$basis$t, s, level)
+  src <- curve_source(H, n_t, function(cols) {
+    tP <- t(Psi[cols, , drop = FALSE])
+    yM <- wM %*% tP
+    yR <- yM + wb %*% tP
+    yNew <- switch(type,
+      reality = , field_run = yM,
+      added_load = if (is.null(dW)) yM + rep(shift[cols], each = H) else yM + dW %*% tP,
+      new_vehicle = , new_nominal = wNew %*% tP
+    )
+    if (additive) {
+      y <- yNew + (yR - yM)
+    } else {
+      small <- abs(yM) < guard * peak
+      y <- yNew * (yR / yM)
+      y[small] <- (yNew + (yR - yM))[small]
+    }
+    if (noise) y <- y + eps %*% tP
+    if (residual) y <- y + detail(cols)
+    y
+  })
+  draws <- if (keep_draws) source_matrix(src)
+  band <- band_frame(draws %||% src, fit$basis$t, s, level)
   band$model <- pure
   list(
     summary = band,
-    draws = if (keep_draws) pred,
+    draws = draws,
     n_guarded = n_guarded
   )
 }

@@ -66,3 +66,90 @@ test_that("the field detail outside the basis gets bands with their nominal cove
                basis = list(Psi = Psi), sigma2 = list(a = matrix(0.04, 10, 16)))
   expect_equal(colMeans(wavevalid:::residual_draws(fit3, "a", 5)), detail)
 })
+
+test_that("curve summaries built by blocks of time points match the whole-matrix formulas", {
+  withr::local_seed(4)
+  # more values than one block holds
+  Y <- matrix(stats::rnorm(2100 * 520), 2100)
+  expect_gt(length(wavevalid:::col_blocks(ncol(Y), nrow(Y))), 1L)
+  expect_identical(unlist(wavevalid:::col_blocks(ncol(Y), nrow(Y))), seq_len(ncol(Y)))
+  sim <- wavevalid:::simultaneous_band(Y, 0.9)
+  centre <- colMeans(Y)
+  s <- sqrt(colSums(sweep(Y, 2L, centre)^2) / (nrow(Y) - 1))
+  score <- apply(abs(sweep(sweep(Y, 2L, centre), 2L, s, "/")), 1L, max)
+  keep <- order(score)[seq_len(ceiling(0.9 * nrow(Y)))]
+  expect_identical(sim$score, score)
+  expect_identical(sim$lower, apply(Y[keep, ], 2L, min))
+  expect_identical(sim$upper, apply(Y[keep, ], 2L, max))
+  expect_equal(wavevalid:::pointwise_quantiles(Y, 0.95)[1, ], unname(apply(Y, 2L, stats::quantile, 0.95)))
+
+  # detail draws: G D scaled by draw, or white noise drawn block by block
+  n_t <- 128
+  H <- 9000
+  Psi <- qr.Q(qr(matrix(stats::rnorm(n_t * 16), n_t)))
+  truth <- stats::rnorm(n_t)
+  outside <- function(M) M - M %*% Psi %*% t(Psi)
+  reps <- matrix(truth, 3, n_t, byrow = TRUE) + matrix(stats::rnorm(3 * n_t, sd = 0.2), 3)
+  fit <- list(field = list(curves = list(a = reps)), basis = list(Psi = Psi),
+              sigma2 = list(a = matrix(0.04, 10, 16)))
+  expect_gt(length(wavevalid:::col_blocks(n_t, H)), 1L)
+  E <- withr::with_seed(7, wavevalid:::residual_draws(fit, "a", H))
+  expected <- withr::with_seed(7, {
+    G <- matrix(stats::rnorm(H * 3, sd = sqrt(1 / 3 / 2)), H)
+    chi <- sqrt(2 / stats::rchisq(H, 2))
+    D <- outside(sweep(reps, 2L, colMeans(reps)))
+    sweep((G %*% D) * chi, 2L, drop(outside(matrix(colMeans(reps), 1L))), `+`)
+  })
+  expect_equal(E, expected)
+  fit$field$curves$a <- reps[1, , drop = FALSE]
+  E1 <- withr::with_seed(7, wavevalid:::residual_draws(fit, "a", H, new_run = TRUE))
+  expected1 <- withr::with_seed(7, matrix(stats::rnorm(H * n_t), H) * sqrt(2 * 0.04))
+  expect_equal(E1, sweep(expected1, 2L, drop(outside(reps[1, , drop = FALSE])), `+`))
+  # a second pass over the blocks gives the same draws, and the stream ends as after one pass
+  withr::with_seed(7, {
+    src <- wavevalid:::curve_source(H, n_t, wavevalid:::residual_source(fit, "a", H, new_run = TRUE))
+    first <- wavevalid:::source_matrix(src)
+    second <- wavevalid:::source_matrix(src)
+    after <- stats::runif(1)
+  })
+  expect_identical(second, first)
+  expect_identical(first, E1)
+  expect_identical(after, withr::with_seed(7, {
+    stats::rnorm(H * n_t)
+    stats::runif(1)
+  }))
+})
+
+test_that("predictions rebuilt by blocks of time points match the draws computed at once", {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 5, chains = 1, seed = 5, quiet = TRUE)
+  # repeat the draws so that one site's curves span several blocks
+  H <- 40000
+  idx <- rep_len(seq_len(nrow(fit$wM$site1)), H)
+  for (w in c("wM", "wb", "sigma2")) fit[[w]]$site1 <- fit[[w]]$site1[idx, , drop = FALSE]
+  Psi <- fit$basis$Psi
+  expect_gt(length(wavevalid:::col_blocks(nrow(Psi), H)), 1L)
+  yM <- fit$wM$site1 %*% t(Psi)
+  yR <- (fit$wM$site1 + fit$wb$site1) %*% t(Psi)
+  re <- predict(fit, type = "reality", residual = FALSE, keep_draws = TRUE, seed = 1)
+  expect_equal(unname(re$draws$site1), unname(yR))
+  # bands from curves rebuilt on demand equal those of the kept draws
+  expect_identical(predict(fit, type = "reality", residual = FALSE, seed = 1)$summary, re$summary)
+  fr <- predict(fit, type = "field_run", keep_draws = TRUE, seed = 2)
+  expect_identical(predict(fit, type = "field_run", seed = 2)$summary, fr$summary)
+  cols <- c("lower", "upper", "lower_curve", "upper_curve")
+  expect_identical(as.list(fr$summary[cols]),
+                   as.list(wavevalid:::band_frame(fr$draws$site1, fit$basis$t, "site1", 0.9)[cols]))
+  model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * ex$field$t) + u * exp(-((ex$field$t - 0.6) / 0.08)^2)
+  pair <- model_runs(data.frame(u1 = c(0.5, 0.5), x1 = c(0.5, 0.7)), rbind(model(0.5, 0.5), model(0.5, 0.7)),
+                     ex$field$t, site = "site1")
+  D <- pair$curves$site1[2, ] - pair$curves$site1[1, ]
+  al <- predict(fit, type = "added_load", new_runs = pair, bias = "multiplicative", noise = FALSE,
+                residual = FALSE, keep_draws = TRUE, seed = 1)
+  yNew <- sweep(yM, 2L, D, `+`)
+  small <- abs(yM) < 0.01 * apply(abs(yM), 1L, max)
+  expected <- yNew * yR / yM
+  expected[small] <- (yNew + yR - yM)[small]
+  expect_equal(unname(al$draws$site1), unname(expected))
+  expect_equal(unname(al$n_guarded), sum(small))
+})

@@ -1,0 +1,139 @@
+# Peak memory of the curve summaries of a large fit: 4 sites x 4096 time
+# points x 4000 posterior draws. Curves are rebuilt from the coefficient draws
+# one site at a time, so the peak should stay a small multiple of one site's
+# curve matrix (4096 x 4000 doubles = 125 MiB), well below all four sites'
+# curves (500 MiB).
+#
+# The fit is synthesised cheaply: a problem with four sites on 4096 points and
+# emulators with fixed hyperparameters is calibrated with a short chain, and
+# its 40 saved draws (inputs, model and bias coefficients, field variances) are
+# repeated and slightly perturbed up to 4000 draws.
+#
+# Two measures are printed for each call: R's own high-water mark of vector
+# memory (gc(reset = TRUE) before, "max used" after, minus what was in use
+# before the call) and the growth of the process's peak resident set
+# (/proc/self/status VmHWM, reset through /proc/self/clear_refs where the
+# kernel allows it).
+#
+# Measured on a 2-core machine (R 4.2, reference BLAS), growth of R's vector
+# memory above what was in use before each call:
+#   curves rebuilt whole per site, with whole-matrix summaries:
+#     bias() 804 MiB, reality() 900 MiB, predict(field_run) 896 MiB,
+#     where_fails() 803 MiB: up to 7.2 x one site's curves (1.8 x all four);
+#   curves rebuilt on demand by blocks of time points (this version):
+#     bias() 104 MiB, reality() 103 MiB, model_prediction() 104 MiB,
+#     predict(reality / field_run) 131 MiB, where_fails() 134 MiB:
+#     at most 1.07 x one site's curves (0.27 x all four). Most of it is
+#     garbage from the blocks not yet collected; the curves held at any time
+#     are one block of about 2^20 values (8 MiB).
+#
+# Run: R_LIBS=<lib> Rscript bench/bench_memory.R [n_draws]
+library(wavevalid)
+options(wavevalid.quiet = TRUE)
+ns <- asNamespace("wavevalid")
+args <- commandArgs(trailingOnly = TRUE)
+H <- if (length(args) >= 1) as.integer(args[1]) else 4000L
+n_t <- 4096L
+sites <- paste0("site", 1:4)
+mib <- function(bytes) bytes / 2^20
+
+# --- a small real fit on the full grid ------------------------------------------
+set.seed(1)
+t <- 65 * (0:(n_t - 1L)) / n_t
+iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1),
+             nominal = c(0.5, 0.5))
+model <- function(u, x, k) {
+  (1 + 0.5 * x) * sin(2 * pi * t / (13 + k)) + u * exp(-((t - 7 - 8 * k) / 1.5)^2)
+}
+design <- cbind(u1 = (0:11 + stats::runif(12)) / 12, x1 = (sample(12) - stats::runif(12)) / 12)
+basis <- ns$basis_from_index(t, 1:64)
+banks <- list()
+params <- list()
+curves <- list()
+for (k in seq_along(sites)) {
+  runs_k <- t(apply(design, 1, function(z) model(z[1], z[2], k)))
+  Y <- runs_k %*% basis$Psi
+  bank <- ns$bank_fixed_hyper(design, Y, beta = c(2, 2), alpha = c(0, 0))
+  banks[[sites[k]]] <- bank
+  params[[k]] <- data.frame(site = sites[k], index = basis$index, level = basis$level, mu = bank$mu,
+                            lambda = bank$lambda, nugget = bank$nugget, loglik = NA_real_,
+                            beta_u1 = bank$beta[, 1], alpha_u1 = bank$alpha[, 1],
+                            beta_x1 = bank$beta[, 2], alpha_x1 = bank$alpha[, 2])
+  truth <- model(0.3, 0.55, k) + 0.1 * exp(-((t - 30 - 5 * k) / 0.8)^2)
+  curves[[sites[k]]] <- t(replicate(4, truth + stats::rnorm(n_t, sd = 0.03)))
+}
+emulators <- structure(list(params = do.call(rbind, params), inputs = c("u1", "x1"), design = design,
+                            banks = banks, basis = basis, engine = "gasp", t = t),
+                       class = "wv_emulators")
+field <- ns$new_wv_field(t, curves, x_nom = c(x1 = 0.5))
+small <- calibrate(emulators, field, iu, n_draws = 40, n_inner = 5, chains = 1, burnin = 200, seed = 1)
+
+# --- repeat and perturb its draws up to H -------------------------------------
+grow <- function(m, sd_rel = 0.02) {
+  idx <- rep_len(seq_len(nrow(m)), H)
+  out <- m[idx, , drop = FALSE]
+  s <- apply(m, 2, stats::sd)
+  out + sd_rel * matrix(stats::rnorm(length(out)), H) * rep(s, each = H)
+}
+fit <- small
+fit$wM <- lapply(small$wM, grow)
+fit$wb <- lapply(small$wb, grow)
+fit$sigma2 <- lapply(small$sigma2, function(m) m[rep_len(seq_len(nrow(m)), H), , drop = FALSE])
+dm <- as.matrix(small$draws)
+draws <- dm[rep_len(seq_len(nrow(dm)), H), , drop = FALSE]
+draws[, fit$inputs] <- pmin(pmax(grow(dm[, fit$inputs, drop = FALSE]), 0), 1)
+fit$draws <- coda::mcmc.list(coda::mcmc(draws))
+fit$chain <- rep(1L, H)
+fit$settings$n_draws <- H
+rm(small, draws, dm, curves, banks, params)
+
+one_site <- mib(8 * n_t * H)
+cat(sprintf("Fit: %d sites x %d time points x %d draws, %d coefficients per site; fit object %.1f MiB\n",
+            length(fit$wb), n_t, H, ncol(fit$wb[[1]]), mib(as.numeric(utils::object.size(fit)))))
+cat(sprintf("One site's curve matrix (%d x %d doubles): %.1f MiB; all %d sites: %.1f MiB\n\n",
+            n_t, H, one_site, length(sites), length(sites) * one_site))
+
+# --- peak memory of each call -------------------------------------------------
+vm_hwm <- function() {
+  st <- readLines("/proc/self/status")
+  as.numeric(sub("^VmHWM:\\s*(\\d+).*", "\\1", grep("^VmHWM", st, value = TRUE))) / 1024
+}
+vm_rss <- function() {
+  st <- readLines("/proc/self/status")
+  as.numeric(sub("^VmRSS:\\s*(\\d+).*", "\\1", grep("^VmRSS", st, value = TRUE))) / 1024
+}
+reset_hwm <- function() {
+  ok <- tryCatch({
+    writeLines("5", "/proc/self/clear_refs")
+    TRUE
+  }, error = function(e) FALSE, warning = function(w) FALSE)
+  ok
+}
+measure <- function(label, expr) {
+  invisible(gc())
+  g0 <- gc(reset = TRUE)
+  base_r <- sum(g0[, 2])                 # Mb in use now (Ncells + Vcells)
+  rss0 <- vm_rss()
+  hwm_ok <- reset_hwm()
+  el <- system.time(res <- force(expr))[["elapsed"]]
+  g1 <- gc()
+  peak_r <- sum(g1[, ncol(g1)]) - base_r  # Mb: max used since the reset, above the baseline
+  peak_rss <- vm_hwm() - rss0
+  cat(sprintf("%-32s R peak %7.1f MiB (%4.2f x one site)   RSS peak %s   %5.1f s\n", label, peak_r,
+              peak_r / one_site,
+              if (hwm_ok) sprintf("%7.1f MiB (%4.2f x)", peak_rss, peak_rss / one_site) else "   n/a",
+              el))
+  rm(res)
+  invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA))
+}
+
+out <- rbind(
+  `bias()` = measure("bias()", bias(fit)),
+  `reality()` = measure("reality()", reality(fit)),
+  `model_prediction()` = measure("model_prediction()", model_prediction(fit)),
+  `predict(type = "reality")` = measure("predict(type = \"reality\")", predict(fit, seed = 1)),
+  `predict(type = "field_run")` = measure("predict(type = \"field_run\")", predict(fit, "field_run", seed = 1)),
+  `where_fails()` = measure("where_fails()", where_fails(fit))
+)
+cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all four sites' curves)\n",
+            max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))
