@@ -102,19 +102,27 @@ testbed_files <- function() {
 }
 
 # Writes a test bed as CSV files in `dir` (curves rounded to `digits`
-# significant digits). Used by data-raw/make-testbed.R.
+# significant digits). Used by data-raw/make-testbed.R. The curves are stored
+# wide, one row per curve: its keys (condition, run or replicate, site), then
+# its values at the grid points, columns y1..yT for testbed_grid(); xz
+# compresses this layout much better than one row per value.
 write_testbed <- function(tb, dir, digits = 6L) {
   dir.create(dir, showWarnings = FALSE, recursive = TRUE)
   conds <- c("A", "B", "added_mass")
-  long <- function(curves, id_name, condition) {
+  wide <- function(curves, id_name, condition) {
     do.call(rbind, lapply(names(curves), function(s) {
-      d <- curves_long(curves[[s]], tb$A$runs$t, s, id_name)
-      d <- d[order(d[[id_name]], d$t), ]
-      cbind(condition = condition, d[c(id_name, "site", "t", "y")])
+      m <- curves[[s]]
+      keys <- data.frame(condition = rep(condition, nrow(m)), id = seq_len(nrow(m)), site = s,
+                         stringsAsFactors = FALSE)
+      names(keys)[2] <- id_name
+      y <- as.data.frame(unname(m))
+      names(y) <- paste0("y", seq_len(ncol(m)))
+      cbind(keys, y)
     }))
   }
   write_xz <- function(d, file) {
-    d$y <- signif(d$y, digits)
+    y <- grepl("^y[0-9]+$", names(d))
+    d[y] <- lapply(d[y], signif, digits)
     con <- xzfile(file.path(dir, file), "w", compression = 9)
     on.exit(close(con))
     utils::write.csv(d, con, row.names = FALSE)
@@ -124,14 +132,15 @@ write_testbed <- function(tb, dir, digits = 6L) {
     cbind(condition = cd, run = seq_len(nrow(tb[[cd]]$runs$design)), tb[[cd]]$runs$design)
   }))
   utils::write.csv(design, file.path(dir, "testbed_design.csv"), row.names = FALSE)
-  write_xz(do.call(rbind, lapply(conds, function(cd) long(tb[[cd]]$runs$curves, "run", cd))),
+  write_xz(do.call(rbind, lapply(conds, function(cd) wide(tb[[cd]]$runs$curves, "run", cd))),
            "testbed_runs.csv.xz")
-  write_xz(do.call(rbind, lapply(conds, function(cd) long(tb[[cd]]$field$curves, "replicate", cd))),
+  write_xz(do.call(rbind, lapply(conds, function(cd) wide(tb[[cd]]$field$curves, "replicate", cd))),
            "testbed_field.csv.xz")
   real <- list(A = tb$truth$reality, B = tb$truth$reality_B, added_mass = tb$truth$reality_added_mass)
-  write_xz(do.call(rbind, lapply(conds, function(cd) {
-    long(lapply(real[[cd]], function(y) matrix(y, nrow = 1L)), "replicate", cd)
-  }))[c("condition", "site", "t", "y")], "testbed_reality.csv.xz")
+  real_wide <- do.call(rbind, lapply(conds, function(cd) {
+    wide(lapply(real[[cd]], function(y) matrix(y, nrow = 1L)), "replicate", cd)
+  }))
+  write_xz(real_wide[names(real_wide) != "replicate"], "testbed_reality.csv.xz")
   tr <- tb$truth
   vec <- function(what, v) data.frame(what = what, name = names(v), value = unname(v))
   truth <- rbind(vec("u", tr$u), vec("delta", tr$delta), vec("delta_B", tr$delta_B),
@@ -147,23 +156,36 @@ read_testbed <- function(dir) {
   rd <- function(f, classes = NA) {
     utils::read.csv(file.path(dir, f), stringsAsFactors = FALSE, colClasses = classes)
   }
-  long_classes <- c("character", "integer", "character", "numeric", "numeric")
+  t <- testbed_grid()
+  # curves: keys, then the values at the grid points
+  rd_curves <- function(f, keys) {
+    cols <- c(keys, paste0("y", seq_along(t)))
+    found <- names(utils::read.csv(file.path(dir, f), nrows = 1L, check.names = FALSE))
+    if (!identical(found, cols)) {
+      wv_abort(c(
+        "{.file {f}} in {.path {dir}} does not hold test bed curves.",
+        "i" = "Expected one row per curve: {.field {keys}}, then the values at the {length(t)} grid points ({.field y1} to {.field y{length(t)}})."
+      ), call = NULL)
+    }
+    rd(f, c(ifelse(keys %in% c("run", "replicate"), "integer", "character"), rep("numeric", length(t))))
+  }
   iu_df <- rd("testbed_iu.csv")
   iu <- iu_map(iu_df$name, iu_df$type, iu_df$lower, iu_df$upper, iu_df$nominal,
                ifelse(is.na(iu_df$prior_sd), 1, iu_df$prior_sd))
   design <- rd("testbed_design.csv")
-  runs <- rd("testbed_runs.csv.xz", long_classes)
-  field <- rd("testbed_field.csv.xz", long_classes)
-  real <- rd("testbed_reality.csv.xz", long_classes[-2])
+  runs <- rd_curves("testbed_runs.csv.xz", c("condition", "run", "site"))
+  field <- rd_curves("testbed_field.csv.xz", c("condition", "replicate", "site"))
+  real <- rd_curves("testbed_reality.csv.xz", c("condition", "site"))
   truth <- rd("testbed_truth.csv")
   warps <- rd("testbed_warps.csv")
-  t <- testbed_grid()
   sites <- c("site1", "site2")
+  y_cols <- paste0("y", seq_along(t))
   to_curves <- function(d, id_name) {
     stats::setNames(lapply(sites, function(s) {
       ds <- d[d$site == s, ]
-      ds <- ds[order(ds[[id_name]], ds$t), ]
-      matrix(ds$y, ncol = length(t), byrow = TRUE)
+      m <- as.matrix(ds[order(ds[[id_name]]), y_cols, drop = FALSE])
+      dimnames(m) <- NULL
+      m
     }), sites)
   }
   tv <- function(what) {

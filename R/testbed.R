@@ -134,9 +134,10 @@ simulate_suspension <- function(design, mechanism = NULL, nominal = NULL) {
 #'
 #' Reads the instance of [testbed_suspension()] shipped with the package in
 #' `inst/extdata` (seed 2007, hidden mechanism `"progressive_bumpstop"`),
-#' stored as CSV files (the curves xz-compressed): curves in long format (`condition`, `run` or
-#' `replicate`, `site`, `t`, `y`, with 6 significant digits), the designs,
-#' the I/U map and the truth.
+#' stored as CSV files: the curves xz-compressed, one row per curve
+#' (`condition`, `run` or `replicate`, `site`, then `y1` to `y4096`, the
+#' values at the grid points `t = 65 * (0:4095) / 4096`, with 6 significant
+#' digits), the designs, the I/U map and the truth.
 #'
 #' @param dir Folder holding the CSV files (default: the shipped instance).
 #' @return A `wv_testbed` with the layout of [testbed_suspension()].
