@@ -78,16 +78,19 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   seed <- resolve_seed(seed)
   em <- object$emulators
   sites <- names(object$wb)
-  new_model <- switch(type,
+  # the draws of the set-up (prior draws of the variations, emulators of new
+  # runs) come from their own stream, fixed by the seed
+  setup_seed <- if (seed < .Machine$integer.max) seed + 1L else 1L
+  new_model <- with_rng_seed(setup_seed, switch(type,
     added_load = if (is.null(new_runs) && !is.null(delta)) {
       added_load_emulated(object, delta)
     } else {
       added_load_difference(object, new_runs)
     },
-    new_nominal = new_nominal_setup(object, new_runs, x_nom),
+    new_nominal = new_nominal_setup(object, new_runs, x_nom, setup_seed),
     new_vehicle = new_vehicle_setup(object, x_new),
     NULL
-  )
+  ))
   if (type %in% c("reality", "field_run") && !is.null(new_runs)) {
     wv_abort("{.arg new_runs} is used only by types {.val added_load} and {.val new_nominal}.")
   }
@@ -227,7 +230,7 @@ added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
   list(Dw = stats::setNames(Dw, names(fit$wb)), delta = delta)
 }
 
-new_nominal_setup <- function(fit, new_runs, x_nom, call = rlang::caller_env()) {
+new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_env()) {
   check_new_runs(fit, new_runs, call = call)
   inputs <- fit$emulators$inputs
   iu <- fit$iu
@@ -240,7 +243,7 @@ new_nominal_setup <- function(fit, new_runs, x_nom, call = rlang::caller_env()) 
     wv_abort("{.arg x_nom} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
   }
   new_runs$design <- new_runs$design[inputs]
-  em_new <- fit_emulators(new_runs, fit$basis, engine = fit$emulators$engine)
+  em_new <- fit_emulators(new_runs, fit$basis, engine = fit$emulators$engine, seed = seed)
   predict_at_draws(fit, em_new$banks, x_nom, x_new = NULL, augmented = FALSE)
 }
 

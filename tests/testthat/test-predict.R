@@ -78,6 +78,11 @@ test_that("new nominals fit new emulators and carry the bias over", {
   runs_B <- model_runs(d, t(apply(d, 1, function(z) model(z[1], z[2]))), e$ex$field$t, site = "site1")
   p <- suppressWarnings(predict(e$fit, type = "new_nominal", new_runs = runs_B, x_nom = c(x1 = 0.5), seed = 2))
   expect_s3_class(p, "wv_prediction")
+  # the seed fixes the whole prediction, the new emulators' fit included,
+  # whatever the state of R's generator
+  again <- withr::with_seed(99, suppressWarnings(
+    predict(e$fit, type = "new_nominal", new_runs = runs_B, x_nom = c(x1 = 0.5), seed = 2)))
+  expect_identical(again$summary, p$summary)
   expect_true(all(p$summary$lower <= p$summary$mean & p$summary$mean <= p$summary$upper))
   expect_s3_class(autoplot(p), "ggplot")
 })
