@@ -1,5 +1,6 @@
-# Speed of calibrate() on the suspension test bed (seed 1, condition A, two
-# sites): (a) one full chain of n_draws x n_inner cycles (plus the burn-in),
+# Speed of calibrate() on the suspension test bed (seed 1, condition A):
+# (a) one full chain of n_draws x n_inner cycles (plus the burn-in) on Site 1
+# alone, then on both sites jointly,
 # (b) the cost of one Metropolis-Hastings cycle in C++ against plain R
 # implementations of eq. (11) + eq. (18): a loop over coefficients calling
 # DiceKriging::predict() on km objects with the fitted hyperparameters, and a
@@ -23,20 +24,31 @@ cat(sprintf("Test bed: %d coefficients per site, sites %s, %d runs, %d inputs (b
             length(basis$index), paste(names(emulators$banks), collapse = ", "), nrow(emulators$design), p,
             proc.time()[["elapsed"]] - t0))
 
-# (a) one full chain
-el <- system.time(fit <- calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                   seed = 1))[["elapsed"]]
-n_iter <- n_draws * n_inner + fit$settings$burnin
-cat(sprintf("(a) one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.2f ms per cycle)\n",
-            n_draws, n_inner, fit$settings$burnin, n_iter, el, 1e3 * el / n_iter))
-cat(sprintf("    acceptance: tau2 %.2f, inputs %.2f (random walk), %.2f (global moves), burn-in %.2f\n",
-            fit$acceptance$tau2, fit$acceptance$inputs, fit$acceptance$global, fit$acceptance$burnin))
+# (a) one full chain: Site 1 alone, then both sites jointly
+one_chain <- function(label, emulators, field) {
+  el <- system.time(fit <- calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
+                                     seed = 1))[["elapsed"]]
+  n_iter <- n_draws * n_inner + fit$settings$burnin
+  cat(sprintf("(a) %s: one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.3f ms per cycle)\n",
+              label, n_draws, n_inner, fit$settings$burnin, n_iter, el, 1e3 * el / n_iter))
+  cat(sprintf("    acceptance: tau2 %.2f, inputs %.2f (random walk), %.2f (global moves), burn-in %.2f\n",
+              fit$acceptance$tau2, fit$acceptance$inputs, fit$acceptance$global, fit$acceptance$burnin))
+  list(fit = fit, el = el)
+}
+emu1 <- emulators
+emu1$banks <- emulators$banks["site1"]
+field1 <- field
+field1$curves <- field$curves["site1"]
+a1 <- one_chain("Site 1", emu1, field1)
+a2 <- one_chain("Sites 1 and 2", emulators, field)
+fit <- a1$fit
+el <- a1$el
 
 # (b) one cycle: C++ (short chain, no burn-in) against plain R
 spec <- ns$calibration_spec(emulators, field, iu)
 tau <- ns$resolve_fix_tau2(NULL, spec$groups)
-cpp <- system.time(ns$run_chains(spec, 20, 100, 1, 1, 0.1, tau, 0L, quiet = TRUE,
-                                 proposal = "adaptive", burnin = 0L))[["elapsed"]] / 2000
+cpp <- system.time(ns$run_chains(spec, 50, 100, 1, 1, 0.1, tau, 0L, quiet = TRUE,
+                                 proposal = "adaptive", burnin = 0L))[["elapsed"]] / 5000
 
 # DiceKriging: one km object per (site, coefficient) with the fitted
 # hyperparameters; powexp correlation exp(-sum (|h| / theta)^p) with
@@ -103,11 +115,11 @@ el_r <- system.time(for (k in seq_len(n_r)) {
     loglik_r(r_predict(site$bank, z), tau2, spec$s2[[s]] / 6, site)
   }
 })[["elapsed"]] / n_r
-cat(sprintf("(b) per cycle: C++ %.2f ms; DiceKriging::predict loop %.0f ms (ratio %.0fx); vectorised base R %.0f ms (ratio %.0fx)\n",
+cat(sprintf("(b) per cycle, both sites: C++ %.2f ms; DiceKriging::predict loop %.0f ms (ratio %.0fx); vectorised base R %.0f ms (ratio %.0fx)\n",
             1e3 * cpp, 1e3 * el_dk, el_dk / cpp, 1e3 * el_r, el_r / cpp))
 
 # (c) effective samples per second for each input
 ess <- coda::effectiveSize(fit$draws)[emulators$inputs]
-cat("(c) effective samples per second of chain time (ESS of", n_draws, "draws):\n")
+cat("(c) Site 1 chain: effective samples per second of chain time (ESS of", n_draws, "draws):\n")
 print(data.frame(input = names(ess), ess = round(ess), ess_per_s = signif(ess / el, 3)), row.names = FALSE)
 cat(sprintf("Total bench time %.0f s\n", proc.time()[["elapsed"]] - t0))
