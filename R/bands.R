@@ -282,9 +282,18 @@ band_frame <- function(x, t, site, level) {
 curve_bands <- function(src, level, probs = numeric()) {
   H <- src$H
   blocks <- col_blocks(src$n, H)
+  # three passes over the blocks; a bar when they are many (cli shows it only
+  # after two seconds)
+  bar <- length(blocks) >= 4L && !isTRUE(getOption("wavevalid.quiet", FALSE))
+  if (bar) {
+    cli::cli_progress_bar("Summarising curve draws", total = 3L * length(blocks), .envir = environment())
+  }
+  env <- environment()
+  tick <- function() if (bar) cli::cli_progress_update(.envir = env)
   centre <- ss <- numeric(src$n)
   q <- matrix(0, length(probs), src$n)
   for (cols in blocks) {
+    tick()
     Y <- src$block(cols)
     centre[cols] <- colMeans(Y)
     ss[cols] <- colSums((Y - rep(centre[cols], each = H))^2)
@@ -294,12 +303,14 @@ curve_bands <- function(src, level, probs = numeric()) {
   s <- pmax(s, 1e-12 * max(s, 1e-300))
   score <- rep(-Inf, H)
   for (cols in blocks) {
+    tick()
     Z <- abs((src$block(cols) - rep(centre[cols], each = H)) / rep(s[cols], each = H))
     score <- pmax(score, apply(Z, 1L, max))
   }
   keep <- order(score)[seq_len(ceiling(level * H))]
   lower <- upper <- numeric(src$n)
   for (cols in blocks) {
+    tick()
     Y <- src$block(cols)[keep, , drop = FALSE]
     lower[cols] <- apply(Y, 2L, min)
     upper[cols] <- apply(Y, 2L, max)
