@@ -114,3 +114,51 @@ test_that("adding the missing effect makes the error fall", {
   expect_s3_class(autoplot(cmp2), "ggplot")
   expect_error(compare_validations(d$fit, "after"), class = "wavevalid_error_input")
 })
+
+# The diagnosis on the suspension test bed, short chains: without a hidden
+# mechanism nothing is flagged or explained; with one, where_fails flags where
+# it acts and explain_bias ranks it first among the mechanisms. (A hidden
+# digressive damper is too weak at this size: where_fails does not see it and
+# the bump stop's signature competes with its own.)
+testbed_diagnosis <- function(hidden) {
+  withr::local_options(list(wavevalid.quiet = TRUE))
+  tb <- testbed_suspension(seed = 1, hidden = hidden)
+  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
+  basis <- wavelet_basis(tb$A$runs, field)
+  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
+                                    quiet = TRUE))
+  z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
+  ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
+  list(tb = tb, fit = fit, fails = where_fails(fit), explain = ex[!startsWith(ex$candidate, "shift:"), ],
+       all = ex)
+}
+
+test_that("on the test bed without a hidden mechanism, nothing is flagged or explained", {
+  skip_on_cran()
+  d <- testbed_diagnosis("none")
+  steps <- (d$fails$end - d$fails$start) / diff(d$fit$basis$t[1:2])
+  expect_true(all(steps <= 3), label = paste(round(steps), collapse = ", "))
+  expect_true(all(d$all$inclusion_prob < 0.5))
+})
+
+test_that("on the test bed, the hidden mechanism is flagged where it acts and ranked first", {
+  skip_on_cran()
+  for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
+    d <- testbed_diagnosis(h)
+    expect_identical(d$explain$candidate[1], h)
+    expect_gte(d$explain$inclusion_prob[1], 0.9)
+    expect_true(all(d$explain$inclusion_prob[-1] < 0.5), label = h)
+    truth <- c(d$tb$truth$u, 0.5 + d$tb$truth$delta)[d$fit$inputs]
+    effect <- testbed_signatures(truth, h)[[1]]
+    t <- d$fit$basis$t
+    for (s in names(effect)) {
+      acts <- abs(effect[[s]]) > 0.1 * max(abs(effect[[s]]))
+      w <- d$fails[d$fails$site == s, ]
+      flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
+                        rep(FALSE, length(t)))
+      expect_gt(mean(flagged[acts]), 0.2, label = paste(h, s))
+    }
+  }
+})
