@@ -30,11 +30,12 @@ struct GaspBank {
   int n_inputs() const { return static_cast<int>(X.cols()); }
 
   // Correlation vector r_i(z) for coefficient i, z already scaled.
-  // d1, d2, logd: K x p matrices of |z - X|, |z - X|^2, log|z - X|.
+  // d1, d2, logd: K x p matrices of |z - X|, |z - X|^2, log|z - X|; s: scratch
+  // of length K; r: length K (a vector or a column of a matrix).
   void corr_vector(int i, const Eigen::MatrixXd& d1, const Eigen::MatrixXd& d2,
-                   const Eigen::MatrixXd& logd, Eigen::VectorXd& r) const {
-    const int K = n_runs(), p = n_inputs();
-    Eigen::ArrayXd s = Eigen::ArrayXd::Zero(K);
+                   const Eigen::MatrixXd& logd, Eigen::ArrayXd& s, Eigen::Ref<Eigen::VectorXd> r) const {
+    const int p = n_inputs();
+    s.setZero();
     for (int q = 0; q < p; ++q) {
       const double b = beta(i, q);
       if (b == 0.0) continue;  // a zero beta makes the input irrelevant
@@ -47,18 +48,30 @@ struct GaspBank {
         s += b * ((2.0 - a) * logd.col(q).array()).exp();
       }
     }
-    r = (-s).exp().matrix();
+    r.array() = (-s).exp();
   }
 
-  // Distances of a raw input vector z to the design.
+  void corr_vector(int i, const Eigen::MatrixXd& d1, const Eigen::MatrixXd& d2,
+                   const Eigen::MatrixXd& logd, Eigen::VectorXd& r) const {
+    Eigen::ArrayXd s(n_runs());
+    r.resize(n_runs());
+    corr_vector(i, d1, d2, logd, s, r);
+  }
+
+  // Distances of a raw input vector z to the design (no allocation when the
+  // matrices already have their size).
   void distances(const Eigen::VectorXd& z, Eigen::MatrixXd& d1, Eigen::MatrixXd& d2,
                  Eigen::MatrixXd& logd) const {
-    const int p = n_inputs();
-    Eigen::VectorXd zs = ((z - lower).array() / width.array()).matrix();
-    d1.resize(n_runs(), p);
-    for (int q = 0; q < p; ++q) d1.col(q) = (X.col(q).array() - zs(q)).abs().matrix();
-    d2 = d1.array().square().matrix();
-    logd = d1.array().log().matrix();  // log(0) = -inf gives exp(-inf) = 0 as wanted
+    const int K = n_runs(), p = n_inputs();
+    d1.resize(K, p);
+    d2.resize(K, p);
+    logd.resize(K, p);
+    for (int q = 0; q < p; ++q) {
+      const double zq = (z(q) - lower(q)) / width(q);
+      d1.col(q) = (X.col(q).array() - zq).abs().matrix();
+    }
+    d2.array() = d1.array().square();
+    logd.array() = d1.array().log();  // log(0) = -inf gives exp(-inf) = 0 as wanted
   }
 
   // Predictive means m and variances v (length n) at raw input z.
@@ -128,7 +141,6 @@ struct GaspBank {
 
   // Scratch space for predict_into(), sized once per bank.
   struct Workspace {
-    Eigen::VectorXd zs;
     Eigen::MatrixXd d1, d2, logd;
     Eigen::ArrayXd s;
     Eigen::MatrixXd r;   // K x n: r_i(z) of the last mean_into(), one column per coefficient
@@ -137,7 +149,6 @@ struct GaspBank {
 
   void init_workspace(Workspace& ws) const {
     const int K = n_runs(), p = n_inputs();
-    ws.zs.resize(p);
     ws.d1.resize(K, p);
     ws.d2.resize(K, p);
     ws.logd.resize(K, p);
@@ -172,28 +183,9 @@ struct GaspBank {
   // Means m (length n) at raw input z; keeps every r_i(z) in ws.r for
   // var_into(). Inputs whose beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
-    const int n = n_coef(), p = n_inputs();
-    for (int q = 0; q < p; ++q) {
-      const double zq = (z(q) - lower(q)) / width(q);
-      ws.d1.col(q) = (X.col(q).array() - zq).abs().matrix();
-    }
-    ws.d2.array() = ws.d1.array().square();
-    ws.logd.array() = ws.d1.array().log();
-    for (int i = 0; i < n; ++i) {
-      ws.s.setZero();
-      for (int q = 0; q < p; ++q) {
-        const double b = beta(i, q);
-        if (b == 0.0) continue;
-        const double a = alpha(i, q);
-        if (a == 0.0) {
-          ws.s += b * ws.d2.col(q).array();
-        } else if (a == 1.0) {
-          ws.s += b * ws.d1.col(q).array();
-        } else {
-          ws.s += b * ((2.0 - a) * ws.logd.col(q).array()).exp();
-        }
-      }
-      ws.r.col(i).array() = (-ws.s).exp();
+    distances(z, ws.d1, ws.d2, ws.logd);
+    for (int i = 0; i < n_coef(); ++i) {
+      corr_vector(i, ws.d1, ws.d2, ws.logd, ws.s, ws.r.col(i));
       m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));
     }
   }
