@@ -40,50 +40,9 @@
 #include <cstdint>
 #include <stdexcept>
 #include "gasp_predict.h"
+#include "sampler_model.h"
 
 namespace wavevalid {
-
-struct SiteData {
-  const GaspBank* bank = nullptr;
-  Eigen::VectorXd wbar, s2;      // n
-  double R = 1.0;                // number of replicates
-  bool fixed_sigma2 = false;
-  Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
-  std::vector<int> group;        // n, global tau2 group of each coefficient
-};
-
-struct InputPrior {
-  double lower = 0.0, upper = 1.0;  // support
-  bool normal = false;              // truncated normal (variation) or uniform
-  double mean = 0.0, sd = 1.0;
-};
-
-struct SamplerSettings {
-  int n_draws = 1000;
-  int n_inner = 200;
-  double step = 0.1;                // local half-width as a fraction of the range
-  std::uint64_t seed = 1;
-  int chain = 1;
-  bool fix_tau2 = false;
-  Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
-  Eigen::VectorXd z_init;           // p
-  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio
-  int report_every = 50;
-  bool adaptive = false;            // ADAPTIVE proposal (else the report's)
-  int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
-  double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
-  int n_search = 200;               // ADAPTIVE: prior draws scored for the start
-};
-
-struct SamplerOutput {
-  Eigen::MatrixXd inputs;  // H x p
-  Eigen::MatrixXd tau2;    // H x G
-  std::vector<Eigen::MatrixXd> sigma2, wb, wM;  // per site, H x n
-  double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
-  double acc_global = 0, n_global = 0, acc_burn = 0, n_burn = 0;
-  Eigen::VectorXd z_start;   // first point of the burn-in
-  Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
-};
 
 class Sampler {
  public:
@@ -365,7 +324,7 @@ class Sampler {
 
   double log_prior_inputs(const Eigen::VectorXd& z) const {
     double lp = 0.0;
-    for (int k = 0; k < p_; ++k) lp += log_prior_input(k, z(k));
+    for (int k = 0; k < p_; ++k) lp += priors_[k].log_density(z(k));
     return lp;
   }
 
@@ -462,17 +421,6 @@ class Sampler {
     log_scale_ = 0.0;
   }
 
-  double draw_prior_input(int k) {
-    const InputPrior& pr = priors_[k];
-    if (pr.normal) {
-      for (int t = 0; t < 1000; ++t) {
-        const double x = pr.mean + pr.sd * norm_(rng_);
-        if (x >= pr.lower && x <= pr.upper) return x;
-      }
-    }
-    return pr.lower + (pr.upper - pr.lower) * unif_(rng_);
-  }
-
   // Moment estimates of tau2 at m, v (as init_tau2) and the log posterior
   // there: the score of a candidate start.
   double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
@@ -488,7 +436,7 @@ class Sampler {
     double best = profile_score(z_, t2);
     Eigen::VectorXd cand(p_);
     for (int j = 0; j < set_.n_search; ++j) {
-      for (int k = 0; k < p_; ++k) cand(k) = draw_prior_input(k);
+      for (int k = 0; k < p_; ++k) cand(k) = priors_[k].draw(rng_, norm_, unif_);
       predict_all(cand, m_, v_);
       const double sc = profile_score(cand, t2);
       if (sc > best) { best = sc; best_z = cand; }
@@ -503,24 +451,6 @@ class Sampler {
   std::function<void()> check_ = [] {};
 
  private:
-  double log_prior_input(int k, double x) const {
-    const InputPrior& pr = priors_[k];
-    if (x < pr.lower || x > pr.upper) return -std::numeric_limits<double>::infinity();
-    if (!pr.normal) return 0.0;
-    const double u = (x - pr.mean) / pr.sd;
-    return -0.5 * u * u;
-  }
-
-  // Mixture proposal density of `to` given `from` for coordinate k.
-  double proposal_density(int k, double from, double to) const {
-    const InputPrior& pr = priors_[k];
-    const double lo = std::max(pr.lower, from - half_(k));
-    const double hi = std::min(pr.upper, from + half_(k));
-    double d = 0.5 / (pr.upper - pr.lower);
-    if (to >= lo && to <= hi && hi > lo) d += 0.5 / (hi - lo);
-    return d;
-  }
-
   double input_step(double ll_cur) {
     if (p_ == 0) return ll_cur;
     zp_ = z_;
@@ -528,18 +458,11 @@ class Sampler {
     for (int k = 0; k < p_; ++k) {
       const InputPrior& pr = priors_[k];
       const double x = z_(k);
-      double y;
-      if (unif_(rng_) < 0.5) {
-        y = pr.lower + (pr.upper - pr.lower) * unif_(rng_);
-      } else {
-        const double lo = std::max(pr.lower, x - half_(k));
-        const double hi = std::min(pr.upper, x + half_(k));
-        y = lo + (hi - lo) * unif_(rng_);
-      }
+      const double y = pr.mixture_draw(x, half_(k), rng_, unif_);
       zp_(k) = y;
-      lr += log_prior_input(k, y) - log_prior_input(k, x);
+      lr += pr.log_density(y) - pr.log_density(x);
       if (set_.debug_break != 1)
-        lr += std::log(proposal_density(k, y, x)) - std::log(proposal_density(k, x, y));
+        lr += std::log(pr.mixture_density(y, x, half_(k))) - std::log(pr.mixture_density(x, y, half_(k)));
     }
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
@@ -561,17 +484,9 @@ class Sampler {
       const SiteData& d = sites_[s];
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
-        const double V = v_[s](i), e = sigma2_[s](i) / d.R, m = m_[s](i);
-        const double t2 = tau2_(d.group[i]);
-        const double S = V + e;
-        const double wb = t2 / (S + t2) * (d.wbar(i) - m) +
-                          std::sqrt(t2 * S / (S + t2)) * norm_(rng_);
-        double wM;
-        if (S > 0.0) {
-          wM = V / S * (d.wbar(i) - wb) + e / S * m + std::sqrt(V * e / S) * norm_(rng_);
-        } else {
-          wM = m;
-        }
+        double wb, wM;
+        draw_bias_and_model(d.wbar(i), m_[s](i), v_[s](i), sigma2_[s](i) / d.R, tau2_(d.group[i]), rng_,
+                            norm_, wb, wM);
         out.sigma2[s](h, i) = sigma2_[s](i);
         out.wb[s](h, i) = wb;
         out.wM[s](h, i) = wM;

@@ -1,0 +1,112 @@
+// Data, priors, settings and output of the modular Metropolis-Hastings
+// sampler (sampler.h), and its draw of the coefficients, free of R types.
+#ifndef WAVEVALID_SAMPLER_MODEL_H
+#define WAVEVALID_SAMPLER_MODEL_H
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <random>
+#include <vector>
+#include "gasp_predict.h"
+
+namespace wavevalid {
+
+struct SiteData {
+  const GaspBank* bank = nullptr;
+  Eigen::VectorXd wbar, s2;      // n
+  double R = 1.0;                // number of replicates
+  bool fixed_sigma2 = false;
+  Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
+  std::vector<int> group;        // n, global tau2 group of each coefficient
+};
+
+struct InputPrior {
+  double lower = 0.0, upper = 1.0;  // support
+  bool normal = false;              // truncated normal (variation) or uniform
+  double mean = 0.0, sd = 1.0;
+
+  // Log density up to a constant (-inf outside the support).
+  double log_density(double x) const {
+    if (x < lower || x > upper) return -std::numeric_limits<double>::infinity();
+    if (!normal) return 0.0;
+    const double u = (x - mean) / sd;
+    return -0.5 * u * u;
+  }
+
+  // A draw: the truncated normal by rejection (uniform if that keeps failing).
+  template <class Rng>
+  double draw(Rng& rng, std::normal_distribution<double>& norm,
+              std::uniform_real_distribution<double>& unif) const {
+    if (normal) {
+      for (int t = 0; t < 1000; ++t) {
+        const double x = mean + sd * norm(rng);
+        if (x >= lower && x <= upper) return x;
+      }
+    }
+    return lower + (upper - lower) * unif(rng);
+  }
+
+  // The report's proposal for this coordinate from x: with probability 1/2
+  // uniform on the support, else uniform on [x - half, x + half] cap support.
+  template <class Rng>
+  double mixture_draw(double x, double half, Rng& rng, std::uniform_real_distribution<double>& unif) const {
+    if (unif(rng) < 0.5) return lower + (upper - lower) * unif(rng);
+    const double lo = std::max(lower, x - half);
+    const double hi = std::min(upper, x + half);
+    return lo + (hi - lo) * unif(rng);
+  }
+
+  // Density of mixture_draw() at `to` from `from`.
+  double mixture_density(double from, double to, double half) const {
+    const double lo = std::max(lower, from - half);
+    const double hi = std::min(upper, from + half);
+    double d = 0.5 / (upper - lower);
+    if (to >= lo && to <= hi && hi > lo) d += 0.5 / (hi - lo);
+    return d;
+  }
+};
+
+struct SamplerSettings {
+  int n_draws = 1000;
+  int n_inner = 200;
+  double step = 0.1;                // local half-width as a fraction of the range
+  std::uint64_t seed = 1;
+  int chain = 1;
+  bool fix_tau2 = false;
+  Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
+  Eigen::VectorXd z_init;           // p
+  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio
+  int report_every = 50;
+  bool adaptive = false;            // ADAPTIVE proposal (else the report's)
+  int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
+  double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
+  int n_search = 200;               // ADAPTIVE: prior draws scored for the start
+};
+
+struct SamplerOutput {
+  Eigen::MatrixXd inputs;  // H x p
+  Eigen::MatrixXd tau2;    // H x G
+  std::vector<Eigen::MatrixXd> sigma2, wb, wM;  // per site, H x n
+  double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
+  double acc_global = 0, n_global = 0, acc_burn = 0, n_burn = 0;
+  Eigen::VectorXd z_start;   // first point of the burn-in
+  Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
+};
+
+// One coefficient's bias and model output given the inputs (emulator mean m
+// and variance V there), e = sigma2 / R and tau2: w^b from eq. (17), then w^M
+// from eq. (16).
+template <class Rng>
+inline void draw_bias_and_model(double wbar, double m, double V, double e, double t2, Rng& rng,
+                                std::normal_distribution<double>& norm, double& wb, double& wM) {
+  const double S = V + e;
+  wb = t2 / (S + t2) * (wbar - m) + std::sqrt(t2 * S / (S + t2)) * norm(rng);
+  wM = S > 0.0 ? V / S * (wbar - wb) + e / S * m + std::sqrt(V * e / S) * norm(rng) : m;
+}
+
+}  // namespace wavevalid
+
+#endif
