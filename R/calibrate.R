@@ -79,6 +79,11 @@
 #'   adapts during these cycles, and 0 for `"report"`.
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector named
 #'   by group `"site:level"`); they are then not sampled. Mostly for checks.
+#' @param threads Threads (OpenMP) sharing the emulator predictions of each
+#'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
+#'   predicted on its own, so the draws do not depend on `threads`. Use more
+#'   than one when the chains run one after another (the default sequential
+#'   [future::plan()]); with one worker per core, keep 1.
 #' @param quiet Suppress the progress bar (default `getOption("wavevalid.quiet")`).
 #' @param ... Must be empty.
 #' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
@@ -100,7 +105,7 @@
 #' fit
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
-                      burnin = NULL, fix_tau2 = NULL,
+                      burnin = NULL, fix_tau2 = NULL, threads = getOption("wavevalid.threads", 1L),
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
   rlang::check_dots_empty()
   check_class(emulators, "wv_emulators")
@@ -115,11 +120,12 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
     burnin <- if (proposal == "adaptive") max(5000, floor(n_draws * n_inner / 4)) else 0
   }
   check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
+  check_number(threads, min = 1, max = 1024, integer = TRUE)
   seed <- resolve_seed(seed)
   spec <- calibration_spec(emulators, field, iu, sigma2)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
-                     proposal = proposal, burnin = burnin)
+                     proposal = proposal, burnin = burnin, threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
                                       step = step, proposal = proposal, burnin = burnin,
@@ -251,7 +257,7 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
 # ratio) exists only to show that the simulation-based checks detect errors.
 run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
                        quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1,
-                       n_search = 200L) {
+                       n_search = 200L, threads = 1L) {
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   chain_fun <- function(ch) {
@@ -264,7 +270,7 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
                         as.numeric(tau_init), fix, as.integer(n_draws), as.integer(n_inner),
                         as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
                         progress, identical(proposal, "adaptive"), as.integer(burnin),
-                        as.numeric(p_global), as.integer(n_search))
+                        as.numeric(p_global), as.integer(n_search), as.integer(threads))
   }
   future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }

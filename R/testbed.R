@@ -63,7 +63,7 @@ testbed_suspension <- function(seed = 1, hidden = "none") {
 #' * `"tire_liftoff"`: the tire cannot pull the wheel down (it leaves the
 #'   ground at the pothole and the bump).
 #' * `"strut_friction"`: smoothed Coulomb friction of 400 N in each strut
-#'   (`250 v / sqrt(v^2 + 0.01^2)` at strut velocity `v` m/s), acting all
+#'   (`400 v / sqrt(v^2 + 0.01^2)` at strut velocity `v` m/s), acting all
 #'   along the rough road.
 #' * `"digressive_damper"`: above 0.35 m/s the damping slope falls to 0.4 times
 #'   (big events only).

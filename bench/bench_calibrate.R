@@ -1,6 +1,7 @@
 # Speed of calibrate() on the suspension test bed (seed 1, condition A):
 # (a) one full chain of n_draws x n_inner cycles (plus the burn-in) on Site 1
-# alone, then on both sites jointly,
+# alone (one thread, then two sharing the emulator predictions), then on both
+# sites jointly,
 # (b) the cost of one Metropolis-Hastings cycle in C++ against plain R
 # implementations of eq. (11) + eq. (18): a loop over coefficients calling
 # DiceKriging::predict() on km objects with the fitted hyperparameters, and a
@@ -25,12 +26,13 @@ cat(sprintf("Test bed: %d coefficients per site, sites %s, %d runs, %d inputs (b
             proc.time()[["elapsed"]] - t0))
 
 # (a) one full chain: Site 1 alone, then both sites jointly
-one_chain <- function(label, emulators, field) {
+one_chain <- function(label, emulators, field, threads = 1L) {
   el <- system.time(fit <- calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                     seed = 1))[["elapsed"]]
+                                     seed = 1, threads = threads))[["elapsed"]]
   n_iter <- n_draws * n_inner + fit$settings$burnin
-  cat(sprintf("(a) %s: one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.3f ms per cycle)\n",
-              label, n_draws, n_inner, fit$settings$burnin, n_iter, el, 1e3 * el / n_iter))
+  cat(sprintf("(a) %s, %d thread%s: one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.3f ms per cycle)\n",
+              label, threads, if (threads > 1) "s" else "", n_draws, n_inner, fit$settings$burnin, n_iter, el,
+              1e3 * el / n_iter))
   cat(sprintf("    acceptance: tau2 %.2f, inputs %.2f (random walk), %.2f (global moves), burn-in %.2f\n",
               fit$acceptance$tau2, fit$acceptance$inputs, fit$acceptance$global, fit$acceptance$burnin))
   list(fit = fit, el = el)
@@ -40,6 +42,9 @@ emu1$banks <- emulators$banks["site1"]
 field1 <- field
 field1$curves <- field$curves["site1"]
 a1 <- one_chain("Site 1", emu1, field1)
+a1t <- one_chain("Site 1", emu1, field1, threads = 2L)
+cat(sprintf("    two threads: %.2fx faster; identical draws: %s\n", a1$el / a1t$el,
+            identical(as.matrix(a1$fit$draws), as.matrix(a1t$fit$draws))))
 a2 <- one_chain("Sites 1 and 2", emulators, field)
 fit <- a1$fit
 el <- a1$el

@@ -11,6 +11,9 @@
 #include <Eigen/Dense>
 #include <vector>
 #include <cmath>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace wavevalid {
 
@@ -145,6 +148,7 @@ struct GaspBank {
     Eigen::ArrayXd s;
     Eigen::MatrixXd r;   // K x n: r_i(z) of the last mean_into(), one column per coefficient
     Eigen::VectorXd x;   // K: forward substitution
+    int threads = 1;     // OpenMP threads over coefficients (1: serial)
   };
 
   void init_workspace(Workspace& ws) const {
@@ -184,36 +188,68 @@ struct GaspBank {
   // var_into(). Inputs whose beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     distances(z, ws.d1, ws.d2, ws.logd);
-    for (int i = 0; i < n_coef(); ++i) {
-      corr_vector(i, ws.d1, ws.d2, ws.logd, ws.s, ws.r.col(i));
-      m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));
+    const int n = n_coef();
+#ifdef _OPENMP
+    if (ws.threads > 1) {
+#pragma omp parallel num_threads(ws.threads)
+      {
+        Eigen::ArrayXd s(n_runs());
+#pragma omp for schedule(static)
+        for (int i = 0; i < n; ++i) mean_one(i, m, ws, s);
+      }
+      return;
     }
+#endif
+    for (int i = 0; i < n; ++i) mean_one(i, m, ws, ws.s);
   }
 
   // Variances v (length n) at the z of the last mean_into(ws):
   // V_i = (1 - |L_i^-1 r_i|^2) / lambda_i, by column-oriented forward
   // substitution on the packed factors (pack() must have been called).
+  // Every coefficient is computed on its own, so the result does not depend
+  // on the number of threads.
   void var_into(Eigen::VectorXd& v, Workspace& ws) const {
-    const int K = n_runs(), n = n_coef();
-    for (int i = 0; i < n; ++i) {
-      ws.x = ws.r.col(i);
-      double* x = ws.x.data();
-      const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
-      double q = 0.0;
-      for (int j = 0; j < K; ++j) {
-        const double xj = x[j] * (*P++);
-        q += xj * xj;
-        const int len = K - j - 1;
-        if (len > 0) {
-          Eigen::Map<Eigen::VectorXd>(x + j + 1, len) -= xj * Eigen::Map<const Eigen::VectorXd>(P, len);
-          P += len;
-        }
+    const int n = n_coef();
+#ifdef _OPENMP
+    if (ws.threads > 1) {
+#pragma omp parallel num_threads(ws.threads)
+      {
+        Eigen::VectorXd x(n_runs());
+#pragma omp for schedule(static)
+        for (int i = 0; i < n; ++i) v(i) = var_one(i, ws, x);
       }
-      const double u = 1.0 - q;
-      v(i) = (u > 0.0 ? u : 0.0) / lambda(i);
+      return;
     }
+#endif
+    for (int i = 0; i < n; ++i) v(i) = var_one(i, ws, ws.x);
   }
 
+ private:
+  void mean_one(int i, Eigen::VectorXd& m, Workspace& ws, Eigen::ArrayXd& s) const {
+    corr_vector(i, ws.d1, ws.d2, ws.logd, s, ws.r.col(i));
+    m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));
+  }
+
+  double var_one(int i, const Workspace& ws, Eigen::VectorXd& xv) const {
+    const int K = n_runs();
+    xv = ws.r.col(i);
+    double* x = xv.data();
+    const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
+    double q = 0.0;
+    for (int j = 0; j < K; ++j) {
+      const double xj = x[j] * (*P++);
+      q += xj * xj;
+      const int len = K - j - 1;
+      if (len > 0) {
+        Eigen::Map<Eigen::VectorXd>(x + j + 1, len) -= xj * Eigen::Map<const Eigen::VectorXd>(P, len);
+        P += len;
+      }
+    }
+    const double u = 1.0 - q;
+    return (u > 0.0 ? u : 0.0) / lambda(i);
+  }
+
+ public:
   // As predict(), without allocation: m and v must already have length n, ws
   // must come from init_workspace() and the bank must be packed.
   void predict_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,

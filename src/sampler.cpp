@@ -19,7 +19,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
                                const Eigen::Map<Eigen::VectorXd>& tau2_init, bool fix_tau2,
                                int n_draws, int n_inner, double step, double seed, int chain,
                                int debug_break, Rcpp::RObject progress, bool adaptive = false,
-                               int burnin = 0, double p_global = 0.1, int n_search = 200) {
+                               int burnin = 0, double p_global = 0.1, int n_search = 200,
+                               int threads = 1) {
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
@@ -77,6 +78,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   set.burnin = burnin;
   set.p_global = p_global;
   set.n_search = n_search;
+  set.threads = threads;
 
   const bool has_progress = !progress.isNULL();
   Rcpp::Function* fn = nullptr;

@@ -38,6 +38,7 @@
 #include <cmath>
 #include <limits>
 #include <cstdint>
+#include <algorithm>
 #include <stdexcept>
 #include "gasp_predict.h"
 #include "sampler_model.h"
@@ -62,6 +63,7 @@ class Sampler {
       if (sites_[s].bank->packed.size() != sites_[s].bank->packed_stride() * static_cast<std::size_t>(n))
         throw std::invalid_argument("emulator bank not packed");
       sites_[s].bank->init_workspace(ws_[s]);
+      ws_[s].threads = std::max(1, set_.threads);
       for (int i = 0; i < n; ++i) {
         const int g = sites_[s].group[i];
         group_site_[g] = static_cast<int>(s);

@@ -84,6 +84,7 @@ struct SamplerSettings {
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
   double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
   int n_search = 200;               // ADAPTIVE: prior draws scored for the start
+  int threads = 1;                  // OpenMP threads of the emulator predictions
 };
 
 struct SamplerOutput {

@@ -165,6 +165,11 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
   expect_identical(f1$wb, f2$wb)
   expect_false(identical(as.matrix(f1$draws), as.matrix(f3$draws)))
   expect_false(identical(f1$draws[[1]][, "u1"], f1$draws[[2]][, "u1"]))
+  # the emulator predictions shared among threads give the same chains
+  f5 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE,
+                  threads = 2)
+  expect_identical(as.matrix(f1$draws), as.matrix(f5$draws))
+  expect_identical(f1$wM, f5$wM)
   withr::local_seed(1)
   g1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, quiet = TRUE)
   withr::local_seed(1)
@@ -197,6 +202,7 @@ test_that("bad input gives classed errors", {
   expect_error(calibrate(em, f, ex$iu, n_draws = 0, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, n_draws = -5, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, chains = 1.5, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, threads = 0, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, fix_tau2 = -1, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")
   other_site <- wavevalid:::new_wv_field(f$t, list(rear = f$curves$site1))
