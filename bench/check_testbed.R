@@ -3,25 +3,40 @@
 # posterior intervals, held-out coverage of predictions in new settings, band
 # widths, and (with a hidden mechanism) whether the bias band excludes zero
 # where the mechanism acts.
-#   Rscript bench/check_testbed.R [hidden] [n_draws] [n_inner]
+# With n_runs, the emulators are fitted to a larger design of the same
+# simulator (a maximin Latin hypercube of n_runs - 1 points on the I/U ranges
+# plus the nominal point) instead of the test bed's 66 runs of condition A;
+# the registration reference stays condition A's runs.
+#   Rscript bench/check_testbed.R [hidden] [n_draws] [n_inner] [n_runs]
 suppressPackageStartupMessages(library(wavevalid))
 options(wavevalid.quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 hidden <- if (length(args) >= 1) args[1] else "none"
 n_draws <- if (length(args) >= 2) as.integer(args[2]) else 500L
 n_inner <- if (length(args) >= 3) as.integer(args[3]) else 100L
+n_runs <- if (length(args) >= 4) as.integer(args[4]) else NA_integer_
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 tb <- testbed_suspension(seed = 1, hidden = hidden)
 w <- tb$windows
 field <- register_curves(tb$A$field, tb$A$runs, w, knots_every = 2)
 t0 <- clock()
-basis <- wavelet_basis(tb$A$runs, field)
-em <- fit_emulators(tb$A$runs, basis)
+runs <- tb$A$runs
+if (!is.na(n_runs)) {
+  iu <- tb$iu
+  set.seed(2)
+  cube <- wavevalid:::maximin_lhd(n_runs - 1L, nrow(iu))
+  d <- sweep(sweep(cube, 2, iu$upper - iu$lower, `*`), 2, iu$lower, `+`)
+  colnames(d) <- iu$name
+  d <- rbind(d, stats::setNames(iu$nominal, iu$name))
+  runs <- simulate_suspension(as.data.frame(d), mechanism = NULL)
+}
+basis <- wavelet_basis(runs, field)
+em <- fit_emulators(runs, basis)
 t1 <- clock()
 fit <- calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1)
 t2 <- clock()
-cat(sprintf("hidden = %s; |I| = %d; emulators %.1f s; calibration %d x %d x 2 chains %.1f s\n", hidden,
-            length(basis$index), t1 - t0, n_draws, n_inner, t2 - t1))
+cat(sprintf("hidden = %s; %d model runs; |I| = %d; emulators %.1f s; calibration %d x %d x 2 chains %.1f s\n", hidden,
+            nrow(runs$design), length(basis$index), t1 - t0, n_draws, n_inner, t2 - t1))
 print(fit)
 
 # truth in registered time: the noise-free curve registered like the field data
