@@ -1,0 +1,85 @@
+# The diagnosis loop on the suspension test bed (seed 1) for one hidden
+# mechanism, printed: the validation of the model without it (where_fails,
+# explain_bias with all mechanism signatures and the automatic shifts), then
+# the model with the mechanism, its strength an extra calibration input on
+# [0, 1], re-validated on the same field data, and compare_validations() with
+# condition B held out (new nominal inputs, field replicates never used).
+# The emulators are fitted to n_runs runs of the simulator: a maximin Latin
+# hypercube of n_runs - 1 points on the I/U ranges (and on [0, 1] for the
+# strength) plus the nominal point; n_runs = 66 is the size of the test bed's
+# condition A design.
+#   Rscript bench/check_loop.R [hidden] [n_runs] [n_draws] [n_inner] [threads]
+suppressPackageStartupMessages(library(wavevalid))
+args <- commandArgs(trailingOnly = TRUE)
+hidden <- if (length(args) >= 1) args[1] else "progressive_bumpstop"
+n_runs <- if (length(args) >= 2) as.integer(args[2]) else 200L
+n_draws <- if (length(args) >= 3) as.integer(args[3]) else 300L
+n_inner <- if (length(args) >= 4) as.integer(args[4]) else 50L
+threads <- if (length(args) >= 5) as.integer(args[5]) else 1L
+options(wavevalid.quiet = TRUE, wavevalid.threads = threads)
+clock <- function() as.numeric(proc.time()[["elapsed"]])
+t00 <- clock()
+
+tb <- testbed_suspension(seed = 1, hidden = hidden)
+register <- function(field, ref) {
+  tryCatch(register_curves(field, ref, tb$windows, knots_every = 2),
+           wavevalid_error_input = function(e) {
+             register_curves(field, ref, tb$windows, features = "max", knots_every = 2)
+           })
+}
+field <- register(tb$A$field, tb$A$runs)
+iu <- tb$iu
+set.seed(2)
+cube <- wavevalid:::maximin_lhd(n_runs - 1L, nrow(iu) + 1L)
+design <- sweep(sweep(cube[, seq_len(nrow(iu))], 2, iu$upper - iu$lower, `*`), 2, iu$lower, `+`)
+colnames(design) <- iu$name
+design <- as.data.frame(rbind(design, stats::setNames(iu$nominal, iu$name)))
+
+# before: the model without the mechanism
+runs <- simulate_suspension(design)
+em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+before <- suppressWarnings(calibrate(em, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1))
+print(before)
+t <- before$basis$t
+truth <- c(tb$truth$u, 0.5 + tb$truth$delta)[before$inputs]
+post <- colMeans(as.matrix(before$draws))[before$inputs]
+fails <- where_fails(before)
+steps <- round((fails$end - fails$start) / diff(t[1:2]))
+cat(sprintf("\n%s, %d runs: where_fails %d intervals, longest %d grid steps\n", hidden, n_runs, nrow(fails),
+            max(c(0L, steps))))
+if (hidden != "none") {
+  effect <- testbed_signatures(truth, hidden)[[1]]
+  for (s in names(effect)) {
+    acts <- abs(effect[[s]]) > 0.1 * max(abs(effect[[s]]))
+    w <- fails[fails$site == s, ]
+    flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
+                      rep(FALSE, length(t)))
+    cat(sprintf("  %s: flagged at %.1f%% of the points where it acts, %.1f%% elsewhere\n", s,
+                100 * mean(flagged[acts]), 100 * mean(flagged[!acts])))
+  }
+}
+ex <- explain_bias(before, testbed_signatures(post), seed = 1)
+print(ex)
+if (hidden == "none") quit(save = "no")
+
+# after: the model with the mechanism, its strength calibrated
+s_name <- paste0("s_", hidden)
+design[[s_name]] <- c(cube[, nrow(iu) + 1L], 0.5)
+runs_after <- simulate_suspension(design, mechanism = hidden)
+iu_after <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
+                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+em_after <- suppressWarnings(fit_emulators(runs_after, wavelet_basis(runs_after, field)))
+after <- suppressWarnings(calibrate(em_after, field, iu_after, n_draws = n_draws, n_inner = n_inner, chains = 2,
+                                    seed = 1))
+print(after)
+
+# condition B held out
+set.seed(3)
+design_B <- tb$B$runs$design
+design_B[[s_name]] <- (sample(nrow(design_B)) - 0.5) / nrow(design_B)
+runs_B <- simulate_suspension(design_B, mechanism = hidden)
+p_before <- predict(before, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom, seed = 1)
+p_after <- predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom, seed = 1)
+field_B <- register(tb$B$field, tb$B$runs)
+print(compare_validations(before, after, holdout = list(field = field_B, before = p_before, after = p_after)))
+cat(sprintf("total %.0f s\n", clock() - t00))
