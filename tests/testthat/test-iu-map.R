@@ -37,3 +37,28 @@ test_that("prior draws follow the truncated normal and uniform priors", {
   expect_equal(sum(iu_prior_density(iu, 2, v)) * diff(v[1:2]), 1, tolerance = 1e-3)
   expect_s3_class(autoplot(iu), "ggplot")
 })
+
+test_that("design_maximin() gives a reproducible Latin hypercube on the ranges, nominal last", {
+  iu <- iu_map(c("u1", "x1", "x2"), c("calibration", "variation", "variation"),
+               lower = c(0, 10, -1), upper = c(1, 20, 1), nominal = c(0.5, 15, 0))
+  d <- design_maximin(iu, 21, seed = 4)
+  expect_identical(dim(d), c(21L, 3L))
+  expect_named(d, iu$name)
+  expect_equal(unlist(d[21, ]), stats::setNames(iu$nominal, iu$name))
+  # one point in each of the 20 strata of every input
+  for (k in seq_len(3)) {
+    strata <- floor((d[1:20, k] - iu$lower[k]) / (iu$upper[k] - iu$lower[k]) * 20)
+    expect_setequal(strata, 0:19)
+  }
+  withr::local_seed(99)
+  expect_identical(design_maximin(iu, 21, seed = 4), d)
+  expect_false(identical(design_maximin(iu, 21, seed = 5), d))
+  # better spread than a random Latin hypercube of the same size
+  scaled <- function(x) sweep(sweep(as.matrix(x), 2, iu$lower), 2, iu$upper - iu$lower, `/`)
+  random <- vapply(1:3, function(j) (sample.int(20) - stats::runif(20)) / 20, numeric(20))
+  expect_gt(min(stats::dist(scaled(d[1:20, ]))), min(stats::dist(random)))
+  expect_identical(nrow(design_maximin(iu, 10, nominal = FALSE, seed = 1)), 10L)
+  expect_error(design_maximin(iu, 1), class = "wavevalid_error_input")
+  expect_error(design_maximin(list(), 10), class = "wavevalid_error_input")
+  expect_error(design_maximin(iu, 10, nominal = NA), class = "wavevalid_error_input")
+})
