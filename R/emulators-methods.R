@@ -20,16 +20,30 @@ print.wv_emulators <- function(x, ...) {
 
 #' Summary of GASP emulators
 #'
-#' Leave-one-out quality of the emulators by site and resolution level.
+#' Leave-one-out quality of the emulators by site and resolution level and,
+#' given model runs that the emulators were not fitted to, their quality there.
+#'
+#' Leave-one-out residuals are computed at the design points, where a
+#' space-filling design leaves the largest gaps when a point is removed; they
+#' can look well calibrated while the emulators' errors at other inputs (the
+#' interior of the ranges, where the posterior of the inputs usually lies)
+#' exceed their predictive variances. A few runs at inputs drawn from the
+#' prior (or near the calibrated inputs) in `new_runs` show it: a root mean
+#' square of the studentised errors well above 1 there means that the
+#' posterior of the inputs will be too narrow and off; add runs to the design.
 #'
 #' @param object A `wv_emulators` object.
+#' @param new_runs Optional held-out model runs (`wv_runs`) on the basis grid,
+#'   with every input of the emulators and every emulated site.
 #' @param ... Unused.
 #' @return A `summary_wv_emulators` object: a list with `engine`, `n_runs`,
-#'   `inputs` and `by_level`, a data frame with, per site and level, the
-#'   number of coefficients, the median log-likelihood, the root mean square of
-#'   the studentised LOO residuals (about 1 for a well-calibrated emulator),
-#'   the share of them beyond 3 in absolute value, and the counts of emulators
-#'   with a nugget and of flat emulators.
+#'   `inputs`, `n_new` and `by_level`, a data frame with, per site and level,
+#'   the number of coefficients, the median log-likelihood, the root mean
+#'   square of the studentised LOO residuals (about 1 for a well-calibrated
+#'   emulator), the share of them beyond 3 in absolute value, the counts of
+#'   emulators with a nugget and of flat emulators and, with `new_runs`, the
+#'   root mean square of the studentised errors at the new runs
+#'   (`heldout_rms`) and their share beyond 3 (`heldout_beyond_3`).
 #' @export
 #' @examples
 #' t <- seq(0, 1, length.out = 64)
@@ -38,9 +52,10 @@ print.wv_emulators <- function(x, ...) {
 #' runs <- model_runs(design, curves, t)
 #' em <- fit_emulators(runs, wavelet_basis(runs))
 #' summary(em)
-summary.wv_emulators <- function(object, ...) {
+summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   p <- object$params
   loo <- loo_residuals(object)
+  held <- if (is.null(new_runs)) NULL else heldout_residuals(object, new_runs)
   key <- paste(p$site, p$level, sep = "\r")
   lkey <- paste(loo$site, loo$level, sep = "\r")
   groups <- unique(key)
@@ -55,20 +70,77 @@ summary.wv_emulators <- function(object, ...) {
                nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
                flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)
   }))
+  if (!is.null(held)) {
+    hkey <- paste(held$site, held$level, sep = "\r")
+    stats_of <- function(g) {
+      r <- held$residual[hkey == g]
+      r <- r[is.finite(r)]
+      if (length(r)) c(sqrt(mean(r^2)), mean(abs(r) > 3)) else c(NA_real_, NA_real_)
+    }
+    hs <- vapply(groups, stats_of, numeric(2))
+    by_level$heldout_rms <- hs[1, ]
+    by_level$heldout_beyond_3 <- hs[2, ]
+  }
   rownames(by_level) <- NULL
   structure(list(engine = object$engine, n_runs = nrow(object$design), inputs = object$inputs,
-                 by_level = by_level), class = "summary_wv_emulators")
+                 n_new = if (is.null(new_runs)) 0L else nrow(new_runs$design), by_level = by_level),
+            class = "summary_wv_emulators")
+}
+
+# Studentised errors (w - m) / sqrt(V) of the emulators at held-out runs: one
+# row per site, coefficient and run, like loo_residuals(). Flat emulators give NA.
+heldout_residuals <- function(object, new_runs, call = rlang::caller_env()) {
+  if (!inherits(new_runs, "wv_runs")) {
+    wv_abort("{.arg new_runs} must be a {.cls wv_runs} object; it is {.obj_type_friendly {new_runs}}.",
+             call = call)
+  }
+  miss <- setdiff(object$inputs, names(new_runs$design))
+  if (length(miss)) {
+    wv_abort("{.arg new_runs} lacks the input{?s} {.val {miss}} of the emulators.", call = call)
+  }
+  sites <- names(object$banks)
+  miss <- setdiff(sites, names(new_runs$curves))
+  if (length(miss)) {
+    wv_abort("{.arg new_runs} has no curves for the emulated site{?s} {.val {miss}}.", call = call)
+  }
+  check_same_grid(object$basis$t, new_runs$t, "emulators", "new_runs", call = call)
+  W <- wavelet_coef(object$basis, new_runs)
+  Z <- emulator_newdata(object, new_runs$design[, object$inputs, drop = FALSE], call = call)
+  do.call(rbind, lapply(sites, function(s) {
+    pr <- gasp_bank_predict_cpp(object$banks[[s]], Z)
+    prm <- object$params[object$params$site == s, , drop = FALSE]
+    flat <- !is.finite(prm$loglik)
+    res <- (W[[s]] - pr$mean) / sqrt(pr$var)
+    res[, flat] <- NA_real_
+    k <- nrow(Z)
+    data.frame(site = s, index = rep(prm$index, each = k), level = rep(prm$level, each = k),
+               run = rep(seq_len(k), times = nrow(prm)), residual = as.vector(res),
+               stringsAsFactors = FALSE)
+  }))
 }
 
 #' @export
 print.summary_wv_emulators <- function(x, ...) {
   cli::cli_text("GASP emulators ({x$engine} engine), {x$n_runs} runs, {length(x$inputs)} inputs.")
-  cli::cli_text("Leave-one-out studentised residuals by site and level:")
+  n_new <- x$n_new %||% 0L
+  if (n_new > 0L) {
+    cli::cli_text("Studentised residuals by site and level: leave-one-out, and at {n_new} held-out run{?s}:")
+  } else {
+    cli::cli_text("Leave-one-out studentised residuals by site and level:")
+  }
   b <- x$by_level
   b$median_loglik <- signif(b$median_loglik, 4)
-  b$loo_rms <- signif(b$loo_rms, 3)
-  b$loo_beyond_3 <- signif(b$loo_beyond_3, 3)
+  rest <- intersect(c("loo_rms", "loo_beyond_3", "heldout_rms", "heldout_beyond_3"), names(b))
+  b[rest] <- lapply(b[rest], signif, digits = 3)
   print(b, row.names = FALSE)
+  if (n_new > 0L) {
+    worst <- suppressWarnings(max(b$heldout_rms, na.rm = TRUE))
+    if (is.finite(worst) && worst > 1.5) {
+      cli::cli_alert_warning(paste0(
+        "At the held-out runs the errors exceed the predictive standard deviations ",
+        "(RMS up to {worst}); the posterior of the inputs would be too narrow. Add runs to the design."))
+    }
+  }
   invisible(x)
 }
 

@@ -261,3 +261,36 @@ test_that("print, summary and plots work", {
   expect_s3_class(autoplot(em), "ggplot")
   expect_s3_class(autoplot(em, type = "loo"), "ggplot")
 })
+
+test_that("summary() reports the studentised errors of the emulators at held-out runs", {
+  t <- seq(0, 1, length.out = 64)
+  f <- function(d) t(apply(d, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t^2))
+  withr::local_seed(3)
+  design <- data.frame(a = (sample(20) - runif(20)) / 20, b = (sample(20) - runif(20)) / 20)
+  runs <- model_runs(design, f(design), t)
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs)))
+  new_design <- data.frame(a = runif(40, 0.1, 0.9), b = runif(40, 0.1, 0.9))
+  new_runs <- model_runs(new_design, f(new_design), t)
+  s <- summary(em, new_runs = new_runs)
+  expect_true(all(c("heldout_rms", "heldout_beyond_3") %in% names(s$by_level)))
+  expect_identical(s$n_new, 40L)
+  held <- wavevalid:::heldout_residuals(em, new_runs)
+  rms <- sqrt(mean(held$residual^2, na.rm = TRUE))
+  # the errors scale with the predictive sd: dividing the variances by 10
+  # multiplies the studentised errors by sqrt(10)
+  em_small <- em
+  em_small$banks$site1$lambda <- em$banks$site1$lambda * 10
+  held_small <- wavevalid:::heldout_residuals(em_small, new_runs)
+  expect_equal(sqrt(mean(held_small$residual^2, na.rm = TRUE)), sqrt(10) * rms, tolerance = 1e-8)
+  # held-out errors agree with predict() and wavelet_coef()
+  pr <- predict(em, new_design[1:2, ], site = "site1")
+  w <- wavelet_coef(em$basis, new_runs)$site1[1:2, ]
+  first <- held[held$run %in% 1:2, ]
+  ok <- !is.na(first$residual)
+  expect_gt(sum(ok), 10)
+  expect_equal(first$residual[ok], as.vector((w - pr$mean) / sqrt(pr$var))[ok])
+  expect_message(utils::capture.output(print(s)), "held-out")
+  expect_error(summary(em, new_runs = new_design), class = "wavevalid_error_input")
+  expect_error(summary(em, new_runs = model_runs(data.frame(a = 0.5), f(data.frame(a = 0.5, b = 0.5)), t)),
+               class = "wavevalid_error_input")
+})
