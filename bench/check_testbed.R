@@ -21,15 +21,7 @@ w <- tb$windows
 field <- register_curves(tb$A$field, tb$A$runs, w, knots_every = 2)
 t0 <- clock()
 runs <- tb$A$runs
-if (!is.na(n_runs)) {
-  iu <- tb$iu
-  set.seed(2)
-  cube <- wavevalid:::maximin_lhd(n_runs - 1L, nrow(iu))
-  d <- sweep(sweep(cube, 2, iu$upper - iu$lower, `*`), 2, iu$lower, `+`)
-  colnames(d) <- iu$name
-  d <- rbind(d, stats::setNames(iu$nominal, iu$name))
-  runs <- simulate_suspension(as.data.frame(d), mechanism = NULL)
-}
+if (!is.na(n_runs)) runs <- simulate_suspension(design_maximin(tb$iu, n_runs, seed = 2))
 basis <- wavelet_basis(runs, field)
 em <- fit_emulators(runs, basis)
 t1 <- clock()
