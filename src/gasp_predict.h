@@ -151,8 +151,9 @@ struct GaspBank {
     int threads = 1;     // OpenMP threads over coefficients (1: serial)
   };
 
-  void init_workspace(Workspace& ws) const {
+  void init_workspace(Workspace& ws, int threads = 1) const {
     const int K = n_runs(), p = n_inputs();
+    ws.threads = threads > 1 ? threads : 1;
     ws.d1.resize(K, p);
     ws.d2.resize(K, p);
     ws.logd.resize(K, p);
@@ -188,43 +189,37 @@ struct GaspBank {
   // var_into(). Inputs whose beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     distances(z, ws.d1, ws.d2, ws.logd);
-    const int n = n_coef();
-#ifdef _OPENMP
-    if (ws.threads > 1) {
-#pragma omp parallel num_threads(ws.threads)
-      {
-        Eigen::ArrayXd s(n_runs());
-#pragma omp for schedule(static)
-        for (int i = 0; i < n; ++i) mean_one(i, m, ws, s);
-      }
-      return;
-    }
-#endif
-    for (int i = 0; i < n; ++i) mean_one(i, m, ws, ws.s);
+    for_each_coef(ws.threads, ws.s, [&](int i, Eigen::ArrayXd& s) { mean_one(i, m, ws, s); });
   }
 
   // Variances v (length n) at the z of the last mean_into(ws):
   // V_i = (1 - |L_i^-1 r_i|^2) / lambda_i, by column-oriented forward
   // substitution on the packed factors (pack() must have been called).
-  // Every coefficient is computed on its own, so the result does not depend
-  // on the number of threads.
   void var_into(Eigen::VectorXd& v, Workspace& ws) const {
+    for_each_coef(ws.threads, ws.x, [&](int i, Eigen::VectorXd& x) { v(i) = var_one(i, ws, x); });
+  }
+
+ private:
+  // f(i, scratch) for every coefficient i; with several threads each has its
+  // own scratch of K values (otherwise `serial` is used). Every coefficient is
+  // computed on its own, so the results do not depend on the number of threads.
+  template <class Scratch, class F>
+  void for_each_coef(int threads, Scratch& serial, F f) const {
     const int n = n_coef();
 #ifdef _OPENMP
-    if (ws.threads > 1) {
-#pragma omp parallel num_threads(ws.threads)
+    if (threads > 1) {
+#pragma omp parallel num_threads(threads)
       {
-        Eigen::VectorXd x(n_runs());
+        Scratch local(n_runs());
 #pragma omp for schedule(static)
-        for (int i = 0; i < n; ++i) v(i) = var_one(i, ws, x);
+        for (int i = 0; i < n; ++i) f(i, local);
       }
       return;
     }
 #endif
-    for (int i = 0; i < n; ++i) v(i) = var_one(i, ws, ws.x);
+    for (int i = 0; i < n; ++i) f(i, serial);
   }
 
- private:
   void mean_one(int i, Eigen::VectorXd& m, Workspace& ws, Eigen::ArrayXd& s) const {
     corr_vector(i, ws.d1, ws.d2, ws.logd, s, ws.r.col(i));
     m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));

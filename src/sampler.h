@@ -38,7 +38,6 @@
 #include <cmath>
 #include <limits>
 #include <cstdint>
-#include <algorithm>
 #include <stdexcept>
 #include "gasp_predict.h"
 #include "sampler_model.h"
@@ -62,8 +61,7 @@ class Sampler {
       sigma2_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
       if (sites_[s].bank->packed.size() != sites_[s].bank->packed_stride() * static_cast<std::size_t>(n))
         throw std::invalid_argument("emulator bank not packed");
-      sites_[s].bank->init_workspace(ws_[s]);
-      ws_[s].threads = std::max(1, set_.threads);
+      sites_[s].bank->init_workspace(ws_[s], set_.threads);
       for (int i = 0; i < n; ++i) {
         const int g = sites_[s].group[i];
         group_site_[g] = static_cast<int>(s);
