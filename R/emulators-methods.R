@@ -94,18 +94,14 @@ heldout_residuals <- function(object, new_runs, call = rlang::caller_env()) {
     wv_abort("{.arg new_runs} must be a {.cls wv_runs} object; it is {.obj_type_friendly {new_runs}}.",
              call = call)
   }
-  miss <- setdiff(object$inputs, names(new_runs$design))
-  if (length(miss)) {
-    wv_abort("{.arg new_runs} lacks the input{?s} {.val {miss}} of the emulators.", call = call)
-  }
   sites <- names(object$banks)
   miss <- setdiff(sites, names(new_runs$curves))
   if (length(miss)) {
     wv_abort("{.arg new_runs} has no curves for the emulated site{?s} {.val {miss}}.", call = call)
   }
   check_same_grid(object$basis$t, new_runs$t, "emulators", "new_runs", call = call)
+  Z <- emulator_newdata(object, new_runs$design, arg = "new_runs$design", call = call)
   W <- wavelet_coef(object$basis, new_runs)
-  Z <- emulator_newdata(object, new_runs$design[, object$inputs, drop = FALSE], call = call)
   do.call(rbind, lapply(sites, function(s) {
     pr <- gasp_bank_predict_cpp(object$banks[[s]], Z)
     prm <- object$params[object$params$site == s, , drop = FALSE]
@@ -183,27 +179,27 @@ predict.wv_emulators <- function(object, newdata, site = NULL, ...) {
   if (!is.null(site) && length(site) == 1L) out[[1]] else out
 }
 
-emulator_newdata <- function(object, newdata, call = rlang::caller_env()) {
+emulator_newdata <- function(object, newdata, arg = "newdata", call = rlang::caller_env()) {
   if (is.null(dim(newdata)) && is.numeric(newdata)) {
     newdata <- matrix(newdata, nrow = 1L, dimnames = list(NULL, names(newdata)))
   }
   if (!is.data.frame(newdata) && !is.matrix(newdata)) {
-    wv_abort("{.arg newdata} must be a data frame or matrix with one column per input.", call = call)
+    wv_abort("{.arg {arg}} must be a data frame or matrix with one column per input.", call = call)
   }
   nm <- colnames(newdata)
   if (!is.null(nm)) {
     miss <- setdiff(object$inputs, nm)
     if (length(miss)) {
-      wv_abort("{.arg newdata} lacks input{?s} {.val {miss}}.", call = call)
+      wv_abort("{.arg {arg}} lacks input{?s} {.val {miss}}.", call = call)
     }
     newdata <- newdata[, object$inputs, drop = FALSE]
   } else if (ncol(newdata) != length(object$inputs)) {
-    wv_abort("{.arg newdata} has {ncol(newdata)} columns; the emulators have {length(object$inputs)} inputs.",
+    wv_abort("{.arg {arg}} has {ncol(newdata)} columns; the emulators have {length(object$inputs)} inputs.",
              call = call)
   }
   Z <- as.matrix(newdata)
   storage.mode(Z) <- "double"
-  if (any(!is.finite(Z))) wv_abort("{.arg newdata} must be finite.", call = call)
+  if (any(!is.finite(Z))) wv_abort("{.arg {arg}} must be finite.", call = call)
   Z
 }
 
