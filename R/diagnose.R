@@ -245,12 +245,22 @@ plot.wv_fails <- function(x, ...) {
 #' how wide the bands of reality are, and, on held-out field data, how well
 #' each predicts.
 #'
-#' @param before,after `wv_fit` objects fitted to the same field data.
+#' Each fit is judged against its own field data (`fit$field`). The field
+#' data are registered to a reference made of the model's runs, so a model
+#' that lacks a mechanism which moves the peaks of an event also moves the
+#' landmarks of the registered field; after adding the mechanism, register the
+#' raw field data again to the new model's runs and give each fit its own
+#' registration (and, for held-out data, its own registered held-out field).
+#'
+#' @param before,after `wv_fit` objects fitted to the same field data (each
+#'   possibly registered to its own model's runs).
 #' @param holdout Optional held-out field data: a `wv_field` of the same
 #'   system (predicted as new field runs of each fit), or a list with `field`
-#'   (a `wv_field`) and `before`, `after`: `wv_prediction` objects of each fit
-#'   for that field data (e.g. `predict(fit, type = "new_nominal", ...)` for
-#'   a system with other nominal inputs).
+#'   and `before`, `after`: `wv_prediction` objects of each fit for that field
+#'   data (e.g. `predict(fit, type = "new_nominal", ...)` for a system with
+#'   other nominal inputs). `field` is a `wv_field`, or a list of two,
+#'   `before` and `after`, when each model's held-out field is registered to
+#'   that model's runs.
 #' @param level Probability of the bands.
 #' @return A `wv_comparison` data frame with columns `metric`, `before`,
 #'   `after`, `change` (relative change, after / before - 1) and rows
@@ -284,8 +294,8 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
   m_after <- validation_metrics(after, level)
   if (!is.null(holdout)) {
     preds <- holdout_predictions(before, after, holdout, level)
-    m_before <- c(m_before, holdout_metrics(preds$before, preds$field))
-    m_after <- c(m_after, holdout_metrics(preds$after, preds$field))
+    m_before <- c(m_before, holdout_metrics(preds$before, preds$field$before))
+    m_after <- c(m_after, holdout_metrics(preds$after, preds$field$after))
   }
   out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
                     stringsAsFactors = FALSE)
@@ -314,20 +324,23 @@ validation_metrics <- function(fit, level) {
 holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
   if (inherits(holdout, "wv_field")) {
     return(list(
-      field = holdout,
+      field = list(before = holdout, after = holdout),
       before = stats::predict(before, type = "field_run", level = level),
       after = stats::predict(after, type = "field_run", level = level)
     ))
   }
-  ok <- is.list(holdout) && inherits(holdout$field, "wv_field") &&
+  fld <- if (is.list(holdout)) holdout$field
+  if (inherits(fld, "wv_field")) fld <- list(before = fld, after = fld)
+  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") && inherits(fld$after, "wv_field") &&
     inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
   if (!ok) {
     wv_abort(c(
       "{.arg holdout} must be a {.cls wv_field} or a list with {.field field}, {.field before} and {.field after}.",
-      "i" = "{.field before} and {.field after} are predictions of each fit for the held-out system."
+      "i" = "{.field before} and {.field after} are predictions of each fit for the held-out system.",
+      "i" = "{.field field} is a {.cls wv_field}, or a list of two ({.field before}, {.field after}) when each model registers the held-out data to its own runs."
     ), call = call)
   }
-  holdout[c("field", "before", "after")]
+  list(field = fld[c("before", "after")], before = holdout$before, after = holdout$after)
 }
 
 # RMSE of the prediction mean against each held-out replicate, and the share

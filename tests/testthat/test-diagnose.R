@@ -112,6 +112,18 @@ test_that("adding the missing effect makes the error fall", {
   expect_true(all(c("holdout_rmse", "holdout_coverage") %in% cmp2$metric))
   expect_lt(cmp2$after[cmp2$metric == "holdout_rmse"], cmp2$before[cmp2$metric == "holdout_rmse"])
   expect_s3_class(autoplot(cmp2), "ggplot")
+  # each model's own registration of the held-out data: the metrics use the field given for each
+  preds <- list(before = predict(d$fit, type = "field_run"), after = predict(after, type = "field_run"))
+  base <- compare_validations(d$fit, after, holdout = c(list(field = hold), preds))
+  same <- compare_validations(d$fit, after, holdout = c(list(field = list(before = hold, after = hold)), preds))
+  expect_identical(same, base)
+  shifted <- hold
+  shifted$curves$site1 <- shifted$curves$site1 + 1
+  own <- compare_validations(d$fit, after, holdout = c(list(field = list(before = hold, after = shifted)), preds))
+  expect_equal(own$before, base$before)
+  expect_gt(own$after[own$metric == "holdout_rmse"], base$after[base$metric == "holdout_rmse"] + 0.5)
+  expect_error(compare_validations(d$fit, after, holdout = c(list(field = list(before = hold)), preds)),
+               class = "wavevalid_error_input")
   expect_error(compare_validations(d$fit, "after"), class = "wavevalid_error_input")
 })
 
