@@ -6,7 +6,10 @@
 #'
 #' In each window the landmarks are the location of the minimum and of the
 #' maximum (or only one of them, see `features`) of the reference curve and of
-#' each replicate, ordered by time. The warp of a replicate maps its landmarks
+#' each replicate, ordered by time. Each location is refined between grid
+#' points by the vertex of the parabola through the extreme grid value and its
+#' two neighbours: near a sharp event a landmark off by a fraction of a grid
+#' step misaligns the steep flanks of the curves. The warp of a replicate maps its landmarks
 #' onto the reference's, is linear in between, and keeps the two ends of the
 #' grid fixed. The registered curve is the replicate evaluated at the inverse
 #' warp of the grid (linear interpolation between grid points).
@@ -135,11 +138,24 @@ curve_landmarks <- function(y, t, windows, features) {
     idx <- which(t >= windows[[w]][1] & t <= windows[[w]][2])
     tt <- t[idx]
     yy <- y[idx]
-    at <- c(min = tt[which.min(yy)], max = tt[which.max(yy)])[features]
+    at <- c(min = refine_extremum(tt, -yy), max = refine_extremum(tt, yy))[features]
     data.frame(window = w, feature = names(at), t = unname(at), stringsAsFactors = FALSE)
   })
   out <- do.call(rbind, out)
   out[order(out$window, out$t), , drop = FALSE]
+}
+
+# Location of the maximum of y on the grid tt, refined between grid points by
+# the vertex of the parabola through the grid maximum and its two neighbours
+# (at most half a grid step away; the grid point itself at the ends of tt).
+refine_extremum <- function(tt, y) {
+  i <- which.max(y)
+  if (i == 1L || i == length(y)) return(tt[i])
+  curv <- y[i - 1L] - 2 * y[i] + y[i + 1L]
+  if (!(curv < 0)) return(tt[i])
+  off <- 0.5 * (y[i - 1L] - y[i + 1L]) / curv
+  off <- max(-0.5, min(0.5, off))
+  tt[i] + off * if (off >= 0) tt[i + 1L] - tt[i] else tt[i] - tt[i - 1L]
 }
 
 # Knots (before -> after) of the warp of one replicate, checked for monotonicity.

@@ -191,3 +191,20 @@ test_that("knots_every must be a sensible spacing", {
   expect_error(register_curves(field, ref, windows, knots_every = 50), class = "wavevalid_error_input")
   expect_error(register_curves(field, ref, windows, knots_every = "2"), class = "wavevalid_error_input")
 })
+
+test_that("landmarks are located between grid points", {
+  t <- seq(0, 10, length.out = 256)
+  peak <- function(at) exp(-((t - at) / 0.3)^2) - exp(-((t - at - 1) / 0.3)^2)
+  field <- field_runs(rbind(peak(4.0137), peak(4.2311)), t)
+  reg <- register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)))
+  lm <- as.data.frame(unclass(reg$warps))
+  # a Gaussian peak is nearly a parabola at its top: the vertex is within a
+  # small fraction of the grid step (0.039) of the true location
+  expect_equal(lm$t_after[lm$feature == "max"], rep(4.1, 2), tolerance = 2e-3 / 4.1)
+  expect_equal(lm$t_before[lm$feature == "max"], c(4.0137, 4.2311), tolerance = 2e-3 / 4.1)
+  expect_equal(lm$t_before[lm$feature == "min"], c(5.0137, 5.2311), tolerance = 2e-3 / 5)
+  # the grid maximum alone would be off by up to half a step
+  expect_gt(abs(t[which.max(peak(4.0137))] - 4.0137), 0.01)
+  # registered curves line up with the reference far better than the grid allows
+  expect_lt(max(abs(reg$curves$site1[1, ] - peak(4.1))), 0.02)
+})
