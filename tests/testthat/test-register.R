@@ -196,7 +196,7 @@ test_that("landmarks are located between grid points", {
   t <- seq(0, 10, length.out = 256)
   peak <- function(at) exp(-((t - at) / 0.3)^2) - exp(-((t - at - 1) / 0.3)^2)
   field <- field_runs(rbind(peak(4.0137), peak(4.2311)), t)
-  reg <- register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)))
+  reg <- register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)), refine = TRUE)
   lm <- as.data.frame(unclass(reg$warps))
   # a Gaussian peak is nearly a parabola at its top: the vertex is within a
   # small fraction of the grid step (0.039) of the true location
@@ -207,4 +207,9 @@ test_that("landmarks are located between grid points", {
   expect_gt(abs(t[which.max(peak(4.0137))] - 4.0137), 0.01)
   # registered curves line up with the reference far better than the grid allows
   expect_lt(max(abs(reg$curves$site1[1, ] - peak(4.1))), 0.02)
+  on_grid <- register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)))
+  expect_true(all(as.data.frame(unclass(on_grid$warps))$t_before %in% field$t))
+  expect_gt(max(abs(on_grid$curves$site1[1, ] - peak(4.1))), 0.05)
+  expect_error(register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)), refine = NA),
+               class = "wavevalid_error_input")
 })
