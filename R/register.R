@@ -383,6 +383,20 @@ new_wv_warps <- function(x, range, windows, landmark_site, sites) {
             class = c("wv_warps", "data.frame"))
 }
 
+# Rows or columns of a wv_warps keep its attributes while every column the
+# class needs is there; otherwise the result is a plain data frame.
+#' @export
+`[.wv_warps` <- function(x, ...) {
+  out <- NextMethod()
+  if (!is.data.frame(out)) return(out)
+  need <- c("site", "replicate", "window", "feature", "t_before", "t_after")
+  if (!all(need %in% names(out))) {
+    class(out) <- "data.frame"
+    return(out)
+  }
+  new_wv_warps(out, attr(x, "range"), attr(x, "windows"), attr(x, "landmark_site"), attr(x, "sites"))
+}
+
 validate_wv_warps <- function(x, call = rlang::caller_env()) {
   need <- c("site", "replicate", "window", "feature", "t_before", "t_after")
   miss <- setdiff(need, names(x))

@@ -213,3 +213,19 @@ test_that("landmarks are located between grid points", {
   expect_error(register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)), refine = NA),
                class = "wavevalid_error_input")
 })
+
+test_that("rows of the warps keep their class, columns short of it give a data frame", {
+  t <- seq(0, 10, length.out = 256)
+  peak <- function(at) exp(-((t - at) / 0.3)^2) - exp(-((t - at - 1) / 0.3)^2)
+  field <- field_runs(rbind(peak(4.0137), peak(4.2311)), t)
+  w <- register_curves(field, list(site1 = peak(4.1)), windows = list(c(3, 6.5)))$warps
+  one <- w[w$replicate == 2, ]
+  expect_s3_class(one, "wv_warps")
+  expect_identical(attr(one, "windows"), attr(w, "windows"))
+  expect_equal(nrow(one), 2L)
+  expect_output(print(one), "warps of 1 replicate")
+  cols <- w[, c("t_before", "t_after")]
+  expect_false(inherits(cols, "wv_warps"))
+  expect_s3_class(cols, "data.frame")
+  expect_identical(w$t_after, as.data.frame(unclass(w))$t_after)
+})
