@@ -230,7 +230,7 @@ emulator_newdata <- function(object, newdata, arg = "newdata", call = rlang::cal
 #' nrow(em2$design)
 augment_emulators <- function(object, z, w) {
   check_class(object, "wv_emulators")
-  Z <- emulator_newdata(object, z)
+  Z <- emulator_newdata(object, z, arg = "z")
   if (nrow(Z) != 1L) wv_abort("{.arg z} must be a single point.")
   sites <- names(object$banks)
   if (!is.list(w)) {

@@ -163,6 +163,9 @@ test_that("the eq. 26 update equals the bank rebuilt on the augmented design", {
   # the augmented predictor interpolates the new point
   pz <- predict(aug, z, site = "site1")
   expect_equal(unname(pz$mean[1, ]), unname(w), tolerance = 1e-6)
+  # a point short of an input is refused, naming the argument it came in
+  err <- expect_error(augment_emulators(em, z[1:2], w), class = "wavevalid_error_input")
+  expect_match(conditionMessage(err), "`z`")
 })
 
 test_that("the two engines agree on predictions of a smooth function", {
