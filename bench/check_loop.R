@@ -37,11 +37,11 @@ register <- function(field, ref) {
 }
 field <- register(tb$A$field, tb$A$runs)
 iu <- tb$iu
-set.seed(2)
-cube <- wavevalid:::maximin_lhd(n_runs - 1L, nrow(iu) + 1L)
-design <- sweep(sweep(cube[, seq_len(nrow(iu))], 2, iu$upper - iu$lower, `*`), 2, iu$lower, `+`)
-colnames(design) <- iu$name
-design <- as.data.frame(rbind(design, stats::setNames(iu$nominal, iu$name)))
+s_name <- paste0("s_", hidden)
+iu_after <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
+                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+design_after <- design_maximin(iu_after, n_runs, seed = 2)
+design <- design_after[iu$name]
 
 # before: the model without the mechanism
 runs <- simulate_suspension(design)
@@ -71,11 +71,7 @@ print(ex)
 if (hidden == "none") quit(save = "no")
 
 # after: the model with the mechanism, its strength calibrated
-s_name <- paste0("s_", hidden)
-design[[s_name]] <- c(cube[, nrow(iu) + 1L], 0.5)
-runs_after <- simulate_suspension(design, mechanism = hidden)
-iu_after <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
-                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+runs_after <- simulate_suspension(design_after, mechanism = hidden)
 field_after <- if (register_after == "after") register(tb$A$field, runs_after) else field
 em_after <- suppressWarnings(fit_emulators(runs_after, wavelet_basis(runs_after, field_after)))
 after <- suppressWarnings(calibrate(em_after, field_after, iu_after, n_draws = n_draws, n_inner = n_inner,

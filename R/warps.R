@@ -1,0 +1,130 @@
+# --- wv_warps class ------------------------------------------------------------
+
+# The columns every wv_warps has.
+warps_columns <- c("site", "replicate", "window", "feature", "t_before", "t_after")
+
+new_wv_warps <- function(x, range, windows, landmark_site, sites) {
+  rownames(x) <- NULL
+  structure(x, range = range, windows = windows, landmark_site = landmark_site, sites = sites,
+            class = c("wv_warps", "data.frame"))
+}
+
+# Rows or columns of a wv_warps keep its attributes while every column the
+# class needs is there; otherwise the result is a plain data frame.
+#' @export
+`[.wv_warps` <- function(x, ...) {
+  out <- NextMethod()
+  if (!is.data.frame(out)) return(out)
+  if (!all(warps_columns %in% names(out))) {
+    class(out) <- "data.frame"
+    return(out)
+  }
+  new_wv_warps(out, attr(x, "range"), attr(x, "windows"), attr(x, "landmark_site"), attr(x, "sites"))
+}
+
+validate_wv_warps <- function(x, call = rlang::caller_env()) {
+  miss <- setdiff(warps_columns, names(x))
+  if (length(miss)) wv_abort("{.cls wv_warps} lacks column{?s} {.field {miss}}.", call = call, class = "state")
+  rg <- attr(x, "range")
+  if (!is.numeric(rg) || length(rg) != 2L) wv_abort("{.cls wv_warps} needs a {.field range} attribute.", call = call,
+                                                    class = "state")
+  x
+}
+
+#' @export
+print.wv_warps <- function(x, ...) {
+  n_rep <- length(unique(x$replicate))
+  ls <- attr(x, "landmark_site")
+  lm <- x$feature != "fitted"
+  shift <- abs(x$t_before - x$t_after)[lm]
+  n_lm <- length(unique(paste(x$window, x$feature)[lm]))
+  cli::cat_line(sprintf("<wv_warps> piecewise-linear warps of %d replicate%s, %d window%s, %d landmark%s each",
+                        n_rep, if (n_rep == 1) "" else "s", length(attr(x, "windows")),
+                        if (length(attr(x, "windows")) == 1) "" else "s", n_lm, if (n_lm == 1) "" else "s"))
+  if (any(!lm)) {
+    n_fit <- sum(!lm) / max(1, length(unique(paste(x$site, x$replicate)[!lm])))
+    cli::cat_line(sprintf("  plus %s knots per replicate fitted between the windows", format(round(n_fit, 1))))
+  }
+  cli::cat_line(if (is.na(ls)) "  landmarks found on each site separately"
+                else sprintf("  landmarks found on site %s, warps applied to all sites", ls))
+  cli::cat_line(sprintf("  landmark shift: median %s, max %s", format(signif(stats::median(shift), 3)),
+                        format(signif(max(shift), 3))))
+  print(as.data.frame(unclass_warps(x)), row.names = FALSE)
+  invisible(x)
+}
+
+unclass_warps <- function(x) {
+  attr(x, "range") <- attr(x, "windows") <- attr(x, "landmark_site") <- attr(x, "sites") <- NULL
+  class(x) <- "data.frame"
+  x
+}
+
+#' @export
+as.data.frame.wv_warps <- function(x, ...) unclass_warps(x)
+
+#' @export
+summary.wv_warps <- function(object, ...) {
+  d <- unclass_warps(object)
+  d$shift <- d$t_before - d$t_after
+  by_rep <- stats::aggregate(shift ~ site + replicate, data = d, FUN = function(s) max(abs(s)))
+  names(by_rep)[3] <- "max_abs_shift"
+  structure(list(by_replicate = by_rep, landmark_site = attr(object, "landmark_site")),
+            class = "summary_wv_warps")
+}
+
+#' @export
+print.summary_wv_warps <- function(x, ...) {
+  cli::cat_line("Largest landmark shift by replicate:")
+  print(x$by_replicate, row.names = FALSE)
+  invisible(x)
+}
+
+#' Plot registration warps
+#'
+#' Draws, for every replicate, the time shift of its warp, `h(t) - t`, where
+#' `h` maps the time of the replicate as measured onto the registered
+#' (reference) time; the landmarks are marked and the event windows shaded.
+#'
+#' @param object A `wv_warps` object (the `warps` element of a registered
+#'   `wv_field`).
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @export
+#' @examples
+#' t <- seq(0, 10, length.out = 256)
+#' bump <- function(t, at) exp(-(t - at)^2) - 0.8 * exp(-(t - at - 1.5)^2)
+#' field <- field_runs(rbind(bump(t, 2.8), bump(t, 3.3)), t)
+#' reg <- register_curves(field, list(site1 = bump(t, 3)), windows = list(c(1, 7)))
+#' autoplot(reg$warps)
+autoplot.wv_warps <- function(object, ...) {
+  rg <- attr(object, "range")
+  keys <- unique(as.data.frame(object)[, c("site", "replicate")])
+  lines <- do.call(rbind, lapply(seq_len(nrow(keys)), function(k) {
+    kn <- warp_knots(object, keys$replicate[k], keys$site[k])
+    data.frame(site = keys$site[k], replicate = factor(keys$replicate[k]), t = kn$before,
+               shift = kn$after - kn$before)
+  }))
+  pts <- as.data.frame(object)
+  pts$replicate <- factor(pts$replicate)
+  pts$shift <- pts$t_after - pts$t_before
+  win <- do.call(rbind, lapply(attr(object, "windows"), function(w) data.frame(xmin = w[1], xmax = w[2])))
+  p <- ggplot2::ggplot() +
+    ggplot2::geom_rect(data = win, ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = -Inf, ymax = Inf),
+                       fill = "grey90") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey50", linewidth = 0.3) +
+    ggplot2::geom_line(data = lines, ggplot2::aes(.data$t, .data$shift, colour = .data$replicate)) +
+    ggplot2::geom_point(data = pts, ggplot2::aes(.data$t_before, .data$shift, colour = .data$replicate,
+                                                 shape = .data$feature)) +
+    ggplot2::labs(x = "time as measured", y = "registered time - measured time", colour = "replicate",
+                  shape = "landmark", title = "Registration warps") +
+    ggplot2::coord_cartesian(xlim = rg) +
+    ggplot2::theme_bw()
+  if (length(unique(object$site)) > 1L) p <- p + ggplot2::facet_wrap(~site)
+  p
+}
+
+#' @export
+plot.wv_warps <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
