@@ -70,15 +70,17 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   cand <- candidate_coefficients(fit, candidates)
-  if (isTRUE(shifts)) cand <- cbind(cand, shift_candidates(fit))
+  draws <- as.matrix(fit$draws)
+  if (isTRUE(shifts)) cand <- cbind(cand, shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE])))
   if (ncol(cand) == 0L) {
     wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
   }
   H <- nrow(fit$wb[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
-  rs <- residual_regression_data(fit, keep)
+  draws <- draws[keep, , drop = FALSE]
+  rs <- residual_regression_data(fit, draws, keep)
   Y <- rs$residuals
-  Wt <- 1 / (rs$variance + bias_level_variances(fit, keep))
+  Wt <- 1 / (rs$variance + bias_level_variances(fit, draws))
   seed <- resolve_seed(seed)
   res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level))
   out <- res$table
@@ -135,11 +137,11 @@ candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) 
 }
 
 # Emulator gradient of every coefficient in each input at the posterior mean
-# inputs, by central differences, scaled by the input's range: the change of the
-# model output when the input moves by its whole range.
-shift_candidates <- function(fit) {
+# inputs z_mean, by central differences, scaled by the input's range: the change
+# of the model output when the input moves by its whole range.
+shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
   em <- fit$emulators
-  zhat <- posterior_mean_inputs(fit)[em$inputs]
+  zhat <- z_mean[em$inputs]
   sites <- names(fit$wb)
   width <- vapply(em$inputs, function(p) {
     k <- match(p, fit$iu$name)
@@ -162,10 +164,11 @@ shift_candidates <- function(fit) {
 }
 
 # Residuals wbar - m(z_h) of the field data from the emulated model at the
-# kept draws' inputs, and their field and emulator variance
-# sigma^2_h / R + V(z_h): H x n matrices, sites stacked in the order of fit$wb.
-residual_regression_data <- function(fit, keep) {
-  Z <- as.matrix(fit$draws)[keep, fit$inputs, drop = FALSE]
+# inputs of the kept draws `draws` (rows `keep` of the fit's draws), and their
+# field and emulator variance sigma^2_h / R + V(z_h): H x n matrices, sites
+# stacked in the order of fit$wb.
+residual_regression_data <- function(fit, draws, keep) {
+  Z <- draws[, fit$inputs, drop = FALSE]
   parts <- lapply(names(fit$wb), function(s) {
     pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
     list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
@@ -175,10 +178,10 @@ residual_regression_data <- function(fit, keep) {
        variance = do.call(cbind, lapply(parts, `[[`, "v")))
 }
 
-# Per-draw bias variance tau^2 of each coefficient's (site, level) group:
-# H x n matrix, sites stacked in the order of fit$wb.
-bias_level_variances <- function(fit, keep) {
-  d <- as.matrix(fit$draws)[keep, , drop = FALSE]
+# Per-draw bias variance tau^2 of each coefficient's (site, level) group, for
+# the rows of the draws matrix `d`: H x n matrix, sites stacked in the order of
+# fit$wb.
+bias_level_variances <- function(fit, d) {
   do.call(cbind, lapply(names(fit$wb), function(s) {
     col <- paste0("tau2[", s, ":", fit$basis$level, "]")
     miss <- setdiff(unique(col), colnames(d))
