@@ -52,6 +52,17 @@
 #' The chain starts at the nominals. Several sites share the inputs; each has
 #' its own emulators, data, `sigma2` and `tau2` groups.
 #'
+#' @section Bias variances:
+#' The method gives each resolution level its own bias variance `tau2_j`. The
+#' coarsest levels hold very few coefficients (level 0, the scaling
+#' coefficient, is the mean of the curve; level 1 is one coefficient too), so
+#' the data say little about their `tau2_j`: under the prior above a bias
+#' coefficient there is nearly unshrunk. The bias can then absorb a shift of
+#' the whole record while the inputs fit the events, and the bias band flags
+#' the whole record. `pool_levels = 0:3` gives the coefficients of levels 0
+#' to 3 (the levels the basis keeps whole by default) one variance per site,
+#' with `mean(sigma2)` over them in its prior; the other levels keep their own.
+#'
 #' The loop runs in C++. Each chain is one future
 #' (`future.apply::future_lapply()`), so `future::plan()` decides where chains
 #' run, and `seed` alone decides the draws.
@@ -79,6 +90,13 @@
 #'   adapts during these cycles, and 0 for `"report"`.
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector named
 #'   by group `"site:level"`); they are then not sampled. Mostly for checks.
+#' @param pool_levels `NULL` (one bias variance per site and level, as in the
+#'   method) or two or more levels whose bias coefficients share one variance
+#'   at each site (group `"site:a-b"`). Level 0 (the scaling coefficient: the
+#'   mean of the curve) and level 1 hold one coefficient each, so their own
+#'   variance is barely informed by the data and their bias is almost
+#'   unshrunk; `pool_levels = 0:3` shrinks them with the 8 coefficients of
+#'   levels 0 to 3. See the section Bias variances.
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
@@ -90,7 +108,8 @@
 #'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
 #'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
 #'   stacked), `chain`, `emulators`, `basis`, `field`, `iu`, `prior_iu` (the
-#'   I/U map shifted to `x_nom`), `x_nom`, `wbar`, `s2`, `n_rep`, `groups`,
+#'   I/U map shifted to `x_nom`), `x_nom`, `wbar`, `s2`, `n_rep`, `groups`
+#'   (the `tau2` groups), `bias_group` (by site, the group of each coefficient),
 #'   `acceptance` (by chain: `tau2`, `inputs` after the burn-in (random-walk
 #'   steps for `"adaptive"`), `global` (the mixture steps of `"adaptive"`),
 #'   `burnin`), `start` (the burn-in start of each chain), `proposal_cov` (the
@@ -105,7 +124,8 @@
 #' fit
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
-                      burnin = NULL, fix_tau2 = NULL, threads = getOption("wavevalid.threads", 1L),
+                      burnin = NULL, fix_tau2 = NULL, pool_levels = NULL,
+                      threads = getOption("wavevalid.threads", 1L),
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
   rlang::check_dots_empty()
   check_class(emulators, "wv_emulators")
@@ -122,14 +142,14 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
   check_number(threads, min = 1, max = 1024, integer = TRUE)
   seed <- resolve_seed(seed)
-  spec <- calibration_spec(emulators, field, iu, sigma2)
+  spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
                      proposal = proposal, burnin = burnin, threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
                                       step = step, proposal = proposal, burnin = burnin,
-                                      fix_tau2 = tau$values[tau$fixed]),
+                                      fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels),
                       seed = seed)
   warn_fit_flags(fit)
   fit
@@ -137,7 +157,8 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
 
 # --- data and priors ----------------------------------------------------------
 
-calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::caller_env()) {
+calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = NULL,
+                             call = rlang::caller_env()) {
   basis <- emulators$basis
   check_class(basis, "wv_basis", arg = "emulators$basis", call = call)
   if (length(field$t) != length(basis$t) || max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
@@ -186,9 +207,10 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::
     ), class = "noise_estimate")
   }
   sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
+  tau_group <- bias_groups(basis$level, pool_levels, call = call)
   groups <- NULL
   site_data <- list()
-  wbar <- s2 <- n_rep <- list()
+  wbar <- s2 <- n_rep <- bias_group <- list()
   for (s in sites) {
     W <- field$curves[[s]] %*% basis$Psi
     R <- nrow(W)
@@ -201,15 +223,48 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, call = rlang::
     wbar[[s]] <- colMeans(W)
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
     n_rep[[s]] <- R
-    lv <- sort(unique(basis$level))
     g0 <- if (is.null(groups)) 0L else nrow(groups)
-    groups <- rbind(groups, data.frame(name = paste0(s, ":", lv), site = s, level = lv,
+    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
-                           sigma2 = sigma2[[s]], group = g0 + match(basis$level, lv) - 1L)
+                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L)
+    bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
-       groups = groups, z_init = x_nom, wbar = wbar, s2 = s2, n_rep = n_rep, basis = basis)
+       groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
+       s2 = s2, n_rep = n_rep, basis = basis)
+}
+
+# The bias-variance groups of the coefficients of a basis: one per level, or
+# one for the levels in pool_levels (those present) and one per other level.
+# Returns label and (lowest) level of each group, the 1-based group of each
+# coefficient and the pooled levels.
+bias_groups <- function(level, pool_levels = NULL, call = rlang::caller_env()) {
+  lv <- sort(unique(level))
+  if (!is.null(pool_levels)) {
+    if (!is.numeric(pool_levels) || anyNA(pool_levels) || any(pool_levels != round(pool_levels)) ||
+        any(pool_levels < 0) || length(unique(pool_levels)) < 2L) {
+      wv_abort(c(
+        "{.arg pool_levels} must be two or more whole levels (0 for the scaling coefficient).",
+        "x" = "It is {.code {deparse(pool_levels)}}."
+      ), call = call)
+    }
+    pool_levels <- sort(unique(as.integer(pool_levels)))
+    absent <- setdiff(pool_levels, lv)
+    if (length(absent)) {
+      wv_abort(c(
+        "{.arg pool_levels} names level{?s} {absent} that the basis does not hold.",
+        "i" = "The basis holds levels {lv}."
+      ), call = call)
+    }
+  }
+  key <- ifelse(level %in% pool_levels, min(c(pool_levels, Inf)), level)
+  lev <- sort(unique(key))
+  label <- ifelse(lev %in% pool_levels, paste0(min(pool_levels), "-", max(pool_levels)), as.character(lev))
+  if (length(pool_levels) && !identical(pool_levels, seq(min(pool_levels), max(pool_levels)))) {
+    label[lev == min(pool_levels)] <- paste(pool_levels, collapse = ",")
+  }
+  list(label = label, level = lev, group = match(key, lev), pooled = pool_levels)
 }
 
 resolve_sigma2 <- function(sigma2, sites, n, call = rlang::caller_env()) {
@@ -308,7 +363,7 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     chain = rep(seq_along(runs), each = settings$n_draws),
     emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
-    groups = spec$groups, acceptance = acceptance, start = start, proposal_cov = prop_cov,
+    groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
     seed = seed, settings = settings
   ))
   diag <- fit_diagnostics(fit)

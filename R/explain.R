@@ -183,7 +183,7 @@ residual_regression_data <- function(fit, draws, keep) {
 # fit$wb.
 bias_level_variances <- function(fit, d) {
   do.call(cbind, lapply(names(fit$wb), function(s) {
-    col <- paste0("tau2[", s, ":", fit$basis$level, "]")
+    col <- paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
     miss <- setdiff(unique(col), colnames(d))
     if (length(miss)) wv_abort("The fit has no draws of {.val {miss}}.", class = "state")
     d[, col, drop = FALSE]

@@ -115,6 +115,35 @@ test_that("the adaptive sampler reproduces the grid posterior, and not with a br
   grid_check("adaptive", 1500, 30)
 })
 
+test_that("pooled levels share one tau2: the sampler reproduces the grid posterior of a shared variance", {
+  withr::local_seed(11)
+  gp <- grid_problem()
+  # the same data, its coefficients now spread over two levels
+  gp$pb$basis$level <- rep(c(2L, 3L), length.out = length(gp$pb$basis$index))
+  gp$pb$emulators$basis <- gp$pb$basis
+  gm <- grid_marginals(gp)
+  cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
+                   sigma2 = gp$sigma2, pool_levels = 2:3, quiet = TRUE)
+  expect_identical(fit$groups$name, "site1:2-3")
+  expect_identical(unique(fit$bias_group$site1), "site1:2-3")
+  X <- as.matrix(fit$draws)
+  expect_gt(stats::ks.test(log(X[, "tau2[site1:2-3]"]), cdf_lt)$p.value, 0.01)
+  # one variance per level is another posterior: level 2 alone does not follow it
+  own <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
+                   sigma2 = gp$sigma2, quiet = TRUE)
+  expect_identical(own$groups$name, c("site1:2", "site1:3"))
+  expect_lt(stats::ks.test(log(as.matrix(own$draws)[, "tau2[site1:2]"]), cdf_lt)$p.value, 0.01)
+})
+
+test_that("pool_levels refuses what is not two or more levels of the basis", {
+  ex <- wavevalid:::example_calibration_inputs()
+  for (bad in list(1, c(0, -1), c(0.5, 1), "0:3", c(0, 99))) {
+    expect_error(calibrate(ex$emulators, ex$field, ex$iu, pool_levels = bad, quiet = TRUE),
+                 class = "wavevalid_error_input")
+  }
+})
+
 test_that("the adaptive sampler mixes on a narrow posterior where the report's does not", {
   withr::local_seed(7)
   pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)

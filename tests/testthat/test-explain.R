@@ -55,3 +55,21 @@ test_that("the Bayes factor matches the closed form of the g-prior", {
   # equal prior on size 0 and 1
   expect_equal(res$table$inclusion_prob, bf / (1 + bf), tolerance = 1e-10)
 })
+
+test_that("explain_bias weighs each coefficient by the tau2 of its group, pooled levels included", {
+  ex <- wavevalid:::example_calibration_inputs()
+  lv <- sort(unique(ex$emulators$basis$level))
+  pool <- lv[1:2]
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1,
+                   pool_levels = pool, quiet = TRUE)
+  d <- as.matrix(fit$draws)
+  V <- wavevalid:::bias_level_variances(fit, d)
+  name <- sprintf("tau2[site1:%d-%d]", pool[1], pool[2])
+  pooled <- fit$basis$level %in% pool
+  expect_equal(unname(V[, pooled]), matrix(d[, name], nrow(d), sum(pooled)))
+  other <- which(!pooled)[1]
+  expect_equal(unname(V[, other]), unname(d[, sprintf("tau2[site1:%d]", fit$basis$level[other])]))
+  t <- ex$field$t
+  out <- explain_bias(fit, list(bump = exp(-((t - 0.25) / 0.05)^2)), n_draws = 10, seed = 1)
+  expect_s3_class(out, "wv_explain")
+})

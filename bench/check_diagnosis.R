@@ -1,0 +1,92 @@
+# How often the diagnosis gets it right on the suspension test bed, over
+# several test-bed seeds (each seed draws new manufacturing variations, field
+# noise and jitter, and so new field data). For every hidden mechanism and for
+# hidden = "none", per seed: the model without the mechanism is validated on
+# the test bed's condition A (66 runs), where_fails() and explain_bias() (all
+# mechanism signatures at the posterior mean inputs, plus the automatic
+# shifts) are run, and the two diagnosis criteria are checked:
+#   where: with a mechanism, the flagged intervals cover more than 20% of the
+#          grid points where it acts (its effect above 10% of its peak) at
+#          every site; with none, no flagged interval is longer than 3 grid
+#          steps;
+#   which: with a mechanism, it is ranked first among the mechanisms with
+#          inclusion_prob >= 0.9 and every other mechanism is below 0.5; with
+#          none, no candidate (shifts included) reaches 0.5.
+# refine = TRUE locates the landmarks between grid points; knots_every is
+# register_curves()'s (NULL: landmarks only); with register_runs = TRUE the
+# model runs are registered to the same reference as the field data (the mean
+# of the runs) before the wavelet decomposition and the emulators; pool_levels
+# is calibrate()'s ("NULL" or e.g. "0:3").
+#   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
+#                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
+# seeds as "1:5" or "1,3,7".
+suppressPackageStartupMessages(library(wavevalid))
+args <- commandArgs(trailingOnly = TRUE)
+seeds <- if (length(args) >= 1) eval(parse(text = paste0("c(", args[1], ")"))) else 1:5
+refine <- if (length(args) >= 2) as.logical(args[2]) else FALSE
+n_draws <- if (length(args) >= 3) as.integer(args[3]) else 150L
+n_inner <- if (length(args) >= 4) as.integer(args[4]) else 20L
+cores <- if (length(args) >= 5) as.integer(args[5]) else 2L
+knots_every <- if (length(args) >= 6 && args[6] != "NULL") as.numeric(args[6]) else if (length(args) >= 6) NULL else 2
+register_runs <- if (length(args) >= 7) as.logical(args[7]) else FALSE
+pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
+options(wavevalid.quiet = TRUE)
+
+one <- function(hidden, seed) {
+  t0 <- proc.time()[["elapsed"]]
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
+  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  runs <- tb$A$runs
+  reg <- function(f) register_curves(f, runs, tb$windows, features = features, knots_every = knots_every,
+                                     refine = refine)
+  field <- reg(tb$A$field)
+  if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
+                                    seed = 1, pool_levels = pool_levels, quiet = TRUE))
+  z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
+  ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
+  fails <- where_fails(fit)
+  t <- fit$basis$t
+  steps <- (fails$end - fails$start) / diff(t[1:2])
+  mech <- ex[!startsWith(ex$candidate, "shift:"), ]
+  out <- data.frame(hidden = hidden, seed = seed, intervals = nrow(fails), longest = round(max(c(0, steps))),
+                    overlap = NA_real_, first = mech$candidate[1], first_prob = mech$inclusion_prob[1],
+                    decoy_max = NA_real_, any_max = max(ex$inclusion_prob), seconds = NA_real_)
+  if (hidden == "none") {
+    out$where_ok <- all(steps <= 3)
+    out$which_ok <- all(ex$inclusion_prob < 0.5)
+  } else {
+    truth <- c(tb$truth$u, 0.5 + tb$truth$delta)[fit$inputs]
+    effect <- testbed_signatures(truth, hidden)[[1]]
+    overlap <- vapply(names(effect), function(s) {
+      acts <- abs(effect[[s]]) > 0.1 * max(abs(effect[[s]]))
+      w <- fails[fails$site == s, ]
+      flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
+                        rep(FALSE, length(t)))
+      mean(flagged[acts])
+    }, numeric(1))
+    out$overlap <- min(overlap)
+    out$decoy_max <- max(mech$inclusion_prob[mech$candidate != hidden])
+    out$where_ok <- all(overlap > 0.2)
+    out$which_ok <- mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && out$decoy_max < 0.5
+  }
+  out$seconds <- round(proc.time()[["elapsed"]] - t0)
+  out
+}
+
+grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, %d x %d draws, 1 chain\n",
+            length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), n_draws, n_inner))
+res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
+                          mc.cores = cores, mc.preschedule = FALSE)
+bad <- vapply(res, inherits, logical(1), "try-error")
+if (any(bad)) stop("failed: ", paste(vapply(res[bad], as.character, ""), collapse = "\n"))
+res <- do.call(rbind, res)
+res <- res[order(res$hidden, res$seed), ]
+num <- vapply(res, is.double, logical(1))
+res[num] <- lapply(res[num], round, 2)
+print(res, row.names = FALSE)
+cat("\nshare of seeds meeting each criterion\n")
+rate <- aggregate(cbind(where = where_ok, which = which_ok, both = where_ok & which_ok) ~ hidden, res, mean)
+print(rate, row.names = FALSE)
