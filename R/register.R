@@ -16,8 +16,9 @@
 #' other, so the field variance estimated from them is smaller and
 #' differences of shape between the field data and the reference weigh more.
 #' The warp of a replicate maps its landmarks onto the reference's, is linear
-#' in between, and keeps the two ends of the grid fixed. The registered curve is the replicate evaluated at the inverse
-#' warp of the grid (linear interpolation between grid points).
+#' in between, and keeps the two ends of the grid fixed. The registered curve
+#' is the replicate evaluated at the inverse warp of the grid (linear
+#' interpolation between grid points).
 #'
 #' The time jitter of a field test is a property of the test run, not of the
 #' measurement site, so by default the landmarks of a replicate are found on

@@ -1,7 +1,8 @@
 # --- wv_warps class ------------------------------------------------------------
 
-# The columns every wv_warps has.
+# The columns every wv_warps has, and its attributes.
 warps_columns <- c("site", "replicate", "window", "feature", "t_before", "t_after")
+warps_attributes <- c("range", "windows", "landmark_site", "sites")
 
 new_wv_warps <- function(x, range, windows, landmark_site, sites) {
   rownames(x) <- NULL
@@ -19,7 +20,7 @@ new_wv_warps <- function(x, range, windows, landmark_site, sites) {
     class(out) <- "data.frame"
     return(out)
   }
-  new_wv_warps(out, attr(x, "range"), attr(x, "windows"), attr(x, "landmark_site"), attr(x, "sites"))
+  do.call(new_wv_warps, c(list(out), attributes(x)[warps_attributes]))
 }
 
 validate_wv_warps <- function(x, call = rlang::caller_env()) {
@@ -54,7 +55,7 @@ print.wv_warps <- function(x, ...) {
 }
 
 unclass_warps <- function(x) {
-  attr(x, "range") <- attr(x, "windows") <- attr(x, "landmark_site") <- attr(x, "sites") <- NULL
+  for (a in warps_attributes) attr(x, a) <- NULL
   class(x) <- "data.frame"
   x
 }

@@ -27,7 +27,8 @@ refine <- if (length(args) >= 2) as.logical(args[2]) else FALSE
 n_draws <- if (length(args) >= 3) as.integer(args[3]) else 150L
 n_inner <- if (length(args) >= 4) as.integer(args[4]) else 20L
 cores <- if (length(args) >= 5) as.integer(args[5]) else 2L
-knots_every <- if (length(args) >= 6 && args[6] != "NULL") as.numeric(args[6]) else if (length(args) >= 6) NULL else 2
+knots_every <- if (length(args) >= 6) args[6] else "2"
+knots_every <- if (knots_every == "NULL") NULL else as.numeric(knots_every)
 register_runs <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
 options(wavevalid.quiet = TRUE)

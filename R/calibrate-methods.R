@@ -1,0 +1,138 @@
+# Methods of wv_fit: convergence diagnostics and flags (R-hat, effective
+# sizes, inputs piled at a bound), print, summary and the coda conversion.
+
+# --- diagnostics ---------------------------------------------------------------
+
+fit_diagnostics <- function(fit) {
+  inp <- fit$inputs
+  ess <- coda::effectiveSize(fit$draws)
+  rhat <- stats::setNames(rep(NA_real_, length(inp)), inp)
+  if (length(fit$draws) >= 2L) {
+    sub <- coda::mcmc.list(lapply(fit$draws, function(m) m[, inp, drop = FALSE]))
+    r <- tryCatch(coda::gelman.diag(sub, autoburnin = FALSE, multivariate = FALSE)$psrf[, 1],
+                  error = function(e) rep(NA_real_, length(inp)))
+    rhat[] <- r
+  }
+  list(rhat = rhat, ess = ess, flags = boundary_flags(fit, rhat))
+}
+
+# Inputs whose posterior piles at a bound (> 25% of draws within 2% of the
+# range from it while the prior puts at most half as much there), and inputs
+# with R-hat above 1.1.
+boundary_flags <- function(fit, rhat) {
+  X <- as.matrix(fit$draws)
+  pr <- fit$prior_iu
+  out <- data.frame(input = character(0), bound = character(0), posterior = numeric(0),
+                    prior = numeric(0), stringsAsFactors = FALSE)
+  for (k in seq_along(fit$inputs)) {
+    lo <- pr$lower[k]
+    hi <- pr$upper[k]
+    d <- 0.02 * (hi - lo)
+    x <- X[, fit$inputs[k]]
+    for (side in c("lower", "upper")) {
+      zone <- if (side == "lower") c(lo, lo + d) else c(hi - d, hi)
+      post <- mean(x >= zone[1] & x <= zone[2])
+      prior <- prior_mass(pr, k, zone)
+      if (post > 0.25 && prior < post / 2) {
+        out[nrow(out) + 1L, ] <- list(fit$inputs[k], side, post, prior)
+      }
+    }
+  }
+  list(boundary = out, rhat = names(rhat)[!is.na(rhat) & rhat > 1.1])
+}
+
+prior_mass <- function(pr, k, zone) {
+  if (pr$type[k] == "calibration") return(diff(zone) / (pr$upper[k] - pr$lower[k]))
+  cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
+  (cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k]))
+}
+
+warn_fit_flags <- function(fit) {
+  f <- fit$flags
+  if (length(f$rhat)) {
+    wv_warn(c("The chains have not mixed: R-hat > 1.1 for {.val {f$rhat}}.",
+              "i" = "Run longer chains (larger {.arg n_draws} or {.arg n_inner})."), class = "mixing")
+  }
+  if (nrow(f$boundary)) {
+    msg <- sprintf("%s at its %s bound (%.0f%% of draws, prior %.0f%%)", f$boundary$input,
+                   f$boundary$bound, 100 * f$boundary$posterior, 100 * f$boundary$prior)
+    wv_warn(c("The posterior piles up at a bound of the range of {.val {unique(f$boundary$input)}}.",
+              stats::setNames(msg, rep("*", length(msg))),
+              "i" = "The input may be acting as a tuning knob for a missing effect; see {.fn where_fails}."),
+            class = "boundary")
+  }
+  invisible(fit)
+}
+
+#' @importFrom coda as.mcmc.list
+#' @export
+as.mcmc.list.wv_fit <- function(x, ...) x$draws
+
+#' @export
+print.wv_fit <- function(x, ...) {
+  H <- nrow(x$draws[[1]])
+  n <- ncol(x$basis$Psi)
+  sites <- names(x$wb)
+  cli::cat_line(sprintf("<wv_fit> %d site%s (%s), %d coefficients, %d draws x %d chain%s (thinning %d)",
+                        length(sites), if (length(sites) == 1) "" else "s", paste(sites, collapse = ", "),
+                        n, H, length(x$draws), if (length(x$draws) == 1) "" else "s",
+                        x$settings$n_inner))
+  acc <- x$acceptance
+  glob <- if (!is.null(acc$global) && any(!is.na(acc$global))) {
+    paste0("; global ", paste(format_rate(acc$global), collapse = " "))
+  } else ""
+  cli::cat_line("Acceptance by chain (", x$settings$proposal %||% "report", " proposal): tau2 ",
+                paste(format_rate(acc$tau2), collapse = " "),
+                "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
+  print(input_table(x), row.names = FALSE, digits = 3)
+  if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
+  b <- x$flags$boundary
+  if (nrow(b)) {
+    cli::cat_line("! Posterior piled at a bound: ",
+                  paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior), collapse = ", "))
+  }
+  invisible(x)
+}
+
+format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
+
+input_table <- function(x) {
+  X <- as.matrix(x$draws)
+  data.frame(input = x$inputs, type = x$prior_iu$type,
+             mean = colMeans(X[, x$inputs, drop = FALSE]),
+             q2.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
+             q97.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+             rhat = unname(x$rhat[x$inputs]), ess = round(unname(x$ess[x$inputs])),
+             stringsAsFactors = FALSE)
+}
+
+#' @export
+summary.wv_fit <- function(object, ...) {
+  X <- as.matrix(object$draws)
+  tau_cols <- setdiff(colnames(X), object$inputs)
+  tau <- data.frame(group = object$groups$name, site = object$groups$site, level = object$groups$level,
+                    mean = colMeans(X[, tau_cols, drop = FALSE]),
+                    q2.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
+                    q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+                    stringsAsFactors = FALSE)
+  rownames(tau) <- NULL
+  structure(list(inputs = input_table(object), tau2 = tau, acceptance = object$acceptance,
+                 flags = object$flags, settings = object$settings,
+                 n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
+            class = "summary_wv_fit")
+}
+
+#' @export
+print.summary_wv_fit <- function(x, ...) {
+  cli::cat_line("Calibration of ", x$n_coef, " coefficients at ", length(x$sites), " site(s): ",
+                paste(x$sites, collapse = ", "))
+  cli::cat_line(x$settings$chains, " chain(s) of ", x$settings$n_draws, " draws, ",
+                x$settings$n_inner, " cycles between draws")
+  cli::cat_line("Inputs:")
+  print(x$inputs, row.names = FALSE, digits = 3)
+  cli::cat_line("Bias variances tau2 by site and level:")
+  print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
+  cli::cat_line("Acceptance rates:")
+  print(x$acceptance, row.names = FALSE, digits = 3)
+  invisible(x)
+}
