@@ -6,6 +6,13 @@
 #' bound of their range (an input used as a tuning knob, like the report's
 #' `x5`).
 #'
+#' A model is rarely exact; the question is whether it is accurate enough for
+#' its intended use. With `tolerance`, only the intervals where the band lies
+#' wholly beyond `tolerance` (above it or below its negative) are reported:
+#' there the bias is credibly larger than the error the user can accept. A
+#' small offset of the whole record, or a misfit at the scale of the field
+#' noise that many replicates make credible, then drops out.
+#'
 #' @param fit A `wv_fit`.
 #' @param level Probability of the bias band.
 #' @param band `"simultaneous"` (default): the narrowest band holding whole
@@ -15,6 +22,9 @@
 #'   `1 - level` of the grid points even where there is no bias, and so flags
 #'   many short intervals by chance.
 #' @param min_steps Shortest interval reported, in grid steps.
+#' @param tolerance The bias the intended use can accept, in the units of the
+#'   curves: a non-negative number, or a named vector with one per site. `0`
+#'   (default) reports every interval where the band excludes zero.
 #' @param ... Unused.
 #' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
 #'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
@@ -23,7 +33,8 @@
 #'   (whether the model is above or below reality), ranked by
 #'   `integrated_abs_bias`. Attributes: `levels` (bias energy by site and
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
-#'   each bound, `flagged` when it piles up there) and `bias` (the bias band).
+#'   each bound, `flagged` when it piles up there), `bias` (the bias band) and
+#'   `tolerance` (by site).
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -33,19 +44,27 @@
 #' wf <- where_fails(fit)
 #' wf
 #' attr(wf, "levels")
+#' # only where the bias is credibly larger than 0.1
+#' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
-where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L, ...) {
+where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
+                        tolerance = 0, ...) {
   check_class(fit, "wv_fit")
   check_level(level)
   band <- rlang::arg_match(band)
   check_number(min_steps, min = 1, integer = TRUE)
+  tol <- site_tolerance(tolerance, names(fit$wb))
   b <- bias(fit, level = level)
   r <- reality(fit, level = level)
   dt <- diff(fit$basis$t[1:2])
   rows <- lapply(unique(b$site), function(s) {
     bs <- b[b$site == s, ]
     rs <- r[r$site == s, ]
-    excl <- if (band == "simultaneous") bs$lower_curve > 0 | bs$upper_curve < 0 else bs$lower > 0 | bs$upper < 0
+    excl <- if (band == "simultaneous") {
+      bs$lower_curve > tol[[s]] | bs$upper_curve < -tol[[s]]
+    } else {
+      bs$lower > tol[[s]] | bs$upper < -tol[[s]]
+    }
     runs <- rle(excl)
     ends <- cumsum(runs$lengths)
     starts <- ends - runs$lengths + 1L
@@ -77,8 +96,28 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "bias") <- b
   attr(out, "level") <- level
   attr(out, "band") <- band
+  attr(out, "tolerance") <- tol
   class(out) <- c("wv_fails", "data.frame")
   out
+}
+
+# where_fails()'s tolerance as a named vector by site.
+site_tolerance <- function(tolerance, sites, call = rlang::caller_env()) {
+  if (!is.numeric(tolerance) || length(tolerance) == 0L || anyNA(tolerance) || any(!is.finite(tolerance)) ||
+      any(tolerance < 0)) {
+    wv_abort("{.arg tolerance} must hold non-negative finite numbers.", call = call)
+  }
+  if (length(tolerance) == 1L && is.null(names(tolerance))) {
+    return(stats::setNames(rep(tolerance, length(sites)), sites))
+  }
+  nm <- names(tolerance)
+  if (is.null(nm) || anyDuplicated(nm) || !setequal(nm, sites)) {
+    wv_abort(c(
+      "{.arg tolerance} must be one number or a vector named by site, one value per site.",
+      "i" = "The fit's sites are {.val {sites}}."
+    ), call = call)
+  }
+  tolerance[sites]
 }
 
 # Bias energy (posterior mean of the squared bias coefficients) by site and
@@ -142,9 +181,17 @@ boundary_check <- function(fit, margin = 0.02) {
 #' @export
 print.wv_fails <- function(x, ...) {
   lev <- attr(x, "level")
-  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the bias excludes zero",
+  tol <- attr(x, "tolerance")
+  what <- if (is.null(tol) || all(tol == 0)) {
+    "excludes zero"
+  } else if (length(unique(tol)) == 1L) {
+    sprintf("lies beyond the tolerance %s", format(signif(tol[[1]], 3)))
+  } else {
+    sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
+  }
+  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the bias %s",
                         nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev,
-                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve"))
+                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve", what))
   if (nrow(x)) {
     df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
                                       "share_of_signal", "sign")], stringsAsFactors = FALSE)
@@ -221,6 +268,12 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
                                 ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
                                 fill = "#D55E00", alpha = 0.25)
+  }
+  tol <- attr(object, "tolerance")
+  if (!is.null(tol) && any(tol > 0)) {
+    lines <- data.frame(site = rep(names(tol), 2), y = c(tol, -tol))
+    p <- p + ggplot2::geom_hline(data = lines, ggplot2::aes(yintercept = .data$y), colour = "#D55E00",
+                                 linetype = 3)
   }
   p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
     ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +

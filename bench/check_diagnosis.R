@@ -17,8 +17,16 @@
 # model runs are registered to the same reference as the field data (the mean
 # of the runs) before the wavelet decomposition and the emulators; pool_levels
 # is calibrate()'s ("NULL" or e.g. "0:3").
+# reference = "field" registers the field replicates to their own pointwise
+# mean instead of the mean of the model runs; "field2" to the mean of the
+# replicates so registered. tolerance is where_fails()'s, in kN (the
+# criteria are then judged on the intervals beyond it). Columns: gap, the
+# smallest tolerance at which nothing is flagged (the largest distance of
+# the whole-curve band from zero), and effect, the peak of the hidden
+# mechanism's effect (smaller site).
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
+#                                   [reference=runs] [tolerance=0]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -31,6 +39,8 @@ knots_every <- if (length(args) >= 6) args[6] else "2"
 knots_every <- if (knots_every == "NULL") NULL else as.numeric(knots_every)
 register_runs <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
+reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field2")) else "runs"
+tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -38,8 +48,10 @@ one <- function(hidden, seed) {
   tb <- testbed_suspension(seed = seed, hidden = hidden)
   features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
   runs <- tb$A$runs
-  reg <- function(f) register_curves(f, runs, tb$windows, features = features, knots_every = knots_every,
+  ref <- if (reference == "runs") runs else lapply(tb$A$field$curves, colMeans)
+  reg <- function(f) register_curves(f, ref, tb$windows, features = features, knots_every = knots_every,
                                      refine = refine)
+  if (reference == "field2") ref <- lapply(reg(tb$A$field)$curves, colMeans)
   field <- reg(tb$A$field)
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
@@ -47,13 +59,16 @@ one <- function(hidden, seed) {
                                     seed = 1, pool_levels = pool_levels, quiet = TRUE))
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
-  fails <- where_fails(fit)
+  fails <- where_fails(fit, tolerance = tolerance)
+  b <- attr(fails, "bias")
+  gap <- max(pmax(b$lower_curve, -b$upper_curve, 0))
   t <- fit$basis$t
   steps <- (fails$end - fails$start) / diff(t[1:2])
   mech <- ex[!startsWith(ex$candidate, "shift:"), ]
   out <- data.frame(hidden = hidden, seed = seed, intervals = nrow(fails), longest = round(max(c(0, steps))),
                     overlap = NA_real_, first = mech$candidate[1], first_prob = mech$inclusion_prob[1],
-                    decoy_max = NA_real_, any_max = max(ex$inclusion_prob), seconds = NA_real_)
+                    decoy_max = NA_real_, any_max = max(ex$inclusion_prob), gap = gap, effect = NA_real_,
+                    seconds = NA_real_)
   if (hidden == "none") {
     out$where_ok <- all(steps <= 3)
     out$which_ok <- all(ex$inclusion_prob < 0.5)
@@ -68,6 +83,7 @@ one <- function(hidden, seed) {
       mean(flagged[acts])
     }, numeric(1))
     out$overlap <- min(overlap)
+    out$effect <- min(vapply(effect, function(e) max(abs(e)), numeric(1)))
     out$decoy_max <- max(mech$inclusion_prob[mech$candidate != hidden])
     out$where_ok <- all(overlap > 0.2)
     out$which_ok <- mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && out$decoy_max < 0.5
@@ -77,8 +93,9 @@ one <- function(hidden, seed) {
 }
 
 grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
-cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, %d x %d draws, 1 chain\n",
-            length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), n_draws, n_inner))
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, %d x %d draws, 1 chain\n",
+            length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
+            n_draws, n_inner))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

@@ -30,6 +30,40 @@ test_that("where_fails finds the interval where the missing bump acts", {
   expect_s3_class(autoplot(wf, type = "levels"), "ggplot")
 })
 
+test_that("where_fails with a tolerance reports only where the band lies beyond it", {
+  d <- diag_setup()
+  wf0 <- where_fails(d$fit)
+  expect_identical(attr(where_fails(d$fit, tolerance = 0), "tolerance"), c(site1 = 0))
+  expect_equal(as.data.frame(unclass(where_fails(d$fit, tolerance = c(site1 = 0)))),
+               as.data.frame(unclass(wf0)))
+  # just below the largest distance of the band from zero: only its peak is flagged
+  b0 <- attr(wf0, "bias")
+  tol <- 0.9 * max(pmax(b0$lower_curve, -b0$upper_curve))
+  wf <- where_fails(d$fit, tolerance = tol)
+  expect_gt(nrow(wf), 0L)
+  expect_lt(sum(wf$end - wf$start), sum(wf0$end - wf0$start))
+  # the missing bump is still found
+  expect_true(wf$start[1] <= 0.3 && wf$end[1] >= 0.2)
+  b <- attr(wf, "bias")
+  dt <- diff(d$t[1:2])
+  for (k in seq_len(nrow(wf))) {
+    idx <- b$t >= wf$start[k] - dt / 2 & b$t < wf$end[k] - dt / 2
+    beyond <- b$lower_curve[idx] > tol | b$upper_curve[idx] < -tol
+    expect_true(all(beyond))
+    # each interval lies inside one of the intervals without tolerance
+    expect_true(any(wf0$start <= wf$start[k] + 1e-12 & wf0$end >= wf$end[k] - 1e-12))
+  }
+  big <- max(abs(c(b$lower_curve, b$upper_curve))) + 1
+  expect_identical(nrow(where_fails(d$fit, tolerance = big)), 0L)
+  expect_output(print(wf), "beyond the tolerance")
+  expect_s3_class(autoplot(wf), "ggplot")
+  expect_error(where_fails(d$fit, tolerance = -0.1), class = "wavevalid_error_input")
+  expect_error(where_fails(d$fit, tolerance = NA_real_), class = "wavevalid_error_input")
+  expect_error(where_fails(d$fit, tolerance = c(0.1, 0.2)), class = "wavevalid_error_input")
+  expect_error(where_fails(d$fit, tolerance = c(site2 = 0.1)), class = "wavevalid_error_input")
+  expect_error(where_fails(d$fit, tolerance = "0.1"), class = "wavevalid_error_input")
+})
+
 test_that("without a missing effect the whole-curve band flags (almost) nothing, the pointwise band flags chance intervals", {
   ex <- wavevalid:::example_calibration_inputs()
   t <- ex$field$t
