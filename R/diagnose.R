@@ -33,8 +33,11 @@
 #'   (whether the model is above or below reality), ranked by
 #'   `integrated_abs_bias`. Attributes: `levels` (bias energy by site and
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
-#'   each bound, `flagged` when it piles up there), `bias` (the bias band) and
-#'   `tolerance` (by site).
+#'   each bound, `flagged` when it piles up there), `bias` (the bias band),
+#'   `tolerance` (by site) and `credible` (by site, the largest distance of the
+#'   band from zero, `credible_bias`, and the time `t` where it is reached:
+#'   the bias is credibly at least that large there, and a tolerance above it
+#'   flags nothing).
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -97,8 +100,22 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "level") <- level
   attr(out, "band") <- band
   attr(out, "tolerance") <- tol
+  attr(out, "credible") <- credible_bias(b, band)
   class(out) <- c("wv_fails", "data.frame")
   out
+}
+
+# The largest bias the band makes credible, by site: the largest distance of
+# the band from zero, and where. A tolerance above it flags nothing.
+credible_bias <- function(b, band) {
+  lo <- if (band == "simultaneous") b$lower_curve else b$lower
+  hi <- if (band == "simultaneous") b$upper_curve else b$upper
+  gap <- pmax(lo, -hi, 0)
+  do.call(rbind, lapply(unique(b$site), function(s) {
+    i <- which(b$site == s)
+    k <- i[which.max(gap[i])]
+    data.frame(site = s, t = b$t[k], credible_bias = gap[k], stringsAsFactors = FALSE)
+  }))
 }
 
 # where_fails()'s tolerance as a named vector by site.
@@ -206,6 +223,12 @@ print.wv_fails <- function(x, ...) {
     cli::cat_line("Bias energy is highest at wavelet level",
                   if (nrow(top) > 1) "s " else " ",
                   paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share), collapse = ", "))
+  }
+  cr <- attr(x, "credible")
+  if (!is.null(cr) && any(cr$credible_bias > 0)) {
+    k <- which.max(cr$credible_bias)
+    cli::cat_line(sprintf("The bias is credibly at least %s (%s, t = %s); a tolerance above that flags nothing",
+                          format(signif(cr$credible_bias[k], 3)), cr$site[k], format(signif(cr$t[k], 4))))
   }
   bd <- attr(x, "boundary")
   if (!is.null(bd) && any(bd$flagged)) {

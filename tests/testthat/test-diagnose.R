@@ -56,6 +56,13 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
   big <- max(abs(c(b$lower_curve, b$upper_curve))) + 1
   expect_identical(nrow(where_fails(d$fit, tolerance = big)), 0L)
   expect_output(print(wf), "beyond the tolerance")
+  # the credible bias is the smallest tolerance that flags nothing
+  cr <- attr(wf0, "credible")
+  expect_equal(cr$credible_bias, max(pmax(b0$lower_curve, -b0$upper_curve, 0)))
+  expect_identical(nrow(where_fails(d$fit, tolerance = cr$credible_bias * (1 + 1e-9))), 0L)
+  expect_gt(nrow(where_fails(d$fit, tolerance = cr$credible_bias * (1 - 1e-6))), 0L)
+  expect_true(cr$t >= 0.2 && cr$t <= 0.3)
+  expect_output(print(wf0), "credibly at least")
   expect_s3_class(autoplot(wf), "ggplot")
   expect_error(where_fails(d$fit, tolerance = -0.1), class = "wavevalid_error_input")
   expect_error(where_fails(d$fit, tolerance = NA_real_), class = "wavevalid_error_input")
