@@ -101,6 +101,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "band") <- band
   attr(out, "tolerance") <- tol
   attr(out, "credible") <- credible_bias(b, band)
+  attr(out, "pooled_level0") <- 0 %in% fit$settings$pool_levels
   class(out) <- c("wv_fails", "data.frame")
   out
 }
@@ -223,6 +224,12 @@ print.wv_fails <- function(x, ...) {
     cli::cat_line("Bias energy is highest at wavelet level",
                   if (nrow(top) > 1) "s " else " ",
                   paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share), collapse = ", "))
+    off <- levs$site[levs$level == 0 & levs$significant > 0]
+    if (length(off) && !isTRUE(attr(x, "pooled_level0"))) {
+      cli::cat_line("The mean of the record (level 0) is credibly off at ", paste(off, collapse = ", "),
+                    ". One coefficient barely informs its bias variance, so the calibrated inputs may trade",
+                    " that offset against the events; compare with calibrate(pool_levels = 0:3)")
+    }
   }
   cr <- attr(x, "credible")
   if (!is.null(cr) && any(cr$credible_bias > 0)) {

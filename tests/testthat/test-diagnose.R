@@ -71,6 +71,24 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
   expect_error(where_fails(d$fit, tolerance = "0.1"), class = "wavevalid_error_input")
 })
 
+test_that("where_fails points at an offset of the record and at pooling the coarse levels", {
+  ex <- wavevalid:::example_calibration_inputs()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + 0.3
+  ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
+  fit <- function(...) suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 20,
+                                                  chains = 1, seed = 11, quiet = TRUE, ...))
+  wf <- where_fails(fit())
+  lv <- attr(wf, "levels")
+  expect_gt(lv$significant[lv$level == 0], 0)
+  expect_output(print(wf), "mean of the record \\(level 0\\) is credibly off at site1")
+  # the whole record is flagged, reality above the model by about the offset
+  expect_equal(sum(wf$end - wf$start), 1, tolerance = 0.05)
+  expect_equal(attr(wf, "credible")$credible_bias, 0.3, tolerance = 0.1)
+  # pooled, the hint is not repeated
+  expect_false(any(grepl("mean of the record", capture.output(print(where_fails(fit(pool_levels = 0:3)))))))
+})
+
 test_that("without a missing effect the whole-curve band flags (almost) nothing, the pointwise band flags chance intervals", {
   ex <- wavevalid:::example_calibration_inputs()
   t <- ex$field$t
