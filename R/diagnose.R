@@ -252,7 +252,8 @@ summary.wv_fails <- function(object, ...) {
     by_site = if (nrow(object)) tapply(object$integrated_abs_bias, object$site, sum) else numeric(),
     total_length = sum(object$end - object$start),
     levels = attr(object, "levels"),
-    boundary = attr(object, "boundary")
+    boundary = attr(object, "boundary"),
+    credible = attr(object, "credible")
   ), class = "summary_wv_fails")
 }
 
@@ -262,6 +263,11 @@ print.summary_wv_fails <- function(x, ...) {
   if (length(x$by_site)) {
     cli::cat_line("Integrated absolute bias by site: ",
                   paste(sprintf("%s %.3g", names(x$by_site), x$by_site), collapse = ", "))
+  }
+  if (!is.null(x$credible)) {
+    cli::cat_line("Largest credible bias by site: ",
+                  paste(sprintf("%s %.3g (t = %.4g)", x$credible$site, x$credible$credible_bias, x$credible$t),
+                        collapse = ", "))
   }
   cli::cat_line("Bias energy by wavelet level:")
   lv <- x$levels
@@ -310,7 +316,8 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
     ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
     ggplot2::labs(x = "time", y = "bias",
-                  title = "Where the model fails: intervals where the bias band excludes zero") +
+                  title = paste("Where the model fails: intervals where the bias band",
+                                if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero")) +
     ggplot2::theme_bw()
 }
 

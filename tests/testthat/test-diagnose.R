@@ -63,6 +63,8 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
   expect_gt(nrow(where_fails(d$fit, tolerance = cr$credible_bias * (1 - 1e-6))), 0L)
   expect_true(cr$t >= 0.2 && cr$t <= 0.3)
   expect_output(print(wf0), "credibly at least")
+  expect_output(print(summary(wf0)), "Largest credible bias by site: site1")
+  expect_match(autoplot(wf)$labels$title, "beyond the tolerance")
   expect_s3_class(autoplot(wf), "ggplot")
   expect_error(where_fails(d$fit, tolerance = -0.1), class = "wavevalid_error_input")
   expect_error(where_fails(d$fit, tolerance = NA_real_), class = "wavevalid_error_input")
