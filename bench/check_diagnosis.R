@@ -23,7 +23,8 @@
 # criteria are then judged on the intervals beyond it). Columns: gap, the
 # smallest tolerance at which nothing is flagged (the largest distance of
 # the whole-curve band from zero), and effect, the peak of the hidden
-# mechanism's effect (smaller site).
+# mechanism's effect (smaller site); first_share and decoy_share, the
+# share_explained of the first mechanism and of the most probable other one.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0]
@@ -67,7 +68,8 @@ one <- function(hidden, seed) {
   mech <- ex[!startsWith(ex$candidate, "shift:"), ]
   out <- data.frame(hidden = hidden, seed = seed, intervals = nrow(fails), longest = round(max(c(0, steps))),
                     overlap = NA_real_, first = mech$candidate[1], first_prob = mech$inclusion_prob[1],
-                    decoy_max = NA_real_, any_max = max(ex$inclusion_prob), gap = gap, effect = NA_real_,
+                    decoy_max = NA_real_, any_max = max(ex$inclusion_prob), first_share = mech$share_explained[1],
+                    decoy_share = NA_real_, gap = gap, effect = NA_real_,
                     seconds = NA_real_)
   if (hidden == "none") {
     out$where_ok <- all(steps <= 3)
@@ -84,7 +86,9 @@ one <- function(hidden, seed) {
     }, numeric(1))
     out$overlap <- min(overlap)
     out$effect <- min(vapply(effect, function(e) max(abs(e)), numeric(1)))
-    out$decoy_max <- max(mech$inclusion_prob[mech$candidate != hidden])
+    decoys <- mech[mech$candidate != hidden, ]
+    out$decoy_max <- decoys$inclusion_prob[1]
+    out$decoy_share <- decoys$share_explained[1]
     out$where_ok <- all(overlap > 0.2)
     out$which_ok <- mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && out$decoy_max < 0.5
   }
