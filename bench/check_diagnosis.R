@@ -61,8 +61,7 @@ one <- function(hidden, seed) {
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
   fails <- where_fails(fit, tolerance = tolerance)
-  b <- attr(fails, "bias")
-  gap <- max(pmax(b$lower_curve, -b$upper_curve, 0))
+  gap <- max(attr(fails, "credible")$credible_bias)
   t <- fit$basis$t
   steps <- (fails$end - fails$start) / diff(t[1:2])
   mech <- ex[!startsWith(ex$candidate, "shift:"), ]

@@ -1,0 +1,172 @@
+#' Compare two validations of the same system
+#'
+#' Sets a validation before a model change beside one after it (for example
+#' after adding the missing effect that [explain_bias()] pointed to; the
+#' "after" model may have extra calibration inputs): how large the bias is,
+#' how wide the bands of reality are, and, on held-out field data, how well
+#' each predicts.
+#'
+#' Each fit is judged against its own field data (`fit$field`). The field
+#' data are registered to a reference made of the model's runs, so a model
+#' that lacks a mechanism which moves the peaks of an event also moves the
+#' landmarks of the registered field; after adding the mechanism, register the
+#' raw field data again to the new model's runs and give each fit its own
+#' registration (and, for held-out data, its own registered held-out field).
+#'
+#' @param before,after `wv_fit` objects fitted to the same field data (each
+#'   possibly registered to its own model's runs).
+#' @param holdout Optional held-out field data: a `wv_field` of the same
+#'   system (predicted as new field runs of each fit), or a list with `field`
+#'   and `before`, `after`: `wv_prediction` objects of each fit for that field
+#'   data (e.g. `predict(fit, type = "new_nominal", ...)` for a system with
+#'   other nominal inputs). `field` is a `wv_field`, or a list of two,
+#'   `before` and `after`, when each model's held-out field is registered to
+#'   that model's runs.
+#' @param level Probability of the bands.
+#' @return A `wv_comparison` data frame with columns `metric`, `before`,
+#'   `after`, `change` (relative change, after / before - 1) and rows
+#'   `bias_rms`, `bias_peak`, `band_width`, `model_rmse` (pure-model
+#'   prediction against the mean of the fitted field data) and, with a holdout,
+#'   `holdout_rmse` and `holdout_coverage`.
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' before <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                     chains = 1, seed = 1, quiet = TRUE)
+#' # in practice `after` is the model with the added effect (see
+#' # vignette("missing-effect", package = "wavevalid")); here the same model
+#' # with the bias variances held small, to show the layout
+#' after <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                    chains = 1, seed = 1, fix_tau2 = 1e-4, quiet = TRUE)
+#' cmp <- compare_validations(before, after)
+#' cmp
+#' autoplot(cmp)
+compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
+  check_class(before, "wv_fit")
+  check_class(after, "wv_fit")
+  check_level(level)
+  if (!identical(names(before$wb), names(after$wb))) {
+    wv_abort("{.arg before} and {.arg after} must have the same sites.")
+  }
+  if (!isTRUE(all.equal(before$basis$t, after$basis$t))) {
+    wv_abort("{.arg before} and {.arg after} must be on the same time grid.")
+  }
+  m_before <- validation_metrics(before, level)
+  m_after <- validation_metrics(after, level)
+  if (!is.null(holdout)) {
+    preds <- holdout_predictions(before, after, holdout, level)
+    m_before <- c(m_before, holdout_metrics(preds$before, preds$field$before))
+    m_after <- c(m_after, holdout_metrics(preds$after, preds$field$after))
+  }
+  out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
+                    stringsAsFactors = FALSE)
+  out$change <- out$after / out$before - 1
+  attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
+  class(out) <- c("wv_comparison", "data.frame")
+  out
+}
+
+validation_metrics <- function(fit, level) {
+  b <- bias(fit, level)
+  r <- reality(fit, level)
+  mp <- model_prediction(fit, level)
+  fm <- do.call(rbind, lapply(names(fit$field$curves), function(s) {
+    data.frame(site = s, t = fit$field$t, y = colMeans(fit$field$curves[[s]]))
+  }))
+  mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
+  c(
+    bias_rms = sqrt(mean(b$mean^2)),
+    bias_peak = max(abs(b$mean)),
+    band_width = mean(r$upper - r$lower),
+    model_rmse = sqrt(mean((mp$mean - mp$y)^2))
+  )
+}
+
+holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
+  if (inherits(holdout, "wv_field")) {
+    return(list(
+      field = list(before = holdout, after = holdout),
+      before = stats::predict(before, type = "field_run", level = level),
+      after = stats::predict(after, type = "field_run", level = level)
+    ))
+  }
+  fld <- if (is.list(holdout)) holdout$field
+  if (inherits(fld, "wv_field")) fld <- list(before = fld, after = fld)
+  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") && inherits(fld$after, "wv_field") &&
+    inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
+  if (!ok) {
+    wv_abort(c(
+      "{.arg holdout} must be a {.cls wv_field} or a list with {.field field}, {.field before} and {.field after}.",
+      "i" = "{.field before} and {.field after} are predictions of each fit for the held-out system.",
+      "i" = "{.field field} is a {.cls wv_field}, or a list of two ({.field before}, {.field after}) when each model registers the held-out data to its own runs."
+    ), call = call)
+  }
+  list(field = fld[c("before", "after")], before = holdout$before, after = holdout$after)
+}
+
+# RMSE of the prediction mean against each held-out replicate, and the share
+# of held-out points inside the band.
+holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
+  p <- as.data.frame(pred)
+  sites <- intersect(unique(p$site), names(field$curves))
+  if (!length(sites)) wv_abort("The held-out field data share no site with the prediction.", call = call)
+  err <- inside <- numeric()
+  for (s in sites) {
+    ps <- p[p$site == s, ]
+    if (!isTRUE(all.equal(ps$t, field$t))) {
+      wv_abort("The held-out field data are not on the prediction's grid.", call = call)
+    }
+    y <- field$curves[[s]]
+    err <- c(err, as.vector(sweep(y, 2, ps$mean)))
+    inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`)))
+  }
+  c(holdout_rmse = sqrt(mean(err^2)), holdout_coverage = mean(inside))
+}
+
+#' @export
+print.wv_comparison <- function(x, ...) {
+  cli::cat_line("<wv_comparison> validation before and after the model change")
+  df <- as.data.frame(unclass(x)[c("metric", "before", "after", "change")], stringsAsFactors = FALSE)
+  df$before <- signif(df$before, 4)
+  df$after <- signif(df$after, 4)
+  df$change <- sprintf("%+.1f%%", 100 * df$change)
+  print(df, row.names = FALSE)
+  invisible(x)
+}
+
+#' @export
+summary.wv_comparison <- function(object, ...) {
+  structure(list(table = as.data.frame(unclass(object)[c("metric", "before", "after", "change")]),
+                 improved = object$metric[ifelse(object$metric == "holdout_coverage",
+                                                 object$after > object$before, object$after < object$before)]),
+            class = "summary_wv_comparison")
+}
+
+#' @export
+print.summary_wv_comparison <- function(x, ...) {
+  cli::cat_line("Improved after the change: ", if (length(x$improved)) paste(x$improved, collapse = ", ") else "nothing")
+  invisible(x)
+}
+
+#' @rdname compare_validations
+#' @param object A `wv_comparison`.
+#' @param ... Unused.
+#' @export
+autoplot.wv_comparison <- function(object, ...) {
+  cv <- attr(object, "curves")
+  d <- rbind(cbind(cv$before, model = "before"), cbind(cv$after, model = "after"))
+  d$model <- factor(d$model, levels = c("before", "after"))
+  ggplot2::ggplot(d, ggplot2::aes(.data$t)) +
+    ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
+    ggplot2::facet_grid(site ~ model, scales = "free_y") +
+    ggplot2::labs(x = "time", y = "bias", title = "Bias before and after the model change") +
+    ggplot2::theme_bw()
+}
+
+#' @export
+plot.wv_comparison <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
