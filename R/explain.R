@@ -33,6 +33,26 @@
 #' subsets that contain it. Subsets whose candidates are linearly dependent
 #' are skipped, so identical candidates share their inclusion.
 #'
+#' The regression counts every coefficient as an independent piece of
+#' evidence. A real bias is not that tidy: a mistimed or misshapen event moves
+#' many neighbouring coefficients together, and the residual left after the
+#' best candidates is concentrated where the candidates themselves act. Taken
+#' at face value, such a residual makes every candidate that resembles it
+#' look decisive. The likelihood is therefore tempered, raised to a power
+#' `eta` in (0, 1] for each draw: the record is cut into `segments` time
+#' segments, the coefficients whose support is centred in one segment of one
+#' site form a cluster, and `eta = m / tr(J^-1 I)`, with `J` the information
+#' the regression on all `m` (linearly independent) candidates claims for
+#' their amplitudes and `I` the cluster-robust (sandwich) estimate of it from
+#' the residuals. When the residuals behave as the model says, `I` is close
+#' to `J` and `eta` is 1 (it is capped there); when they are more dispersed or
+#' more alike within a segment, the evidence is discounted accordingly. The
+#' tempered Bayes factor is the one above with `n` and `g` replaced by
+#' `eta n` (an effective number of coefficients), and the amplitude intervals
+#' widen by `1 / sqrt(eta)`. Duplicating every coefficient, for example,
+#' leaves the result unchanged instead of doubling the evidence.
+#' `segments = NULL` turns the tempering off.
+#'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()].
 #' @param candidates A named list of candidate curves on the fit's grid: each a
 #'   numeric vector (used at every site) or a named list by site of vectors.
@@ -43,14 +63,18 @@
 #' @param level Probability of the amplitude intervals.
 #' @param seed Seed for the draws of subsets behind the amplitude intervals
 #'   (`NULL`: drawn from R's RNG).
+#' @param segments Number of equal time segments of the record whose
+#'   coefficients count as one cluster when the evidence is tempered (see
+#'   Details); `NULL` for no tempering.
 #' @param ... Unused.
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
 #'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
 #'   out), `amplitude_lower`, `amplitude_upper`, `share_explained` (mean share
 #'   of the residual energy that the candidate alone explains). Attributes
-#'   `subsets` (top subsets with their probabilities) and `fitted` (bias and
-#'   scaled candidates by site, for plotting).
+#'   `subsets` (top subsets with their probabilities), `eta` (the tempering
+#'   power of each draw used) and `curves` (bias and scaled candidates by
+#'   site, for plotting).
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -64,9 +88,10 @@
 #' ex_b
 #' autoplot(ex_b)
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
-                         n_draws = 200L, level = 0.9, seed = NULL, ...) {
+                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, ...) {
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
+  if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   cand <- candidate_coefficients(fit, candidates)
@@ -82,9 +107,12 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
   Y <- rs$residuals
   Wt <- 1 / (rs$variance + bias_level_variances(fit, draws))
   seed <- resolve_seed(seed)
-  res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level))
+  cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
+  res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level,
+                                             cluster = cluster))
   out <- res$table
   attr(out, "subsets") <- res$subsets
+  attr(out, "eta") <- res$eta
   attr(out, "curves") <- explain_curves(fit, cand, out)
   class(out) <- c("wv_explain", "data.frame")
   out
@@ -163,6 +191,39 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
   out[, colSums(out^2) > 0, drop = FALSE]
 }
 
+# Cluster of each coefficient (all sites stacked, in the order of fit$wb) for
+# the tempering: the time segment, out of `segments` equal ones, where the
+# support of its basis function is centred (by squared weight), per site.
+coefficient_segments <- function(fit, segments) {
+  t <- fit$basis$t
+  P2 <- fit$basis$Psi^2
+  centre <- colSums(P2 * t) / colSums(P2)
+  seg <- pmin(segments - 1L, floor((centre - t[1]) / (t[length(t)] - t[1]) * segments))
+  n <- vapply(fit$wb, ncol, 1L)
+  unlist(lapply(seq_along(n), function(i) (i - 1L) * segments + seg[seq_len(n[i])]))
+}
+
+# Tempering power for one draw: eta = k / tr(J^-1 I), capped at 1, with J the
+# information the weighted regression of y on the k linearly independent
+# columns of X claims for their coefficients and I its cluster-robust
+# (sandwich) estimate from the residuals, clusters given by `cluster`.
+tempering_power <- function(X, y, w, cluster) {
+  q <- qr(X * sqrt(w))
+  k <- q$rank
+  n <- length(y)
+  if (k == 0L || n - k < 1L) return(1)
+  Xk <- X[, q$pivot[seq_len(k)], drop = FALSE]
+  G <- crossprod(Xk * w, Xk)
+  a <- solve(G, crossprod(Xk * w, y))
+  e <- drop(y - Xk %*% a)
+  phi <- sum(w * e^2) / n
+  if (!(phi > 0)) return(1)
+  U <- rowsum(Xk * (w * e), cluster)
+  # J = G / phi, I = U'U / phi^2, so tr(J^-1 I) = tr(G^-1 U'U) / phi
+  ratio <- sum(diag(solve(G, crossprod(U)))) / phi / k
+  if (!is.finite(ratio) || ratio <= 1) 1 else 1 / ratio
+}
+
 # Residuals wbar - m(z_h) of the field data from the emulated model at the
 # inputs of the kept draws `draws` (rows `keep` of the fit's draws), and their
 # field and emulator variance sigma^2_h / R + V(z_h): H x n matrices, sites
@@ -191,9 +252,11 @@ bias_level_variances <- function(fit, d) {
 }
 
 # The regression of bias draws Y (H x n) on candidates X (n x m) with weights
-# Wt (H x n), subsets of up to max_size candidates, Zellner g = n.
-bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, g = ncol(Y)) {
-  n <- ncol(Y)
+# Wt (H x n), subsets of up to max_size candidates, Zellner g = n. With
+# `cluster` (one label per coefficient), the likelihood of each draw is
+# tempered by tempering_power(): n and g become eta * n.
+bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL) {
+  n_all <- ncol(Y)
   m <- ncol(X)
   H <- nrow(Y)
   subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
@@ -207,9 +270,12 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, g = ncol(Y)) {
   logml <- matrix(-Inf, H, n_sub)
   logml[, 1] <- 0
   share <- matrix(0, H, m)
+  eta <- rep(1, H)
   for (h in seq_len(H)) {
     w <- Wt[h, ]
     y <- Y[h, ]
+    if (!is.null(cluster)) eta[h] <- tempering_power(X, y, w, cluster)
+    n <- g <- eta[h] * n_all
     XtW <- t(X * w)
     G <- XtW %*% X
     b <- drop(XtW %*% y)
@@ -250,9 +316,10 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, g = ncol(Y)) {
     G <- crossprod(XS * w, XS)
     b <- drop(crossprod(XS * w, Y[h, ]))
     coef <- solve(G, b)
+    g <- eta[h] * n_all
     shrink <- g / (1 + g)
-    phi <- (sum(w * Y[h, ]^2) - shrink * sum(b * coef)) / n
-    cov <- shrink * phi * solve(G)
+    phi <- (sum(w * Y[h, ]^2) - shrink * sum(b * coef)) / n_all
+    cov <- shrink * phi / eta[h] * solve(G)
     a[S] <- shrink * coef + drop(t(chol(cov)) %*% stats::rnorm(length(S)))
     a
   }, numeric(m)))
@@ -272,7 +339,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, g = ncol(Y)) {
   top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
   list(
     table = table,
-    subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE)
+    subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
+    eta = eta
   )
 }
 
@@ -309,6 +377,12 @@ print.wv_explain <- function(x, ...) {
   sub <- attr(x, "subsets")
   if (!is.null(sub)) {
     cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
+  }
+  eta <- attr(x, "eta")
+  if (!is.null(eta) && stats::median(eta) < 1) {
+    cli::cat_line(sprintf(paste0("Evidence tempered by eta = %.2f (median over draws): the residuals are more ",
+                                 "dispersed, or more alike within a time segment, than the regression assumes."),
+                          stats::median(eta)))
   }
   invisible(x)
 }

@@ -24,10 +24,12 @@
 # smallest tolerance at which nothing is flagged (the largest distance of
 # the whole-curve band from zero), and effect, the peak of the hidden
 # mechanism's effect (smaller site); first_share and decoy_share, the
-# share_explained of the first mechanism and of the most probable other one.
+# share_explained of the first mechanism and of the most probable other one;
+# eta, the median tempering power of explain_bias() (segments is its argument,
+# "NULL" for no tempering).
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
-#                                   [reference=runs] [tolerance=0]
+#                                   [reference=runs] [tolerance=0] [segments=64]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -42,6 +44,7 @@ register_runs <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
 reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field2")) else "runs"
 tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
+segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(args) >= 11) as.integer(args[11]) else 64L
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -59,7 +62,9 @@ one <- function(hidden, seed) {
   fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
                                     seed = 1, pool_levels = pool_levels, quiet = TRUE))
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-  ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
+  ex <- explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1, segments = segments)
+  eta <- stats::median(attr(ex, "eta"))
+  ex <- as.data.frame(unclass(ex))
   fails <- where_fails(fit, tolerance = tolerance)
   gap <- max(attr(fails, "credible")$credible_bias)
   t <- fit$basis$t
@@ -68,7 +73,7 @@ one <- function(hidden, seed) {
   out <- data.frame(hidden = hidden, seed = seed, intervals = nrow(fails), longest = round(max(c(0, steps))),
                     overlap = NA_real_, first = mech$candidate[1], first_prob = mech$inclusion_prob[1],
                     decoy_max = NA_real_, any_max = max(ex$inclusion_prob), first_share = mech$share_explained[1],
-                    decoy_share = NA_real_, gap = gap, effect = NA_real_,
+                    decoy_share = NA_real_, eta = eta, gap = gap, effect = NA_real_,
                     seconds = NA_real_)
   if (hidden == "none") {
     out$where_ok <- all(steps <= 3)
@@ -96,9 +101,9 @@ one <- function(hidden, seed) {
 }
 
 grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
-cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, %d x %d draws, 1 chain\n",
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
-            n_draws, n_inner))
+            deparse(segments), n_draws, n_inner))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

