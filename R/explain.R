@@ -395,7 +395,8 @@ summary.wv_explain <- function(object, ...) {
     inclusion = lead$inclusion_prob,
     n_candidates = nrow(object),
     n_likely = sum(object$inclusion_prob >= 0.5),
-    subsets = attr(object, "subsets")
+    subsets = attr(object, "subsets"),
+    eta = if (!is.null(attr(object, "eta"))) stats::median(attr(object, "eta"))
   ), class = "summary_wv_explain")
 }
 
@@ -403,6 +404,9 @@ summary.wv_explain <- function(object, ...) {
 print.summary_wv_explain <- function(x, ...) {
   cli::cat_line(sprintf("%d candidate effects; %d with inclusion probability >= 0.5", x$n_candidates, x$n_likely))
   cli::cat_line(sprintf("Leading candidate: %s (inclusion probability %.2f)", x$leader, x$inclusion))
+  if (!is.null(x$eta) && x$eta < 1) {
+    cli::cat_line(sprintf("Evidence tempered by eta = %.2f (median over draws)", x$eta))
+  }
   print(utils::head(x$subsets, 5), row.names = FALSE)
   invisible(x)
 }

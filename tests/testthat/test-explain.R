@@ -134,3 +134,15 @@ test_that("duplicating every coefficient leaves the tempered result unchanged", 
   expect_gt(max(plain$inclusion_prob[plain$candidate != "decoy2"]),
             max(p_one$inclusion_prob[p_one$candidate != "decoy2"]))
 })
+
+test_that("print and summary say how much the evidence was tempered", {
+  withr::local_seed(25)
+  d <- clustered_bias()
+  res <- bias_regression(d$Y, d$X, d$W, cluster = d$cluster)
+  out <- structure(res$table, subsets = res$subsets, eta = res$eta, class = c("wv_explain", "data.frame"))
+  eta <- sprintf("%.2f", stats::median(res$eta))
+  expect_output(print(out), paste0("Evidence tempered by eta = ", eta), fixed = TRUE)
+  expect_output(print(summary(out)), paste0("Evidence tempered by eta = ", eta), fixed = TRUE)
+  attr(out, "eta") <- rep(1, length(res$eta))
+  expect_false(any(grepl("tempered", utils::capture.output(print(out)))))
+})
