@@ -330,3 +330,48 @@ plot.wv_fails <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
 }
+
+#' How much of a known effect does where_fails() flag?
+#'
+#' The share of the grid points where a known effect acts (its absolute value
+#' above `threshold` times its peak) that lie in an interval flagged by
+#' [where_fails()], by site. On a test bed, with the effect of the hidden
+#' mechanism at the true inputs (from [testbed_signatures()]), it says
+#' whether the diagnosis looks in the right place.
+#'
+#' @param fails A `wv_fails` result of [where_fails()].
+#' @param effect A named list by site of curves on the fit's grid.
+#' @param threshold Share of the effect's peak above which it counts as acting.
+#' @return A named numeric vector by site (`NA` where the effect is zero).
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' t <- ex$field$t
+#' # the field data of the example carry a bump near t = 0.25 that the model lacks
+#' flagged_share(where_fails(fit), list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2)))
+flagged_share <- function(fails, effect, threshold = 0.1) {
+  check_class(fails, "wv_fails")
+  check_number(threshold, min = 0, max = 1)
+  b <- attr(fails, "bias")
+  sites <- unique(b$site)
+  if (!is.list(effect) || is.null(names(effect)) || !all(names(effect) %in% sites)) {
+    wv_abort(c("{.arg effect} must be a list of curves named by site.",
+               "i" = "The fit's sites are {.val {sites}}."))
+  }
+  vapply(names(effect), function(s) {
+    t <- b$t[b$site == s]
+    y <- effect[[s]]
+    if (!is.numeric(y) || length(y) != length(t) || anyNA(y)) {
+      wv_abort(c("The effect at site {.val {s}} is not a curve on the fit's grid.",
+                 "x" = "It has {length(y)} value{?s}; the grid has {length(t)} points."))
+    }
+    peak <- max(abs(y))
+    if (peak == 0) return(NA_real_)
+    w <- fails[fails$site == s, , drop = FALSE]
+    flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
+                      rep(FALSE, length(t)))
+    mean(flagged[abs(y) > threshold * peak])
+  }, numeric(1))
+}

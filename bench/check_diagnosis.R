@@ -81,13 +81,7 @@ one <- function(hidden, seed) {
   } else {
     truth <- c(tb$truth$u, 0.5 + tb$truth$delta)[fit$inputs]
     effect <- testbed_signatures(truth, hidden)[[1]]
-    overlap <- vapply(names(effect), function(s) {
-      acts <- abs(effect[[s]]) > 0.1 * max(abs(effect[[s]]))
-      w <- fails[fails$site == s, ]
-      flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
-                        rep(FALSE, length(t)))
-      mean(flagged[acts])
-    }, numeric(1))
+    overlap <- flagged_share(fails, effect)
     out$overlap <- min(overlap)
     out$effect <- min(vapply(effect, function(e) max(abs(e)), numeric(1)))
     decoys <- mech[mech$candidate != hidden, ]

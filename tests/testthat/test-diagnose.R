@@ -251,15 +251,9 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts", {
   for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
     d <- testbed_diagnosis(h)
     truth <- c(d$tb$truth$u, 0.5 + d$tb$truth$delta)[d$fit$inputs]
-    effect <- testbed_signatures(truth, h)[[1]]
-    t <- d$fit$basis$t
-    for (s in names(effect)) {
-      acts <- abs(effect[[s]]) > 0.1 * max(abs(effect[[s]]))
-      w <- d$fails[d$fails$site == s, ]
-      flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
-                        rep(FALSE, length(t)))
-      expect_gt(mean(flagged[acts]), 0.2, label = paste(h, s))
-    }
+    share <- flagged_share(d$fails, testbed_signatures(truth, h)[[1]])
+    expect_named(share, c("site1", "site2"))
+    expect_true(all(share > 0.2), label = paste(h, paste(round(share, 2), collapse = ", ")))
   }
 })
 
@@ -312,4 +306,20 @@ test_that("on the test bed, adding each hidden mechanism makes the bias and the 
     expect_lt(change[["holdout_rmse"]], 0, label = h)
     expect_gt(cmp$after[cmp$metric == "holdout_coverage"], 0.8, label = h)
   }
+})
+
+test_that("flagged_share counts the flagged points where an effect acts", {
+  d <- diag_setup()
+  fails <- where_fails(d$fit)
+  t <- d$t
+  bump <- exp(-((t - 0.25) / 0.05)^2)
+  w <- fails[fails$site == "site1", ]
+  flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
+                    rep(FALSE, length(t)))
+  expect_equal(flagged_share(fails, list(site1 = bump)), c(site1 = mean(flagged[bump > 0.1])))
+  expect_gt(flagged_share(fails, list(site1 = bump)), 0.5)
+  expect_true(is.na(flagged_share(fails, list(site1 = 0 * t))))
+  expect_error(flagged_share(fails, list(site9 = bump)), class = "wavevalid_error_input")
+  expect_error(flagged_share(fails, list(site1 = bump[-1])), class = "wavevalid_error_input")
+  expect_error(flagged_share(d$fit, list(site1 = bump)), class = "wavevalid_error_input")
 })
