@@ -39,6 +39,17 @@
 #' shape between reality and the model at an event cannot be taken for a
 #' time shift. This goes beyond the method's report.
 #'
+#' Where the events leave the system ringing freely, the timing of the
+#' reference depends on the model's inputs, and the mean of model runs at
+#' many inputs is a blurred curve there: a knot placed against it can take a
+#' difference of shape for a time shift. With `knots_to = "replicates"` the
+#' knots are placed against the replicates' own consensus instead (the mean of
+#' the replicates registered so far, by their landmarks first; two rounds),
+#' and at each knot the replicates' displacements from their landmark warps
+#' are centred to average zero. The replicates are warped copies of one
+#' reality, so they are aligned with each other without reference to the
+#' model; the landmarks alone tie them to the model's time.
+#'
 #' Registration is refused (error of class `wavevalid_error_input`) when a
 #' window is not an increasing pair of times, falls outside the grid, or
 #' overlaps another window, and when the landmarks of a replicate come in a
@@ -61,6 +72,9 @@
 #'   Details).
 #' @param refine Locate the landmarks between grid points (see Details);
 #'   `FALSE`, the default, keeps the report's grid points.
+#' @param knots_to What the further knots are fitted to: `"reference"`
+#'   (default) or `"replicates"`, their own consensus (see Details; needs at
+#'   least two replicates).
 #' @return A registered `wv_field`: the same object with registered curves and
 #'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
 #'   window, feature) and columns `site` (the site whose curve set the
@@ -83,7 +97,8 @@
 #' reg$warps
 #' autoplot(reg$warps)
 register_curves <- function(field, reference, windows, landmark_site = 1L,
-                            features = c("min", "max"), knots_every = NULL, refine = FALSE) {
+                            features = c("min", "max"), knots_every = NULL, refine = FALSE,
+                            knots_to = c("reference", "replicates")) {
   check_class(field, "wv_field")
   t <- field$t
   sites <- names(field$curves)
@@ -91,8 +106,15 @@ register_curves <- function(field, reference, windows, landmark_site = 1L,
   windows <- check_windows(windows, t)
   features <- check_features(features)
   check_flag(refine)
+  knots_to <- rlang::arg_match(knots_to)
   if (!is.null(knots_every)) {
     check_number(knots_every, min = 4 * diff(t[1:2]), max = diff(range(t)) / 2)
+    if (knots_to == "replicates" && min(vapply(field$curves, nrow, integer(1))) < 2L) {
+      wv_abort(c(
+        "{.code knots_to = \"replicates\"} needs at least two replicates at every site.",
+        "i" = "With a single replicate use {.code knots_to = \"reference\"}."
+      ))
+    }
   }
   if (!is.null(landmark_site)) landmark_site <- resolve_site(landmark_site, sites, "landmark_site")
 
@@ -110,24 +132,33 @@ register_curves <- function(field, reference, windows, landmark_site = 1L,
   for (s in marker_sites) {
     ref_lm <- curve_landmarks(ref[[s]], t, windows, features, refine)
     targets <- if (is.null(landmark_site)) s else sites
-    for (r in seq_len(n_rep[[s]])) {
-      rep_lm <- curve_landmarks(curves[[s]][r, ], t, windows, features, refine)
-      knots <- warp_knots_from(rep_lm, ref_lm, t, site = s, replicate = r)
+    R <- n_rep[[s]]
+    rep_lms <- lapply(seq_len(R), function(r) curve_landmarks(curves[[s]][r, ], t, windows, features, refine))
+    knots <- lapply(seq_len(R), function(r) warp_knots_from(rep_lms[[r]], ref_lm, t, site = s, replicate = r))
+    fitted <- NULL
+    if (!is.null(knots_every)) {
+      fitted <- if (knots_to == "reference") {
+        lapply(seq_len(R), function(r) fit_warp_knots(curves[[s]][r, ], ref[[s]], t, knots[[r]], windows, knots_every))
+      } else {
+        consensus_warp_knots(curves[[s]], t, knots, windows, knots_every)
+      }
+    }
+    for (r in seq_len(R)) {
       row <- data.frame(
         site = s, replicate = r, window = ref_lm$window, feature = ref_lm$feature,
-        t_before = rep_lm$t, t_after = ref_lm$t, stringsAsFactors = FALSE
+        t_before = rep_lms[[r]]$t, t_after = ref_lm$t, stringsAsFactors = FALSE
       )
-      if (!is.null(knots_every)) {
-        fitted <- fit_warp_knots(curves[[s]][r, ], ref[[s]], t, knots, windows, knots_every)
-        knots <- fitted$knots
-        if (length(fitted$after)) {
+      kn <- knots[[r]]
+      if (!is.null(fitted)) {
+        kn <- fitted[[r]]$knots
+        if (length(fitted[[r]]$after)) {
           row <- rbind(row, data.frame(site = s, replicate = r, window = NA_integer_, feature = "fitted",
-                                       t_before = fitted$before, t_after = fitted$after,
+                                       t_before = fitted[[r]]$before, t_after = fitted[[r]]$after,
                                        stringsAsFactors = FALSE))
           row <- row[order(row$t_after), , drop = FALSE]
         }
       }
-      for (s2 in targets) curves[[s2]][r, ] <- apply_inverse_warp(curves[[s2]][r, ], t, knots)
+      for (s2 in targets) curves[[s2]][r, ] <- apply_inverse_warp(field$curves[[s2]][r, ], t, kn)
       rows[[length(rows) + 1L]] <- row
     }
   }
@@ -252,6 +283,40 @@ fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid
     }
   }
   list(knots = list(before = before, after = after), before = before[free], after = after[free])
+}
+
+# Knots of the warps of all replicates (rows of Y) between the windows, fitted
+# to the replicates' own consensus instead of the reference: the mean of the
+# replicates registered so far (by their landmarks first), each replicate's
+# knots placed by least squares against it (fit_warp_knots()), then shifted
+# together so that at each knot the replicates' displacements from their
+# landmark warps average zero (the consensus keeps the time of the landmark
+# warps between the events); `iters` rounds.
+consensus_warp_knots <- function(Y, t, knots, windows, every, iters = 2L) {
+  R <- nrow(Y)
+  current <- knots
+  fitted <- NULL
+  for (it in seq_len(iters)) {
+    cons <- colMeans(do.call(rbind, lapply(seq_len(R), function(r) apply_inverse_warp(Y[r, ], t, current[[r]]))))
+    fitted <- lapply(seq_len(R), function(r) fit_warp_knots(Y[r, ], cons, t, knots[[r]], windows, every))
+    if (!length(fitted[[1]]$after)) return(fitted)
+    start <- vapply(seq_len(R), function(r) stats::approx(knots[[r]]$after, knots[[r]]$before,
+                                                          xout = fitted[[r]]$after)$y,
+                    numeric(length(fitted[[1]]$after)))
+    moved <- vapply(fitted, function(f) f$before, numeric(length(fitted[[1]]$after)))
+    shift <- rowMeans(matrix(moved - start, ncol = R))
+    fitted <- lapply(fitted, function(f) {
+      b <- f$knots$before
+      b[match(f$after, f$knots$after)] <- f$before - shift
+      # a shift that would fold the warp leaves that replicate's own fit
+      if (is.unsorted(b, strictly = TRUE)) return(f)
+      f$before <- f$before - shift
+      f$knots$before <- b
+      f
+    })
+    current <- lapply(fitted, function(f) f$knots)
+  }
+  fitted
 }
 
 # Registered curve: y evaluated at the inverse warp of the grid.

@@ -26,10 +26,11 @@
 # mechanism's effect (smaller site); first_share and decoy_share, the
 # share_explained of the first mechanism and of the most probable other one;
 # eta, the median tempering power of explain_bias() (segments is its argument,
-# "NULL" for no tempering).
+# "NULL" for no tempering). knots_to is register_curves()'s: the knots between
+# the windows fitted to the reference or to the replicates' own consensus.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
-#                                   [reference=runs] [tolerance=0] [segments=64]
+#                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -45,6 +46,7 @@ pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
 reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field2")) else "runs"
 tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
 segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(args) >= 11) as.integer(args[11]) else 64L
+knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -54,7 +56,7 @@ one <- function(hidden, seed) {
   runs <- tb$A$runs
   ref <- if (reference == "runs") runs else lapply(tb$A$field$curves, colMeans)
   reg <- function(f) register_curves(f, ref, tb$windows, features = features, knots_every = knots_every,
-                                     refine = refine)
+                                     refine = refine, knots_to = knots_to)
   if (reference == "field2") ref <- lapply(reg(tb$A$field)$curves, colMeans)
   field <- reg(tb$A$field)
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
@@ -95,9 +97,9 @@ one <- function(hidden, seed) {
 }
 
 grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
-cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, %d x %d draws, 1 chain\n",
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
-            deparse(segments), n_draws, n_inner))
+            deparse(segments), knots_to, n_draws, n_inner))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

@@ -183,6 +183,47 @@ test_that("the data inside the windows never move the fitted knots", {
   expect_equal(fa$t_before, fb$t_before)
 })
 
+test_that("knots fitted to the replicates' consensus are not misled by a shape the reference lacks", {
+  t <- grid(2048)
+  # reality rings on after each window, which the reference (the model) does
+  # not; the events themselves, and so the landmarks, are the same
+  ring <- function(tt) {
+    y <- rough_curve(tt)
+    for (at in c(8.3, 17.3)) y <- y + 0.4 * (tt > at) * exp(-0.5 * pmax(tt - at, 0)) * sin(2 * pi * 1.3 * pmax(tt - at, 0))
+    y
+  }
+  jitter <- function(tt, a) tt + a * sin(pi * tt / 20) + 0.5 * a * sin(3 * pi * tt / 20)
+  a <- c(0.12, -0.12, 0.07, -0.07)
+  set.seed(4)
+  reps <- t(vapply(a, function(ai) ring(jitter(t, ai)), numeric(length(t))))
+  reps <- reps + matrix(stats::rnorm(length(reps), sd = 0.01), nrow(reps))
+  field <- field_runs(reps, t)
+  ref <- list(site1 = rough_curve(t))
+  to_ref <- register_curves(field, ref, windows, knots_every = 1)
+  to_reps <- register_curves(field, ref, windows, knots_every = 1, knots_to = "replicates")
+  outside <- !(t > 4 & t < 8) & !(t > 13 & t < 17)
+  err <- function(reg) rms(sweep(reg$curves$site1, 2, ring(t))[, outside])
+  expect_lt(err(to_reps), 0.5 * err(to_ref))
+  expect_lt(err(to_reps), 0.03)
+  # the fitted knots undo the jitter: measured time jitter^-1(after)
+  knot_err <- function(reg) {
+    w <- reg$warps[reg$warps$feature == "fitted", ]
+    truth <- vapply(seq_len(nrow(w)), function(i) {
+      stats::uniroot(function(x) jitter(x, a[w$replicate[i]]) - w$t_after[i], c(-1, 21))$root
+    }, numeric(1))
+    rms(w$t_before - truth)
+  }
+  expect_lt(knot_err(to_reps), 0.5 * knot_err(to_ref))
+  for (r in seq_along(a)) expect_true(all(diff(wavevalid:::warp_knots(to_reps$warps, r)$before) > 0))
+  # the landmarks are the same either way
+  lm <- function(reg) reg$warps[reg$warps$feature != "fitted", ]
+  expect_equal(lm(to_reps)$t_before, lm(to_ref)$t_before)
+  expect_error(register_curves(field_runs(reps[1, , drop = FALSE], t), ref, windows, knots_every = 1,
+                               knots_to = "replicates"), class = "wavevalid_error_input")
+  expect_error(register_curves(field, ref, windows, knots_every = 1, knots_to = "model"),
+               class = "rlang_error")
+})
+
 test_that("knots_every must be a sensible spacing", {
   t <- grid()
   field <- field_runs(rbind(event_curve(t)), t)
