@@ -97,6 +97,16 @@
 #'   variance is barely informed by the data and their bias is almost
 #'   unshrunk; `pool_levels = 0:3` shrinks them with the 8 coefficients of
 #'   levels 0 to 3. See the section Bias variances.
+#' @param registration_variance Add to the variance of the registered field
+#'   mean the variance that comes from registering to the mean of the model
+#'   runs: the model at the true inputs has its landmarks elsewhere, by about
+#'   the spread of the landmark times over the runs, and an error in a
+#'   landmark's time moves the registered curves along their slope between
+#'   its neighbouring knots. Coefficient `i` then has `wbar_i` of variance
+#'   `sigma2_i / R + r_i` in eq. (15)-(18), `r_i` computed once from the
+#'   registered field mean (see the section Registration). Needs a field
+#'   registered to `wv_runs` with [register_curves()]. `FALSE` (default) is
+#'   the method's report.
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
@@ -114,7 +124,21 @@
 #'   steps for `"adaptive"`), `global` (the mixture steps of `"adaptive"`),
 #'   `burnin`), `start` (the burn-in start of each chain), `proposal_cov` (the
 #'   frozen random-walk covariance of each chain), `rhat`, `ess`, `flags`,
-#'   `seed`, `settings`.
+#'   `seed`, `settings`, `registration_var` (by site, the `r_i` added, or
+#'   `NULL`).
+#' @section Registration:
+#' The field curves are registered to the mean of the model runs, whose
+#' landmarks sit where the average run puts them. Near a sharp event a
+#' fraction of a grid step between that time and the time at which the model
+#' at the true inputs has its landmark is a large difference between the
+#' registered field data and that model, which the field variance, estimated
+#' from the replicates' scatter about each other, does not cover. The
+#' landmark times of the runs show how far the landmark can move with the
+#' inputs; with `registration_variance = TRUE` that spread `sd_k` of each
+#' landmark `k` enters the variance of each coefficient of the field mean as
+#' `r_i = sum_k sd_k^2 (Psi' (h_k ybar'))_i^2`, `h_k` the hat function of the
+#' warp at the landmark and `ybar'` the slope of the registered field mean.
+#' This goes beyond the method's report.
 #' @seealso [bias()], [reality()], [model_prediction()], [validate()].
 #' @export
 #' @examples
@@ -124,7 +148,7 @@
 #' fit
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
-                      burnin = NULL, fix_tau2 = NULL, pool_levels = NULL,
+                      burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
                       threads = getOption("wavevalid.threads", 1L),
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
   rlang::check_dots_empty()
@@ -142,14 +166,17 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
   check_number(threads, min = 1, max = 1024, integer = TRUE)
   seed <- resolve_seed(seed)
-  spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels)
+  check_flag(registration_variance)
+  spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
+                           registration_variance = registration_variance)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
                      proposal = proposal, burnin = burnin, threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
                                       step = step, proposal = proposal, burnin = burnin,
-                                      fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels),
+                                      fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
+                                      registration_variance = registration_variance),
                       seed = seed)
   warn_fit_flags(fit)
   fit
@@ -158,7 +185,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
 # --- data and priors ----------------------------------------------------------
 
 calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = NULL,
-                             call = rlang::caller_env()) {
+                             registration_variance = FALSE, call = rlang::caller_env()) {
   basis <- emulators$basis
   check_class(basis, "wv_basis", arg = "emulators$basis", call = call)
   if (length(field$t) != length(basis$t) || max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
@@ -208,6 +235,17 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
   tau_group <- bias_groups(basis$level, pool_levels, call = call)
+  extra <- NULL
+  if (registration_variance) {
+    extra <- registration_extra_variance(field, basis)
+    if (is.null(extra)) {
+      wv_abort(c(
+        "{.code registration_variance = TRUE} needs field data registered to model runs.",
+        "x" = "{.arg field} has no landmark spread of a reference made of model runs.",
+        "i" = "Register it with {.code register_curves(field, runs, windows)}, {.code runs} a {.cls wv_runs}."
+      ), call = call)
+    }
+  }
   groups <- NULL
   site_data <- list()
   wbar <- s2 <- n_rep <- bias_group <- list()
@@ -227,12 +265,12 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
-                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L)
+                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
     bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis)
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra)
 }
 
 # The bias-variance groups of the coefficients of a basis: one per level, or
@@ -365,7 +403,7 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
     groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
-    seed = seed, settings = settings
+    seed = seed, settings = settings, registration_var = spec$extra
   ))
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat

@@ -233,7 +233,8 @@ residual_regression_data <- function(fit, draws, keep) {
   parts <- lapply(names(fit$wb), function(s) {
     pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
     list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
-         v = pr$var + fit$sigma2[[s]][keep, , drop = FALSE] / fit$n_rep[[s]])
+         v = sweep(pr$var + fit$sigma2[[s]][keep, , drop = FALSE] / fit$n_rep[[s]], 2L,
+                   fit$registration_var[[s]] %||% 0, `+`))
   })
   list(residuals = do.call(cbind, lapply(parts, `[[`, "r")),
        variance = do.call(cbind, lapply(parts, `[[`, "v")))

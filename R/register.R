@@ -129,8 +129,12 @@ register_curves <- function(field, reference, windows, landmark_site = 1L,
   }
   marker_sites <- if (is.null(landmark_site)) sites else landmark_site
   rows <- list()
+  spread <- list()
   for (s in marker_sites) {
     ref_lm <- curve_landmarks(ref[[s]], t, windows, features, refine)
+    if (inherits(reference, "wv_runs")) {
+      spread[[s]] <- landmark_spread(reference$curves[[s]], t, windows, features, refine, ref_lm, s)
+    }
     targets <- if (is.null(landmark_site)) s else sites
     R <- n_rep[[s]]
     rep_lms <- lapply(seq_len(R), function(r) curve_landmarks(curves[[s]][r, ], t, windows, features, refine))
@@ -164,7 +168,7 @@ register_curves <- function(field, reference, windows, landmark_site = 1L,
   }
   warps <- new_wv_warps(do.call(rbind, rows), range = range(t), windows = windows,
                         landmark_site = if (is.null(landmark_site)) NA_character_ else landmark_site,
-                        sites = sites)
+                        sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)))
   validate_wv_warps(warps)
   validate_wv_field(new_wv_field(t, curves, field$x_nom, warps))
 }
@@ -197,6 +201,21 @@ extremum_at <- function(tt, y, refine = FALSE) {
   off <- 0.5 * (y[i - 1L] - y[i + 1L]) / curv
   off <- max(-0.5, min(0.5, off))
   tt[i] + off * if (off >= 0) tt[i + 1L] - tt[i] else tt[i] - tt[i - 1L]
+}
+
+# The spread of the reference's landmarks: for each landmark of `ref_lm` (the
+# landmarks of the mean of the runs Y), the standard deviation of the same
+# landmark's time over the runs (rows of Y). Runs whose landmarks come in
+# another order in a window leave that window out.
+landmark_spread <- function(Y, t, windows, features, refine, ref_lm, site) {
+  times <- vapply(seq_len(nrow(Y)), function(k) {
+    lm <- curve_landmarks(Y[k, ], t, windows, features, refine)
+    lm$t[match(paste(ref_lm$window, ref_lm$feature), paste(lm$window, lm$feature))]
+  }, numeric(nrow(ref_lm)))
+  times <- matrix(times, nrow = nrow(ref_lm))
+  data.frame(site = site, window = ref_lm$window, feature = ref_lm$feature, t_after = ref_lm$t,
+             sd = if (ncol(times) > 1L) apply(times, 1L, stats::sd) else rep(0, nrow(ref_lm)),
+             stringsAsFactors = FALSE)
 }
 
 # Knots (before -> after) of the warp of one replicate, checked for monotonicity.

@@ -2,12 +2,15 @@
 
 # The columns every wv_warps has, and its attributes.
 warps_columns <- c("site", "replicate", "window", "feature", "t_before", "t_after")
-warps_attributes <- c("range", "windows", "landmark_site", "sites")
+warps_attributes <- c("range", "windows", "landmark_site", "sites", "landmark_sd")
 
-new_wv_warps <- function(x, range, windows, landmark_site, sites) {
+# landmark_sd: NULL, or a data frame with one row per landmark of the
+# reference (site, window, feature, t_after) and `sd`, the standard deviation
+# of that landmark's time over the model runs the reference averages.
+new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = NULL) {
   rownames(x) <- NULL
   structure(x, range = range, windows = windows, landmark_site = landmark_site, sites = sites,
-            class = c("wv_warps", "data.frame"))
+            landmark_sd = landmark_sd, class = c("wv_warps", "data.frame"))
 }
 
 # Rows or columns of a wv_warps keep its attributes while every column the
@@ -20,7 +23,8 @@ new_wv_warps <- function(x, range, windows, landmark_site, sites) {
     class(out) <- "data.frame"
     return(out)
   }
-  do.call(new_wv_warps, c(list(out), attributes(x)[warps_attributes]))
+  keep <- stats::setNames(lapply(warps_attributes, function(a) attr(x, a)), warps_attributes)
+  do.call(new_wv_warps, c(list(out), keep))
 }
 
 validate_wv_warps <- function(x, call = rlang::caller_env()) {

@@ -28,9 +28,12 @@
 # eta, the median tempering power of explain_bias() (segments is its argument,
 # "NULL" for no tempering). knots_to is register_curves()'s: the knots between
 # the windows fitted to the reference or to the replicates' own consensus.
+# registration_variance is calibrate()'s: the spread of the landmark times
+# over the runs enters the variance of the registered field mean.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
+#                                   [registration_variance=FALSE]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -47,6 +50,7 @@ reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field
 tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
 segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(args) >= 11) as.integer(args[11]) else 64L
 knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
+reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -62,7 +66,8 @@ one <- function(hidden, seed) {
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
   fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                    seed = 1, pool_levels = pool_levels, quiet = TRUE))
+                                    seed = 1, pool_levels = pool_levels, registration_variance = reg_var,
+                                    quiet = TRUE))
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   ex <- explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1, segments = segments)
   eta <- stats::median(attr(ex, "eta"))
@@ -97,9 +102,9 @@ one <- function(hidden, seed) {
 }
 
 grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
-cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, %d x %d draws, 1 chain\n",
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, registration_variance = %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
-            deparse(segments), knots_to, n_draws, n_inner))
+            deparse(segments), knots_to, reg_var, n_draws, n_inner))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

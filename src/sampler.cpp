@@ -10,7 +10,8 @@ GaspBank bank_from_list(const Rcpp::List& b);
 }
 
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
-//   group (0-based global tau2 group per coefficient).
+//   group (0-based global tau2 group per coefficient), extra (optional,
+//   length n: variance of wbar added to sigma2 / R).
 // priors: list with lower, upper, normal (logical), mean, sd (length p each).
 // progress: R function called with the number of finished draws, or NULL.
 // [[Rcpp::export]]
@@ -40,8 +41,10 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
     const int n = banks[s].n_coef();
+    Rcpp::RObject ex = si.containsElementNamed("extra") ? si["extra"] : Rcpp::RObject(R_NilValue);
+    d.extra = ex.isNULL() ? Eigen::VectorXd::Zero(n) : Rcpp::as<Eigen::VectorXd>(ex);
     if (d.wbar.size() != n || d.s2.size() != n || static_cast<int>(d.group.size()) != n ||
-        (d.fixed_sigma2 && d.sigma2_fixed.size() != n))
+        (d.fixed_sigma2 && d.sigma2_fixed.size() != n) || d.extra.size() != n || (d.extra.array() < 0).any())
       Rcpp::stop("site %d: data do not match the emulator bank (%d coefficients)", s + 1, n);
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");

@@ -9,8 +9,10 @@
 //      (b) a joint input step: each coordinate from the 50/50 mixture of
 //          Uniform(support) and Uniform([x - h, x + h] cap support), with the
 //          full mixture densities in the Hastings ratio;
-//      target (eq. 18): prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + tau2_g(i))
-//      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R);
+//      target (eq. 18): prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + extra_i + tau2_g(i))
+//      (extra_i: a known variance of wbar_i beyond the replicates' own, 0 unless given)
+//      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R) (sigmabar2_g / R the
+//      mean of sigma2_i / R + extra_i over the group);
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
 //
 // That is the report's sampler (proposal = REPORT). With a narrow posterior
@@ -52,13 +54,13 @@ class Sampler {
     p_ = static_cast<int>(priors_.size());
     const std::size_t S = sites_.size();
     m_.resize(S); v_.resize(S); mp_.resize(S); vp_.resize(S); ws_.resize(S);
-    sigma2_.resize(S); base_.resize(S); resid2_.resize(S);
+    sigma2_.resize(S); ebar_.resize(S); base_.resize(S); resid2_.resize(S);
     group_site_.assign(G_, -1);
     group_count_.assign(G_, 0);
     for (std::size_t s = 0; s < S; ++s) {
       const int n = sites_[s].bank->n_coef();
       m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
-      sigma2_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
+      sigma2_[s].resize(n); ebar_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
       if (sites_[s].bank->packed.size() != sites_[s].bank->packed_stride() * static_cast<std::size_t>(n))
         throw std::invalid_argument("emulator bank not packed");
       sites_[s].bank->init_workspace(ws_[s], set_.threads);
@@ -147,7 +149,7 @@ class Sampler {
   std::normal_distribution<double> norm_{0.0, 1.0};
 
   Eigen::VectorXd z_, zp_, half_, tau2_, sigbar_;
-  std::vector<Eigen::VectorXd> m_, v_, mp_, vp_, sigma2_, base_, resid2_;
+  std::vector<Eigen::VectorXd> m_, v_, mp_, vp_, sigma2_, ebar_, base_, resid2_;
   std::vector<GaspBank::Workspace> ws_;
   std::vector<int> group_site_, group_count_;
   double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
@@ -198,18 +200,25 @@ class Sampler {
         std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
         for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
       }
-      for (int i = 0; i < n; ++i) sigbar_(d.group[i]) += sigma2_[s](i);
+      // the variance of wbar, sigma2 / R + extra, computed as (sigma2 + R extra) / R
+      // so that extra = r gives the same numbers as sigma2 + R r; the
+      // prior's scale is its mean
+      for (int i = 0; i < n; ++i) {
+        const double e = sigma2_[s](i) + d.R * d.extra(i);
+        ebar_[s](i) = e / d.R;
+        sigbar_(d.group[i]) += e;
+      }
     }
     for (int g = 0; g < G_; ++g) {
       if (group_count_[g] > 0) sigbar_(g) /= group_count_[g];
     }
   }
 
-  // base = V + sigma2 / R, resid2 = (wbar - m)^2 at the current inputs.
+  // base = V + sigma2 / R + extra, resid2 = (wbar - m)^2 at the current inputs.
   void refresh_cache() {
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
-      base_[s] = v_[s] + sigma2_[s] / d.R;
+      base_[s] = v_[s] + ebar_[s];
       resid2_[s] = (d.wbar - m_[s]).array().square().matrix();
     }
   }
@@ -229,7 +238,7 @@ class Sampler {
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
       for (int i = 0; i < d.bank->n_coef(); ++i) {
-        const double b = v[s](i) + sigma2_[s](i) / d.R;
+        const double b = v[s](i) + ebar_[s](i);
         const double r = d.wbar(i) - m[s](i);
         num(d.group[i]) += r * r - b;
         scale(d.group[i]) += b + r * r;
@@ -254,7 +263,7 @@ class Sampler {
       const SiteData& d = sites_[s];
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
-        const double tot = v[s](i) + sigma2_[s](i) / d.R + tau2(d.group[i]);
+        const double tot = v[s](i) + ebar_[s](i) + tau2(d.group[i]);
         const double r = d.wbar(i) - m[s](i);
         ll -= 0.5 * (std::log(tot) + r * r / tot);
       }
@@ -485,7 +494,7 @@ class Sampler {
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
         double wb, wM;
-        draw_bias_and_model(d.wbar(i), m_[s](i), v_[s](i), sigma2_[s](i) / d.R, tau2_(d.group[i]), rng_,
+        draw_bias_and_model(d.wbar(i), m_[s](i), v_[s](i), ebar_[s](i), tau2_(d.group[i]), rng_,
                             norm_, wb, wM);
         out.sigma2[s](h, i) = sigma2_[s](i);
         out.wb[s](h, i) = wb;

@@ -20,6 +20,7 @@ struct SiteData {
   double R = 1.0;                // number of replicates
   bool fixed_sigma2 = false;
   Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
+  Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
   std::vector<int> group;        // n, global tau2 group of each coefficient
 };
 

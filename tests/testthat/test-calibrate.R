@@ -280,3 +280,54 @@ test_that("validate() runs the whole path", {
   fit <- validate(runs, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, quiet = TRUE)
   expect_s3_class(fit, "wv_fit")
 })
+
+test_that("registration_variance adds the landmark spread of the runs to the variance of the field mean", {
+  ex <- wavevalid:::example_calibration_inputs()
+  t <- ex$field$t
+  d <- as.data.frame(ex$emulators$design)
+  # runs whose dip after the peak moves with u1
+  event <- function(u) 1.3 * sin(2 * pi * t) + 0.6 * exp(-((t - 0.6 - 0.04 * (u - 0.5)) / 0.08)^2)
+  runs <- model_runs(d, t(vapply(d$u1, event, numeric(length(t)))), t, site = "site1")
+  win <- list(c(0.45, 0.95))
+  field <- register_curves(ex$field, runs, win, refine = TRUE)
+  spread <- attr(field$warps, "landmark_sd")
+  expect_named(spread, c("site", "window", "feature", "t_after", "sd"))
+  lm <- vapply(seq_len(nrow(d)), function(k) {
+    curve_landmarks(runs$curves$site1[k, ], t, win, c("min", "max"), refine = TRUE)$t
+  }, numeric(2))
+  expect_equal(spread$sd, apply(lm, 1, stats::sd))
+  expect_gt(max(spread$sd), 0)
+  r <- registration_extra_variance(field, ex$emulators$basis)$site1
+  expect_true(all(r >= 0) && any(r > 0))
+  # a coefficient whose support lies outside the hat of the moving landmark gets nothing
+  after <- sort(unique(warp_knots(field$warps, 1, "site1")$after))
+  hat <- range(after[which.min(abs(after - spread$t_after[spread$sd > 0])) + c(-1, 1)])
+  Psi <- ex$emulators$basis$Psi
+  outside <- colSums(abs(Psi[t > hat[1] & t < hat[2], , drop = FALSE])) == 0
+  expect_true(any(outside))
+  expect_true(all(r[outside] == 0))
+  # the sampler takes r as variance of the field mean: the same chain as with
+  # field variances sigma2 + R r (w^b and w^M too)
+  W <- field$curves$site1 %*% Psi
+  R <- nrow(W)
+  s2 <- colSums(sweep(W, 2, colMeans(W))^2) / (R - 1)
+  run <- function(...) calibrate(ex$emulators, field, ex$iu, n_draws = 40, n_inner = 10, chains = 1, seed = 3,
+                                 quiet = TRUE, ...)
+  a <- run(sigma2 = s2, registration_variance = TRUE)
+  b <- run(sigma2 = s2 + R * r)
+  expect_identical(as.matrix(a$draws), as.matrix(b$draws))
+  expect_identical(a$wb, b$wb)
+  expect_identical(a$wM, b$wM)
+  expect_equal(a$registration_var, list(site1 = r))
+  expect_false(identical(as.matrix(run(sigma2 = s2)$draws), as.matrix(a$draws)))
+  expect_null(run(sigma2 = s2)$registration_var)
+  # the tie to model runs is needed
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
+                         registration_variance = TRUE), class = "wavevalid_error_input")
+  to_curve <- register_curves(ex$field, list(site1 = colMeans(runs$curves$site1)), win, refine = TRUE)
+  expect_null(attr(to_curve$warps, "landmark_sd"))
+  expect_error(calibrate(ex$emulators, to_curve, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
+                         registration_variance = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
+                         registration_variance = NA), class = "wavevalid_error_input")
+})

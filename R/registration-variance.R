@@ -1,0 +1,53 @@
+# --- variance of the registered field mean from the reference's landmarks ------
+#
+# Landmark registration moves each replicate's landmarks onto those of the
+# reference, the mean of the model runs. The model at the true inputs has its
+# landmarks somewhere else: the landmark times of the runs vary with their
+# inputs. An error delta_k in the time of the reference's landmark k moves the
+# registered field mean by about -delta_k h_k(t) ybar'(t), h_k the hat function
+# that is 1 at the landmark and 0 at its neighbouring knots (the warp is linear
+# in between). With delta_k of standard deviation sd_k, the spread of that
+# landmark over the runs, coefficient i of the registered mean gets the
+# variance sum_k sd_k^2 (Psi' h_k ybar')_i^2 (the landmarks' errors taken
+# independent, and each coefficient on its own as the sampler takes them).
+
+# Named list by site of the variances (one per coefficient of `basis`), or
+# NULL when the field was not registered to model runs.
+registration_extra_variance <- function(field, basis) {
+  w <- field$warps
+  spread <- if (is.null(w)) NULL else attr(w, "landmark_sd")
+  if (is.null(spread)) return(NULL)
+  t <- field$t
+  sites <- names(field$curves)
+  out <- stats::setNames(lapply(sites, function(s) numeric(ncol(basis$Psi))), sites)
+  slope <- lapply(field$curves, function(Y) grid_slope(colMeans(Y), t))
+  shared <- !is.na(attr(w, "landmark_site"))
+  for (m in unique(spread$site)) {
+    lm <- spread[spread$site == m, , drop = FALSE]
+    targets <- if (shared) intersect(attr(w, "sites"), sites) else m
+    first <- min(w$replicate[w$site == m])
+    after <- sort(unique(warp_knots(w, first, site = m)$after))
+    for (k in seq_len(nrow(lm))) {
+      if (!(lm$sd[k] > 0)) next
+      j <- which.min(abs(after - lm$t_after[k]))
+      if (j == 1L || j == length(after)) next
+      h <- stats::approx(after[(j - 1L):(j + 1L)], c(0, 1, 0), xout = t, rule = 2)$y
+      h[t < after[j - 1L] | t > after[j + 1L]] <- 0
+      for (s in targets) {
+        g <- drop(basis_coef(basis, h * slope[[s]]))
+        out[[s]] <- out[[s]] + lm$sd[k]^2 * g^2
+      }
+    }
+  }
+  out
+}
+
+# Slope of a curve on its grid: central differences, one-sided at the ends.
+grid_slope <- function(y, t) {
+  n <- length(y)
+  d <- numeric(n)
+  d[2:(n - 1L)] <- (y[3:n] - y[1:(n - 2L)]) / (t[3:n] - t[1:(n - 2L)])
+  d[1] <- (y[2] - y[1]) / (t[2] - t[1])
+  d[n] <- (y[n] - y[n - 1L]) / (t[n] - t[n - 1L])
+  d
+}
