@@ -85,6 +85,16 @@ print.wv_fit <- function(x, ...) {
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
+  if (!is.null(x$registration_var)) {
+    share <- vapply(names(x$registration_var), function(s) {
+      e <- colMeans(x$sigma2[[s]]) / x$n_rep[[s]]
+      r <- x$registration_var[[s]]
+      sum(r) / sum(r + e)
+    }, numeric(1))
+    cli::cat_line("Registration variance added to the field mean: ",
+                  paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "),
+                  " of its variance")
+  }
   if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
   b <- x$flags$boundary
   if (nrow(b)) {

@@ -321,6 +321,8 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   expect_equal(a$registration_var, list(site1 = r))
   expect_false(identical(as.matrix(run(sigma2 = s2)$draws), as.matrix(a$draws)))
   expect_null(run(sigma2 = s2)$registration_var)
+  expect_output(print(a), "Registration variance added to the field mean: site1 [0-9]+% of its variance")
+  expect_false(any(grepl("Registration variance", utils::capture.output(print(b)))))
   # the tie to model runs is needed
   expect_error(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
                          registration_variance = TRUE), class = "wavevalid_error_input")
