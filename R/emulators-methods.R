@@ -15,6 +15,15 @@ print.wv_emulators <- function(x, ...) {
   n_flat <- sum(!is.finite(p$loglik))
   if (n_nug) cli::cli_text("{n_nug} emulator{?s} with a nugget.")
   if (n_flat) cli::cli_text("{n_flat} flat emulator{?s} (constant coefficient).")
+  vc <- x$variance_check
+  if (!is.null(vc)) {
+    up <- vc[vc$scale > 1, , drop = FALSE]
+    if (nrow(up)) {
+      cli::cli_text("Predictive variances widened at {nrow(up)} of {nrow(vc)} site and level group{?s} from {x$variance_runs} held-out run{?s}, by a factor of up to {signif(max(up$scale), 3)}.")
+    } else {
+      cli::cli_text("Predictive variances checked at {x$variance_runs} held-out run{?s}: none widened.")
+    }
+  }
   invisible(x)
 }
 
@@ -30,7 +39,8 @@ print.wv_emulators <- function(x, ...) {
 #' exceed their predictive variances. A few runs at inputs drawn from the
 #' prior (or near the calibrated inputs) in `new_runs` show it: a root mean
 #' square of the studentised errors well above 1 there means that the
-#' posterior of the inputs will be too narrow and off; add runs to the design.
+#' posterior of the inputs will be too narrow and off; add runs to the design,
+#' or widen the predictive variances by level with [rescale_emulators()].
 #'
 #' @param object A `wv_emulators` object.
 #' @param new_runs Optional held-out model runs (`wv_runs`) on the basis grid,
@@ -134,7 +144,8 @@ print.summary_wv_emulators <- function(x, ...) {
     if (is.finite(worst) && worst > 1.5) {
       cli::cli_alert_warning(paste0(
         "At the held-out runs the errors exceed the predictive standard deviations ",
-        "(RMS up to {worst}); the posterior of the inputs would be too narrow. Add runs to the design."))
+        "(RMS up to {worst}); the posterior of the inputs would be too narrow. Add runs to the design, ",
+        "or widen the variances with {.fn rescale_emulators}."))
     }
   }
   invisible(x)
