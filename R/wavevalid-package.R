@@ -9,7 +9,8 @@
 #' where the model fails follow from the draws.
 #'
 #' The pipeline, verb by verb: [iu_map()], [model_runs()], [field_runs()],
-#' [register_curves()], [wavelet_basis()], [fit_emulators()], [calibrate()]
+#' [register_curves()], [wavelet_basis()], [fit_emulators()] (checked and, if need
+#' be, widened with [rescale_emulators()] at held-out runs), [calibrate()]
 #' (or [validate()] for all of it in one call), then [bias()], [reality()],
 #' [predict.wv_fit()], [where_fails()], [explain_bias()] and
 #' [compare_validations()].

@@ -19,7 +19,11 @@
 # is calibrate()'s ("NULL" or e.g. "0:3").
 # reference = "field" registers the field replicates to their own pointwise
 # mean instead of the mean of the model runs; "field2" to the mean of the
-# replicates so registered. tolerance is where_fails()'s, in kN (the
+# replicates so registered; "posterior" registers them first to the mean of
+# the runs, calibrates, then registers them again to one simulator run at the
+# posterior mean inputs and validates anew (emulators and calibration on the
+# new registration); "unwarped" replaces the registered replicates by the
+# same kind of noise on reality without time warps (a perfect registration). tolerance is where_fails()'s, in kN (the
 # criteria are then judged on the intervals beyond it). Columns: gap, the
 # smallest tolerance at which nothing is flagged (the largest distance of
 # the whole-curve band from zero), and effect, the peak of the hidden
@@ -46,7 +50,7 @@ knots_every <- if (length(args) >= 6) args[6] else "2"
 knots_every <- if (knots_every == "NULL") NULL else as.numeric(knots_every)
 register_runs <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 pool_levels <- if (length(args) >= 8) eval(parse(text = args[8])) else NULL
-reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field2")) else "runs"
+reference <- if (length(args) >= 9) match.arg(args[9], c("runs", "field", "field2", "posterior", "unwarped")) else "runs"
 tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
 segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(args) >= 11) as.integer(args[11]) else 64L
 knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
@@ -58,16 +62,32 @@ one <- function(hidden, seed) {
   tb <- testbed_suspension(seed = seed, hidden = hidden)
   features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
   runs <- tb$A$runs
-  ref <- if (reference == "runs") runs else lapply(tb$A$field$curves, colMeans)
+  ref <- if (reference %in% c("runs", "posterior", "unwarped")) runs else lapply(tb$A$field$curves, colMeans)
   reg <- function(f) register_curves(f, ref, tb$windows, features = features, knots_every = knots_every,
                                      refine = refine, knots_to = knots_to)
   if (reference == "field2") ref <- lapply(reg(tb$A$field)$curves, colMeans)
   field <- reg(tb$A$field)
+  if (reference == "unwarped") {
+    field <- tb$A$field
+    withr::with_seed(seed, for (s in names(field$curves)) {
+      field$curves[[s]] <- t(vapply(seq_len(nrow(field$curves[[s]])), function(r) {
+        tb$truth$reality[[s]] + wavevalid:::ar1_noise(length(field$t))
+      }, numeric(length(field$t))))
+    })
+  }
+  calib <- function(em, field) {
+    suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
+                               seed = 1, pool_levels = pool_levels, registration_variance = reg_var,
+                               quiet = TRUE))
+  }
+  if (reference == "posterior") {
+    first <- calib(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field))), field)
+    ref <- simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(first$draws))[first$inputs])))
+    field <- reg(tb$A$field)
+  }
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                    seed = 1, pool_levels = pool_levels, registration_variance = reg_var,
-                                    quiet = TRUE))
+  fit <- calib(em, field)
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   ex <- explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1, segments = segments)
   eta <- stats::median(attr(ex, "eta"))
