@@ -23,8 +23,9 @@
 # the runs, calibrates, then registers them again to one simulator run at the
 # posterior mean inputs and validates anew (emulators and calibration on the
 # new registration); "unwarped" replaces the registered replicates by the
-# same kind of noise on reality without time warps (a perfect registration). tolerance is where_fails()'s, in kN (the
-# criteria are then judged on the intervals beyond it). Columns: gap, the
+# same kind of noise on reality without time warps (a perfect registration).
+# tolerance is where_fails()'s, in kN (the criteria are then judged on the
+# intervals beyond it). Columns: gap, the
 # smallest tolerance at which nothing is flagged (the largest distance of
 # the whole-curve band from zero), and effect, the peak of the hidden
 # mechanism's effect (smaller site); first_share and decoy_share, the
