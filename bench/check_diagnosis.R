@@ -35,10 +35,16 @@
 # the windows fitted to the reference or to the replicates' own consensus.
 # registration_variance is calibrate()'s: the spread of the landmark times
 # over the runs enters the variance of the registered field mean.
+# rescale = TRUE widens the emulators' variances by rescale_emulators() from
+# 30 held-out runs (a maximin design over the I/U ranges).
+# signatures_at is where the mechanism signatures given to explain_bias() are
+# simulated: "posterior" (the posterior mean inputs) or "nominal" (every input
+# at its nominal value).
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
-#                                   [registration_variance=FALSE]
+#                                   [registration_variance=FALSE] [rescale=FALSE]
+#                                   [signatures_at=posterior]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -56,6 +62,8 @@ tolerance <- if (length(args) >= 10) as.numeric(args[10]) else 0
 segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(args) >= 11) as.integer(args[11]) else 64L
 knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
+rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
+signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal")) else "posterior"
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -76,21 +84,27 @@ one <- function(hidden, seed) {
       }, numeric(length(field$t))))
     })
   }
+  check <- if (rescale) simulate_suspension(design_maximin(tb$iu, 30, nominal = FALSE, seed = 9))
+  emulate <- function(runs, field) {
+    em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+    if (rescale) em <- suppressWarnings(rescale_emulators(em, check))
+    em
+  }
   calib <- function(em, field) {
     suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
                                seed = 1, pool_levels = pool_levels, registration_variance = reg_var,
                                quiet = TRUE))
   }
   if (reference == "posterior") {
-    first <- calib(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field))), field)
+    first <- calib(emulate(runs, field), field)
     ref <- simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(first$draws))[first$inputs])))
     field <- reg(tb$A$field)
   }
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
-  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
-  fit <- calib(em, field)
+  fit <- calib(emulate(runs, field), field)
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-  ex <- explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1, segments = segments)
+  z_sig <- if (signatures_at == "nominal") stats::setNames(tb$iu$nominal, tb$iu$name)[fit$inputs] else z_hat
+  ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments)
   eta <- stats::median(attr(ex, "eta"))
   ex <- as.data.frame(unclass(ex))
   fails <- where_fails(fit, tolerance = tolerance)
@@ -123,9 +137,9 @@ one <- function(hidden, seed) {
 }
 
 grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stringsAsFactors = FALSE)
-cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, registration_variance = %s, %d x %d draws, 1 chain\n",
+cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, registration_variance = %s, rescale = %s, signatures at %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
-            deparse(segments), knots_to, reg_var, n_draws, n_inner))
+            deparse(segments), knots_to, reg_var, rescale, signatures_at, n_draws, n_inner))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")
