@@ -68,17 +68,13 @@ rescale_emulators <- function(emulators, new_runs, min_errors = 10L) {
   }
   p <- emulators$params
   key <- paste(p$site, p$level, sep = "\r")
-  hkey <- paste(held$site, held$level, sep = "\r")
-  ok <- is.finite(held$residual)
   groups <- unique(key)
-  check <- do.call(rbind, lapply(groups, function(g) {
-    r <- held$residual[hkey == g & ok]
-    n <- length(r)
-    ms <- if (n) mean(r^2) else NA_real_
-    data.frame(site = p$site[key == g][1], level = p$level[key == g][1], n_errors = n,
-               rms_before = sqrt(ms), scale = if (n >= min_errors) max(1, ms) else 1,
-               stringsAsFactors = FALSE)
-  }))
+  first <- match(groups, key)
+  hs <- residual_stats_by_level(p, held)
+  ms <- hs$mean_square
+  check <- data.frame(site = p$site[first], level = p$level[first], n_errors = hs$n,
+                      rms_before = sqrt(ms), scale = ifelse(hs$n >= min_errors, pmax(1, ms), 1),
+                      stringsAsFactors = FALSE)
   short <- check$n_errors < min_errors & check$n_errors > 0
   if (any(short)) {
     wv_warn(c(

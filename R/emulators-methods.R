@@ -67,34 +67,43 @@ summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   loo <- loo_residuals(object)
   held <- if (is.null(new_runs)) NULL else heldout_residuals(object, new_runs)
   key <- paste(p$site, p$level, sep = "\r")
-  lkey <- paste(loo$site, loo$level, sep = "\r")
   groups <- unique(key)
+  ls <- residual_stats_by_level(p, loo)
   by_level <- do.call(rbind, lapply(groups, function(g) {
     rows <- key == g
-    r <- loo$residual[lkey == g]
-    r <- r[is.finite(r)]
     data.frame(site = p$site[rows][1], level = p$level[rows][1], n = sum(rows),
                median_loglik = if (any(is.finite(p$loglik[rows]))) stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
-               loo_rms = if (length(r)) sqrt(mean(r^2)) else NA_real_,
-               loo_beyond_3 = if (length(r)) mean(abs(r) > 3) else NA_real_,
                nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
                flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)
   }))
+  by_level$loo_rms <- sqrt(ls$mean_square)
+  by_level$loo_beyond_3 <- ls$beyond_3
+  by_level <- by_level[c("site", "level", "n", "median_loglik", "loo_rms", "loo_beyond_3", "nugget", "flat")]
   if (!is.null(held)) {
-    hkey <- paste(held$site, held$level, sep = "\r")
-    stats_of <- function(g) {
-      r <- held$residual[hkey == g]
-      r <- r[is.finite(r)]
-      if (length(r)) c(sqrt(mean(r^2)), mean(abs(r) > 3)) else c(NA_real_, NA_real_)
-    }
-    hs <- vapply(groups, stats_of, numeric(2))
-    by_level$heldout_rms <- hs[1, ]
-    by_level$heldout_beyond_3 <- hs[2, ]
+    hs <- residual_stats_by_level(p, held)
+    by_level$heldout_rms <- sqrt(hs$mean_square)
+    by_level$heldout_beyond_3 <- hs$beyond_3
   }
   rownames(by_level) <- NULL
   structure(list(engine = object$engine, n_runs = nrow(object$design), inputs = object$inputs,
                  n_new = if (is.null(new_runs)) 0L else nrow(new_runs$design), by_level = by_level),
             class = "summary_wv_emulators")
+}
+
+# Studentised residuals (a data frame with columns site, level and residual,
+# as from loo_residuals() or heldout_residuals()) summed up by the site and
+# level groups of the emulator parameters `p`, in the order of their first
+# appearance: the number of finite residuals, their mean square and their
+# share beyond 3 in absolute value (NA for a group without one).
+residual_stats_by_level <- function(p, res) {
+  key <- paste(p$site, p$level, sep = "\r")
+  groups <- unique(key)
+  ok <- is.finite(res$residual)
+  g <- factor(paste(res$site, res$level, sep = "\r")[ok], levels = groups)
+  r <- res$residual[ok]
+  n <- as.vector(table(g))
+  sum_or_na <- function(x) ifelse(n > 0L, as.vector(tapply(x, g, sum, default = 0)) / pmax(n, 1L), NA_real_)
+  data.frame(n = n, mean_square = sum_or_na(r^2), beyond_3 = sum_or_na(abs(r) > 3))
 }
 
 # Studentised errors (w - m) / sqrt(V) of the emulators at held-out runs: one

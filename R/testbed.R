@@ -351,6 +351,20 @@ make_field <- function(truth, n_rep, x_nom, condition) {
   list(field = new_wv_field(t, curves, x_nom), warps = knots)
 }
 
+# The field data of condition A of a test bed `tb` as a perfect registration
+# would leave them: reality plus the same kind of noise as the replicates, one
+# curve for each replicate, no time warps. For checks of what the registration
+# costs.
+unwarped_field <- function(tb, seed) {
+  f <- tb$A$field
+  with_rng_seed(seed, for (s in names(f$curves)) {
+    f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])),
+                              function(r) tb$truth$reality[[s]] + ar1_noise(length(f$t)),
+                              numeric(length(f$t))))
+  })
+  f
+}
+
 reality_curves <- function(coded, hidden) {
   sim <- simulate_coded(matrix(coded, nrow = 1L, dimnames = list(NULL, names(coded))), hidden_strength(hidden))
   lapply(sim, as.numeric)

@@ -76,14 +76,7 @@ one <- function(hidden, seed) {
                                      refine = refine, knots_to = knots_to)
   if (reference == "field2") ref <- lapply(reg(tb$A$field)$curves, colMeans)
   field <- reg(tb$A$field)
-  if (reference == "unwarped") {
-    field <- tb$A$field
-    withr::with_seed(seed, for (s in names(field$curves)) {
-      field$curves[[s]] <- t(vapply(seq_len(nrow(field$curves[[s]])), function(r) {
-        tb$truth$reality[[s]] + wavevalid:::ar1_noise(length(field$t))
-      }, numeric(length(field$t))))
-    })
-  }
+  if (reference == "unwarped") field <- wavevalid:::unwarped_field(tb, seed)
   check <- if (rescale) simulate_suspension(design_maximin(tb$iu, 30, nominal = FALSE, seed = 9))
   emulate <- function(runs, field) {
     em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))

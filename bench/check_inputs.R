@@ -31,13 +31,7 @@ one <- function(seed) {
   field <- if (field_kind == "registered") {
     register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
   } else {
-    f <- tb$A$field
-    withr::with_seed(seed, for (s in names(f$curves)) {
-      f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])),
-                                function(r) tb$truth$reality[[s]] + ns$ar1_noise(length(f$t)),
-                                numeric(length(f$t))))
-    })
-    f
+    ns$unwarped_field(tb, seed)
   }
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
   check <- simulate_suspension(design_maximin(tb$iu, n_check, nominal = FALSE, seed = 9))

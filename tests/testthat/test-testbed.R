@@ -217,3 +217,18 @@ test_that("load_testbed() returns the shipped instance with the same layout", {
   expect_equal(shipped$truth, fresh$truth, tolerance = 1e-6)
   expect_error(load_testbed(tempdir()), class = "wavevalid_error_input")
 })
+
+test_that("the unwarped field is reality plus the field noise, without time warps", {
+  f <- unwarped_field(tb, seed = 3)
+  expect_identical(unwarped_field(tb, seed = 3), f)
+  expect_identical(dim(f$curves$site1), dim(tb$A$field$curves$site1))
+  for (s in sites) {
+    err <- sweep(f$curves[[s]], 2L, tb$truth$reality[[s]])
+    # the noise of the replicates: sd 0.03, independent between replicates
+    expect_lt(abs(sqrt(mean(err^2)) - noise_sd), 0.01)
+    expect_lt(abs(stats::cor(err[1, ], err[2, ])), 0.2)
+    # the warped replicates are much farther from reality near the events
+    warped <- sweep(tb$A$field$curves[[s]], 2L, tb$truth$reality[[s]])
+    expect_gt(sqrt(mean(warped^2)), 3 * sqrt(mean(err^2)))
+  }
+})
