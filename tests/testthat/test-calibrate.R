@@ -268,6 +268,10 @@ test_that("an input piled at its bound is flagged with a classed warning", {
                                   seed = 4, fix_tau2 = 1e-4, quiet = TRUE),
                  class = "wavevalid_warning_boundary")
   expect_true("x1" %in% fit$flags$boundary$input)
+  # explain_bias warns that candidates simulated at these inputs may mislead
+  ex <- explain_bias(fit, list(wave = sin(2 * pi * t)), seed = 1)
+  expect_identical(attr(ex, "boundary"), unique(fit$flags$boundary$input))
+  expect_output(print(ex), "x1.*piles up at a bound")
 })
 
 test_that("validate() runs the whole path", {
