@@ -67,12 +67,9 @@ rescale_emulators <- function(emulators, new_runs, min_errors = 10L) {
     ))
   }
   p <- emulators$params
-  key <- paste(p$site, p$level, sep = "\r")
-  groups <- unique(key)
-  first <- match(groups, key)
   hs <- residual_stats_by_level(p, held)
   ms <- hs$mean_square
-  check <- data.frame(site = p$site[first], level = p$level[first], n_errors = hs$n,
+  check <- data.frame(site = hs$site, level = hs$level, n_errors = hs$n,
                       rms_before = sqrt(ms), scale = ifelse(hs$n >= min_errors, pmax(1, ms), 1),
                       stringsAsFactors = FALSE)
   short <- check$n_errors < min_errors & check$n_errors > 0
@@ -82,7 +79,9 @@ rescale_emulators <- function(emulators, new_runs, min_errors = 10L) {
       "i" = "Each needs {min_errors}; add held-out runs or lower {.arg min_errors}."
     ), class = "rescale")
   }
-  scale <- check$scale[match(key, groups)]
+  # the groups come in the order of their first appearance in params
+  key <- paste(p$site, p$level, sep = "\r")
+  scale <- check$scale[match(key, unique(key))]
   emulators$params$lambda <- p$lambda / scale
   emulators$params$variance_scale <- scale
   for (s in names(emulators$banks)) {

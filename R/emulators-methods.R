@@ -69,16 +69,14 @@ summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   key <- paste(p$site, p$level, sep = "\r")
   groups <- unique(key)
   ls <- residual_stats_by_level(p, loo)
-  by_level <- do.call(rbind, lapply(groups, function(g) {
-    rows <- key == g
-    data.frame(site = p$site[rows][1], level = p$level[rows][1], n = sum(rows),
+  by_level <- do.call(rbind, lapply(seq_along(groups), function(i) {
+    rows <- key == groups[i]
+    data.frame(site = ls$site[i], level = ls$level[i], n = sum(rows),
                median_loglik = if (any(is.finite(p$loglik[rows]))) stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
+               loo_rms = sqrt(ls$mean_square[i]), loo_beyond_3 = ls$beyond_3[i],
                nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
                flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)
   }))
-  by_level$loo_rms <- sqrt(ls$mean_square)
-  by_level$loo_beyond_3 <- ls$beyond_3
-  by_level <- by_level[c("site", "level", "n", "median_loglik", "loo_rms", "loo_beyond_3", "nugget", "flat")]
   if (!is.null(held)) {
     hs <- residual_stats_by_level(p, held)
     by_level$heldout_rms <- sqrt(hs$mean_square)
@@ -93,17 +91,20 @@ summary.wv_emulators <- function(object, new_runs = NULL, ...) {
 # Studentised residuals (a data frame with columns site, level and residual,
 # as from loo_residuals() or heldout_residuals()) summed up by the site and
 # level groups of the emulator parameters `p`, in the order of their first
-# appearance: the number of finite residuals, their mean square and their
-# share beyond 3 in absolute value (NA for a group without one).
+# appearance: the group's site and level, the number of finite residuals,
+# their mean square and their share beyond 3 in absolute value (NA for a
+# group without one).
 residual_stats_by_level <- function(p, res) {
   key <- paste(p$site, p$level, sep = "\r")
   groups <- unique(key)
+  first <- match(groups, key)
   ok <- is.finite(res$residual)
   g <- factor(paste(res$site, res$level, sep = "\r")[ok], levels = groups)
   r <- res$residual[ok]
   n <- as.vector(table(g))
   sum_or_na <- function(x) ifelse(n > 0L, as.vector(tapply(x, g, sum, default = 0)) / pmax(n, 1L), NA_real_)
-  data.frame(n = n, mean_square = sum_or_na(r^2), beyond_3 = sum_or_na(abs(r) > 3))
+  data.frame(site = p$site[first], level = p$level[first], n = n, mean_square = sum_or_na(r^2),
+             beyond_3 = sum_or_na(abs(r) > 3), stringsAsFactors = FALSE)
 }
 
 # Studentised errors (w - m) / sqrt(V) of the emulators at held-out runs: one
