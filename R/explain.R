@@ -53,6 +53,21 @@
 #' leaves the result unchanged instead of doubling the evidence.
 #' `segments = NULL` turns the tempering off.
 #'
+#' A mechanism either acts or it does not: its signature (the run with it
+#' minus the run without it) enters the bias with a non-negative strength, and
+#' a bias that looks like the opposite of the signature is no evidence for it.
+#' With `positive = TRUE` (default) the amplitudes of the user's candidates
+#' are constrained to be non-negative: the g-prior of a subset is truncated to
+#' the orthant where they are, and the Bayes factor above is multiplied by
+#' `P(a_S >= 0 | data) / P(a_S >= 0)`, the posterior (a multivariate t,
+#' integrated by the GHK simulator on a fixed lattice of quasi-random points,
+#' so that the result does not depend on the seed and keeps its order of
+#' magnitude when the probability is tiny) over the prior probability of that orthant (in
+#' closed form up to three constrained candidates). The shifts
+#' `shift:<input>` stay free in sign: an input may move either way. Set
+#' `positive = FALSE` for candidates whose sign is arbitrary, such as a
+#' physical feature curve, or give one logical per candidate.
+#'
 #' When the posterior of an input piles up at a bound of its range, the
 #' calibration is likely using that input to make up for the missing effect,
 #' and the calibrated inputs can be far from the true ones. A mechanism's
@@ -68,6 +83,8 @@
 #'   numeric vector (used at every site) or a named list by site of vectors.
 #'   May be empty when `shifts = TRUE`.
 #' @param shifts Add the automatic parameter-shift candidates `shift:<input>`.
+#' @param positive Constrain the amplitudes of the user's candidates to be
+#'   non-negative (see Details): `TRUE`, `FALSE`, or one logical per candidate.
 #' @param max_size Largest number of candidates in one subset.
 #' @param n_draws Number of posterior draws used (evenly thinned).
 #' @param level Probability of the amplitude intervals.
@@ -98,7 +115,7 @@
 #' ex_b <- explain_bias(fit, candidates, seed = 1)
 #' ex_b
 #' autoplot(ex_b)
-explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
+explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, ...) {
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
@@ -106,8 +123,13 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   cand <- candidate_coefficients(fit, candidates)
+  pos <- candidate_signs(positive, ncol(cand))
   draws <- as.matrix(fit$draws)
-  if (isTRUE(shifts)) cand <- cbind(cand, shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE])))
+  if (isTRUE(shifts)) {
+    sh <- shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE]))
+    cand <- cbind(cand, sh)
+    pos <- c(pos, rep(FALSE, ncol(sh)))
+  }
   if (ncol(cand) == 0L) {
     wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
   }
@@ -120,14 +142,25 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, max_size = 3L,
   seed <- resolve_seed(seed)
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level,
-                                             cluster = cluster))
+                                             cluster = cluster, positive = pos))
   out <- res$table
   attr(out, "subsets") <- res$subsets
   attr(out, "eta") <- res$eta
   attr(out, "curves") <- explain_curves(fit, cand, out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
+  attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
   out
+}
+
+# The sign constraint of each of the m user candidates from `positive`.
+candidate_signs <- function(positive, m, call = rlang::caller_env()) {
+  if (!is.logical(positive) || anyNA(positive) || !(length(positive) %in% c(1L, m))) {
+    wv_abort(c("{.arg positive} must be TRUE, FALSE or one logical per candidate.",
+               "x" = "It has length {length(positive)}; the number of candidates is {m}."),
+             call = call)
+  }
+  rep_len(positive, m)
 }
 
 # Coefficients (all sites stacked, in the order of fit$wb) of user candidates.
@@ -268,10 +301,12 @@ bias_level_variances <- function(fit, d) {
 # Wt (H x n), subsets of up to max_size candidates, Zellner g = n. With
 # `cluster` (one label per coefficient), the likelihood of each draw is
 # tempered by tempering_power(): n and g become eta * n.
-bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL) {
+bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL, positive = NULL) {
   n_all <- ncol(Y)
   m <- ncol(X)
   H <- nrow(Y)
+  positive <- if (is.null(positive)) rep(FALSE, m) else positive
+  lattice <- if (any(positive)) orthant_lattice(max(1L, min(max_size, sum(positive)) - 1L))
   subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
     utils::combn(m, k, simplify = FALSE)
   }), recursive = FALSE)
@@ -297,6 +332,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     energy <- sum(y^2)
     for (k in seq_len(m)) {
       a <- b[k] / G[k, k]
+      if (positive[k]) a <- max(a, 0)
       share[h, k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
     }
     for (j in seq_along(subsets)) {
@@ -307,6 +343,14 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
       coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
       r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
       logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)
+      pS <- which(positive[S])
+      if (length(pS)) {
+        shrink <- g / (1 + g)
+        Ginv <- chol2inv(ch)
+        logml[h, j + 1L] <- logml[h, j + 1L] +
+          log_orthant_ratio(shrink * coef[pS], Ginv[pS, pS, drop = FALSE] * shrink / eta[h],
+                            yy * (1 - shrink * r2) / n_all, n, lattice)
+      }
     }
   }
   lp <- sweep(logml, 2, log_prior, `+`)
@@ -333,7 +377,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     shrink <- g / (1 + g)
     phi <- (sum(w * Y[h, ]^2) - shrink * sum(b * coef)) / n_all
     cov <- shrink * phi / eta[h] * solve(G)
-    a[S] <- shrink * coef + drop(t(chol(cov)) %*% stats::rnorm(length(S)))
+    a[S] <- draw_truncated(shrink * coef, chol(cov), positive[S])
     a
   }, numeric(m)))
   if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
@@ -355,6 +399,94 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
     eta = eta
   )
+}
+
+# A fixed lattice of N quasi-random points in d dimensions for the orthant
+# probabilities (of up to d + 1 constrained amplitudes; N grows with d to
+# keep them within about half a per cent): the midpoints (i - 0.5) / N in the first (the only one used
+# with two constrained amplitudes), and in the others the Kronecker sequence
+# frac(0.5 + i * alpha), alpha_j = 1 / phi^j with phi the positive root of
+# x^d = x + 1 (low discrepancy in any dimension).
+orthant_lattice <- function(d, N = min(256L * 2L^d, 8192L)) {
+  i <- seq_len(N)
+  v <- matrix((i - 0.5) / N, N, max(d, 1L))
+  if (d > 1L) {
+    phi <- stats::uniroot(function(x) x^d - x - 1, c(1, 2), tol = 1e-12)$root
+    v[, -1] <- (0.5 + outer(i, 1 / phi^seq_len(d - 1L))) %% 1
+  }
+  list(v = v)
+}
+
+# log P(T >= lower) for T multivariate t with `df` degrees of freedom (Inf:
+# normal) and scale matrix V, by the GHK simulator over the lattice points v:
+# with V = L L', T = L w, and given w_1..w_(k-1), w_k is a t with df + k - 1
+# degrees of freedom scaled by sqrt((df + sum w_j^2) / (df + k - 1)); each
+# coordinate in turn is bounded given the earlier ones, its probability taken
+# exactly and its value drawn from the bounded part. The first coordinate's
+# probability is exact, the estimate a smooth function of lower and V, and a
+# tiny probability keeps its order of magnitude.
+ghk_log_orthant <- function(lower, V, df, v) {
+  d <- length(lower)
+  # each coordinate's own tail beyond its bound: exact in one dimension, and
+  # when they are all negligible the probability is 1 - their sum to within
+  # their pairwise products
+  tails <- stats::pt(lower / sqrt(diag(V)), df = df, lower.tail = TRUE)
+  if (d == 1L) return(stats::pt(-lower / sqrt(V[1, 1]), df = df, log.p = TRUE))
+  if (sum(tails) < 1e-6) return(log1p(-sum(tails)))
+  L <- t(chol(V))
+  N <- nrow(v)
+  W <- matrix(0, N, d)
+  ss <- numeric(N)
+  lw <- numeric(N)
+  for (k in seq_len(d)) {
+    nu <- df + k - 1
+    r <- if (is.finite(df)) sqrt((df + ss) / nu) else 1
+    m <- if (k > 1L) drop(W[, seq_len(k - 1L), drop = FALSE] %*% L[k, seq_len(k - 1L)]) else 0
+    b <- (lower[k] - m) / L[k, k] / r
+    lq <- stats::pt(-b, df = nu, log.p = TRUE)
+    lw <- lw + lq
+    if (k < d) {
+      W[, k] <- -r * stats::qt(log(v[, k]) + lq, df = nu, log.p = TRUE)
+      ss <- ss + W[, k]^2
+    }
+  }
+  top <- max(lw)
+  top + log(mean(exp(lw - top)))
+}
+
+# Probability that a centred normal vector with correlation matrix R lies in
+# the positive orthant: closed form up to three dimensions.
+centred_orthant <- function(R, lattice) {
+  d <- nrow(R)
+  if (d == 1L) return(0.5)
+  if (d == 2L) return(0.25 + asin(R[1, 2]) / (2 * pi))
+  if (d == 3L) return(0.125 + (asin(R[1, 2]) + asin(R[1, 3]) + asin(R[2, 3])) / (4 * pi))
+  exp(ghk_log_orthant(numeric(d), R, Inf, lattice$v))
+}
+
+# log P(a >= 0 | data) - log P(a >= 0) for the constrained amplitudes of one
+# subset: posterior a = mu + sqrt(phi_hat) T, T multivariate t with `df`
+# degrees of freedom and scale matrix V (phi integrated out); prior
+# N(0, g phi G^-1), whose orthant probability depends only on the
+# correlations of V.
+log_orthant_ratio <- function(mu, V, phi_hat, df, lattice) {
+  ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v) - log(centred_orthant(stats::cov2cor(V), lattice))
+}
+
+# One draw of mu + t(U) z (U upper triangular) with the coordinates flagged by
+# `positive` non-negative, by rejection in batches; when the orthant is too
+# improbable to hit, the nearest point of it on the flagged coordinates.
+draw_truncated <- function(mu, U, positive) {
+  k <- length(mu)
+  if (!any(positive)) return(mu + drop(t(U) %*% stats::rnorm(k)))
+  for (attempt in 1:20) {
+    a <- sweep(matrix(stats::rnorm(100L * k), 100L, k) %*% U, 2L, mu, `+`)
+    ok <- which(apply(a[, positive, drop = FALSE] >= 0, 1, all))
+    if (length(ok)) return(a[ok[1], ])
+  }
+  out <- mu
+  out[positive] <- pmax(out[positive], 0)
+  out
 }
 
 # Posterior mean bias and the leading candidates scaled by their amplitude, by

@@ -39,12 +39,13 @@
 # 30 held-out runs (a maximin design over the I/U ranges).
 # signatures_at is where the mechanism signatures given to explain_bias() are
 # simulated: "posterior" (the posterior mean inputs) or "nominal" (every input
-# at its nominal value).
+# at its nominal value). positive is explain_bias()'s: the mechanisms'
+# amplitudes constrained to be non-negative.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 #                                   [registration_variance=FALSE] [rescale=FALSE]
-#                                   [signatures_at=posterior]
+#                                   [signatures_at=posterior] [positive=TRUE]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -64,6 +65,7 @@ knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicat
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
 signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal")) else "posterior"
+positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -97,7 +99,8 @@ one <- function(hidden, seed) {
   fit <- calib(emulate(runs, field), field)
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   z_sig <- if (signatures_at == "nominal") stats::setNames(tb$iu$nominal, tb$iu$name)[fit$inputs] else z_hat
-  ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments)
+  ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments,
+                    positive = positive)
   eta <- stats::median(attr(ex, "eta"))
   ex <- as.data.frame(unclass(ex))
   fails <- where_fails(fit, tolerance = tolerance)
@@ -133,6 +136,7 @@ grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stri
 cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, registration_variance = %s, rescale = %s, signatures at %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
             deparse(segments), knots_to, reg_var, rescale, signatures_at, n_draws, n_inner))
+cat(sprintf("explain_bias(positive = %s)\n", positive))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

@@ -126,6 +126,21 @@ test_that("explain_bias ranks the true mechanism first and the decoys low", {
   expect_s3_class(autoplot(ex), "ggplot")
 })
 
+test_that("explain_bias gives a mechanism no credit for the opposite of its signature unless told its sign is free", {
+  d <- diag_setup()
+  cand <- list(flipped = -d$candidates$bump, late_bump = d$candidates$late_bump)
+  pos <- explain_bias(d$fit, cand, seed = 1)
+  free <- explain_bias(d$fit, cand, positive = FALSE, seed = 1)
+  expect_lt(pos$inclusion_prob[pos$candidate == "flipped"], 0.1)
+  expect_gt(free$inclusion_prob[free$candidate == "flipped"], 0.9)
+  expect_lt(free$amplitude[free$candidate == "flipped"], 0)
+  expect_identical(attr(pos, "positive"), c("flipped", "late_bump"))
+  expect_identical(attr(free, "positive"), character())
+  both <- explain_bias(d$fit, cand, positive = c(FALSE, TRUE), seed = 1)
+  expect_equal(both$inclusion_prob[both$candidate == "flipped"],
+               free$inclusion_prob[free$candidate == "flipped"], tolerance = 0.05)
+})
+
 test_that("explain_bias refuses bad candidates and shares the inclusion of twins", {
   d <- diag_setup()
   expect_error(explain_bias(d$fit, list(a = rep(1, 10))), class = "wavevalid_error_input")
@@ -133,6 +148,9 @@ test_that("explain_bias refuses bad candidates and shares the inclusion of twins
   expect_error(explain_bias(d$fit, list(z = numeric(length(d$t)))), class = "wavevalid_error_input")
   expect_error(explain_bias(d$fit, list(a = c(NA, d$candidates$bump[-1]))), class = "wavevalid_error_input")
   expect_error(explain_bias(d$fit, "bump"), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, d$candidates, positive = c(TRUE, FALSE)), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, d$candidates, positive = NA), class = "wavevalid_error_input")
+  expect_error(explain_bias(d$fit, d$candidates, positive = "yes"), class = "wavevalid_error_input")
   expect_snapshot(explain_bias(d$fit, list(a = rep(1, 10))), error = TRUE)
   twins <- explain_bias(d$fit, list(bump = d$candidates$bump, twin = d$candidates$bump), shifts = FALSE, seed = 1)
   p <- stats::setNames(twins$inclusion_prob, twins$candidate)
