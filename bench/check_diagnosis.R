@@ -39,7 +39,8 @@
 # 30 held-out runs (a maximin design over the I/U ranges).
 # signatures_at is where the mechanism signatures given to explain_bias() are
 # simulated: "posterior" (the posterior mean inputs) or "nominal" (every input
-# at its nominal value). positive is explain_bias()'s: the mechanisms'
+# at its nominal value) or "unpiled" (the posterior mean, except the inputs
+# whose posterior piles up at a bound, at their nominal values). positive is explain_bias()'s: the mechanisms'
 # amplitudes constrained to be non-negative.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
@@ -64,7 +65,7 @@ segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(a
 knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
-signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal")) else "posterior"
+signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled")) else "posterior"
 positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
 options(wavevalid.quiet = TRUE)
 
@@ -98,7 +99,12 @@ one <- function(hidden, seed) {
   if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
   fit <- calib(emulate(runs, field), field)
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-  z_sig <- if (signatures_at == "nominal") stats::setNames(tb$iu$nominal, tb$iu$name)[fit$inputs] else z_hat
+  nominal <- stats::setNames(tb$iu$nominal, tb$iu$name)[fit$inputs]
+  z_sig <- if (signatures_at == "nominal") nominal else z_hat
+  if (signatures_at == "unpiled") {
+    piled <- intersect(fit$flags$boundary$input, fit$inputs)
+    z_sig[piled] <- nominal[piled]
+  }
   ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments,
                     positive = positive)
   eta <- stats::median(attr(ex, "eta"))

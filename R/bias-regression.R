@@ -1,0 +1,218 @@
+# The regression behind explain_bias(): Bayes factors of subsets of
+# candidates under Zellner's g-prior, tempered for residuals that are alike
+# within time segments, with amplitudes optionally constrained to be
+# non-negative (orthant probabilities of the multivariate t by GHK).
+
+# Tempering power for one draw: eta = k / tr(J^-1 I), capped at 1, with J the
+# information the weighted regression of y on the k linearly independent
+# columns of X claims for their coefficients and I its cluster-robust
+# (sandwich) estimate from the residuals, clusters given by `cluster`.
+tempering_power <- function(X, y, w, cluster) {
+  q <- qr(X * sqrt(w))
+  k <- q$rank
+  n <- length(y)
+  if (k == 0L || n - k < 1L) return(1)
+  Xk <- X[, q$pivot[seq_len(k)], drop = FALSE]
+  G <- crossprod(Xk * w, Xk)
+  a <- solve(G, crossprod(Xk * w, y))
+  e <- drop(y - Xk %*% a)
+  phi <- sum(w * e^2) / n
+  if (!(phi > 0)) return(1)
+  U <- rowsum(Xk * (w * e), cluster)
+  # J = G / phi, I = U'U / phi^2, so tr(J^-1 I) = tr(G^-1 U'U) / phi
+  ratio <- sum(diag(solve(G, crossprod(U)))) / phi / k
+  if (!is.finite(ratio) || ratio <= 1) 1 else 1 / ratio
+}
+
+# The regression of bias draws Y (H x n) on candidates X (n x m) with weights
+# Wt (H x n), subsets of up to max_size candidates, Zellner g = n. With
+# `cluster` (one label per coefficient), the likelihood of each draw is
+# tempered by tempering_power(): n and g become eta * n.
+bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL, positive = NULL) {
+  n_all <- ncol(Y)
+  m <- ncol(X)
+  H <- nrow(Y)
+  positive <- if (is.null(positive)) rep(FALSE, m) else positive
+  lattice <- if (any(positive)) orthant_lattice(max(1L, min(max_size, sum(positive)) - 1L))
+  subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
+    utils::combn(m, k, simplify = FALSE)
+  }), recursive = FALSE)
+  sizes <- vapply(subsets, length, 1L)
+  # prior: equal mass on each size 0..max_size, shared equally within a size
+  n_size <- c(1, table(factor(sizes, levels = seq_len(min(max_size, m)))))
+  log_prior <- c(0, -log(n_size[sizes + 1L])) - log(length(n_size))
+  n_sub <- length(subsets) + 1L
+  logml <- matrix(-Inf, H, n_sub)
+  logml[, 1] <- 0
+  share <- matrix(0, H, m)
+  eta <- rep(1, H)
+  for (h in seq_len(H)) {
+    w <- Wt[h, ]
+    y <- Y[h, ]
+    if (!is.null(cluster)) eta[h] <- tempering_power(X, y, w, cluster)
+    n <- g <- eta[h] * n_all
+    XtW <- t(X * w)
+    G <- XtW %*% X
+    b <- drop(XtW %*% y)
+    yy <- sum(w * y^2)
+    if (yy <= 0) next
+    energy <- sum(y^2)
+    for (k in seq_len(m)) {
+      a <- b[k] / G[k, k]
+      if (positive[k]) a <- max(a, 0)
+      share[h, k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
+    }
+    for (j in seq_along(subsets)) {
+      S <- subsets[[j]]
+      GS <- G[S, S, drop = FALSE]
+      ch <- tryCatch(chol(GS), error = function(e) NULL)
+      if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
+      coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
+      r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
+      logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)
+      pS <- which(positive[S])
+      if (length(pS)) {
+        shrink <- g / (1 + g)
+        Ginv <- chol2inv(ch)
+        logml[h, j + 1L] <- logml[h, j + 1L] +
+          log_orthant_ratio(shrink * coef[pS], Ginv[pS, pS, drop = FALSE] * shrink / eta[h],
+                            yy * (1 - shrink * r2) / n_all, n, lattice)
+      }
+    }
+  }
+  lp <- sweep(logml, 2, log_prior, `+`)
+  lp <- lp - apply(lp, 1, max)
+  post <- exp(lp)
+  post <- post / rowSums(post)
+  sub_prob <- colMeans(post)
+  incl <- vapply(seq_len(m), function(k) {
+    sum(sub_prob[-1][vapply(subsets, function(S) k %in% S, logical(1))])
+  }, numeric(1))
+  # model-averaged amplitude draws: one subset drawn per draw
+  alpha <- (1 - level) / 2
+  pick <- apply(post, 1, function(p) sample.int(n_sub, 1L, prob = p))
+  amp_draws <- t(vapply(seq_len(H), function(h) {
+    a <- numeric(m)
+    if (pick[h] == 1L) return(a)
+    S <- subsets[[pick[h] - 1L]]
+    w <- Wt[h, ]
+    XS <- X[, S, drop = FALSE]
+    G <- crossprod(XS * w, XS)
+    b <- drop(crossprod(XS * w, Y[h, ]))
+    coef <- solve(G, b)
+    g <- eta[h] * n_all
+    shrink <- g / (1 + g)
+    phi <- (sum(w * Y[h, ]^2) - shrink * sum(b * coef)) / n_all
+    cov <- shrink * phi / eta[h] * solve(G)
+    a[S] <- draw_truncated(shrink * coef, chol(cov), positive[S])
+    a
+  }, numeric(m)))
+  if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
+  table <- data.frame(
+    candidate = colnames(X),
+    inclusion_prob = incl,
+    amplitude = colMeans(amp_draws),
+    amplitude_lower = apply(amp_draws, 2, stats::quantile, probs = alpha, names = FALSE),
+    amplitude_upper = apply(amp_draws, 2, stats::quantile, probs = 1 - alpha, names = FALSE),
+    share_explained = colMeans(share),
+    stringsAsFactors = FALSE
+  )
+  table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
+  rownames(table) <- NULL
+  sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
+  top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
+  list(
+    table = table,
+    subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
+    eta = eta
+  )
+}
+
+# A fixed lattice of N quasi-random points in d dimensions for the orthant
+# probabilities of up to d + 1 constrained amplitudes (N grows with d to keep
+# them within about half a per cent): the midpoints (i - 0.5) / N in the
+# first dimension (the only one used with two constrained amplitudes), and in
+# the others the Kronecker sequence frac(0.5 + i * alpha), alpha_j = 1 / phi^j
+# with phi the positive root of x^d = x + 1 (low discrepancy in any
+# dimension).
+orthant_lattice <- function(d, N = min(256L * 2L^d, 8192L)) {
+  i <- seq_len(N)
+  v <- matrix((i - 0.5) / N, N, max(d, 1L))
+  if (d > 1L) {
+    phi <- stats::uniroot(function(x) x^d - x - 1, c(1, 2), tol = 1e-12)$root
+    v[, -1] <- (0.5 + outer(i, 1 / phi^seq_len(d - 1L))) %% 1
+  }
+  list(v = v)
+}
+
+# log P(T >= lower) for T multivariate t with `df` degrees of freedom (Inf:
+# normal) and scale matrix V, by the GHK simulator over the lattice points v:
+# with V = L L', T = L w, and given w_1..w_(k-1), w_k is a t with df + k - 1
+# degrees of freedom scaled by sqrt((df + sum w_j^2) / (df + k - 1)); each
+# coordinate in turn is bounded given the earlier ones, its probability taken
+# exactly and its value drawn from the bounded part. The first coordinate's
+# probability is exact, the estimate a smooth function of lower and V, and a
+# tiny probability keeps its order of magnitude.
+ghk_log_orthant <- function(lower, V, df, v) {
+  d <- length(lower)
+  # each coordinate's own tail beyond its bound: exact in one dimension, and
+  # when they are all negligible the probability is 1 - their sum to within
+  # their pairwise products
+  tails <- stats::pt(lower / sqrt(diag(V)), df = df, lower.tail = TRUE)
+  if (d == 1L) return(stats::pt(-lower / sqrt(V[1, 1]), df = df, log.p = TRUE))
+  if (sum(tails) < 1e-6) return(log1p(-sum(tails)))
+  L <- t(chol(V))
+  N <- nrow(v)
+  W <- matrix(0, N, d)
+  ss <- numeric(N)
+  lw <- numeric(N)
+  for (k in seq_len(d)) {
+    nu <- df + k - 1
+    r <- if (is.finite(df)) sqrt((df + ss) / nu) else 1
+    m <- if (k > 1L) drop(W[, seq_len(k - 1L), drop = FALSE] %*% L[k, seq_len(k - 1L)]) else 0
+    b <- (lower[k] - m) / L[k, k] / r
+    lq <- stats::pt(-b, df = nu, log.p = TRUE)
+    lw <- lw + lq
+    if (k < d) {
+      W[, k] <- -r * stats::qt(log(v[, k]) + lq, df = nu, log.p = TRUE)
+      ss <- ss + W[, k]^2
+    }
+  }
+  top <- max(lw)
+  top + log(mean(exp(lw - top)))
+}
+
+# Probability that a centred normal vector with correlation matrix R lies in
+# the positive orthant: closed form up to three dimensions.
+centred_orthant <- function(R, lattice) {
+  d <- nrow(R)
+  if (d == 1L) return(0.5)
+  if (d == 2L) return(0.25 + asin(R[1, 2]) / (2 * pi))
+  if (d == 3L) return(0.125 + (asin(R[1, 2]) + asin(R[1, 3]) + asin(R[2, 3])) / (4 * pi))
+  exp(ghk_log_orthant(numeric(d), R, Inf, lattice$v))
+}
+
+# log P(a >= 0 | data) - log P(a >= 0) for the constrained amplitudes of one
+# subset: posterior a = mu + sqrt(phi_hat) T, T multivariate t with `df`
+# degrees of freedom and scale matrix V (phi integrated out); prior
+# N(0, g phi G^-1), whose orthant probability depends only on the
+# correlations of V.
+log_orthant_ratio <- function(mu, V, phi_hat, df, lattice) {
+  ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v) - log(centred_orthant(stats::cov2cor(V), lattice))
+}
+
+# One draw of mu + t(U) z (U upper triangular) with the coordinates flagged by
+# `positive` non-negative, by rejection in batches; when the orthant is too
+# improbable to hit, the nearest point of it on the flagged coordinates.
+draw_truncated <- function(mu, U, positive) {
+  k <- length(mu)
+  if (!any(positive)) return(mu + drop(t(U) %*% stats::rnorm(k)))
+  for (attempt in 1:20) {
+    a <- sweep(matrix(stats::rnorm(100L * k), 100L, k) %*% U, 2L, mu, `+`)
+    ok <- which(apply(a[, positive, drop = FALSE] >= 0, 1, all))
+    if (length(ok)) return(a[ok[1], ])
+  }
+  out <- mu
+  out[positive] <- pmax(out[positive], 0)
+  out
+}
