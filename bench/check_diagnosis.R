@@ -38,15 +38,16 @@
 # rescale = TRUE widens the emulators' variances by rescale_emulators() from
 # 30 held-out runs (a maximin design over the I/U ranges).
 # signatures_at is where the mechanism signatures given to explain_bias() are
-# simulated: "posterior" (the posterior mean inputs) or "nominal" (every input
+# simulated: "posterior" (the posterior mean inputs), "nominal" (every input
 # at its nominal value) or "unpiled" (the posterior mean, except the inputs
-# whose posterior piles up at a bound, at their nominal values). positive is explain_bias()'s: the mechanisms'
-# amplitudes constrained to be non-negative.
+# whose posterior piles up at a bound, at their nominal values). positive is
+# explain_bias()'s: the mechanisms' amplitudes constrained to be
+# non-negative.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 #                                   [registration_variance=FALSE] [rescale=FALSE]
-#                                   [signatures_at=posterior] [positive=TRUE]
+#                                   [signatures_at=posterior] [positive=FALSE]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -66,7 +67,7 @@ knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicat
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
 signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled")) else "posterior"
-positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
+positive <- if (length(args) >= 16) as.logical(args[16]) else FALSE
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
