@@ -27,7 +27,11 @@ tempering_power <- function(X, y, w, cluster) {
 # The regression of bias draws Y (H x n) on candidates X (n x m) with weights
 # Wt (H x n), subsets of up to max_size candidates, Zellner g = n. With
 # `cluster` (one label per coefficient), the likelihood of each draw is
-# tempered by tempering_power(): n and g become eta * n.
+# tempered by tempering_power(): n and g become eta * n. With `positive` (one
+# logical per candidate), the joint prior of subsets and amplitudes is
+# conditioned on the flagged amplitudes being non-negative: the marginal
+# likelihood of a subset is multiplied by the posterior probability of that
+# orthant, and its amplitudes are drawn from the truncated posterior.
 bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL, positive = NULL) {
   n_all <- ncol(Y)
   m <- ncol(X)
@@ -75,8 +79,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
         shrink <- g / (1 + g)
         Ginv <- chol2inv(ch)
         logml[h, j + 1L] <- logml[h, j + 1L] +
-          log_orthant_ratio(shrink * coef[pS], Ginv[pS, pS, drop = FALSE] * shrink / eta[h],
-                            yy * (1 - shrink * r2) / n_all, n, lattice)
+          log_orthant_posterior(shrink * coef[pS], Ginv[pS, pS, drop = FALSE] * shrink / eta[h],
+                                yy * (1 - shrink * r2) / n_all, n, lattice)
       }
     }
   }
@@ -182,23 +186,11 @@ ghk_log_orthant <- function(lower, V, df, v) {
   top + log(mean(exp(lw - top)))
 }
 
-# Probability that a centred normal vector with correlation matrix R lies in
-# the positive orthant: closed form up to three dimensions.
-centred_orthant <- function(R, lattice) {
-  d <- nrow(R)
-  if (d == 1L) return(0.5)
-  if (d == 2L) return(0.25 + asin(R[1, 2]) / (2 * pi))
-  if (d == 3L) return(0.125 + (asin(R[1, 2]) + asin(R[1, 3]) + asin(R[2, 3])) / (4 * pi))
-  exp(ghk_log_orthant(numeric(d), R, Inf, lattice$v))
-}
-
-# log P(a >= 0 | data) - log P(a >= 0) for the constrained amplitudes of one
-# subset: posterior a = mu + sqrt(phi_hat) T, T multivariate t with `df`
-# degrees of freedom and scale matrix V (phi integrated out); prior
-# N(0, g phi G^-1), whose orthant probability depends only on the
-# correlations of V.
-log_orthant_ratio <- function(mu, V, phi_hat, df, lattice) {
-  ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v) - log(centred_orthant(stats::cov2cor(V), lattice))
+# log P(a >= 0 | data) for the constrained amplitudes of one subset: a =
+# mu + sqrt(phi_hat) T, T multivariate t with `df` degrees of freedom and
+# scale matrix V (phi integrated out).
+log_orthant_posterior <- function(mu, V, phi_hat, df, lattice) {
+  ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v)
 }
 
 # One draw of mu + t(U) z (U upper triangular) with the coordinates flagged by

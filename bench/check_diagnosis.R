@@ -47,7 +47,7 @@
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 #                                   [registration_variance=FALSE] [rescale=FALSE]
-#                                   [signatures_at=posterior] [positive=FALSE]
+#                                   [signatures_at=posterior] [positive=TRUE]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -67,7 +67,7 @@ knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicat
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
 signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled")) else "posterior"
-positive <- if (length(args) >= 16) as.logical(args[16]) else FALSE
+positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {

@@ -147,8 +147,9 @@ test_that("with a non-negative amplitude the Bayes factor is the g-prior's integ
     bf_free <- stats::integrate(function(a) exp(lj(a)), -Inf, Inf, rel.tol = 1e-8)$value
     r2 <- sum(x * y)^2 / G / yy
     expect_equal(bf_free, exp(-0.5 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)), tolerance = 1e-6)
-    # the prior truncated to a >= 0 has twice the density there
-    bf_pos <- 2 * stats::integrate(function(a) exp(lj(a)), 0, Inf, rel.tol = 1e-8)$value
+    # the joint prior of subset and amplitude conditioned on a >= 0: the
+    # subset's marginal likelihood is the integral over the half line
+    bf_pos <- stats::integrate(function(a) exp(lj(a)), 0, Inf, rel.tol = 1e-8)$value
     res <- withr::with_seed(1, bias_regression(matrix(y, 1), X, matrix(1, 1, n), max_size = 1, positive = TRUE))
     p <- res$table$inclusion_prob
     expect_equal(p / (1 - p), bf_pos, tolerance = 0.01)
@@ -156,14 +157,21 @@ test_that("with a non-negative amplitude the Bayes factor is the g-prior's integ
   }
 })
 
-test_that("the orthant probabilities agree with simulation", {
+test_that("the orthant probabilities agree with simulation and the Student t", {
   withr::local_seed(16)
   lat <- orthant_lattice(3)
+  # a centred normal: closed form in two and three dimensions, simulation in four
   for (R in list(matrix(c(1, 0.6, 0.6, 1), 2),
                  matrix(c(1, -0.3, 0.5, -0.3, 1, 0.2, 0.5, 0.2, 1), 3),
                  stats::cov2cor(crossprod(matrix(stats::rnorm(24), 6, 4))))) {
-    z <- matrix(stats::rnorm(4e5 * nrow(R)), ncol = nrow(R)) %*% chol(R)
-    expect_equal(centred_orthant(R, lat), mean(rowSums(z > 0) == nrow(R)), tolerance = 0.01)
+    d <- nrow(R)
+    exact <- if (d == 2) 0.25 + asin(R[1, 2]) / (2 * pi) else if (d == 3) {
+      0.125 + (asin(R[1, 2]) + asin(R[1, 3]) + asin(R[2, 3])) / (4 * pi)
+    } else {
+      z <- matrix(stats::rnorm(4e5 * d), ncol = d) %*% chol(R)
+      mean(rowSums(z > 0) == d)
+    }
+    expect_equal(exp(ghk_log_orthant(numeric(d), R, Inf, lat$v)), exact, tolerance = 0.01)
   }
   # posterior: mu + sqrt(phi) L z with phi = phi_hat n / chi^2_n
   n <- 12
@@ -172,12 +180,11 @@ test_that("the orthant probabilities agree with simulation", {
   phi_hat <- 1.5
   N <- 4e5
   a <- sweep(matrix(stats::rnorm(2 * N), N, 2) %*% chol(V) * sqrt(phi_hat * n / stats::rchisq(N, n)), 2, mu, `+`)
-  p_sim <- mean(a[, 1] >= 0 & a[, 2] >= 0)
-  p_prior <- 0.25 + asin(stats::cov2cor(V)[1, 2]) / (2 * pi)
-  expect_equal(exp(log_orthant_ratio(mu, V, phi_hat, n, lat)), p_sim / p_prior, tolerance = 0.01)
+  expect_equal(exp(log_orthant_posterior(mu, V, phi_hat, n, lat)), mean(a[, 1] >= 0 & a[, 2] >= 0),
+               tolerance = 0.01)
   # one dimension: the Student t, also far in its tail
   for (mu1 in c(-0.2, 0.5, -8)) {
-    expect_equal(exp(log_orthant_ratio(mu1, matrix(0.3), phi_hat, n, lat)) / 2,
+    expect_equal(exp(log_orthant_posterior(mu1, matrix(0.3), phi_hat, n, lat)),
                  stats::pt(mu1 / sqrt(0.3 * phi_hat), df = n), tolerance = 1e-3)
   }
   # a tiny probability keeps its order of magnitude in several dimensions:
@@ -188,8 +195,7 @@ test_that("the orthant probabilities agree with simulation", {
       stats::dnorm(z1) * stats::pnorm((0.5 / s + V[2, 1] / sqrt(V[1, 1]) * z1) / sqrt(V[2, 2] - V[2, 1]^2 / V[1, 1]))
     }, 8 / s / sqrt(V[1, 1]), Inf)$value
   }, numeric(1)) * stats::dchisq(q, n), 0, Inf, rel.tol = 1e-10)$value
-  tiny <- exp(log_orthant_ratio(c(-8, 0.5), V, phi_hat, n, lat)) * p_prior
-  expect_equal(tiny, exact, tolerance = 0.01)
+  expect_equal(exp(log_orthant_posterior(c(-8, 0.5), V, phi_hat, n, lat)), exact, tolerance = 0.01)
 })
 
 test_that("truncated amplitude draws keep the sign and the mean of the truncated normal", {

@@ -126,16 +126,18 @@ test_that("explain_bias ranks the true mechanism first and the decoys low", {
   expect_s3_class(autoplot(ex), "ggplot")
 })
 
-test_that("explain_bias told that amplitudes are non-negative gives no credit for the opposite of a signature", {
+test_that("explain_bias gives a mechanism no credit for the opposite of its signature unless told its sign is free", {
   d <- diag_setup()
   cand <- list(flipped = -d$candidates$bump, late_bump = d$candidates$late_bump)
-  pos <- explain_bias(d$fit, cand, positive = TRUE, seed = 1)
-  free <- explain_bias(d$fit, cand, seed = 1)
+  pos <- explain_bias(d$fit, cand, seed = 1)
+  free <- explain_bias(d$fit, cand, positive = FALSE, seed = 1)
   expect_lt(pos$inclusion_prob[pos$candidate == "flipped"], 0.1)
   expect_gt(free$inclusion_prob[free$candidate == "flipped"], 0.9)
   expect_lt(free$amplitude[free$candidate == "flipped"], 0)
   expect_identical(attr(pos, "positive"), c("flipped", "late_bump"))
   expect_identical(attr(free, "positive"), character())
+  expect_output(print(pos), "constrained to be non-negative: flipped, late_bump", fixed = TRUE)
+  expect_false(any(grepl("non-negative", utils::capture.output(print(free)))))
   both <- explain_bias(d$fit, cand, positive = c(FALSE, TRUE), seed = 1)
   expect_equal(both$inclusion_prob[both$candidate == "flipped"],
                free$inclusion_prob[free$candidate == "flipped"], tolerance = 0.05)

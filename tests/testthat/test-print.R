@@ -25,7 +25,8 @@ test_that("print and summary of every class are stable", {
   fit <- suppressWarnings(calibrate(em, reg, pp$iu, n_draws = 60, n_inner = 5, chains = 1, seed = 1, quiet = TRUE))
   pr <- predict(fit, type = "field_run", seed = 1)
   wf <- where_fails(fit)
-  ex <- explain_bias(fit, list(bump = exp(-((pp$t - 4) / 0.25)^2), wave = cos(pp$t)), seed = 1)
+  ex <- explain_bias(fit, list(bump = exp(-((pp$t - 4) / 0.25)^2), wave = cos(pp$t)), positive = c(TRUE, FALSE),
+                     seed = 1)
   cmp <- compare_validations(fit, fit)
   objects <- list(iu = pp$iu, runs = pp$runs, field = reg, warps = reg$warps, basis = basis,
                   reconstruction = rc, error_processes = ep, emulators = em, fit = fit,
