@@ -37,7 +37,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   m <- ncol(X)
   H <- nrow(Y)
   positive <- if (is.null(positive)) rep(FALSE, m) else positive
-  lattice <- if (any(positive)) orthant_lattice(max(1L, min(max_size, sum(positive)) - 1L))
+  # one lattice for each number (from 2) of constrained amplitudes in a subset
+  lattice <- lapply(seq_len(min(max_size, sum(positive))), function(d) if (d > 1L) orthant_lattice(d - 1L))
   subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
     utils::combn(m, k, simplify = FALSE)
   }), recursive = FALSE)
@@ -66,6 +67,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
       if (positive[k]) a <- max(a, 0)
       share[h, k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
     }
+    shrink <- g / (1 + g)
+    orthant <- vector("list", length(subsets))
     for (j in seq_along(subsets)) {
       S <- subsets[[j]]
       GS <- G[S, S, drop = FALSE]
@@ -76,13 +79,11 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
       logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)
       pS <- which(positive[S])
       if (length(pS)) {
-        shrink <- g / (1 + g)
-        Ginv <- chol2inv(ch)
-        logml[h, j + 1L] <- logml[h, j + 1L] +
-          log_orthant_posterior(shrink * coef[pS], Ginv[pS, pS, drop = FALSE] * shrink / eta[h],
-                                yy * (1 - shrink * r2) / n_all, n, lattice)
+        orthant[[j]] <- list(mu = shrink * coef[pS], V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta[h],
+                             phi = yy * (1 - shrink * r2) / n_all)
       }
     }
+    logml[h, -1L] <- orthant_adjusted(logml[h, -1L], log_prior[-1L], log_prior[1L], orthant, n, lattice)
   }
   lp <- sweep(logml, 2, log_prior, `+`)
   lp <- lp - apply(lp, 1, max)
@@ -133,13 +134,13 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
 }
 
 # A fixed lattice of N quasi-random points in d dimensions for the orthant
-# probabilities of up to d + 1 constrained amplitudes (N grows with d to keep
-# them within about half a per cent): the midpoints (i - 0.5) / N in the
+# probabilities of d + 1 constrained amplitudes (N grows with d to keep them
+# within about half a per cent): the midpoints (i - 0.5) / N in the
 # first dimension (the only one used with two constrained amplitudes), and in
 # the others the Kronecker sequence frac(0.5 + i * alpha), alpha_j = 1 / phi^j
 # with phi the positive root of x^d = x + 1 (low discrepancy in any
 # dimension).
-orthant_lattice <- function(d, N = min(256L * 2L^d, 8192L)) {
+orthant_lattice <- function(d, N = min(128L * 4L^(d - 1L), 8192L)) {
   i <- seq_len(N)
   v <- matrix((i - 0.5) / N, N, max(d, 1L))
   if (d > 1L) {
@@ -173,8 +174,9 @@ ghk_log_orthant <- function(lower, V, df, v) {
   for (k in seq_len(d)) {
     nu <- df + k - 1
     r <- if (is.finite(df)) sqrt((df + ss) / nu) else 1
+    # the first bound is the same at every point
     m <- if (k > 1L) drop(W[, seq_len(k - 1L), drop = FALSE] %*% L[k, seq_len(k - 1L)]) else 0
-    b <- (lower[k] - m) / L[k, k] / r
+    b <- if (k > 1L) (lower[k] - m) / L[k, k] / r else lower[1L] / L[1L, 1L]
     lq <- stats::pt(-b, df = nu, log.p = TRUE)
     lw <- lw + lq
     if (k < d) {
@@ -186,10 +188,35 @@ ghk_log_orthant <- function(lower, V, df, v) {
   top + log(mean(exp(lw - top)))
 }
 
+# The log marginal likelihoods `lml` of the subsets (log prior `lprior`; the
+# empty subset's log prior `lprior0`, its log marginal likelihood 0) with the
+# posterior orthant probability added where `orthant` gives one. The factor
+# is at most 1, so the subsets are visited from the most probable down and
+# those already 40 log units below the best so far are given -Inf (a share
+# below 4e-18 of the posterior) without computing it.
+orthant_adjusted <- function(lml, lprior, lprior0, orthant, df, lattice) {
+  todo <- which(!vapply(orthant, is.null, logical(1)) & is.finite(lml))
+  if (!length(todo)) return(lml)
+  lp <- lml + lprior
+  best <- max(c(lprior0, lp[setdiff(which(is.finite(lml)), todo)]))
+  for (j in todo[order(-lp[todo])]) {
+    if (lp[j] < best - 40) {
+      lml[j] <- -Inf
+      next
+    }
+    o <- orthant[[j]]
+    lml[j] <- lml[j] + log_orthant_posterior(o$mu, o$V, o$phi, df, lattice)
+    best <- max(best, lml[j] + lprior[j])
+  }
+  lml
+}
+
 # log P(a >= 0 | data) for the constrained amplitudes of one subset: a =
 # mu + sqrt(phi_hat) T, T multivariate t with `df` degrees of freedom and
-# scale matrix V (phi integrated out).
+# scale matrix V (phi integrated out). `lattice`: one lattice, or a list of
+# them by the number of amplitudes.
 log_orthant_posterior <- function(mu, V, phi_hat, df, lattice) {
+  if (is.null(lattice$v)) lattice <- lattice[[length(mu)]]
   ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v)
 }
 

@@ -180,7 +180,10 @@ test_that("the orthant probabilities agree with simulation and the Student t", {
   phi_hat <- 1.5
   N <- 4e5
   a <- sweep(matrix(stats::rnorm(2 * N), N, 2) %*% chol(V) * sqrt(phi_hat * n / stats::rchisq(N, n)), 2, mu, `+`)
-  expect_equal(exp(log_orthant_posterior(mu, V, phi_hat, n, lat)), mean(a[, 1] >= 0 & a[, 2] >= 0),
+  p_sim <- mean(a[, 1] >= 0 & a[, 2] >= 0)
+  expect_equal(exp(log_orthant_posterior(mu, V, phi_hat, n, lat)), p_sim, tolerance = 0.01)
+  # the lattice bias_regression() uses for two amplitudes
+  expect_equal(exp(log_orthant_posterior(mu, V, phi_hat, n, list(NULL, orthant_lattice(1)))), p_sim,
                tolerance = 0.01)
   # one dimension: the Student t, also far in its tail
   for (mu1 in c(-0.2, 0.5, -8)) {
@@ -222,4 +225,29 @@ test_that("a non-negative amplitude gives no credit for the opposite of the bias
   expect_equal(right$candidate[1], "true")
   expect_gt(right$inclusion_prob[1], 0.9)
   expect_true(all(right$amplitude_lower >= 0))
+})
+
+test_that("skipping subsets far below the best leaves the posterior unchanged", {
+  withr::local_seed(19)
+  lat <- orthant_lattice(2)
+  k <- 40
+  lml <- c(stats::runif(k, -5, 5), stats::runif(k, -200, -60), -Inf)
+  lprior <- rep(log(1 / (2 * length(lml))), length(lml))
+  orthant <- lapply(seq_along(lml), function(j) {
+    if (j %% 3 == 0) return(NULL)
+    d <- 1 + j %% 2
+    list(mu = stats::rnorm(d), V = diag(d) * 0.5 + 0.1, phi = 1)
+  })
+  fast <- orthant_adjusted(lml, lprior, log(0.5), orthant, 20, lat)
+  full <- lml
+  for (j in which(!vapply(orthant, is.null, logical(1)) & is.finite(lml))) {
+    full[j] <- full[j] + log_orthant_posterior(orthant[[j]]$mu, orthant[[j]]$V, 1, 20, lat)
+  }
+  expect_true(any(is.infinite(fast[is.finite(lml)])))
+  post <- function(l) {
+    p <- exp(c(log(0.5), l + lprior) - max(c(log(0.5), l + lprior)))
+    p / sum(p)
+  }
+  expect_equal(post(fast), post(full), tolerance = 1e-12)
+  expect_equal(fast[1:k], full[1:k])
 })
