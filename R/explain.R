@@ -77,7 +77,7 @@
 #' On the suspension test bed (five seeds, each mechanism and nothing hidden:
 #' 25 cases, the settings of the package's tests) the constraint removed the
 #' false claim of a decoy whose amplitude was negative (tire lift-off at 0.55
-#' with a hidden digressive damper fell to 0.02) and made none. The hidden
+#' with a hidden digressive damper fell to 0.001) and made none. The hidden
 #' mechanism was ranked first among the mechanisms in 19 of the 20 cases
 #' (18 without the constraint) and reached 0.9 in 15 (as without).
 #'
