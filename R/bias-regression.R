@@ -38,6 +38,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   H <- nrow(Y)
   positive <- if (is.null(positive)) rep(FALSE, m) else positive
   # one lattice for each number (from 2) of constrained amplitudes in a subset
+  # (none is needed for one)
   lattice <- lapply(seq_len(min(max_size, sum(positive))), function(d) if (d > 1L) orthant_lattice(d - 1L))
   subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
     utils::combn(m, k, simplify = FALSE)
@@ -76,7 +77,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
       if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
       coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
       r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
-      logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-g / (1 + g) * r2)
+      logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
       pS <- which(positive[S])
       if (length(pS)) {
         orthant[[j]] <- list(mu = shrink * coef[pS], V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta[h],
@@ -160,11 +161,10 @@ orthant_lattice <- function(d, N = min(128L * 4L^(d - 1L), 8192L)) {
 # tiny probability keeps its order of magnitude.
 ghk_log_orthant <- function(lower, V, df, v) {
   d <- length(lower)
-  # each coordinate's own tail beyond its bound: exact in one dimension, and
-  # when they are all negligible the probability is 1 - their sum to within
-  # their pairwise products
-  tails <- stats::pt(lower / sqrt(diag(V)), df = df, lower.tail = TRUE)
   if (d == 1L) return(stats::pt(-lower / sqrt(V[1, 1]), df = df, log.p = TRUE))
+  # each coordinate's own tail beyond its bound: when they are all negligible
+  # the probability is 1 - their sum to within their pairwise products
+  tails <- stats::pt(lower / sqrt(diag(V)), df = df)
   if (sum(tails) < 1e-6) return(log1p(-sum(tails)))
   L <- t(chol(V))
   N <- nrow(v)
@@ -175,8 +175,9 @@ ghk_log_orthant <- function(lower, V, df, v) {
     nu <- df + k - 1
     r <- if (is.finite(df)) sqrt((df + ss) / nu) else 1
     # the first bound is the same at every point
-    m <- if (k > 1L) drop(W[, seq_len(k - 1L), drop = FALSE] %*% L[k, seq_len(k - 1L)]) else 0
-    b <- if (k > 1L) (lower[k] - m) / L[k, k] / r else lower[1L] / L[1L, 1L]
+    b <- if (k == 1L) lower[1L] / L[1L, 1L] else {
+      (lower[k] - drop(W[, seq_len(k - 1L), drop = FALSE] %*% L[k, seq_len(k - 1L)])) / L[k, k] / r
+    }
     lq <- stats::pt(-b, df = nu, log.p = TRUE)
     lw <- lw + lq
     if (k < d) {
@@ -190,7 +191,8 @@ ghk_log_orthant <- function(lower, V, df, v) {
 
 # The log marginal likelihoods `lml` of the subsets (log prior `lprior`; the
 # empty subset's log prior `lprior0`, its log marginal likelihood 0) with the
-# posterior orthant probability added where `orthant` gives one. The factor
+# posterior orthant probability added where `orthant` gives one (`lattice`:
+# the lattices by number of amplitudes, as in bias_regression()). The factor
 # is at most 1, so the subsets are visited from the most probable down and
 # those already 40 log units below the best so far are given -Inf (a share
 # below 4e-18 of the posterior) without computing it.
@@ -205,7 +207,7 @@ orthant_adjusted <- function(lml, lprior, lprior0, orthant, df, lattice) {
       next
     }
     o <- orthant[[j]]
-    lml[j] <- lml[j] + log_orthant_posterior(o$mu, o$V, o$phi, df, lattice)
+    lml[j] <- lml[j] + log_orthant_posterior(o$mu, o$V, o$phi, df, lattice[[length(o$mu)]])
     best <- max(best, lml[j] + lprior[j])
   }
   lml
@@ -213,10 +215,8 @@ orthant_adjusted <- function(lml, lprior, lprior0, orthant, df, lattice) {
 
 # log P(a >= 0 | data) for the constrained amplitudes of one subset: a =
 # mu + sqrt(phi_hat) T, T multivariate t with `df` degrees of freedom and
-# scale matrix V (phi integrated out). `lattice`: one lattice, or a list of
-# them by the number of amplitudes.
+# scale matrix V (phi integrated out); `lattice` is unused for one amplitude.
 log_orthant_posterior <- function(mu, V, phi_hat, df, lattice) {
-  if (is.null(lattice$v)) lattice <- lattice[[length(mu)]]
   ghk_log_orthant(-mu / sqrt(phi_hat), V, df, lattice$v)
 }
 
