@@ -32,21 +32,30 @@ tempering_power <- function(X, y, w, cluster) {
 # conditioned on the flagged amplitudes being non-negative: the marginal
 # likelihood of a subset is multiplied by the posterior probability of that
 # orthant, and its amplitudes are drawn from the truncated posterior.
-bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL, positive = NULL) {
+bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL, positive = NULL,
+                            group = NULL) {
   n_all <- ncol(Y)
   m <- ncol(X)
   H <- nrow(Y)
   positive <- if (is.null(positive)) rep(FALSE, m) else positive
+  group <- if (is.null(group)) colnames(X) else group
+  n_group <- length(unique(group))
   # one lattice for each number (from 2) of constrained amplitudes in a subset
   # (none is needed for one)
   lattice <- lapply(seq_len(min(max_size, sum(positive))), function(d) if (d > 1L) orthant_lattice(d - 1L))
-  subsets <- unlist(lapply(seq_len(min(max_size, m)), function(k) {
+  subsets <- unlist(lapply(seq_len(min(max_size, n_group)), function(k) {
     utils::combn(m, k, simplify = FALSE)
   }), recursive = FALSE)
+  # versions of one effect never enter a subset together
+  subsets <- subsets[!vapply(subsets, function(S) anyDuplicated(group[S]) > 0L, logical(1))]
   sizes <- vapply(subsets, length, 1L)
-  # prior: equal mass on each size 0..max_size, shared equally within a size
-  n_size <- c(1, table(factor(sizes, levels = seq_len(min(max_size, m)))))
-  log_prior <- c(0, -log(n_size[sizes + 1L])) - log(length(n_size))
+  # prior: equal mass on each size 0..max_size, shared equally among the
+  # subsets of effects within a size, and an effect's share equally among its
+  # versions
+  log_w <- -log(as.vector(table(group)[group]))
+  log_w <- vapply(subsets, function(S) sum(log_w[S]), numeric(1))
+  size_mass <- vapply(seq_len(min(max_size, n_group)), function(k) log(sum(exp(log_w[sizes == k]))), numeric(1))
+  log_prior <- c(0, log_w - size_mass[sizes]) - log(length(size_mass) + 1)
   n_sub <- length(subsets) + 1L
   logml <- matrix(-Inf, H, n_sub)
   logml[, 1] <- 0
@@ -114,13 +123,26 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     a
   }, numeric(m)))
   if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
+  share <- colMeans(share)
+  versions <- data.frame(candidate = colnames(X), effect = group, inclusion_prob = incl,
+                         amplitude = colMeans(amp_draws), share_explained = share, stringsAsFactors = FALSE)
+  # one row per effect: its versions are disjoint events, and a draw's
+  # amplitude is that of the version it includes; the share explained is that
+  # of the most probable version
+  eff <- unique(group)
+  amp_draws <- vapply(eff, function(e) rowSums(amp_draws[, group == e, drop = FALSE]), numeric(H))
+  if (H == 1L) amp_draws <- matrix(amp_draws, nrow = 1L)
+  lead <- vapply(eff, function(e) {
+    k <- which(group == e)
+    k[which.max(incl[k] + 1e-9 * share[k])]
+  }, 1L)
   table <- data.frame(
-    candidate = colnames(X),
-    inclusion_prob = incl,
+    candidate = eff,
+    inclusion_prob = vapply(eff, function(e) min(1, sum(incl[group == e])), numeric(1)),
     amplitude = colMeans(amp_draws),
     amplitude_lower = apply(amp_draws, 2, stats::quantile, probs = alpha, names = FALSE),
     amplitude_upper = apply(amp_draws, 2, stats::quantile, probs = 1 - alpha, names = FALSE),
-    share_explained = colMeans(share),
+    share_explained = share[lead],
     stringsAsFactors = FALSE
   )
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
@@ -130,7 +152,9 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   list(
     table = table,
     subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
-    eta = eta
+    eta = eta,
+    lead = stats::setNames(colnames(X)[lead], eff),
+    versions = if (n_group < m) versions[order(-versions$inclusion_prob), , drop = FALSE]
   )
 }
 

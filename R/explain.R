@@ -96,6 +96,25 @@
 #' seeds (three) and the lift-off at three (four). With nothing hidden no
 #' candidate reached 0.5 either way.
 #'
+#' Rather than choose, give both: `effect` names, for each candidate, the
+#' effect it is a version of, so that a mechanism's signature simulated at the
+#' posterior mean inputs and at the nominal inputs are two versions of one
+#' effect. The versions of an effect share its prior mass equally and never
+#' enter one subset together, so the effect is weighed once, as a mixture of
+#' its versions: its inclusion probability is the sum of theirs, its amplitude
+#' draws those of the version each draw includes. The result has one row per
+#' effect; the attribute `versions` gives each version's inclusion
+#' probability. A version identical to another adds nothing: the effect keeps
+#' the inclusion probability it had with one. On the 25 test-bed cases, both
+#' versions of each of the four mechanisms ranked the hidden one first with
+#' at least 0.9 in 16 of the 20 cases (15 at the posterior mean alone, 14 at
+#' the nominal inputs alone): the damper at four seeds of five (three, four),
+#' the bump stop at three (three, two), the lift-off at four (four, three), the
+#' friction at five. With nothing hidden no candidate reached 0.5 (largest
+#' 0.48); with a mechanism hidden another mechanism did in one case (the bump
+#' stop at 0.76 with the damper hidden, where it reached 0.93 at the posterior
+#' mean and 0.65 at the nominal inputs).
+#'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()].
 #' @param candidates A named list of candidate curves on the fit's grid: each a
 #'   numeric vector (used at every site) or a named list by site of vectors.
@@ -111,6 +130,10 @@
 #' @param segments Number of equal time segments of the record whose
 #'   coefficients count as one cluster when the evidence is tempered (see
 #'   Details); `NULL` for no tempering.
+#' @param effect `NULL` (each candidate is its own effect) or one name per
+#'   candidate: candidates with the same name are versions of one effect, such
+#'   as its signature simulated at different inputs (see Details). The table
+#'   then has one row per effect, named by `effect`.
 #' @param ... Unused.
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
@@ -119,8 +142,11 @@
 #'   of the residual energy that the candidate alone explains). Attributes
 #'   `subsets` (top subsets with their probabilities), `eta` (the tempering
 #'   power of each draw used), `curves` (bias and scaled candidates by
-#'   site, for plotting) and `boundary` (the inputs whose posterior piles up at
-#'   a bound of their range, see [calibrate()]).
+#'   site, for plotting; an effect is drawn with its most probable version),
+#'   `boundary` (the inputs whose posterior piles up at a bound of their range,
+#'   see [calibrate()]) and, with `effect`, `versions` (each candidate's
+#'   inclusion probability, amplitude and share explained, with the effect it
+#'   is a version of).
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -134,7 +160,7 @@
 #' ex_b
 #' autoplot(ex_b)
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
-                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, ...) {
+                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, ...) {
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
@@ -142,11 +168,13 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   check_level(level)
   cand <- candidate_coefficients(fit, candidates)
   pos <- candidate_signs(positive, ncol(cand))
+  group <- candidate_effects(effect, colnames(cand))
   draws <- as.matrix(fit$draws)
   if (isTRUE(shifts)) {
     sh <- shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE]))
     cand <- cbind(cand, sh)
     pos <- c(pos, rep(FALSE, ncol(sh)))
+    group <- c(group, colnames(sh))
   }
   if (ncol(cand) == 0L) {
     wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
@@ -160,11 +188,12 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   seed <- resolve_seed(seed)
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level,
-                                             cluster = cluster, positive = pos))
+                                             cluster = cluster, positive = pos, group = group))
   out <- res$table
   attr(out, "subsets") <- res$subsets
+  attr(out, "versions") <- res$versions
   attr(out, "eta") <- res$eta
-  attr(out, "curves") <- explain_curves(fit, cand, out)
+  attr(out, "curves") <- explain_curves(fit, stats::setNames(as.data.frame(cand)[res$lead], names(res$lead)), out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
@@ -179,6 +208,21 @@ candidate_signs <- function(positive, m, call = rlang::caller_env()) {
              call = call)
   }
   rep_len(positive, m)
+}
+
+# The effect each of the user's candidates is a version of, from `effect`
+# (NULL: each candidate its own effect).
+candidate_effects <- function(effect, nm, call = rlang::caller_env()) {
+  if (is.null(effect)) return(nm)
+  if (!is.character(effect) || length(effect) != length(nm) || anyNA(effect) || any(!nzchar(effect))) {
+    wv_abort(c("{.arg effect} must name, for each candidate, the effect it is a version of.",
+               "x" = "It has length {length(effect)}; the number of candidates is {length(nm)}."),
+             call = call)
+  }
+  if (any(startsWith(effect, "shift:"))) {
+    wv_abort("Effect names starting with {.val shift:} are reserved for the parameter shifts.", call = call)
+  }
+  effect
 }
 
 # Coefficients (all sites stacked, in the order of fit$wb) of user candidates.
@@ -328,6 +372,15 @@ print.wv_explain <- function(x, ...) {
   if (!is.null(sub)) {
     cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
   }
+  ver <- attr(x, "versions")
+  if (!is.null(ver)) {
+    multi <- ver$effect %in% ver$effect[duplicated(ver$effect)]
+    top <- ver[multi & !duplicated(ver$effect) & ver$inclusion_prob >= 0.005, , drop = FALSE]
+    if (nrow(top)) {
+      cli::cat_line("Most probable version of each effect: ",
+                    paste(sprintf("%s (%.2f)", top$candidate, top$inclusion_prob), collapse = ", "))
+    }
+  }
   pos <- attr(x, "positive")
   if (length(pos)) {
     cli::cat_line("Amplitudes constrained to be non-negative: ", paste(pos, collapse = ", "))
@@ -336,7 +389,7 @@ print.wv_explain <- function(x, ...) {
   if (length(bd)) {
     cli::cat_line("! The posterior of ", paste(bd, collapse = ", "), " piles up at a bound of its range: ",
                   "candidates simulated at the posterior mean inputs may differ from the effect at the true ",
-                  "inputs; compare with candidates simulated at other inputs.")
+                  "inputs; give versions simulated at other inputs too (argument `effect`).")
   }
   eta <- attr(x, "eta")
   if (!is.null(eta) && stats::median(eta) < 1) {

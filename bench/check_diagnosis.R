@@ -40,14 +40,16 @@
 # signatures_at is where the mechanism signatures given to explain_bias() are
 # simulated: "posterior" (the posterior mean inputs), "nominal" (every input
 # at its nominal value) or "unpiled" (the posterior mean, except the inputs
-# whose posterior piles up at a bound, at their nominal values). positive is
+# whose posterior piles up at a bound, at their nominal values) or "both" (the
+# posterior mean and the nominal inputs, given as two versions of each
+# mechanism through explain_bias()'s effect argument). positive is
 # explain_bias()'s: the mechanisms' amplitudes constrained to be
 # non-negative.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 #                                   [registration_variance=FALSE] [rescale=FALSE]
-#                                   [signatures_at=posterior] [positive=TRUE]
+#                                   [signatures_at=posterior|nominal|unpiled|both] [positive=TRUE]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -66,7 +68,7 @@ segments <- if (length(args) >= 11 && args[11] == "NULL") NULL else if (length(a
 knots_to <- if (length(args) >= 12) match.arg(args[12], c("reference", "replicates")) else "reference"
 reg_var <- if (length(args) >= 13) as.logical(args[13]) else FALSE
 rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
-signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled")) else "posterior"
+signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled", "both")) else "posterior"
 positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
 options(wavevalid.quiet = TRUE)
 
@@ -106,8 +108,16 @@ one <- function(hidden, seed) {
     piled <- intersect(fit$flags$boundary$input, fit$inputs)
     z_sig[piled] <- nominal[piled]
   }
-  ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments,
-                    positive = positive)
+  if (signatures_at == "both") {
+    sp <- testbed_signatures(z_hat)
+    sn <- testbed_signatures(nominal)
+    cand <- c(stats::setNames(sp, paste0(names(sp), "@calibrated")), stats::setNames(sn, paste0(names(sn), "@nominal")))
+    ex <- explain_bias(fit, cand, effect = rep(names(sp), 2), n_draws = 50, seed = 1, segments = segments,
+                       positive = positive)
+  } else {
+    ex <- explain_bias(fit, testbed_signatures(z_sig), n_draws = 50, seed = 1, segments = segments,
+                       positive = positive)
+  }
   eta <- stats::median(attr(ex, "eta"))
   ex <- as.data.frame(unclass(ex))
   fails <- where_fails(fit, tolerance = tolerance)

@@ -42,6 +42,38 @@ test_that("identical candidates share their inclusion instead of failing", {
   expect_gt(p["true"] + p["twin"], 0.9)
 })
 
+test_that("versions of one effect share its prior and are reported as one effect", {
+  withr::local_seed(15)
+  d <- synthetic_bias()
+  plain <- withr::with_seed(1, bias_regression(d$Y, d$X, d$W, max_size = 2))
+  # each candidate its own effect: the same as no grouping
+  own <- withr::with_seed(1, bias_regression(d$Y, d$X, d$W, max_size = 2, group = colnames(d$X)))
+  expect_equal(own$table, plain$table)
+  expect_null(own$versions)
+  # a twin given as a second version of the true effect changes nothing: the
+  # two versions split the effect's prior mass and have the same likelihood
+  X <- cbind(d$X, twin = d$X[, "true"])
+  grouped <- bias_regression(d$Y, X, d$W, max_size = 2, group = c(colnames(d$X), "true"))
+  p0 <- stats::setNames(plain$table$inclusion_prob, plain$table$candidate)
+  p1 <- stats::setNames(grouped$table$inclusion_prob, grouped$table$candidate)
+  expect_setequal(names(p1), colnames(d$X))
+  expect_equal(p1[names(p0)], p0, tolerance = 1e-10)
+  v <- grouped$versions
+  expect_equal(sum(v$inclusion_prob[v$effect == "true"]), p1[["true"]], tolerance = 1e-12)
+  expect_equal(v$inclusion_prob[v$candidate == "twin"], v$inclusion_prob[v$candidate == "true"], tolerance = 1e-8)
+  # a wrong version next to the right one: the effect keeps its inclusion,
+  # the right version leads, and no subset holds two versions
+  X <- cbind(d$X, wrong = rnorm(nrow(d$X)))
+  grouped <- bias_regression(d$Y, X, d$W, max_size = 2, group = c(colnames(d$X), "true"))
+  tab <- grouped$table
+  expect_equal(tab$candidate[1], "true")
+  expect_gt(tab$inclusion_prob[1], 0.9)
+  expect_equal(tab$amplitude[1], 2, tolerance = 0.05)
+  expect_equal(grouped$lead[["true"]], "true")
+  expect_equal(grouped$versions$candidate[1], "true")
+  expect_false(any(grepl("true.*wrong|wrong.*true", grouped$subsets$subset)))
+})
+
 test_that("the Bayes factor matches the closed form of the g-prior", {
   withr::local_seed(14)
   n <- 50
