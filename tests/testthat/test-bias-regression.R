@@ -159,6 +159,9 @@ test_that("print and summary say how much the evidence was tempered", {
   expect_output(print(summary(out)), paste0("Evidence tempered by eta = ", eta), fixed = TRUE)
   attr(out, "eta") <- rep(1, length(res$eta))
   expect_false(any(grepl("tempered", utils::capture.output(print(out)))))
+  # an eta that rounds to 1.00 is not reported as a discount
+  attr(out, "eta") <- rep(0.996, length(res$eta))
+  expect_false(any(grepl("tempered", utils::capture.output(print(out), print(summary(out))))))
 })
 
 test_that("with a non-negative amplitude the Bayes factor is the g-prior's integrated over the half line", {
