@@ -123,9 +123,9 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     a
   }, numeric(m)))
   if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
-  share <- colMeans(share)
+  share_mean <- colMeans(share)
   versions <- data.frame(candidate = colnames(X), effect = group, inclusion_prob = incl,
-                         amplitude = colMeans(amp_draws), share_explained = share, stringsAsFactors = FALSE)
+                         amplitude = colMeans(amp_draws), share_explained = share_mean, stringsAsFactors = FALSE)
   # one row per effect: its versions are disjoint events, and a draw's
   # amplitude is that of the version it includes; the share explained is that
   # of the most probable version
@@ -134,7 +134,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   if (H == 1L) amp_draws <- matrix(amp_draws, nrow = 1L)
   lead <- vapply(eff, function(e) {
     k <- which(group == e)
-    k[which.max(incl[k] + 1e-9 * share[k])]
+    k[which.max(incl[k] + 1e-9 * share_mean[k])]
   }, 1L)
   table <- data.frame(
     candidate = eff,
@@ -142,7 +142,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     amplitude = colMeans(amp_draws),
     amplitude_lower = apply(amp_draws, 2, stats::quantile, probs = alpha, names = FALSE),
     amplitude_upper = apply(amp_draws, 2, stats::quantile, probs = 1 - alpha, names = FALSE),
-    share_explained = share[lead],
+    share_explained = share_mean[lead],
     stringsAsFactors = FALSE
   )
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]

@@ -203,7 +203,9 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   attr(out, "subsets") <- res$subsets
   attr(out, "versions") <- res$versions
   attr(out, "eta") <- res$eta
-  attr(out, "curves") <- explain_curves(fit, stats::setNames(as.data.frame(cand)[res$lead], names(res$lead)), out)
+  lead <- cand[, res$lead, drop = FALSE]
+  colnames(lead) <- names(res$lead)
+  attr(out, "curves") <- explain_curves(fit, lead, out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
