@@ -95,6 +95,11 @@ print.wv_fit <- function(x, ...) {
                   paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "),
                   " of its variance")
   }
+  il <- x$settings$inform_levels
+  if (length(il)) {
+    cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ", paste(il, collapse = ", "),
+                  " only; the other levels' bias follows the inputs drawn (inform_levels)")
+  }
   if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
   b <- x$flags$boundary
   if (nrow(b)) {

@@ -14,7 +14,10 @@
 # the longest interval where_fails() flags (grid steps); credible, the
 # largest credible bias (kN); heldout, the root mean square studentised error
 # of the emulators at 20 other runs near the truth (sd 0.03 in coded units).
+# inform_levels is calibrate()'s: the wavelet levels that inform the inputs
+# ("NULL": all of them).
 #   Rscript bench/check_inputs.R [seeds=1:5] [field=registered] [n_check=30] [n_draws=150] [n_inner=20]
+#                                [inform_levels=NULL]
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
 seeds <- if (length(args) >= 1) eval(parse(text = paste0("c(", args[1], ")"))) else 1:5
@@ -22,6 +25,7 @@ field_kind <- if (length(args) >= 2) match.arg(args[2], c("registered", "unwarpe
 n_check <- if (length(args) >= 3) as.integer(args[3]) else 30L
 n_draws <- if (length(args) >= 4) as.integer(args[4]) else 150L
 n_inner <- if (length(args) >= 5) as.integer(args[5]) else 20L
+inform_levels <- if (length(args) >= 6) eval(parse(text = args[6])) else NULL
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
 
@@ -46,7 +50,7 @@ one <- function(seed) {
   do.call(rbind, lapply(c("as fitted", "rescaled"), function(setting) {
     e <- if (setting == "rescaled") rescale_emulators(em, check) else em
     fit <- suppressWarnings(calibrate(e, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                      seed = 1, quiet = TRUE))
+                                      seed = 1, inform_levels = inform_levels, quiet = TRUE))
     d <- as.matrix(fit$draws)[, fit$inputs]
     m <- colMeans(d)
     s <- apply(d, 2, stats::sd)
@@ -60,8 +64,8 @@ one <- function(seed) {
   }))
 }
 
-cat(sprintf("inputs on the test bed (nothing hidden): %d seeds, field %s, %d held-out runs for the rescaling, %d x %d draws\n",
-            length(seeds), field_kind, n_check, n_draws, n_inner))
+cat(sprintf("inputs on the test bed (nothing hidden): %d seeds, field %s, %d held-out runs for the rescaling, %d x %d draws, inform_levels = %s\n",
+            length(seeds), field_kind, n_check, n_draws, n_inner, deparse(inform_levels)))
 res <- do.call(rbind, parallel::mclapply(seeds, one, mc.cores = 2, mc.preschedule = FALSE))
 num <- vapply(res, is.double, logical(1))
 res[num] <- lapply(res[num], signif, 3)

@@ -21,7 +21,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
                                int n_draws, int n_inner, double step, double seed, int chain,
                                int debug_break, Rcpp::RObject progress, bool adaptive = false,
                                int burnin = 0, double p_global = 0.1, int n_search = 200,
-                               int threads = 1) {
+                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector()) {
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
@@ -82,6 +82,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   set.p_global = p_global;
   set.n_search = n_search;
   set.threads = threads;
+  if (informs.size() > 0 && informs.size() != n_groups) Rcpp::stop("informs must have one value per group");
+  set.informs.assign(informs.begin(), informs.end());
 
   const bool has_progress = !progress.isNULL();
   Rcpp::Function* fn = nullptr;

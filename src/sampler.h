@@ -30,6 +30,12 @@
 // a diagonal proposal of 2% of each range and from the best (by profile
 // likelihood) of n_search prior draws and the nominal start. The proposal is
 // then frozen: the saved chain is a time-homogeneous Metropolis-Hastings chain.
+//
+// A cut (settings.informs): the coefficients of the tau2 groups marked 0 leave
+// the inputs' target, so the inputs and the other groups' tau2 follow their
+// posterior given the marked groups alone; each cut group's tau2 is updated
+// on its own coefficients given the current inputs, and its bias drawn as in
+// 3. The report's joint tau2 step then accepts the two sets of groups apart.
 #ifndef WAVEVALID_SAMPLER_H
 #define WAVEVALID_SAMPLER_H
 
@@ -69,6 +75,11 @@ class Sampler {
         group_site_[g] = static_cast<int>(s);
         group_count_[g] += 1;
       }
+    }
+    informs_.assign(G_, 1);
+    if (!set_.informs.empty()) {
+      if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
+      for (int g = 0; g < G_; ++g) informs_[g] = set_.informs[g] != 0;
     }
     half_.resize(p_);
     for (int k = 0; k < p_; ++k) half_(k) = set_.step * (priors_[k].upper - priors_[k].lower);
@@ -152,6 +163,7 @@ class Sampler {
   std::vector<Eigen::VectorXd> m_, v_, mp_, vp_, sigma2_, ebar_, base_, resid2_;
   std::vector<GaspBank::Workspace> ws_;
   std::vector<int> group_site_, group_count_;
+  std::vector<char> informs_;  // per tau2 group: do its coefficients enter the inputs' target?
   double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
   double acc_global_ = 0, n_global_ = 0, acc_burn_ = 0, n_burn_ = 0;
   std::vector<std::vector<int>> members_;  // coefficients of each tau2 group (in its site)
@@ -166,7 +178,7 @@ class Sampler {
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
     if (!set_.adaptive) {
-      if (!set_.fix_tau2 && G_ > 0) ll = tau_step(ll);
+      if (!set_.fix_tau2 && G_ > 0) ll = tau_step();
       return input_step(ll);
     }
     if (!set_.fix_tau2 && G_ > 0) ll = tau_steps_by_group();
@@ -263,6 +275,7 @@ class Sampler {
       const SiteData& d = sites_[s];
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
+        if (!informs_[d.group[i]]) continue;
         const double tot = v[s](i) + ebar_[s](i) + tau2(d.group[i]);
         const double r = d.wbar(i) - m[s](i);
         ll -= 0.5 * (std::log(tot) + r * r / tot);
@@ -271,12 +284,15 @@ class Sampler {
     return ll;
   }
 
-  double loglik(const Eigen::VectorXd& tau2) const {
+  // The log likelihood of the coefficients that inform the inputs (all of
+  // them with `all`), at the cached m, V.
+  double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
+        if (!all && !informs_[d.group[i]]) continue;
         const double tot = base_[s](i) + tau2(d.group[i]);
         ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
       }
@@ -284,23 +300,32 @@ class Sampler {
     return ll;
   }
 
-  double tau_step(double ll_cur) {
+  // The report's joint tau2 step. With a cut, the groups that inform the
+  // inputs and those that do not are accepted or rejected each on their own
+  // coefficients, so that the latter never reach the inputs.
+  double tau_step() {
     Eigen::VectorXd prop(G_);
-    double lr = 0.0;
+    double lr[2] = {0.0, 0.0};
+    bool cut = false;
     for (int g = 0; g < G_; ++g) {
       prop(g) = tau2_(g) * std::exp(-0.7 + 1.4 * unif_(rng_));
-      lr += log_prior_tau(g, prop(g)) - log_prior_tau(g, tau2_(g));
-      if (set_.debug_break != 2) lr += std::log(prop(g) / tau2_(g));
+      double& l = lr[informs_[g] ? 0 : 1];
+      l += log_prior_tau(g, prop(g)) - log_prior_tau(g, tau2_(g));
+      if (set_.debug_break != 2) l += std::log(prop(g) / tau2_(g));
+      cut = cut || !informs_[g];
     }
-    const double ll_prop = loglik(prop);
-    lr += ll_prop - ll_cur;
     n_tau_ += 1;
-    if (std::log(unif_(rng_)) < lr) {
-      tau2_ = prop;
-      acc_tau_ += 1;
-      return ll_prop;
+    for (int part = 0; part < (cut ? 2 : 1); ++part) {
+      Eigen::VectorXd next = tau2_;
+      for (int g = 0; g < G_; ++g)
+        if (!cut || (informs_[g] ? 0 : 1) == part) next(g) = prop(g);
+      const double l = lr[part] + loglik(next, true) - loglik(tau2_, true);
+      if (std::log(unif_(rng_)) < l) {
+        tau2_ = next;
+        acc_tau_ += cut ? 0.5 : 1.0;
+      }
     }
-    return ll_cur;
+    return loglik(tau2_);
   }
 
   double group_loglik(int g, double t2) const {
@@ -435,7 +460,8 @@ class Sampler {
   double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
     t2 = set_.fix_tau2 ? tau2_ : moment_tau2(m_, v_);
     double lp = loglik_with(m_, v_, t2) + log_prior_inputs(z);
-    for (int g = 0; g < G_; ++g) lp += log_prior_tau(g, t2(g));
+    for (int g = 0; g < G_; ++g)
+      if (informs_[g]) lp += log_prior_tau(g, t2(g));
     return lp;
   }
 

@@ -86,6 +86,8 @@ struct SamplerSettings {
   double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
   int n_search = 200;               // ADAPTIVE: prior draws scored for the start
   int threads = 1;                  // OpenMP threads of the emulator predictions
+  std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs
+                                    // (a cut: its tau2 and bias follow the inputs); empty: all inform
 };
 
 struct SamplerOutput {

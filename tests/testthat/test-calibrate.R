@@ -144,6 +144,88 @@ test_that("pool_levels refuses what is not two or more levels of the basis", {
   }
 })
 
+# A field on small_problem()'s 8 coefficients (levels 0, 1, 2, 2, 3, 3, 3, 3):
+# the model at u1 = 0.35, x1 = 0.6 plus noise, and `fine` added to the level-3
+# coefficients of every replicate.
+cut_problem <- function(fine = 0) {
+  pb <- small_problem()
+  withr::with_seed(4, {
+    W <- t(replicate(5, pb$f(c(0.35, 0.6)) + stats::rnorm(8, sd = 0.05)))
+  })
+  W[, pb$basis$level == 3] <- W[, pb$basis$level == 3] + fine
+  list(pb = pb, field = field_from_coef(pb$basis, W))
+}
+
+test_that("inform_levels naming every level is the method's posterior, draw for draw", {
+  cp <- cut_problem()
+  for (proposal in c("adaptive", "report")) {
+    all <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 3,
+                     proposal = proposal, quiet = TRUE)
+    same <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 3,
+                      proposal = proposal, inform_levels = 0:3, quiet = TRUE)
+    expect_identical(as.matrix(same$draws), as.matrix(all$draws))
+    expect_identical(same$wb, all$wb)
+  }
+})
+
+test_that("with inform_levels, the levels left out do not move the inputs but keep their own bias", {
+  base <- cut_problem()
+  off <- cut_problem(fine = 2)
+  # the shift sits in the level-3 coefficients of the field mean only
+  d <- wavevalid:::calibration_spec(off$pb$emulators, off$field, off$pb$iu)$wbar$site1 -
+    wavevalid:::calibration_spec(base$pb$emulators, base$field, base$pb$iu)$wbar$site1
+  expect_equal(unname(d), ifelse(base$pb$basis$level == 3, 2, 0), tolerance = 1e-10)
+  for (proposal in c("adaptive", "report")) {
+    run <- function(cp, inform_levels) {
+      calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 200, n_inner = 10, chains = 1, seed = 7,
+                proposal = proposal, inform_levels = inform_levels, quiet = TRUE)
+    }
+    a <- run(base, 0:2)
+    b <- run(off, 0:2)
+    # the coarse coefficients of the shifted field differ from the others by rounding only
+    expect_equal(as.matrix(b$draws)[, b$inputs], as.matrix(a$draws)[, a$inputs], tolerance = 1e-10)
+    expect_identical(b$settings$inform_levels, 0:2)
+    expect_output(print(b), "Inputs informed by wavelet levels 0, 1, 2 only")
+    # the bias of the level-3 coefficients takes up the shift
+    fine <- base$pb$basis$level == 3
+    expect_true(all(abs(colMeans(b$wb$site1)[fine] - colMeans(a$wb$site1)[fine] - 2) < 0.3))
+    # without the cut, the same shift moves the inputs
+    moved <- as.matrix(run(off, NULL)$draws)[, a$inputs] - as.matrix(run(base, NULL)$draws)[, a$inputs]
+    expect_gt(max(abs(moved)), 0.01)
+  }
+})
+
+test_that("the inputs' posterior with inform_levels is the posterior from those levels alone", {
+  cp <- cut_problem(fine = 2)
+  cut <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 1500, n_inner = 20, chains = 1, seed = 5,
+                   inform_levels = 0:2, quiet = TRUE)
+  # the same problem on its first four coefficients (levels 0 to 2) only
+  coarse <- small_problem(index = 1:4)
+  W <- cp$field$curves$site1 %*% cp$pb$basis$Psi
+  alone <- calibrate(coarse$emulators, field_from_coef(coarse$basis, W[, 1:4]), coarse$iu, n_draws = 1500,
+                     n_inner = 20, chains = 1, seed = 6, quiet = TRUE)
+  plain <- cut_problem()
+  full <- calibrate(plain$pb$emulators, plain$field, plain$pb$iu, n_draws = 1500, n_inner = 20, chains = 1,
+                    seed = 5, quiet = TRUE)
+  for (p in c("u1", "x1")) {
+    expect_gt(suppressWarnings(stats::ks.test(as.matrix(cut$draws)[, p], as.matrix(alone$draws)[, p]))$p.value, 0.01)
+  }
+  # where the level-3 coefficients inform the inputs (the method's posterior), it is another one
+  expect_lt(min(vapply(c("u1", "x1"), function(p) {
+    suppressWarnings(stats::ks.test(as.matrix(full$draws)[, p], as.matrix(alone$draws)[, p]))$p.value
+  }, numeric(1))), 0.01)
+})
+
+test_that("inform_levels refuses levels the basis lacks, a split pool, and leaving nothing", {
+  ex <- wavevalid:::example_calibration_inputs()
+  for (bad in list("0:3", c(0.5, 1), 99, NA_real_, numeric(0))) {
+    expect_error(calibrate(ex$emulators, ex$field, ex$iu, inform_levels = bad, quiet = TRUE),
+                 class = "wavevalid_error_input")
+  }
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, pool_levels = 0:3, inform_levels = 0:2, quiet = TRUE),
+               class = "wavevalid_error_input", regexp = "share one bias variance")
+})
+
 test_that("the adaptive sampler mixes on a narrow posterior where the report's does not", {
   withr::local_seed(7)
   pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
