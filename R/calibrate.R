@@ -200,6 +200,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                            registration_variance = registration_variance)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   spec$informs <- informing_groups(inform_levels, spec$basis$level, spec$bias_group, spec$groups)
+  spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
                      proposal = proposal, burnin = burnin, threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
@@ -207,7 +208,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                                       step = step, proposal = proposal, burnin = burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
                                       registration_variance = registration_variance,
-                                      inform_levels = if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))),
+                                      inform_levels = spec$inform_levels),
                       seed = seed)
   warn_fit_flags(fit)
   fit
@@ -378,8 +379,6 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
 
 # --- running the chains -------------------------------------------------------
 
-# One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2
-# ratio) exists only to show that the simulation-based checks detect errors.
 # One value per tau2 group: 1 when its coefficients inform the inputs (their
 # levels are all in inform_levels), 0 when they are cut off; NULL when every
 # level informs them.
@@ -413,6 +412,8 @@ informing_groups <- function(inform_levels, level, bias_group, groups, call = rl
   unname(out)
 }
 
+# One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2
+# ratio) exists only to show that the simulation-based checks detect errors.
 run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
                        quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1,
                        n_search = 200L, threads = 1L) {
