@@ -21,7 +21,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
                                int n_draws, int n_inner, double step, double seed, int chain,
                                int debug_break, Rcpp::RObject progress, bool adaptive = false,
                                int burnin = 0, double p_global = 0.1, int n_search = 200,
-                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector()) {
+                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector::create()) {
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
