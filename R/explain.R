@@ -176,6 +176,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
+  if (candidates_are_fits(candidates)) return(explain_refits(fit, candidates, n_draws, level))
   cand <- candidate_coefficients(fit, candidates)
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
@@ -381,7 +382,12 @@ print.wv_explain <- function(x, ...) {
   df[num] <- lapply(df[num], signif, digits = 3)
   print(df, row.names = FALSE)
   sub <- attr(x, "subsets")
-  if (!is.null(sub)) {
+  if (identical(attr(x, "method"), "revalidated")) {
+    lbf <- attr(x, "log_bf")
+    cli::cat_line("Each candidate a re-validated model, weighed against itself with the mechanism off ",
+                  "(log Bayes factor: ", paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")
+    cli::cat_line("Most probable: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
+  } else if (!is.null(sub)) {
     cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
   }
   ver <- attr(x, "versions")

@@ -1,0 +1,190 @@
+# explain_bias() with re-validated models as candidates: each candidate is the
+# model with one mechanism added, its strength an extra calibration input,
+# calibrated on the same field data and wavelet basis as `fit`. Each is weighed
+# by the Bayes factor of the strength free against the strength at the lower
+# bound of its range (the mechanism switched off), estimated from its own
+# posterior draws by the Savage-Dickey density ratio.
+
+# TRUE when `candidates` is a non-empty list of wv_fit objects; an error when
+# it mixes fits with curves.
+candidates_are_fits <- function(candidates, call = rlang::caller_env()) {
+  if (!is.list(candidates) || inherits(candidates, "wv_fit") || !length(candidates)) return(FALSE)
+  is_fit <- vapply(candidates, inherits, logical(1), what = "wv_fit")
+  if (any(is_fit) && !all(is_fit)) {
+    wv_abort(c("{.arg candidates} mixes fitted models and curves.",
+               "x" = "{.val {names(candidates)[!is_fit]}} {?is/are} not {.cls wv_fit} object{?s}.",
+               "i" = "Give either curves (signatures) or re-validated models, in separate calls."),
+             call = call)
+  }
+  all(is_fit)
+}
+
+# The strength input of each re-validated model: the one input it has beyond
+# `fit`'s, a calibration input. Checks that each was calibrated on the same
+# field data and basis.
+refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
+  nm <- names(refits)
+  if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
+    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
+  }
+  sites <- names(fit$wb)
+  vapply(nm, function(k) {
+    rf <- refits[[k]]
+    if (!setequal(names(rf$wb), sites)) {
+      wv_abort(c("Candidate {.val {k}} has sites {.val {names(rf$wb)}}; {.arg fit} has {.val {sites}}.",
+                 "i" = "Calibrate each candidate model on the field data of {.arg fit}."), call = call)
+    }
+    same_basis <- identical(rf$basis$index, fit$basis$index) && identical(dim(rf$basis$Psi), dim(fit$basis$Psi)) &&
+      isTRUE(all.equal(rf$basis$Psi, fit$basis$Psi, tolerance = 1e-10))
+    if (!same_basis) {
+      wv_abort(c("Candidate {.val {k}} was not fitted on the wavelet basis of {.arg fit}.",
+                 "i" = "Fit its emulators with {.code fit_emulators(runs, fit$basis)}."), call = call)
+    }
+    same_field <- all(vapply(sites, function(s) {
+      isTRUE(all.equal(rf$wbar[[s]], fit$wbar[[s]], tolerance = 1e-8)) && identical(rf$n_rep[[s]], fit$n_rep[[s]])
+    }, logical(1)))
+    if (!same_field) {
+      wv_abort(c("Candidate {.val {k}} was not calibrated on the field data of {.arg fit}.",
+                 "i" = "Use the same registered field data ({.code fit$field}) for every candidate."), call = call)
+    }
+    extra <- setdiff(rf$inputs, fit$inputs)
+    lacks <- setdiff(fit$inputs, rf$inputs)
+    if (length(extra) != 1L || length(lacks)) {
+      wv_abort(c("Candidate {.val {k}} must have the inputs of {.arg fit} and one more, the mechanism's strength.",
+                 "x" = "Its inputs beyond those of {.arg fit}: {.val {if (length(extra)) extra else 'none'}}.",
+                 "x" = if (length(lacks)) "It lacks {.val {lacks}}."), call = call)
+    }
+    p <- rf$prior_iu[match(extra, rf$prior_iu$name), ]
+    if (!identical(p$type, "calibration")) {
+      wv_abort(c("The strength {.val {extra}} of candidate {.val {k}} must be a calibration input.",
+                 "i" = "Give it a range whose lower bound switches the mechanism off, with {.fn iu_map}."),
+               call = call)
+    }
+    extra
+  }, character(1))
+}
+
+# Log likelihood of the coefficients that inform the inputs at each row of Z,
+# given one draw's field variances and bias variances (row h of the fit).
+refit_loglik <- function(rf, Z, h, informing) {
+  D <- rf$draw_matrix
+  ll <- numeric(nrow(Z))
+  for (s in names(rf$wb)) {
+    g <- rf$bias_group[[s]]
+    use <- g %in% informing
+    pr <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], Z)
+    e <- rf$sigma2[[s]][h, ] / rf$n_rep[[s]] + (rf$registration_var[[s]] %||% 0) + D[h, paste0("tau2[", g, "]")]
+    tot <- sweep(pr$var, 2L, e, `+`)[, use, drop = FALSE]
+    r2 <- sweep(pr$mean, 2L, rf$wbar[[s]])[, use, drop = FALSE]^2
+    ll <- ll - 0.5 * rowSums(log(tot) + r2 / tot)
+  }
+  ll
+}
+
+# Log of the posterior density of the strength at `off`, by Rao-Blackwellised
+# Savage-Dickey: the mean over the kept draws of the conditional density of
+# the strength given the other inputs, field and bias variances. Each
+# conditional is the likelihood over [lower, upper] (the strength's prior is
+# uniform there) on a grid of n_grid points refined around its largest value,
+# integrated by the trapezoidal rule.
+log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
+  p <- rf$prior_iu[match(strength, rf$prior_iu$name), ]
+  lo <- p$lower
+  hi <- p$upper
+  informing <- if (is.null(rf$settings$inform_levels)) unique(unlist(rf$bias_group)) else
+    rf$groups$name[rf$groups$level %in% rf$settings$inform_levels]
+  grid <- seq(lo, hi, length.out = n_grid)
+  step <- grid[2] - grid[1]
+  out <- vapply(keep, function(h) {
+    z <- rf$draw_matrix[h, rf$inputs]
+    at <- function(v) {
+      Z <- matrix(z, length(v), length(z), byrow = TRUE, dimnames = list(NULL, rf$inputs))
+      Z[, strength] <- v
+      refit_loglik(rf, Z, h, informing)
+    }
+    ll <- at(grid)
+    j <- which.max(ll)
+    fine <- seq(max(lo, grid[j] - step), min(hi, grid[j] + step), length.out = 17L)
+    v <- c(grid, fine)
+    l <- c(ll, at(fine))
+    o <- order(v)
+    v <- v[o]
+    l <- l[o]
+    m <- max(l)
+    log_int <- m + log(sum(diff(v) * (exp(l[-1] - m) + exp(l[-length(l)] - m)) / 2))
+    if (!is.null(tick)) tick()
+    l[1] - log_int
+  }, numeric(1))
+  m <- max(out)
+  m + log(mean(exp(out - m)))
+}
+
+# The candidate table for re-validated models.
+explain_refits <- function(fit, refits, n_draws, level) {
+  strength <- refit_strengths(fit, refits)
+  nm <- names(refits)
+  a <- (1 - level) / 2
+  bias_energy <- function(f) sum(vapply(f$wb, function(w) sum(colMeans(w)^2), numeric(1)))
+  e0 <- bias_energy(fit)
+  tick <- NULL
+  if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
+    total <- sum(vapply(refits, function(rf) min(n_draws, length(rf$chain)), numeric(1)))
+    id <- cli::cli_progress_bar("Savage-Dickey density ratios", total = total)
+    tick <- function() cli::cli_progress_update(id = id)
+  }
+  rows <- lapply(nm, function(k) {
+    rf <- refits[[k]]
+    rf$draw_matrix <- as.matrix(rf$draws)
+    H <- nrow(rf$draw_matrix)
+    keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
+    p <- rf$prior_iu[match(strength[[k]], rf$prior_iu$name), ]
+    log_bf <- -log(p$upper - p$lower) - log_density_at_off(rf, strength[[k]], keep, tick = tick)
+    s <- rf$draw_matrix[, strength[[k]]]
+    data.frame(candidate = k, log_bf = log_bf, amplitude = mean(s),
+               amplitude_lower = unname(stats::quantile(s, a)), amplitude_upper = unname(stats::quantile(s, 1 - a)),
+               share_explained = 1 - bias_energy(rf) / e0, strength = strength[[k]], stringsAsFactors = FALSE)
+  })
+  tab <- do.call(rbind, rows)
+  # no mechanism and each mechanism alone, equally likely a priori
+  lb <- c(0, tab$log_bf)
+  post <- exp(lb - max(lb))
+  post <- post / sum(post)
+  tab$inclusion_prob <- post[-1]
+  tab <- tab[order(-tab$inclusion_prob, -tab$log_bf), , drop = FALSE]
+  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper", "share_explained")]
+  rownames(out) <- NULL
+  models <- data.frame(subset = c(tab$candidate, "(none)"), probability = c(tab$inclusion_prob, post[1]),
+                       stringsAsFactors = FALSE)
+  attr(out, "subsets") <- models[order(-models$probability), , drop = FALSE]
+  attr(out, "log_bf") <- stats::setNames(tab$log_bf, tab$candidate)
+  attr(out, "strength") <- stats::setNames(tab$strength, tab$candidate)
+  attr(out, "curves") <- refit_curves(fit, refits[tab$candidate], tab$strength, tab$inclusion_prob)
+  attr(out, "boundary") <- unique(fit$flags$boundary$input)
+  attr(out, "method") <- "revalidated"
+  class(out) <- c("wv_explain", "data.frame")
+  out
+}
+
+# Posterior mean bias of `fit` and, for up to three leading candidates, the
+# effect of the mechanism in the re-validated model: its emulated output at the
+# posterior mean inputs minus the same with the strength at its lower bound.
+refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
+  sites <- names(fit$wb)
+  lead <- utils::head(which(prob > 0), n_lead)
+  do.call(rbind, lapply(sites, function(s) {
+    b <- drop(fit$basis$Psi %*% colMeans(fit$wb[[s]]))
+    out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
+    for (k in lead) {
+      rf <- refits[[k]]
+      z <- colMeans(as.matrix(rf$draws))[rf$inputs]
+      z0 <- z
+      z0[strength[k]] <- rf$prior_iu$lower[match(strength[k], rf$prior_iu$name)]
+      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], rbind(z, z0))$mean
+      v <- drop(fit$basis$Psi %*% (m[1, ] - m[2, ]))
+      out <- rbind(out, data.frame(site = s, t = fit$basis$t,
+                                   curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),
+                                   value = v))
+    }
+    out
+  }))
+}
