@@ -119,10 +119,67 @@
 #' draws from the prior of the inputs, the damper passed 0.8 on a test bed
 #' with nothing hidden.
 #'
+#' @section Re-validated models as candidates:
+#' A signature is a curve taken at fixed inputs. When the calibration has made
+#' up for the missing mechanism by moving the inputs (often to a bound of their
+#' range), the mechanism's effect at the calibrated inputs differs from the
+#' effect in the data, and a decoy can look more alike. The remedy is to add
+#' each suspected mechanism to the model and validate again: the model with
+#' the mechanism, its strength an extra calibration input whose lower bound
+#' switches it off, run at a design over all inputs, its emulators fitted on
+#' the basis of `fit` (`fit_emulators(runs, fit$basis)`) and calibrated on the
+#' field data of `fit` (`fit$field`). Give these fits, one per mechanism, as
+#' `candidates`.
+#'
+#' Each is then weighed against itself with the mechanism switched off, on the
+#' same emulators: a comparison of two models fitted to different designs would
+#' carry the difference between their emulators (on the suspension test bed, a
+#' model with a mechanism whose strength the data put at zero scored 15 log
+#' units above the model without it). The Bayes factor of the strength free
+#' against the strength at its lower bound `s_0` is the Savage-Dickey ratio
+#' `p(s_0) / p(s_0 | data)`, the strength's prior density (uniform over its
+#' range) over its posterior density at `s_0`. The posterior density is
+#' Rao-Blackwellised: the mean over the draws (up to `n_draws`, evenly
+#' thinned) of the strength's density given the draw's other inputs, field
+#' and bias variances, which is the likelihood of the coefficients over the
+#' strength's range, computed on a grid refined around its peak. "No
+#' mechanism" and each mechanism alone are equally likely a priori, so a
+#' candidate's `inclusion_prob` is its Bayes factor over one plus the sum of
+#' all of them; the attribute `subsets` gives each model's probability,
+#' "(none)" included, and `log_bf` the log Bayes factors. `amplitude` and its
+#' interval are the strength's posterior mean and equal-tailed interval,
+#' `share_explained` is one minus the energy of the candidate model's posterior
+#' mean bias over that of `fit`, and `autoplot` overlays the bias of `fit` and
+#' each leading mechanism's effect in its model (the emulated output at the
+#' posterior mean inputs minus the same with the strength at `s_0`). The other
+#' arguments but `n_draws` and `level` are not used: the calibration moves the
+#' inputs itself.
+#'
+#' On an example with three inputs and fixed variances, the estimate agreed
+#' with the Bayes factor computed by quadrature to within 0.1 on the log scale
+#' (the package's tests). The estimate averages a density that is tiny
+#' wherever the data put the strength far from `s_0`, so a very large log
+#' Bayes factor is decisive but its size is not to be read (a hidden
+#' digressive damper gave 900 to 4600).
+#'
+#' On the suspension test bed (each mechanism and nothing hidden, seeds 1 to 5,
+#' the tests' settings; 66 runs and a 150-draw calibration per mechanism, about
+#' 15 seconds each), the hidden mechanism took inclusion probability above
+#' 0.99 in 19 of the 20 cases and no other mechanism reached 0.5 in any of the
+#' 25. With nothing hidden the largest was 0.04 and "(none)" took at least
+#' 0.90. The one miss is the progressive bump stop at seed 4, whose effect there
+#' is the weakest of the five seeds (a third or less of its energy at the
+#' others): its model puts the strength near zero (posterior mean 0.01) and
+#' "(none)" takes 0.97, which is what the data say once the bump-stop
+#' stiffness and clearance, inputs of the model, absorb the rest. Fixed
+#' signatures, by contrast, met the same criteria in 16 of the 20 cases.
+#'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()].
 #' @param candidates A named list of candidate curves on the fit's grid: each a
 #'   numeric vector (used at every site) or a named list by site of vectors.
-#'   May be empty when `shifts = TRUE`.
+#'   May be empty when `shifts = TRUE`. Or a named list of `wv_fit` objects,
+#'   the model re-validated with each candidate mechanism (see the section
+#'   "Re-validated models as candidates").
 #' @param shifts Add the automatic parameter-shift candidates `shift:<input>`.
 #' @param positive Constrain the amplitudes of the user's candidates to be
 #'   non-negative (see Details): `TRUE`, `FALSE`, or one logical per candidate.
@@ -169,6 +226,18 @@
 #' ex_v <- explain_bias(fit, versions, effect = c("bump_early", "bump_late", "bump_early"), seed = 1)
 #' ex_v
 #' attr(ex_v, "versions")
+#' # or add the bump to the model, its strength a new calibration input, and
+#' # validate again on the same basis and field data
+#' design <- data.frame(u1 = (sample(30) - 0.5) / 30, x1 = (sample(30) - 0.5) / 30,
+#'                      s_bump = (sample(30) - 0.5) / 30)
+#' model <- function(u, x, s) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) +
+#'   s * exp(-((t - 0.25) / 0.05)^2)
+#' runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
+#' iu_bump <- iu_map(c("u1", "x1", "s_bump"), c("calibration", "variation", "calibration"),
+#'                   lower = c(0, 0, 0), upper = c(1, 1, 1), nominal = c(0.5, 0.5, 0.5))
+#' with_bump <- calibrate(fit_emulators(runs, fit$basis), fit$field, iu_bump, n_draws = 100,
+#'                        n_inner = 20, chains = 1, seed = 2, quiet = TRUE)
+#' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, ...) {
   check_class(fit, "wv_fit")

@@ -413,3 +413,42 @@ test_that("flagged_share counts the flagged points where an effect acts", {
   expect_error(flagged_share(fails, list(site1 = bump[-1])), class = "wavevalid_error_input")
   expect_error(flagged_share(d$fit, list(site1 = bump)), class = "wavevalid_error_input")
 })
+
+# Each mechanism re-validated: the model with it (its strength a calibration
+# input on [0, 1]) simulated at a 66-point maximin design, its emulators fitted
+# on the basis of the model without it and calibrated on the same field data;
+# explain_bias() weighs the four by their Bayes factors against themselves
+# with the strength at 0.
+testbed_revalidated <- function(hidden, seed) {
+  d <- testbed_diagnosis(hidden, seed)
+  withr::local_options(list(wavevalid.quiet = TRUE))
+  iu <- d$tb$iu
+  fits <- lapply(testbed_mechanisms(), function(m) {
+    s_name <- paste0("s_", m)
+    iu_m <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
+                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+    runs <- simulate_suspension(design_maximin(iu_m, 66, seed = 2), mechanism = m)
+    em <- suppressWarnings(fit_emulators(runs, d$fit$basis))
+    suppressWarnings(calibrate(em, d$fit$field, iu_m, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
+                               quiet = TRUE))
+  })
+  as.data.frame(unclass(explain_bias(d$fit, stats::setNames(fits, testbed_mechanisms()), n_draws = 50)))
+}
+
+test_that("on three test beds, re-validating each mechanism finds the hidden one and claims none with nothing hidden", {
+  skip_on_cran()
+  res <- NULL
+  for (h in c("none", testbed_mechanisms())) {
+    for (seed in 1:3) {
+      ex <- testbed_revalidated(h, seed)
+      res <- rbind(res, data.frame(hidden = h, seed = seed, first = ex$candidate[1],
+                                   prob = if (h == "none") NA else ex$inclusion_prob[ex$candidate == h],
+                                   decoy = max(ex$inclusion_prob[ex$candidate != h])))
+    }
+  }
+  lab <- paste(utils::capture.output(print(res)), collapse = "\n")
+  none <- res$hidden == "none"
+  expect_true(all(res$decoy < 0.5), label = lab)
+  expect_true(all(res$first[!none] == res$hidden[!none]), label = lab)
+  expect_true(all(res$prob[!none] >= 0.9), label = lab)
+})
