@@ -119,62 +119,6 @@
 #' draws from the prior of the inputs, the damper passed 0.8 on a test bed
 #' with nothing hidden.
 #'
-#' @section Re-validated models as candidates:
-#' A signature is a curve taken at fixed inputs. When the calibration has made
-#' up for the missing mechanism by moving the inputs (often to a bound of their
-#' range), the mechanism's effect at the calibrated inputs differs from the
-#' effect in the data, and a decoy can look more alike. The remedy is to add
-#' each suspected mechanism to the model and validate again: the model with
-#' the mechanism, its strength an extra calibration input whose lower bound
-#' switches it off, run at a design over all inputs, its emulators fitted on
-#' the basis of `fit` (`fit_emulators(runs, fit$basis)`) and calibrated on the
-#' field data of `fit` (`fit$field`). Give these fits, one per mechanism, as
-#' `candidates`.
-#'
-#' Each is then weighed against itself with the mechanism switched off, on the
-#' same emulators: a comparison of two models fitted to different designs would
-#' carry the difference between their emulators (on the suspension test bed, a
-#' model with a mechanism whose strength the data put at zero scored 15 log
-#' units above the model without it). The Bayes factor of the strength free
-#' against the strength at its lower bound `s_0` is the Savage-Dickey ratio
-#' `p(s_0) / p(s_0 | data)`, the strength's prior density (uniform over its
-#' range) over its posterior density at `s_0`. The posterior density is
-#' Rao-Blackwellised: the mean over the draws (up to `n_draws`, evenly
-#' thinned) of the strength's density given the draw's other inputs, field
-#' and bias variances, which is the likelihood of the coefficients over the
-#' strength's range, computed on a grid refined around its peak. "No
-#' mechanism" and each mechanism alone are equally likely a priori, so a
-#' candidate's `inclusion_prob` is its Bayes factor over one plus the sum of
-#' all of them; the attribute `subsets` gives each model's probability,
-#' "(none)" included, and `log_bf` the log Bayes factors. `amplitude` and its
-#' interval are the strength's posterior mean and equal-tailed interval,
-#' `share_explained` is one minus the energy of the candidate model's posterior
-#' mean bias over that of `fit`, and `autoplot` overlays the bias of `fit` and
-#' each leading mechanism's effect in its model (the emulated output at the
-#' posterior mean inputs minus the same with the strength at `s_0`). The other
-#' arguments but `n_draws` and `level` are not used: the calibration moves the
-#' inputs itself.
-#'
-#' On an example with three inputs and fixed variances, the estimate agreed
-#' with the Bayes factor computed by quadrature to within 0.1 on the log scale
-#' (the package's tests). The estimate averages a density that is tiny
-#' wherever the data put the strength far from `s_0`, so a very large log
-#' Bayes factor is decisive but its size is not to be read (a hidden
-#' digressive damper gave 900 to 4600).
-#'
-#' On the suspension test bed (the tests' settings; 66 runs and a 150-draw
-#' calibration per mechanism, about 15 seconds each), with nothing hidden
-#' "(none)" took at least 0.89 at each of seeds 1 to 5 and no mechanism more
-#' than 0.05. A hidden digressive damper took more than 0.99 at all five seeds,
-#' including seed 3 where its signature lost to the bump stop's (0.02 against
-#' 0.76). A hidden progressive bump stop was found at seeds 1 and 2 (above
-#' 0.99) but not at seeds 3 and 4: its model puts the strength near zero and
-#' "(none)" takes 0.69 and 0.97. Its effect is weakest there (at seed 4 a third
-#' or less of its energy at the other seeds), and the bump-stop stiffness and
-#' clearance, inputs of the model, absorb the rest. In no case did a mechanism
-#' that was not hidden reach 0.5. The package's tests check these criteria on
-#' seeds 1 to 3 for every mechanism.
-#'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()].
 #' @param candidates A named list of candidate curves on the fit's grid: each a
 #'   numeric vector (used at every site) or a named list by site of vectors.
@@ -402,11 +346,23 @@ residual_regression_data <- function(fit, draws, keep) {
   parts <- lapply(names(fit$wb), function(s) {
     pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
     list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
-         v = sweep(pr$var + fit$sigma2[[s]][keep, , drop = FALSE] / fit$n_rep[[s]], 2L,
-                   fit$registration_var[[s]] %||% 0, `+`))
+         v = pr$var + field_mean_variance(fit, s, keep))
   })
   list(residuals = do.call(cbind, lapply(parts, `[[`, "r")),
        variance = do.call(cbind, lapply(parts, `[[`, "v")))
+}
+
+# Variance of the field mean's wavelet coefficients at site `s` for the rows
+# `rows` of the draws: sigma^2 / R plus the registration variance (rows x
+# coefficients).
+field_mean_variance <- function(fit, s, rows) {
+  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
+}
+
+# Names of the draws' columns holding the bias variance tau^2 of each
+# coefficient's (site, level) group at site `s`.
+tau2_columns <- function(fit, s) {
+  paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
 }
 
 # Per-draw bias variance tau^2 of each coefficient's (site, level) group, for
@@ -414,7 +370,7 @@ residual_regression_data <- function(fit, draws, keep) {
 # fit$wb.
 bias_level_variances <- function(fit, d) {
   do.call(cbind, lapply(names(fit$wb), function(s) {
-    col <- paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
+    col <- tau2_columns(fit, s)
     miss <- setdiff(unique(col), colnames(d))
     if (length(miss)) wv_abort("The fit has no draws of {.val {miss}}.", class = "state")
     d[, col, drop = FALSE]
