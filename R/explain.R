@@ -178,8 +178,7 @@
 #' model <- function(u, x, s) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) +
 #'   s * exp(-((t - 0.25) / 0.05)^2)
 #' runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
-#' iu_bump <- iu_map(c("u1", "x1", "s_bump"), c("calibration", "variation", "calibration"),
-#'                   lower = c(0, 0, 0), upper = c(1, 1, 1), nominal = c(0.5, 0.5, 0.5))
+#' iu_bump <- iu_add(ex$iu, "s_bump", lower = 0, upper = 1)
 #' with_bump <- calibrate(fit_emulators(runs, fit$basis), fit$field, iu_bump, n_draws = 100,
 #'                        n_inner = 20, chains = 1, seed = 2, quiet = TRUE)
 #' explain_bias(fit, list(bump = with_bump))

@@ -63,6 +63,58 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
   validate_wv_iu(x)
 }
 
+#' Add inputs to an I/U map
+#'
+#' Extends an I/U map by further inputs. The usual one is the strength of a
+#' mechanism added to the model: a calibration input whose lower bound
+#' switches the mechanism off, so that the model with the mechanism can be
+#' run at a design, emulated and validated again (see [compare_validations()]
+#' and the re-validated candidates of [explain_bias()]).
+#'
+#' @param iu A `wv_iu` object from [iu_map()].
+#' @param name Names of the new inputs, none of them already in `iu`.
+#' @param type For each new input, `"calibration"` (default) or
+#'   `"variation"`.
+#' @param lower,upper Uncertainty range of each new input.
+#' @param nominal Nominal value of each new input (default the centre of its
+#'   range).
+#' @param prior_sd Prior standard deviation of the manufacturing variation
+#'   (default a sixth of the range); ignored for calibration inputs.
+#' @return The `wv_iu` object with the new inputs after those of `iu`.
+#' @seealso [iu_map()].
+#' @export
+#' @examples
+#' iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1))
+#' # the strength of a bump stop, 0 for none
+#' iu_add(iu, "s_bumpstop", lower = 0, upper = 1, nominal = 0.5)
+iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lower + upper) / 2,
+                   prior_sd = (upper - lower) / 6) {
+  check_class(iu, "wv_iu")
+  if (!is.character(name) || length(name) == 0L) {
+    wv_abort("{.arg name} must be a non-empty character vector of input names.")
+  }
+  if (missing(lower) || missing(upper)) {
+    wv_abort("Give the range of each new input with {.arg lower} and {.arg upper}.")
+  }
+  old <- intersect(name, iu$name)
+  if (length(old)) {
+    wv_abort(c("{.val {old}} {?is/are} already in {.arg iu}.",
+               "i" = "Give each new input a name of its own."))
+  }
+  n <- length(name)
+  lens <- c(type = length(type), lower = length(lower), upper = length(upper), nominal = length(nominal),
+            prior_sd = length(prior_sd))
+  bad <- lens[lens != n & !(names(lens) == "type" & lens == 1L)]
+  if (length(bad)) {
+    wv_abort(c(
+      "Every argument must have one value per new input ({n} input{?s}).",
+      "x" = "{.arg {names(bad)}} {cli::qty(length(bad))}ha{?s/ve} length{?s} {bad}."
+    ))
+  }
+  iu_map(c(iu$name, name), c(iu$type, rep_len(type, n)), c(iu$lower, lower), c(iu$upper, upper),
+         nominal = c(iu$nominal, nominal), prior_sd = c(iu$prior_sd, prior_sd))
+}
+
 new_wv_iu <- function(x) {
   structure(x, class = c("wv_iu", "data.frame"))
 }

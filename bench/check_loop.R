@@ -38,8 +38,7 @@ register <- function(field, ref) {
 field <- register(tb$A$field, tb$A$runs)
 iu <- tb$iu
 s_name <- paste0("s_", hidden)
-iu_after <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
-                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+iu_after <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
 design_after <- design_maximin(iu_after, n_runs, seed = 2)
 design <- design_after[iu$name]
 

@@ -78,8 +78,7 @@ iu <- tb$iu
 for (m in testbed_mechanisms()) {
   t0 <- clock()
   s_name <- paste0("s_", m)
-  iu_m <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
-                 nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+  iu_m <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
   runs_m <- simulate_suspension(design_maximin(iu_m, 66, seed = 2), mechanism = m)
   em_m <- suppressWarnings(fit_emulators(runs_m, basis))
   fit_m <- suppressWarnings(calibrate(em_m, field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1,

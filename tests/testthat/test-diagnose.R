@@ -200,8 +200,7 @@ test_that("adding the missing effect makes the error fall", {
   design <- data.frame(u1 = (sample(K) - runif(K)) / K, x1 = (sample(K) - runif(K)) / K,
                        s_bump = (sample(K) - runif(K)) / K)
   runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
-  iu_after <- iu_map(c("u1", "x1", "s_bump"), c("calibration", "variation", "calibration"),
-                     lower = c(0, 0, 0), upper = c(1, 1, 1), nominal = c(0.5, 0.5, 0.5))
+  iu_after <- iu_add(d$ex$iu, "s_bump", lower = 0, upper = 1)
   basis <- wavelet_basis(runs, d$ex$field, fraction = 1)
   em <- suppressWarnings(fit_emulators(runs, basis))
   after <- suppressWarnings(calibrate(em, d$ex$field, iu_after, n_draws = 150, n_inner = 20, chains = 2,
@@ -369,8 +368,7 @@ testbed_loop <- function(h) {
   design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design)
   runs <- simulate_suspension(design, mechanism = h)
   iu <- tb$iu
-  iu_after <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
-                     nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+  iu_after <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
   field_after <- reg(tb$A$field, runs)
   em_after <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field_after)))
   after <- suppressWarnings(calibrate(em_after, field_after, iu_after, n_draws = 150, n_inner = 20, chains = 1,
@@ -425,8 +423,7 @@ testbed_revalidated <- function(hidden, seed) {
   iu <- d$tb$iu
   fits <- lapply(testbed_mechanisms(), function(m) {
     s_name <- paste0("s_", m)
-    iu_m <- iu_map(c(iu$name, s_name), c(iu$type, "calibration"), c(iu$lower, 0), c(iu$upper, 1),
-                   nominal = c(iu$nominal, 0.5), prior_sd = c(iu$prior_sd, NA))
+    iu_m <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
     runs <- simulate_suspension(design_maximin(iu_m, 66, seed = 2), mechanism = m)
     em <- suppressWarnings(fit_emulators(runs, d$fit$basis))
     suppressWarnings(calibrate(em, d$fit$field, iu_m, n_draws = 150, n_inner = 20, chains = 1, seed = 1,

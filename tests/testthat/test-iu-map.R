@@ -62,3 +62,23 @@ test_that("design_maximin() gives a reproducible Latin hypercube on the ranges, 
   expect_error(design_maximin(list(), 10), class = "wavevalid_error_input")
   expect_error(design_maximin(iu, 10, nominal = NA), class = "wavevalid_error_input")
 })
+
+test_that("iu_add appends inputs as iu_map would build them", {
+  iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 1), upper = c(1, 3), nominal = c(0.4, 2))
+  got <- iu_add(iu, c("s_a", "x2"), type = c("calibration", "variation"), lower = c(0, -1), upper = c(2, 1))
+  want <- iu_map(c("u1", "x1", "s_a", "x2"), c("calibration", "variation", "calibration", "variation"),
+                 lower = c(0, 1, 0, -1), upper = c(1, 3, 2, 1), nominal = c(0.4, 2, 1, 0))
+  expect_identical(got, want)
+  expect_identical(got$prior_sd, c(NA, 1 / 3, NA, 1 / 3))
+  expect_identical(iu_add(iu, "s", lower = 0, upper = 1)$type, c("calibration", "variation", "calibration"))
+})
+
+test_that("iu_add refuses bad input with classed errors", {
+  iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1))
+  expect_error(iu_add(data.frame(name = "u1"), "s", lower = 0, upper = 1), class = "wavevalid_error_input")
+  expect_error(iu_add(iu, "u1", lower = 0, upper = 1), class = "wavevalid_error_input")
+  expect_error(iu_add(iu, "s"), class = "wavevalid_error_input")
+  expect_error(iu_add(iu, c("s", "t"), lower = 0, upper = c(1, 1)), class = "wavevalid_error_input")
+  expect_error(iu_add(iu, "s", lower = 1, upper = 0), class = "wavevalid_error_input")
+  expect_error(iu_add(iu, 3, lower = 0, upper = 1), class = "wavevalid_error_input")
+})
