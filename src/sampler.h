@@ -49,6 +49,7 @@
 #include <stdexcept>
 #include "gasp_predict.h"
 #include "sampler_model.h"
+#include "sampler_walk.h"
 
 namespace wavevalid {
 
@@ -76,6 +77,9 @@ class Sampler {
         group_count_[g] += 1;
       }
     }
+    members_.assign(G_, std::vector<int>());
+    for (std::size_t s = 0; s < S; ++s)
+      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) members_[sites_[s].group[i]].push_back(i);
     informs_.assign(G_, 1);
     if (!set_.informs.empty()) {
       if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
@@ -105,7 +109,7 @@ class Sampler {
     tau2_ = Eigen::VectorXd::Zero(G_);
     sigbar_ = Eigen::VectorXd::Zero(G_);
     bool tau_ready = false;
-    init_walk();
+    walk_.init(priors_);
 
     // Burn-in: blocks of n_inner cycles, sigma2 drawn at the start of each.
     if (set_.burnin > 0) {
@@ -128,7 +132,7 @@ class Sampler {
       since_report += len;
       if (since_report >= 50 * set_.n_inner) { progress(0); since_report = 0; }
     }
-    if (set_.adaptive) freeze_walk();
+    if (set_.adaptive) walk_.freeze();
     acc_tau_ = n_tau_ = acc_input_ = n_input_ = acc_global_ = n_global_ = 0;
     out.acc_burn = acc_burn_; out.n_burn = n_burn_;
 
@@ -146,7 +150,7 @@ class Sampler {
     out.acc_tau = acc_tau_; out.n_tau = n_tau_;
     out.acc_input = acc_input_; out.n_input = n_input_;
     out.acc_global = acc_global_; out.n_global = n_global_;
-    out.prop_cov = set_.adaptive ? Eigen::MatrixXd(walk_chol_ * walk_chol_.transpose()) : Eigen::MatrixXd();
+    out.prop_cov = set_.adaptive ? walk_.covariance() : Eigen::MatrixXd();
     return out;
   }
 
@@ -168,12 +172,7 @@ class Sampler {
   double acc_global_ = 0, n_global_ = 0, acc_burn_ = 0, n_burn_ = 0;
   std::vector<std::vector<int>> members_;  // coefficients of each tau2 group (in its site)
 
-  // Adaptive random walk: proposal z + scale * walk_chol_ * N(0, I).
-  Eigen::MatrixXd walk_chol_, walk_cov_, acc_cov_;
-  Eigen::VectorXd acc_mean_, range_;
-  double log_scale_ = 0.0, acc_n_ = 0.0;
-  int adapt_n_ = 0;
-  bool use_acc_ = false;
+  AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
@@ -362,59 +361,11 @@ class Sampler {
     return lp;
   }
 
-  void init_walk() {
-    range_.resize(p_);
-    for (int k = 0; k < p_; ++k) range_(k) = priors_[k].upper - priors_[k].lower;
-    walk_cov_ = Eigen::MatrixXd::Zero(p_, p_);
-    for (int k = 0; k < p_; ++k) walk_cov_(k, k) = std::pow(0.02 * range_(k), 2);
-    walk_chol_ = walk_cov_.llt().matrixL();
-    acc_mean_ = Eigen::VectorXd::Zero(p_);
-    acc_cov_ = Eigen::MatrixXd::Zero(p_, p_);
-    acc_n_ = 0.0;
-    log_scale_ = 0.0;
-    adapt_n_ = 0;
-    use_acc_ = false;
-    members_.assign(G_, std::vector<int>());
-    for (std::size_t s = 0; s < sites_.size(); ++s)
-      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) members_[sites_[s].group[i]].push_back(i);
-  }
-
-  // Proposal covariance from the running covariance of the chain.
-  void set_walk_from_accumulator() {
-    Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
-    for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
-    C *= 2.38 * 2.38 / p_;
-    Eigen::LLT<Eigen::MatrixXd> llt(C);
-    if (llt.info() == Eigen::Success) {
-      walk_cov_ = C;
-      walk_chol_ = llt.matrixL();
-    }
-  }
-
-  void accumulate(const Eigen::VectorXd& z) {
-    acc_n_ += 1.0;
-    const Eigen::VectorXd d = z - acc_mean_;
-    acc_mean_ += d / acc_n_;
-    acc_cov_ += d * (z - acc_mean_).transpose();
-  }
-
-  // Adaptive Metropolis: the running covariance is restarted at 1/4 and 1/2
-  // of the burn-in (to forget the way in from the start); the proposal uses it
-  // once it holds 20 p points. The scale follows acceptance 0.234.
+  // Adaptive Metropolis (sampler_walk.h), adapted during the burn-in.
   double walk_step(double ll_cur, int burn_it) {
     const bool adapt = burn_it >= 0;
-    if (adapt) {
-      const int b = set_.burnin;
-      if (burn_it == b / 4 || burn_it == b / 2) {
-        acc_n_ = 0.0;
-        acc_mean_.setZero();
-        acc_cov_.setZero();
-      }
-    }
-    Eigen::VectorXd e(p_);
-    for (int k = 0; k < p_; ++k) e(k) = norm_(rng_);
-    const double sc = std::exp(log_scale_);
-    zp_ = z_ + sc * (walk_chol_ * e);
+    if (adapt) walk_.restart_at(burn_it, set_.burnin);
+    walk_.propose(z_, zp_, rng_, norm_);
     double lr = -std::numeric_limits<double>::infinity();
     double ll_prop = ll_cur;
     const double lp = log_prior_inputs(zp_);
@@ -433,26 +384,8 @@ class Sampler {
       refresh_cache();
       if (adapt) { acc_burn_ += 1; } else { acc_input_ += 1; }
     }
-    if (adapt) {
-      adapt_n_ += 1;
-      const double a = std::isfinite(lr) ? std::min(1.0, std::exp(std::min(lr, 0.0))) : 0.0;
-      log_scale_ += std::pow(adapt_n_, -0.6) * (a - 0.234) * 2.0;
-      log_scale_ = std::max(-15.0, std::min(5.0, log_scale_));
-      accumulate(z_);
-      if (acc_n_ >= 20.0 * p_) {
-        if (!use_acc_) { use_acc_ = true; log_scale_ = 0.0; adapt_n_ = 1; }
-        if (static_cast<int>(acc_n_) % 10 == 0) set_walk_from_accumulator();
-      }
-    }
+    if (adapt) walk_.adapt(lr, z_);
     return accept ? ll_prop : ll_cur;
-  }
-
-  // At the end of the burn-in: scale folded into the covariance, no more changes.
-  void freeze_walk() {
-    const double sc = std::exp(log_scale_);
-    walk_chol_ *= sc;
-    walk_cov_ *= sc * sc;
-    log_scale_ = 0.0;
   }
 
   // Moment estimates of tau2 at m, v (as init_tau2) and the log posterior

@@ -1,0 +1,103 @@
+// The adaptive random walk of the sampler's input step (sampler.h), free of
+// R types: proposal z + scale * L e, e ~ N(0, I), adapted during the burn-in
+// as in Haario et al. (2001) with a Robbins-Monro scale, then frozen.
+#ifndef WAVEVALID_SAMPLER_WALK_H
+#define WAVEVALID_SAMPLER_WALK_H
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+#include "sampler_model.h"
+
+namespace wavevalid {
+
+class AdaptiveWalk {
+ public:
+  // A diagonal proposal of 2% of each input's range, nothing accumulated.
+  void init(const std::vector<InputPrior>& priors) {
+    p_ = static_cast<int>(priors.size());
+    range_.resize(p_);
+    for (int k = 0; k < p_; ++k) range_(k) = priors[k].upper - priors[k].lower;
+    Eigen::MatrixXd start = Eigen::MatrixXd::Zero(p_, p_);
+    for (int k = 0; k < p_; ++k) start(k, k) = std::pow(0.02 * range_(k), 2);
+    chol_ = start.llt().matrixL();
+    acc_mean_ = Eigen::VectorXd::Zero(p_);
+    acc_cov_ = Eigen::MatrixXd::Zero(p_, p_);
+    acc_n_ = 0.0;
+    log_scale_ = 0.0;
+    adapt_n_ = 0;
+    use_acc_ = false;
+  }
+
+  // zp = z + scale * L e, drawing the p normals e in order.
+  template <class Rng>
+  void propose(const Eigen::VectorXd& z, Eigen::VectorXd& zp, Rng& rng, std::normal_distribution<double>& norm) {
+    Eigen::VectorXd e(p_);
+    for (int k = 0; k < p_; ++k) e(k) = norm(rng);
+    zp = z + std::exp(log_scale_) * (chol_ * e);
+  }
+
+  // The running covariance is restarted at 1/4 and 1/2 of the burn-in, to
+  // forget the way in from the start.
+  void restart_at(int burn_it, int burnin) {
+    if (burn_it == burnin / 4 || burn_it == burnin / 2) {
+      acc_n_ = 0.0;
+      acc_mean_.setZero();
+      acc_cov_.setZero();
+    }
+  }
+
+  // After a burn-in step with log acceptance ratio `lr`, at the chain's state
+  // z: the scale follows acceptance 0.234; the proposal uses the running
+  // covariance once it holds 20 p points.
+  void adapt(double lr, const Eigen::VectorXd& z) {
+    adapt_n_ += 1;
+    const double a = std::isfinite(lr) ? std::min(1.0, std::exp(std::min(lr, 0.0))) : 0.0;
+    log_scale_ += std::pow(adapt_n_, -0.6) * (a - 0.234) * 2.0;
+    log_scale_ = std::max(-15.0, std::min(5.0, log_scale_));
+    accumulate(z);
+    if (acc_n_ >= 20.0 * p_) {
+      if (!use_acc_) { use_acc_ = true; log_scale_ = 0.0; adapt_n_ = 1; }
+      if (static_cast<int>(acc_n_) % 10 == 0) set_from_accumulator();
+    }
+  }
+
+  // At the end of the burn-in: scale folded into the covariance, no more changes.
+  void freeze() {
+    const double sc = std::exp(log_scale_);
+    chol_ *= sc;
+    log_scale_ = 0.0;
+  }
+
+  Eigen::MatrixXd covariance() const { return chol_ * chol_.transpose(); }
+
+ private:
+  int p_ = 0;
+  Eigen::MatrixXd chol_, acc_cov_;
+  Eigen::VectorXd acc_mean_, range_;
+  double log_scale_ = 0.0, acc_n_ = 0.0;
+  int adapt_n_ = 0;
+  bool use_acc_ = false;
+
+  void accumulate(const Eigen::VectorXd& z) {
+    acc_n_ += 1.0;
+    const Eigen::VectorXd d = z - acc_mean_;
+    acc_mean_ += d / acc_n_;
+    acc_cov_ += d * (z - acc_mean_).transpose();
+  }
+
+  // Proposal covariance from the running covariance of the chain.
+  void set_from_accumulator() {
+    Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
+    for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
+    C *= 2.38 * 2.38 / p_;
+    Eigen::LLT<Eigen::MatrixXd> llt(C);
+    if (llt.info() == Eigen::Success) chol_ = llt.matrixL();
+  }
+};
+
+}  // namespace wavevalid
+
+#endif
