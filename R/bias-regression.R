@@ -39,63 +39,22 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   H <- nrow(Y)
   positive <- if (is.null(positive)) rep(FALSE, m) else positive
   group <- if (is.null(group)) colnames(X) else group
-  n_group <- length(unique(group))
   # one lattice for each number (from 2) of constrained amplitudes in a subset
   # (none is needed for one)
   lattice <- lapply(seq_len(min(max_size, sum(positive))), function(d) if (d > 1L) orthant_lattice(d - 1L))
-  subsets <- unlist(lapply(seq_len(min(max_size, n_group)), function(k) {
-    utils::combn(m, k, simplify = FALSE)
-  }), recursive = FALSE)
-  # versions of one effect never enter a subset together
-  subsets <- subsets[!vapply(subsets, function(S) anyDuplicated(group[S]) > 0L, logical(1))]
-  sizes <- vapply(subsets, length, 1L)
-  # prior: equal mass on each size 0..max_size, shared equally among the
-  # subsets of effects within a size, and an effect's share equally among its
-  # versions
-  log_w <- -log(as.vector(table(group)[group]))
-  log_w <- vapply(subsets, function(S) sum(log_w[S]), numeric(1))
-  size_mass <- vapply(seq_len(min(max_size, n_group)), function(k) log(sum(exp(log_w[sizes == k]))), numeric(1))
-  log_prior <- c(0, log_w - size_mass[sizes]) - log(length(size_mass) + 1)
+  sp <- regression_subsets(group, max_size)
+  subsets <- sp$subsets
   n_sub <- length(subsets) + 1L
   logml <- matrix(-Inf, H, n_sub)
-  logml[, 1] <- 0
   share <- matrix(0, H, m)
   eta <- rep(1, H)
   for (h in seq_len(H)) {
-    w <- Wt[h, ]
-    y <- Y[h, ]
-    if (!is.null(cluster)) eta[h] <- tempering_power(X, y, w, cluster)
-    n <- g <- eta[h] * n_all
-    XtW <- t(X * w)
-    G <- XtW %*% X
-    b <- drop(XtW %*% y)
-    yy <- sum(w * y^2)
-    if (yy <= 0) next
-    energy <- sum(y^2)
-    for (k in seq_len(m)) {
-      a <- b[k] / G[k, k]
-      if (positive[k]) a <- max(a, 0)
-      share[h, k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
-    }
-    shrink <- g / (1 + g)
-    orthant <- vector("list", length(subsets))
-    for (j in seq_along(subsets)) {
-      S <- subsets[[j]]
-      GS <- G[S, S, drop = FALSE]
-      ch <- tryCatch(chol(GS), error = function(e) NULL)
-      if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
-      coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
-      r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
-      logml[h, j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
-      pS <- which(positive[S])
-      if (length(pS)) {
-        orthant[[j]] <- list(mu = shrink * coef[pS], V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta[h],
-                             phi = yy * (1 - shrink * r2) / n_all)
-      }
-    }
-    logml[h, -1L] <- orthant_adjusted(logml[h, -1L], log_prior[-1L], log_prior[1L], orthant, n, lattice)
+    if (!is.null(cluster)) eta[h] <- tempering_power(X, Y[h, ], Wt[h, ], cluster)
+    d <- draw_subset_evidence(Y[h, ], X, Wt[h, ], eta[h], subsets, sp$log_prior, positive, lattice)
+    logml[h, ] <- d$logml
+    share[h, ] <- d$share
   }
-  lp <- sweep(logml, 2, log_prior, `+`)
+  lp <- sweep(logml, 2, sp$log_prior, `+`)
   lp <- lp - apply(lp, 1, max)
   post <- exp(lp)
   post <- post / rowSums(post)
@@ -103,9 +62,78 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   incl <- vapply(seq_len(m), function(k) {
     sum(sub_prob[-1][vapply(subsets, function(S) k %in% S, logical(1))])
   }, numeric(1))
-  # model-averaged amplitude draws: one subset drawn per draw
-  alpha <- (1 - level) / 2
-  pick <- apply(post, 1, function(p) sample.int(n_sub, 1L, prob = p))
+  amp_draws <- averaged_amplitudes(Y, X, Wt, eta, post, subsets, positive)
+  out <- effect_table(amp_draws, incl, colMeans(share), group, colnames(X), level)
+  sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
+  top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
+  c(out, list(subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
+              eta = eta))
+}
+
+# The subsets of candidates (by position) of up to max_size effects, versions
+# of one effect never together, and the log prior of "(none)" and each subset:
+# equal mass on each size 0..max_size, shared equally among the subsets of
+# effects within a size, and an effect's share equally among its versions.
+regression_subsets <- function(group, max_size) {
+  n_group <- length(unique(group))
+  subsets <- unlist(lapply(seq_len(min(max_size, n_group)), function(k) {
+    utils::combn(length(group), k, simplify = FALSE)
+  }), recursive = FALSE)
+  subsets <- subsets[!vapply(subsets, function(S) anyDuplicated(group[S]) > 0L, logical(1))]
+  sizes <- vapply(subsets, length, 1L)
+  log_w <- -log(as.vector(table(group)[group]))
+  log_w <- vapply(subsets, function(S) sum(log_w[S]), numeric(1))
+  size_mass <- vapply(seq_len(min(max_size, n_group)), function(k) log(sum(exp(log_w[sizes == k]))), numeric(1))
+  list(subsets = subsets, log_prior = c(0, log_w - size_mass[sizes]) - log(length(size_mass) + 1))
+}
+
+# One draw's log marginal likelihood of "(none)" (0) and of each subset
+# (tempered by eta, orthant-adjusted for the constrained amplitudes), and the
+# share of the bias energy each candidate alone explains.
+draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lattice) {
+  n_all <- length(y)
+  logml <- c(0, rep(-Inf, length(subsets)))
+  share <- numeric(ncol(X))
+  n <- g <- eta * n_all
+  XtW <- t(X * w)
+  G <- XtW %*% X
+  b <- drop(XtW %*% y)
+  yy <- sum(w * y^2)
+  if (yy <= 0) return(list(logml = logml, share = share))
+  energy <- sum(y^2)
+  for (k in seq_len(ncol(X))) {
+    a <- b[k] / G[k, k]
+    if (positive[k]) a <- max(a, 0)
+    share[k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
+  }
+  shrink <- g / (1 + g)
+  orthant <- vector("list", length(subsets))
+  for (j in seq_along(subsets)) {
+    S <- subsets[[j]]
+    GS <- G[S, S, drop = FALSE]
+    ch <- tryCatch(chol(GS), error = function(e) NULL)
+    if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
+    coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
+    r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
+    logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
+    pS <- which(positive[S])
+    if (length(pS)) {
+      orthant[[j]] <- list(mu = shrink * coef[pS], V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta,
+                           phi = yy * (1 - shrink * r2) / n_all)
+    }
+  }
+  logml[-1L] <- orthant_adjusted(logml[-1L], log_prior[-1L], log_prior[1L], orthant, n, lattice)
+  list(logml = logml, share = share)
+}
+
+# Model-averaged amplitude draws (H x m): one subset drawn per draw from its
+# posterior probabilities `post`, then its amplitudes from their (truncated)
+# posterior; 0 for the candidates it leaves out.
+averaged_amplitudes <- function(Y, X, Wt, eta, post, subsets, positive) {
+  H <- nrow(Y)
+  m <- ncol(X)
+  n_all <- ncol(Y)
+  pick <- apply(post, 1, function(p) sample.int(ncol(post), 1L, prob = p))
   amp_draws <- t(vapply(seq_len(H), function(h) {
     a <- numeric(m)
     if (pick[h] == 1L) return(a)
@@ -123,12 +151,18 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     a
   }, numeric(m)))
   if (m == 1L) amp_draws <- matrix(amp_draws, ncol = 1L)
-  share_mean <- colMeans(share)
-  versions <- data.frame(candidate = colnames(X), effect = group, inclusion_prob = incl,
+  amp_draws
+}
+
+# The table of effects: one row per effect, whose versions are disjoint
+# events; a draw's amplitude is that of the version it includes, and the share
+# explained is that of the most probable version. Also each version's row and
+# the leading version of each effect.
+effect_table <- function(amp_draws, incl, share_mean, group, names, level) {
+  H <- nrow(amp_draws)
+  alpha <- (1 - level) / 2
+  versions <- data.frame(candidate = names, effect = group, inclusion_prob = incl,
                          amplitude = colMeans(amp_draws), share_explained = share_mean, stringsAsFactors = FALSE)
-  # one row per effect: its versions are disjoint events, and a draw's
-  # amplitude is that of the version it includes; the share explained is that
-  # of the most probable version
   eff <- unique(group)
   amp_draws <- vapply(eff, function(e) rowSums(amp_draws[, group == e, drop = FALSE]), numeric(H))
   if (H == 1L) amp_draws <- matrix(amp_draws, nrow = 1L)
@@ -147,15 +181,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   )
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
   rownames(table) <- NULL
-  sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
-  top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
-  list(
-    table = table,
-    subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
-    eta = eta,
-    lead = stats::setNames(colnames(X)[lead], eff),
-    versions = if (n_group < m) versions[order(-versions$inclusion_prob), , drop = FALSE]
-  )
+  list(table = table, lead = stats::setNames(names[lead], eff),
+       versions = if (length(eff) < length(names)) versions[order(-versions$inclusion_prob), , drop = FALSE])
 }
 
 # A fixed lattice of N quasi-random points in d dimensions for the orthant
