@@ -457,3 +457,38 @@ testbed_signatures <- function(inputs, mechanisms = testbed_mechanisms()) {
   })
   stats::setNames(out, mechanisms)
 }
+
+# The validation of the model without any mechanism on the test bed's
+# condition A, as the diagnosis tests and bench scripts run it: field data
+# registered to the runs (the maximum alone for a hidden tire lift-off, whose
+# minimum is flat), the report's basis, emulators and one chain.
+testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
+  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
+  basis <- wavelet_basis(tb$A$runs, field)
+  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                                    quiet = TRUE))
+  list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
+}
+
+# The model re-validated with each test-bed mechanism in turn, on the field
+# data and basis of `fit` (a testbed_validation()'s): its strength s_<m> a
+# calibration input on [0, 1], the model with it simulated at an n_runs-point
+# maximin design. A named list of fits, for explain_bias().
+testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_runs = 66L, n_draws = 150L,
+                                 n_inner = 20L) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  fits <- lapply(mechanisms, function(m) {
+    iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
+    runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
+    em <- suppressWarnings(fit_emulators(runs, fit$basis))
+    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                               quiet = TRUE))
+  })
+  stats::setNames(fits, mechanisms)
+}

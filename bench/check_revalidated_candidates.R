@@ -20,22 +20,10 @@ for (a in args) {
   hidden <- sub(":.*", "", a)
   seed <- as.integer(sub(".*:", "", a))
   t0 <- clock()
-  tb <- testbed_suspension(seed = seed, hidden = hidden)
-  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
-  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
-  basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
-  base <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                                     quiet = TRUE))
-  iu <- tb$iu
-  fits <- lapply(testbed_mechanisms(), function(m) {
-    s_name <- paste0("s_", m)
-    iu_m <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
-    runs_m <- simulate_suspension(design_maximin(iu_m, 66, seed = 2), mechanism = m)
-    em_m <- suppressWarnings(fit_emulators(runs_m, basis))
-    suppressWarnings(calibrate(em_m, field, iu_m, n_draws = 150, n_inner = 20, chains = 1, seed = 1, quiet = TRUE))
-  })
-  ex <- explain_bias(base, stats::setNames(fits, testbed_mechanisms()))
+  v <- wavevalid:::testbed_validation(hidden, seed)
+  base <- v$fit
+  fits <- wavevalid:::testbed_revalidation(v$tb, base)
+  ex <- explain_bias(base, fits)
   lbf <- attr(ex, "log_bf")
   sub <- attr(ex, "subsets")
   row <- data.frame(hidden = hidden, seed = seed, first = ex$candidate[1],

@@ -24,13 +24,11 @@ n_inner <- if (length(args) >= 4) as.integer(args[4]) else 20L
 options(wavevalid.quiet = TRUE)
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 
-tb <- testbed_suspension(seed = seed, hidden = hidden)
-features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
-field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
-basis <- wavelet_basis(tb$A$runs, field)
-em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
-base <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                   seed = 1, quiet = TRUE))
+v <- wavevalid:::testbed_validation(hidden, seed, n_draws = n_draws, n_inner = n_inner)
+tb <- v$tb
+field <- v$field
+basis <- v$basis
+base <- v$fit
 sigma2 <- lapply(base$sigma2, function(m) apply(m, 2, stats::median))
 
 # Log posterior at inputs z (the emulators' units), every tau2 at its mode

@@ -245,13 +245,9 @@ testbed_diagnosis <- function(hidden, seed = 1L) {
   key <- paste(hidden, seed)
   if (!is.null(testbed_fits[[key]])) return(testbed_fits[[key]])
   withr::local_options(list(wavevalid.quiet = TRUE))
-  tb <- testbed_suspension(seed = seed, hidden = hidden)
-  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
-  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
-  basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                                    quiet = TRUE))
+  v <- wavevalid:::testbed_validation(hidden, seed)
+  tb <- v$tb
+  fit <- v$fit
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   ex <- as.data.frame(unclass(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)))
   out <- list(tb = tb, fit = fit, fails = where_fails(fit), explain = ex[!startsWith(ex$candidate, "shift:"), ],
@@ -420,16 +416,8 @@ test_that("flagged_share counts the flagged points where an effect acts", {
 testbed_revalidated <- function(hidden, seed) {
   d <- testbed_diagnosis(hidden, seed)
   withr::local_options(list(wavevalid.quiet = TRUE))
-  iu <- d$tb$iu
-  fits <- lapply(testbed_mechanisms(), function(m) {
-    s_name <- paste0("s_", m)
-    iu_m <- iu_add(iu, s_name, lower = 0, upper = 1, nominal = 0.5)
-    runs <- simulate_suspension(design_maximin(iu_m, 66, seed = 2), mechanism = m)
-    em <- suppressWarnings(fit_emulators(runs, d$fit$basis))
-    suppressWarnings(calibrate(em, d$fit$field, iu_m, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                               quiet = TRUE))
-  })
-  as.data.frame(unclass(explain_bias(d$fit, stats::setNames(fits, testbed_mechanisms()), n_draws = 50)))
+  fits <- wavevalid:::testbed_revalidation(d$tb, d$fit)
+  as.data.frame(unclass(explain_bias(d$fit, fits, n_draws = 50)))
 }
 
 # At seed 3 the progressive bump stop is not found: its model puts the
