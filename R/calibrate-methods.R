@@ -100,6 +100,8 @@ print.wv_fit <- function(x, ...) {
     cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ", paste(il, collapse = ", "),
                   " only; the other levels' bias follows the inputs drawn (inform_levels)")
   }
+  tp <- x$settings$temper %||% 1
+  if (tp < 1) cli::cat_line("Tempered posterior: the likelihood raised to the power ", signif(tp, 3), " (temper)")
   if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
   b <- x$flags$boundary
   if (nrow(b)) {

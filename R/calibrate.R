@@ -87,6 +87,24 @@
 #' seed, where with every level none did. The cut is a sensitivity check on
 #' how far the fine levels move the inputs, not a default.
 #'
+#' @section Tempered posterior:
+#' The method's likelihood treats the errors of the several hundred retained
+#' coefficients as independent. Errors that several coefficients share (a
+#' registration that leaves an event a fraction of a grid step off, an
+#' emulator that is wrong in the same direction over a stretch of the record)
+#' then count many times over, and the inputs' posterior is too narrow,
+#' often many posterior standard deviations from the truth; the bias band,
+#' computed at those inputs, then flags what is only the inputs' error.
+#' `temper` < 1 raises the likelihood to that power in the whole target (a
+#' power posterior, as for composite likelihoods: Ribatet, Cooley and
+#' Davison, 2012; a general Bayesian update: Bissiri, Holmes and Walker,
+#' 2016), as though the data held `temper` times as many independent
+#' coefficients. The bias and model coefficients are still drawn from eq.
+#' (16)-(17) given the inputs, variances and field data.
+#'
+#' It is a sensitivity option, not a default: it trades the bias band's power
+#' for fewer false flags.
+#'
 #' The loop runs in C++. Each chain is one future
 #' (`future.apply::future_lapply()`), so `future::plan()` decides where chains
 #' run, and `seed` alone decides the draws.
@@ -136,6 +154,9 @@
 #'   other levels get their `tau2` and bias given the inputs drawn. See the
 #'   section Levels cut off the inputs. Levels pooled by `pool_levels` must be
 #'   all in or all out.
+#' @param temper Power of the likelihood in (0, 1]: 1 (default) is the
+#'   method's posterior; smaller values widen the posterior for errors the
+#'   coefficients share. See the section Tempered posterior.
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
@@ -178,7 +199,7 @@
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
                       burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
-                      inform_levels = NULL, threads = getOption("wavevalid.threads", 1L),
+                      inform_levels = NULL, temper = 1, threads = getOption("wavevalid.threads", 1L),
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
   rlang::check_dots_empty()
   check_class(emulators, "wv_emulators")
@@ -196,11 +217,14 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(threads, min = 1, max = 1024, integer = TRUE)
   seed <- resolve_seed(seed)
   check_flag(registration_variance)
+  check_number(temper, min = 0, max = 1)
+  if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   spec$informs <- informing_groups(inform_levels, spec$basis$level, spec$bias_group, spec$groups)
   spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
+  spec$temper <- temper
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
                      proposal = proposal, burnin = burnin, threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
@@ -208,7 +232,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                                       step = step, proposal = proposal, burnin = burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
                                       registration_variance = registration_variance,
-                                      inform_levels = spec$inform_levels),
+                                      inform_levels = spec$inform_levels, temper = temper),
                       seed = seed)
   warn_fit_flags(fit)
   fit
@@ -430,7 +454,7 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
                         as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
                         progress, identical(proposal, "adaptive"), as.integer(burnin),
                         as.numeric(p_global), as.integer(n_search), as.integer(threads),
-                        as.integer(spec$informs %||% integer(0)))
+                        as.integer(spec$informs %||% integer(0)), as.numeric(spec$temper %||% 1))
   }
   future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }

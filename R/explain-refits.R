@@ -160,7 +160,7 @@ log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
     at <- function(v) {
       Z <- matrix(z, length(v), length(z), byrow = TRUE, dimnames = list(NULL, rf$inputs))
       Z[, strength] <- v
-      refit_loglik(rf, Z, h, informing)
+      (rf$settings$temper %||% 1) * refit_loglik(rf, Z, h, informing)
     }
     ll <- at(grid)
     j <- which.max(ll)

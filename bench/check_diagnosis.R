@@ -45,12 +45,13 @@
 # mechanism through explain_bias()'s effect argument). positive is
 # explain_bias()'s: the mechanisms' amplitudes constrained to be
 # non-negative.
+# temper is calibrate()'s: the likelihood raised to that power.
 #   Rscript bench/check_diagnosis.R [seeds=1:5] [refine=FALSE] [n_draws=150] [n_inner=20] [cores=2]
 #                                   [knots_every=2] [register_runs=FALSE] [pool_levels=NULL]
 #                                   [reference=runs] [tolerance=0] [segments=64] [knots_to=reference]
 #                                   [registration_variance=FALSE] [rescale=FALSE]
 #                                   [signatures_at=posterior|nominal|unpiled|both] [positive=TRUE]
-#                                   [inform_levels=NULL]
+#                                   [inform_levels=NULL] [temper=1]
 # seeds as "1:5" or "1,3,7".
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
@@ -72,6 +73,7 @@ rescale <- if (length(args) >= 14) as.logical(args[14]) else FALSE
 signatures_at <- if (length(args) >= 15) match.arg(args[15], c("posterior", "nominal", "unpiled", "both")) else "posterior"
 positive <- if (length(args) >= 16) as.logical(args[16]) else TRUE
 inform_levels <- if (length(args) >= 17) eval(parse(text = args[17])) else NULL
+temper <- if (length(args) >= 18) as.numeric(args[18]) else 1
 options(wavevalid.quiet = TRUE)
 
 one <- function(hidden, seed) {
@@ -94,7 +96,7 @@ one <- function(hidden, seed) {
   calib <- function(em, field) {
     suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
                                seed = 1, pool_levels = pool_levels, registration_variance = reg_var,
-                               inform_levels = inform_levels, quiet = TRUE))
+                               inform_levels = inform_levels, temper = temper, quiet = TRUE))
   }
   if (reference == "posterior") {
     first <- calib(emulate(runs, field), field)
@@ -155,7 +157,8 @@ grid <- expand.grid(hidden = c("none", testbed_mechanisms()), seed = seeds, stri
 cat(sprintf("diagnosis on the test bed: %d seeds, refine = %s, knots_every = %s, register_runs = %s, pool_levels = %s, reference = %s, tolerance = %g, segments = %s, knots_to = %s, registration_variance = %s, rescale = %s, signatures at %s, %d x %d draws, 1 chain\n",
             length(seeds), refine, format(knots_every), register_runs, deparse(pool_levels), reference, tolerance,
             deparse(segments), knots_to, reg_var, rescale, signatures_at, n_draws, n_inner))
-cat(sprintf("explain_bias(positive = %s), calibrate(inform_levels = %s)\n", positive, deparse(inform_levels)))
+cat(sprintf("explain_bias(positive = %s), calibrate(inform_levels = %s, temper = %g)\n", positive,
+            deparse(inform_levels), temper))
 res <- parallel::mclapply(seq_len(nrow(grid)), function(i) one(grid$hidden[i], grid$seed[i]),
                           mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")

@@ -21,7 +21,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
                                int n_draws, int n_inner, double step, double seed, int chain,
                                int debug_break, Rcpp::RObject progress, bool adaptive = false,
                                int burnin = 0, double p_global = 0.1, int n_search = 200,
-                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector::create()) {
+                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector::create(),
+                               double temper = 1.0) {
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
@@ -84,6 +85,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   set.threads = threads;
   if (informs.size() > 0 && informs.size() != n_groups) Rcpp::stop("informs must have one value per group");
   set.informs.assign(informs.begin(), informs.end());
+  if (!(temper > 0.0 && temper <= 1.0)) Rcpp::stop("temper must lie in (0, 1]");
+  set.temper = temper;
 
   const bool has_progress = !progress.isNULL();
   Rcpp::Function* fn = nullptr;

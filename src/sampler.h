@@ -10,7 +10,8 @@
 //          Uniform(support) and Uniform([x - h, x + h] cap support), with the
 //          full mixture densities in the Hastings ratio;
 //      target (eq. 18): prod_i N(wbar_i; m_i(z), V_i(z) + sigma2_i / R + extra_i + tau2_g(i))
-//      (extra_i: a known variance of wbar_i beyond the replicates' own, 0 unless given)
+//      (extra_i: a known variance of wbar_i beyond the replicates' own, 0 unless given;
+//      the product over i raised to the power settings.temper, 1 unless given)
 //      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R) (sigmabar2_g / R the
 //      mean of sigma2_i / R + extra_i over the group);
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
@@ -318,7 +319,7 @@ class Sampler {
       Eigen::VectorXd next = tau2_;
       for (int g = 0; g < G_; ++g)
         if (!cut || (informs_[g] ? 0 : 1) == part) next(g) = prop(g);
-      const double l = lr[part] + loglik(next, true) - loglik(tau2_, true);
+      const double l = lr[part] + set_.temper * (loglik(next, true) - loglik(tau2_, true));
       if (std::log(unif_(rng_)) < l) {
         tau2_ = next;
         acc_tau_ += cut ? 0.5 : 1.0;
@@ -343,7 +344,7 @@ class Sampler {
       if (members_[g].empty()) continue;
       const double cur = tau2_(g);
       const double prop = cur * std::exp(-0.7 + 1.4 * unif_(rng_));
-      double lr = group_loglik(g, prop) - group_loglik(g, cur) + log_prior_tau(g, prop) -
+      double lr = set_.temper * (group_loglik(g, prop) - group_loglik(g, cur)) + log_prior_tau(g, prop) -
                   log_prior_tau(g, cur);
       if (set_.debug_break != 2) lr += std::log(prop / cur);
       n_tau_ += 1.0 / G_;
@@ -372,7 +373,7 @@ class Sampler {
     if (std::isfinite(lp)) {
       predict_all(zp_, mp_, vp_);
       ll_prop = loglik_with(mp_, vp_, tau2_);
-      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
+      lr = set_.temper * (ll_prop - ll_cur) + lp - log_prior_inputs(z_);
     }
     const double u = std::log(unif_(rng_));
     const bool accept = u < lr;
@@ -392,7 +393,7 @@ class Sampler {
   // there: the score of a candidate start.
   double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
     t2 = set_.fix_tau2 ? tau2_ : moment_tau2(m_, v_);
-    double lp = loglik_with(m_, v_, t2) + log_prior_inputs(z);
+    double lp = set_.temper * loglik_with(m_, v_, t2) + log_prior_inputs(z);
     for (int g = 0; g < G_; ++g)
       if (informs_[g]) lp += log_prior_tau(g, t2(g));
     return lp;
@@ -434,7 +435,7 @@ class Sampler {
     }
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
-    lr += ll_prop - ll_cur;
+    lr += set_.temper * (ll_prop - ll_cur);
     n_input_ += 1;
     if (std::log(unif_(rng_)) < lr) {
       z_.swap(zp_);

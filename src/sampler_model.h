@@ -88,6 +88,7 @@ struct SamplerSettings {
   int threads = 1;                  // OpenMP threads of the emulator predictions
   std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs
                                     // (a cut: its tau2 and bias follow the inputs); empty: all inform
+  double temper = 1.0;              // power of the likelihood in the target (1: the method's posterior)
 };
 
 struct SamplerOutput {

@@ -71,7 +71,7 @@ grid_problem <- function() {
   list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = sd_eps^2, R = R, wbar = colMeans(W))
 }
 
-grid_marginals <- function(gp) {
+grid_marginals <- function(gp, temper = 1) {
   bank <- gp$pb$emulators$banks$site1
   u <- seq(0.0005, 0.9995, by = 0.001)
   lt <- seq(-12, 6, by = 0.01)
@@ -79,7 +79,7 @@ grid_marginals <- function(gp) {
   e <- gp$sigma2 / gp$R
   logp <- outer(seq_along(u), seq_along(lt), Vectorize(function(a, b) {
     t2 <- exp(lt[b])
-    sum(stats::dnorm(gp$wbar, P$mean[a, ], sqrt(P$var[a, ] + e + t2), log = TRUE)) -
+    temper * sum(stats::dnorm(gp$wbar, P$mean[a, ], sqrt(P$var[a, ] + e + t2), log = TRUE)) -
       log(t2 + gp$sigma2 / gp$R) + lt[b]
   }))
   d <- exp(logp - max(logp))
@@ -113,6 +113,33 @@ test_that("the sampler reproduces a posterior computed on a grid, and not with a
 
 test_that("the adaptive sampler reproduces the grid posterior, and not with a broken tau2 ratio", {
   grid_check("adaptive", 1500, 30)
+})
+
+test_that("a tempered calibration reproduces the grid posterior of the likelihood raised to temper", {
+  withr::local_seed(11)
+  gp <- grid_problem()
+  gm <- grid_marginals(gp, temper = 0.25)
+  g1 <- grid_marginals(gp)
+  cdf <- function(x, f) stats::approxfun(x, cumsum(f), yleft = 0, yright = 1)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
+                   sigma2 = gp$sigma2, temper = 0.25, quiet = TRUE)
+  expect_identical(fit$settings$temper, 0.25)
+  expect_true(any(grepl("Tempered posterior", capture.output(print(fit)))))
+  X <- as.matrix(fit$draws)
+  expect_gt(suppressWarnings(stats::ks.test(X[, "u1"], cdf(gm$u, gm$fu))$p.value), 0.01)
+  expect_gt(stats::ks.test(log(X[, "tau2[site1:4]"]), cdf(gm$lt, gm$flt))$p.value, 0.01)
+  # not the method's posterior, which is narrower
+  expect_lt(suppressWarnings(stats::ks.test(X[, "u1"], cdf(g1$u, g1$fu))$p.value), 0.01)
+  # temper = 1 is the method's posterior, draw for draw
+  a <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
+                 sigma2 = gp$sigma2, quiet = TRUE)
+  b <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
+                 sigma2 = gp$sigma2, temper = 1, quiet = TRUE)
+  expect_identical(as.matrix(a$draws), as.matrix(b$draws))
+  for (bad in list(0, -0.5, 1.5, NA_real_, "0.5", c(0.5, 0.6))) {
+    expect_error(calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 5, n_inner = 2, chains = 1,
+                           temper = bad, quiet = TRUE), class = "wavevalid_error_input")
+  }
 })
 
 test_that("pooled levels share one tau2: the sampler reproduces the grid posterior of a shared variance", {
