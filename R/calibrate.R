@@ -111,7 +111,7 @@
 #' 0, 8, 1 and 1783 at 0.1; and 0, 6, 2, 4 and 3 at 0.02. The power to see a
 #' missing mechanism fell with them: the flagged intervals covered more than a
 #' fifth of where it acts, at both sites, in 18 of the 20 cases with a
-#' mechanism hidden (four mechanisms, five seeds) at temper 1, in 7 or 8 at 0.1
+#' mechanism hidden (four mechanisms, five seeds) at temper 1, in 7 at 0.1
 #' and in 3 at 0.02. A hidden strut friction was so covered at every seed at
 #' temper 1 and at none at 0.1. It is a sensitivity option, not a default: with
 #' the likelihood tempered, the bias band flags less, wrongly and rightly.
