@@ -151,8 +151,8 @@ log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
   p <- rf$prior_iu[match(strength, rf$prior_iu$name), ]
   lo <- p$lower
   hi <- p$upper
-  informing <- if (is.null(rf$settings$inform_levels)) unique(unlist(rf$bias_group)) else
-    rf$groups$name[rf$groups$level %in% rf$settings$inform_levels]
+  informs <- informing_groups(rf$settings$inform_levels, rf$basis$level, rf$bias_group, rf$groups)
+  informing <- if (is.null(informs)) rf$groups$name else rf$groups$name[informs == 1L]
   grid <- seq(lo, hi, length.out = n_grid)
   step <- grid[2] - grid[1]
   out <- vapply(keep, function(h) {
