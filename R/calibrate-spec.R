@@ -1,0 +1,165 @@
+# calibrate(), stage 1: the field data, emulators and I/U map as the sampler's
+# sites, priors and tau2 groups.
+
+# --- data and priors ----------------------------------------------------------
+
+calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = NULL,
+                             registration_variance = FALSE, call = rlang::caller_env()) {
+  basis <- emulators$basis
+  check_class(basis, "wv_basis", arg = "emulators$basis", call = call)
+  if (length(field$t) != length(basis$t) || max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
+    wv_abort(c(
+      "{.arg field} must be on the grid of the emulators' basis.",
+      "x" = "The field grid has {length(field$t)} point{?s} on [{signif(min(field$t), 4)}, {signif(max(field$t), 4)}]; the basis grid has {length(basis$t)} on [{signif(min(basis$t), 4)}, {signif(max(basis$t), 4)}].",
+      "i" = "Build the field with {.fn field_runs} on the grid of the model runs (and register it with {.fn register_curves})."
+    ), call = call)
+  }
+  inputs <- emulators$inputs
+  miss <- setdiff(inputs, iu$name)
+  if (length(miss)) {
+    wv_abort(c(
+      "Every input of the emulators must be in the I/U map.",
+      "x" = "{.val {miss}} {cli::qty(length(miss))}{?is/are} missing from {.arg iu}.",
+      "i" = "Add {cli::qty(length(miss))}{?it/them} with {.fn iu_map}."
+    ), call = call)
+  }
+  sites <- names(field$curves)
+  nobank <- setdiff(sites, names(emulators$banks))
+  if (length(nobank)) {
+    wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
+             call = call)
+  }
+  k <- match(inputs, iu$name)
+  x_nom <- stats::setNames(iu$nominal[k], inputs)
+  if (!is.null(field$x_nom)) {
+    use <- intersect(names(field$x_nom), inputs)
+    x_nom[use] <- field$x_nom[use]
+  }
+  var <- iu$type[k] == "variation"
+  shift <- ifelse(var, x_nom - iu$nominal[k], 0)
+  priors <- list(lower = iu$lower[k] + shift, upper = iu$upper[k] + shift, normal = var,
+                 mean = ifelse(var, x_nom, 0), sd = ifelse(var, iu$prior_sd[k], 1))
+  prior_iu <- iu[k, , drop = FALSE]
+  prior_iu$lower <- priors$lower
+  prior_iu$upper <- priors$upper
+  prior_iu$nominal <- ifelse(var, x_nom, iu$nominal[k])
+  rownames(prior_iu) <- NULL
+
+  if (identical(sigma2, "finest")) {
+    sigma2 <- unclass(field_noise(field, basis))
+    wv_warn(c(
+      "Field variances estimated from the finest wavelet level of the field curves, not from replicates.",
+      "i" = "The bands rest on that estimate and on the measurement noise being close to white."
+    ), class = "noise_estimate")
+  }
+  sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
+  tau_group <- bias_groups(basis$level, pool_levels, call = call)
+  extra <- NULL
+  if (registration_variance) {
+    extra <- registration_extra_variance(field, basis)
+    if (is.null(extra)) {
+      wv_abort(c(
+        "{.code registration_variance = TRUE} needs field data registered to model runs.",
+        "x" = "{.arg field} has no landmark spread of a reference made of model runs.",
+        "i" = "Register it with {.code register_curves(field, runs, windows)}, {.code runs} a {.cls wv_runs}."
+      ), call = call)
+    }
+  }
+  groups <- NULL
+  site_data <- list()
+  wbar <- s2 <- n_rep <- bias_group <- list()
+  for (s in sites) {
+    W <- field$curves[[s]] %*% basis$Psi
+    R <- nrow(W)
+    if (R < 2L && is.null(sigma2[[s]])) {
+      wv_abort(c(
+        "Site {.val {s}} has {R} field replicate{?s}; estimating the field variances needs at least 2.",
+        "i" = "Give fixed variances through {.arg sigma2}, or {.code sigma2 = \"finest\"} to estimate them from the finest wavelet level."
+      ), class = "input", call = call)
+    }
+    wbar[[s]] <- colMeans(W)
+    s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
+    n_rep[[s]] <- R
+    g0 <- if (is.null(groups)) 0L else nrow(groups)
+    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
+                                       stringsAsFactors = FALSE))
+    site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
+                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
+    bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
+  }
+  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
+       groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra)
+}
+
+# The bias-variance groups of the coefficients of a basis: one per level, or
+# one for the levels in pool_levels (those present) and one per other level.
+# Returns label and (lowest) level of each group, the 1-based group of each
+# coefficient and the pooled levels.
+bias_groups <- function(level, pool_levels = NULL, call = rlang::caller_env()) {
+  lv <- sort(unique(level))
+  if (!is.null(pool_levels)) {
+    if (!is.numeric(pool_levels) || anyNA(pool_levels) || any(pool_levels != round(pool_levels)) ||
+        any(pool_levels < 0) || length(unique(pool_levels)) < 2L) {
+      wv_abort(c(
+        "{.arg pool_levels} must be two or more whole levels (0 for the scaling coefficient).",
+        "x" = "It is {.code {deparse(pool_levels)}}."
+      ), call = call)
+    }
+    pool_levels <- sort(unique(as.integer(pool_levels)))
+    absent <- setdiff(pool_levels, lv)
+    if (length(absent)) {
+      wv_abort(c(
+        "{.arg pool_levels} names level{?s} {absent} that the basis does not hold.",
+        "i" = "The basis holds levels {lv}."
+      ), call = call)
+    }
+  }
+  if (is.null(pool_levels)) return(list(label = as.character(lv), level = lv, group = match(level, lv), pooled = NULL))
+  low <- min(pool_levels)
+  key <- ifelse(level %in% pool_levels, low, level)
+  lev <- sort(unique(key))
+  label <- as.character(lev)
+  contiguous <- identical(pool_levels, seq(low, max(pool_levels)))
+  label[lev == low] <- if (contiguous) paste0(low, "-", max(pool_levels)) else paste(pool_levels, collapse = ",")
+  list(label = label, level = lev, group = match(key, lev), pooled = pool_levels)
+}
+
+resolve_sigma2 <- function(sigma2, sites, n, call = rlang::caller_env()) {
+  out <- stats::setNames(vector("list", length(sites)), sites)
+  if (is.null(sigma2)) return(out)
+  if (is.numeric(sigma2) && length(sites) == 1L) sigma2 <- stats::setNames(list(sigma2), sites)
+  if (!is.list(sigma2) || is.null(names(sigma2)) || !all(names(sigma2) %in% sites)) {
+    wv_abort("{.arg sigma2} must be a numeric vector (one site) or a list named by site ({.val {sites}}).",
+             call = call)
+  }
+  for (s in names(sigma2)) {
+    v <- sigma2[[s]]
+    if (!is.numeric(v) || !length(v) %in% c(1L, n) || any(!is.finite(v)) || any(v <= 0)) {
+      wv_abort("{.arg sigma2} for site {.val {s}} must be positive, one value or {n} (one per coefficient).",
+               call = call)
+    }
+    out[[s]] <- rep_len(as.numeric(v), n)
+  }
+  out
+}
+
+resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
+  G <- nrow(groups)
+  if (is.null(fix_tau2)) return(list(fixed = rep(FALSE, G), values = numeric(0)))
+  if (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0)) {
+    wv_abort("{.arg fix_tau2} must hold positive numbers.", call = call)
+  }
+  if (is.null(names(fix_tau2))) {
+    if (length(fix_tau2) != 1L && length(fix_tau2) != G) {
+      wv_abort("{.arg fix_tau2} must have one value or one per group ({G}: {.val {groups$name}}).", call = call)
+    }
+    vals <- rep_len(fix_tau2, G)
+  } else {
+    if (!setequal(names(fix_tau2), groups$name)) {
+      wv_abort("{.arg fix_tau2} must be named by every group: {.val {groups$name}}.", call = call)
+    }
+    vals <- unname(fix_tau2[groups$name])
+  }
+  list(fixed = rep(TRUE, G), values = stats::setNames(vals, groups$name))
+}
