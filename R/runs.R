@@ -252,6 +252,59 @@ curves_long <- function(m, t, site, id_name = "run") {
   out
 }
 
+#' Combine model runs
+#'
+#' Puts together sets of runs of the same model: a first space-filling wave
+#' and runs added later, for instance at [design_posterior()]. The emulators
+#' are then fitted again to all of them.
+#'
+#' @param ... `wv_runs` objects on the same time grid, with the same sites
+#'   and the same inputs (columns of the design, in any order).
+#' @return A `wv_runs` object with the runs of every argument, in order.
+#' @export
+#' @examples
+#' t <- seq(0, 1, length.out = 64)
+#' first <- model_runs(data.frame(a = c(0.1, 0.5, 0.9)), t(sapply(c(0.1, 0.5, 0.9), function(a) sin(a * t))), t)
+#' more <- model_runs(data.frame(a = c(0.3, 0.7)), t(sapply(c(0.3, 0.7), function(a) sin(a * t))), t)
+#' c(first, more)
+c.wv_runs <- function(...) {
+  runs <- list(...)
+  ok <- vapply(runs, inherits, logical(1), "wv_runs")
+  if (!all(ok)) {
+    wv_abort(c("Only {.cls wv_runs} objects can be combined with model runs.",
+               "x" = "Argument{?s} {which(!ok)} {?is/are} not."))
+  }
+  first <- runs[[1]]
+  inputs <- names(first$design)
+  sites <- names(first$curves)
+  for (i in seq_along(runs)[-1]) {
+    r <- runs[[i]]
+    if (length(r$t) != length(first$t) || max(abs(r$t - first$t)) > 1e-8 * diff(range(first$t))) {
+      wv_abort(c("Runs to combine must be on the same time grid.",
+                 "x" = "Argument {i} has {length(r$t)} point{?s} on [{signif(min(r$t), 4)}, {signif(max(r$t), 4)}]; the first has {length(first$t)} on [{signif(min(first$t), 4)}, {signif(max(first$t), 4)}]."))
+    }
+    if (!setequal(names(r$curves), sites)) {
+      wv_abort(c("Runs to combine must have the same sites.",
+                 "x" = "Argument {i} has {.val {names(r$curves)}}; the first has {.val {sites}}."))
+    }
+    if (!setequal(names(r$design), inputs)) {
+      wv_abort(c("Runs to combine must have the same inputs.",
+                 "x" = "Argument {i} has {.val {names(r$design)}}; the first has {.val {inputs}}.",
+                 "i" = "Give every run a value of every input (fixed inputs at their fixed value)."))
+    }
+  }
+  design <- do.call(rbind, lapply(runs, function(r) r$design[inputs]))
+  rownames(design) <- NULL
+  repeated <- duplicated(design)
+  if (any(repeated)) {
+    wv_abort(c("Combined runs must not repeat a design point.",
+               "x" = "{cli::qty(sum(repeated))}Run{?s} {which(repeated)} of the combined design repeat{?s/} an earlier one.",
+               "i" = "A repeated run adds nothing to a deterministic model and makes the emulators' correlation matrix singular; drop it."))
+  }
+  curves <- stats::setNames(lapply(sites, function(s) do.call(rbind, lapply(runs, function(r) r$curves[[s]]))), sites)
+  validate_wv_runs(new_wv_runs(design, first$t, curves))
+}
+
 #' @export
 print.wv_runs <- function(x, ...) {
   k <- nrow(x$design)
