@@ -279,10 +279,7 @@ c.wv_runs <- function(...) {
   sites <- names(first$curves)
   for (i in seq_along(runs)[-1]) {
     r <- runs[[i]]
-    if (length(r$t) != length(first$t) || max(abs(r$t - first$t)) > 1e-8 * diff(range(first$t))) {
-      wv_abort(c("Runs to combine must be on the same time grid.",
-                 "x" = "Argument {i} has {length(r$t)} point{?s} on [{signif(min(r$t), 4)}, {signif(max(r$t), 4)}]; the first has {length(first$t)} on [{signif(min(first$t), 4)}, {signif(max(first$t), 4)}]."))
-    }
+    check_same_grid(r$t, first$t, paste("argument", i), "argument 1")
     if (!setequal(names(r$curves), sites)) {
       wv_abort(c("Runs to combine must have the same sites.",
                  "x" = "Argument {i} has {.val {names(r$curves)}}; the first has {.val {sites}}."))
