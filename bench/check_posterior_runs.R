@@ -11,9 +11,10 @@
 # share of the nine inputs whose true value is inside the central 90%
 # posterior interval; err, the root mean square of posterior mean - truth
 # (coded units); sd, the mean posterior sd; share, the flagged share of the
-# hidden mechanism's region at each site.
+# hidden mechanism's region at each site. registration_variance is
+# calibrate()'s (registered field only).
 #   Rscript bench/check_posterior_runs.R [cases=none:1,...,none:5] [field=unwarped] [n_add=30] [rounds=1]
-#                                        [spread=0.05] [cores=2]
+#                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
 cases <- if (length(args) >= 1) strsplit(args[1], ",")[[1]] else paste0("none:", 1:5)
@@ -22,6 +23,7 @@ n_add <- if (length(args) >= 3) as.integer(args[3]) else 30L
 rounds <- if (length(args) >= 4) as.integer(args[4]) else 1L
 spread <- if (length(args) >= 5) as.numeric(args[5]) else 0.05
 cores <- if (length(args) >= 6) as.integer(args[6]) else 2L
+reg_var <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 options(wavevalid.quiet = TRUE)
 
 one <- function(case) {
@@ -39,7 +41,8 @@ one <- function(case) {
   basis <- wavelet_basis(runs, field)
   validate_runs <- function(runs) {
     em <- suppressWarnings(fit_emulators(runs, basis))
-    suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1, quiet = TRUE))
+    suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1, quiet = TRUE,
+                               registration_variance = reg_var))
   }
   truth <- c(tb$truth$u, 0.5 + tb$truth$delta)
   row <- function(fit, round) {
@@ -66,8 +69,8 @@ one <- function(case) {
   out
 }
 
-cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, 150 x 20 draws, 1 chain\n",
-            field_kind, n_add, rounds, spread))
+cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, 150 x 20 draws, 1 chain\n",
+            field_kind, n_add, rounds, spread, reg_var))
 res <- parallel::mclapply(cases, one, mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")
 if (any(bad)) stop("failed: ", paste(vapply(res[bad], as.character, ""), collapse = "\n"))
