@@ -236,7 +236,7 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
     out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
     for (k in lead) {
       rf <- refits[[k]]
-      z <- colMeans(as.matrix(rf$draws))[rf$inputs]
+      z <- posterior_mean_inputs(rf)
       z0 <- z
       z0[strength[k]] <- rf$prior_iu$lower[match(strength[k], rf$prior_iu$name)]
       m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], rbind(z, z0))$mean

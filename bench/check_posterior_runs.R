@@ -12,9 +12,14 @@
 # posterior interval; err, the root mean square of posterior mean - truth
 # (coded units); sd, the mean posterior sd; share, the flagged share of the
 # hidden mechanism's region at each site. registration_variance is
-# calibrate()'s (registered field only).
+# calibrate()'s (registered field only). reference = "posterior" registers
+# the field replicates anew after each round, to the mean of that round's
+# runs (all at posterior draws), and builds the wavelet basis anew on all
+# the runs;
+# "first" (default) keeps them registered to the mean of the first runs.
 #   Rscript bench/check_posterior_runs.R [cases=none:1,...,none:5] [field=unwarped] [n_add=30] [rounds=1]
 #                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
+#                                        [reference=first|posterior]
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
 cases <- if (length(args) >= 1) strsplit(args[1], ",")[[1]] else paste0("none:", 1:5)
@@ -24,6 +29,8 @@ rounds <- if (length(args) >= 4) as.integer(args[4]) else 1L
 spread <- if (length(args) >= 5) as.numeric(args[5]) else 0.05
 cores <- if (length(args) >= 6) as.integer(args[6]) else 2L
 reg_var <- if (length(args) >= 7) as.logical(args[7]) else FALSE
+reference <- if (length(args) >= 8) match.arg(args[8], c("first", "posterior")) else "first"
+if (reference == "posterior" && field_kind != "registered") stop("reference = \"posterior\" needs field = \"registered\"")
 options(wavevalid.quiet = TRUE)
 
 one <- function(case) {
@@ -62,15 +69,20 @@ one <- function(case) {
   fit <- validate_runs(runs)
   out <- row(fit, 0L)
   for (r in seq_len(rounds)) {
-    runs <- c(runs, simulate_suspension(design_posterior(fit, n_add, spread = spread, seed = r)))
+    wave <- simulate_suspension(design_posterior(fit, n_add, spread = spread, seed = r))
+    runs <- c(runs, wave)
+    if (reference == "posterior") {
+      field <- register_curves(tb$A$field, wave, tb$windows, features = features, knots_every = 2)
+      basis <- wavelet_basis(runs, field)
+    }
     fit <- validate_runs(runs)
     out <- rbind(out, row(fit, r))
   }
   out
 }
 
-cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, 150 x 20 draws, 1 chain\n",
-            field_kind, n_add, rounds, spread, reg_var))
+cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, reference %s, 150 x 20 draws, 1 chain\n",
+            field_kind, n_add, rounds, spread, reg_var, reference))
 res <- parallel::mclapply(cases, one, mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")
 if (any(bad)) stop("failed: ", paste(vapply(res[bad], as.character, ""), collapse = "\n"))
