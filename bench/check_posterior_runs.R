@@ -15,11 +15,11 @@
 # calibrate()'s (registered field only). reference = "posterior" registers
 # the field replicates anew after each round, to the mean of that round's
 # runs (all at posterior draws), and builds the wavelet basis anew on all
-# the runs;
-# "first" (default) keeps them registered to the mean of the first runs.
+# the runs; "first" (default) keeps them registered to the mean of the first
+# runs. refine is register_curves()'s (landmarks between grid points).
 #   Rscript bench/check_posterior_runs.R [cases=none:1,...,none:5] [field=unwarped] [n_add=30] [rounds=1]
 #                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
-#                                        [reference=first|posterior]
+#                                        [reference=first|posterior] [refine=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
 cases <- if (length(args) >= 1) strsplit(args[1], ",")[[1]] else paste0("none:", 1:5)
@@ -30,6 +30,7 @@ spread <- if (length(args) >= 5) as.numeric(args[5]) else 0.05
 cores <- if (length(args) >= 6) as.integer(args[6]) else 2L
 reg_var <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 reference <- if (length(args) >= 8) match.arg(args[8], c("first", "posterior")) else "first"
+refine <- if (length(args) >= 9) as.logical(args[9]) else FALSE
 if (reference == "posterior" && field_kind != "registered") stop("reference = \"posterior\" needs field = \"registered\"")
 options(wavevalid.quiet = TRUE)
 
@@ -42,7 +43,7 @@ one <- function(case) {
   field <- if (field_kind == "unwarped") {
     wavevalid:::unwarped_field(tb, seed)
   } else {
-    register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
+    register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2, refine = refine)
   }
   runs <- tb$A$runs
   basis <- wavelet_basis(runs, field)
@@ -72,7 +73,7 @@ one <- function(case) {
     wave <- simulate_suspension(design_posterior(fit, n_add, spread = spread, seed = r))
     runs <- c(runs, wave)
     if (reference == "posterior") {
-      field <- register_curves(tb$A$field, wave, tb$windows, features = features, knots_every = 2)
+      field <- register_curves(tb$A$field, wave, tb$windows, features = features, knots_every = 2, refine = refine)
       basis <- wavelet_basis(runs, field)
     }
     fit <- validate_runs(runs)
@@ -81,8 +82,8 @@ one <- function(case) {
   out
 }
 
-cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, reference %s, 150 x 20 draws, 1 chain\n",
-            field_kind, n_add, rounds, spread, reg_var, reference))
+cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, reference %s, refine %s, 150 x 20 draws, 1 chain\n",
+            field_kind, n_add, rounds, spread, reg_var, reference, refine))
 res <- parallel::mclapply(cases, one, mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")
 if (any(bad)) stop("failed: ", paste(vapply(res[bad], as.character, ""), collapse = "\n"))
