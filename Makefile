@@ -39,7 +39,7 @@ $(TARBALL): deps
 	$(R) CMD build .
 
 test: $(TARBALL)
-	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-rebuild-vignettes $(TARBALL)
+	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-build-vignettes $(TARBALL)
 	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
 
 check: $(TARBALL)
