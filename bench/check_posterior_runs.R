@@ -17,9 +17,11 @@
 # runs (all at posterior draws), and builds the wavelet basis anew on all
 # the runs; "first" (default) keeps them registered to the mean of the first
 # runs. refine is register_curves()'s (landmarks between grid points).
+# register_runs = TRUE (with reference = "posterior") registers every model
+# run, first and new, to the same mean of the new runs as the replicates.
 #   Rscript bench/check_posterior_runs.R [cases=none:1,...,none:5] [field=unwarped] [n_add=30] [rounds=1]
 #                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
-#                                        [reference=first|posterior] [refine=FALSE]
+#                                        [reference=first|posterior] [refine=FALSE] [register_runs=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
 args <- commandArgs(trailingOnly = TRUE)
 cases <- if (length(args) >= 1) strsplit(args[1], ",")[[1]] else paste0("none:", 1:5)
@@ -31,6 +33,8 @@ cores <- if (length(args) >= 6) as.integer(args[6]) else 2L
 reg_var <- if (length(args) >= 7) as.logical(args[7]) else FALSE
 reference <- if (length(args) >= 8) match.arg(args[8], c("first", "posterior")) else "first"
 refine <- if (length(args) >= 9) as.logical(args[9]) else FALSE
+register_runs <- if (length(args) >= 10) as.logical(args[10]) else FALSE
+if (register_runs && reference != "posterior") stop("register_runs = TRUE needs reference = \"posterior\"")
 if (reference == "posterior" && field_kind != "registered") stop("reference = \"posterior\" needs field = \"registered\"")
 options(wavevalid.quiet = TRUE)
 
@@ -74,6 +78,11 @@ one <- function(case) {
     runs <- c(runs, wave)
     if (reference == "posterior") {
       field <- register_curves(tb$A$field, wave, tb$windows, features = features, knots_every = 2, refine = refine)
+      if (register_runs) {
+        runs <- model_runs(runs$design, register_curves(field_runs(runs$curves, runs$t), wave, tb$windows,
+                                                        features = features, knots_every = 2, refine = refine)$curves,
+                           runs$t)
+      }
       basis <- wavelet_basis(runs, field)
     }
     fit <- validate_runs(runs)
@@ -82,8 +91,8 @@ one <- function(case) {
   out
 }
 
-cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, reference %s, refine %s, 150 x 20 draws, 1 chain\n",
-            field_kind, n_add, rounds, spread, reg_var, reference, refine))
+cat(sprintf("second-wave runs at design_posterior(): field %s, %d runs x %d round(s), spread %g, registration variance %s, reference %s, refine %s, register_runs %s, 150 x 20 draws, 1 chain\n",
+            field_kind, n_add, rounds, spread, reg_var, reference, refine, register_runs))
 res <- parallel::mclapply(cases, one, mc.cores = cores, mc.preschedule = FALSE)
 bad <- vapply(res, inherits, logical(1), "try-error")
 if (any(bad)) stop("failed: ", paste(vapply(res[bad], as.character, ""), collapse = "\n"))
