@@ -44,10 +44,13 @@ one <- function(case) {
   t0 <- proc.time()[["elapsed"]]
   tb <- testbed_suspension(seed = seed, hidden = hidden)
   features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  reg <- function(curves, reference) {
+    register_curves(curves, reference, tb$windows, features = features, knots_every = 2, refine = refine)
+  }
   field <- if (field_kind == "unwarped") {
     wavevalid:::unwarped_field(tb, seed)
   } else {
-    register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2, refine = refine)
+    reg(tb$A$field, tb$A$runs)
   }
   runs <- tb$A$runs
   basis <- wavelet_basis(runs, field)
@@ -77,12 +80,8 @@ one <- function(case) {
     wave <- simulate_suspension(design_posterior(fit, n_add, spread = spread, seed = r))
     runs <- c(runs, wave)
     if (reference == "posterior") {
-      field <- register_curves(tb$A$field, wave, tb$windows, features = features, knots_every = 2, refine = refine)
-      if (register_runs) {
-        runs <- model_runs(runs$design, register_curves(field_runs(runs$curves, runs$t), wave, tb$windows,
-                                                        features = features, knots_every = 2, refine = refine)$curves,
-                           runs$t)
-      }
+      field <- reg(tb$A$field, wave)
+      if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t), wave)$curves, runs$t)
       basis <- wavelet_basis(runs, field)
     }
     fit <- validate_runs(runs)
