@@ -44,6 +44,18 @@ check_class <- function(x, class, arg = deparse(substitute(x)), call = rlang::ca
   invisible(x)
 }
 
+check_dots_none <- function(..., call = rlang::caller_env()) {
+  if (...length()) {
+    nm <- names(list(...))
+    nm <- if (is.null(nm)) rep("", ...length()) else nm
+    wv_abort(c(
+      "Unknown argument{?s} {.arg {ifelse(nzchar(nm), nm, paste0('..', seq_along(nm)))}}.",
+      "i" = "Check the spelling against the function's help."
+    ), call = call)
+  }
+  invisible()
+}
+
 check_string <- function(x, arg = deparse(substitute(x)), call = rlang::caller_env()) {
   if (!is.character(x) || length(x) != 1L || is.na(x) || !nzchar(x)) {
     wv_abort("{.arg {arg}} must be a single non-empty string.", call = call)

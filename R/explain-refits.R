@@ -231,15 +231,23 @@ explain_refits <- function(fit, refits, n_draws, level) {
 refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
   sites <- names(fit$wb)
   lead <- utils::head(which(prob > 0), n_lead)
+  # each leading refit at its posterior mean inputs and with the strength at
+  # its lower bound, once for all sites
+  at <- lapply(lead, function(k) {
+    rf <- refits[[k]]
+    z <- posterior_mean_inputs(rf)
+    z0 <- z
+    z0[strength[k]] <- rf$prior_iu$lower[match(strength[k], rf$prior_iu$name)]
+    rbind(z, z0)
+  })
   do.call(rbind, lapply(sites, function(s) {
     b <- drop(fit$basis$Psi %*% colMeans(fit$wb[[s]]))
     out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
-    for (k in lead) {
+    for (i in seq_along(lead)) {
+      k <- lead[i]
       rf <- refits[[k]]
-      z <- posterior_mean_inputs(rf)
-      z0 <- z
-      z0[strength[k]] <- rf$prior_iu$lower[match(strength[k], rf$prior_iu$name)]
-      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], rbind(z, z0))$mean
+      z <- at[[i]][1, ]
+      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], at[[i]])$mean
       v <- drop(fit$basis$Psi %*% (m[1, ] - m[2, ]))
       out <- rbind(out, data.frame(site = s, t = fit$basis$t,
                                    curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),

@@ -274,6 +274,12 @@ c.wv_runs <- function(...) {
     wv_abort(c("Only {.cls wv_runs} objects can be combined with model runs.",
                "x" = "Argument{?s} {which(!ok)} {?is/are} not."))
   }
+  registered <- vapply(runs, function(r) !is.null(r$warps), logical(1))
+  if (any(registered)) {
+    wv_abort(c("Registered runs cannot be combined.",
+               "x" = "Argument{?s} {which(registered)} {?was/were} registered with {.fn register_curves}.",
+               "i" = "Combine the runs as simulated, then register the combined runs to one reference."))
+  }
   first <- runs[[1]]
   inputs <- names(first$design)
   sites <- names(first$curves)
@@ -305,9 +311,10 @@ c.wv_runs <- function(...) {
 #' @export
 print.wv_runs <- function(x, ...) {
   k <- nrow(x$design)
-  cli::cat_line(sprintf("<wv_runs> %d model run%s of %d input%s on %d time points in [%s, %s]",
+  cli::cat_line(sprintf("<wv_runs> %d model run%s of %d input%s on %d time points in [%s, %s]%s",
                         k, if (k == 1) "" else "s", ncol(x$design), if (ncol(x$design) == 1) "" else "s",
-                        length(x$t), format(signif(min(x$t), 4)), format(signif(max(x$t), 4))))
+                        length(x$t), format(signif(min(x$t), 4)), format(signif(max(x$t), 4)),
+                        if (!is.null(x$warps)) ", registered" else ""))
   cli::cat_line("  inputs: ", paste(names(x$design), collapse = ", "))
   cli::cat_line("  sites:  ", paste(names(x$curves), collapse = ", "))
   invisible(x)

@@ -87,6 +87,38 @@ test_that("a wv_runs reference means the mean of the runs per site", {
   expect_equal(as.data.frame(a$warps), as.data.frame(b$warps))
 })
 
+test_that("model runs are registered like replicates and keep their design", {
+  t <- grid(512)
+  ref <- event_curve(t)
+  # each run's events come late by its input a: the warp must undo exactly that
+  a <- c(0.3, -0.2, 0.1)
+  curves <- t(vapply(a, function(s) event_curve(t, at = c(5, 14) + s), numeric(length(t))))
+  runs <- model_runs(data.frame(a = a, b = c(1, 2, 3)), curves, t)
+  reg <- register_curves(runs, list(site1 = ref), windows, knots_every = 2)
+  expect_s3_class(reg, "wv_runs")
+  expect_s3_class(reg$warps, "wv_warps")
+  expect_identical(reg$design, runs$design)
+  expect_equal(reg$t, runs$t)
+  expect_equal(sort(unique(reg$warps$replicate)), 1:3)
+  # the same warps and curves as the runs registered as field replicates
+  as_field <- register_curves(field_runs(curves, t), list(site1 = ref), windows, knots_every = 2)
+  expect_equal(reg$curves, as_field$curves)
+  expect_equal(as.data.frame(reg$warps), as.data.frame(as_field$warps))
+  # the landmarks move back by each run's shift (to within a grid step)
+  w <- reg$warps[!is.na(reg$warps$window), ]
+  step <- diff(t)[1]
+  expect_true(all(abs(w$t_before - w$t_after - a[w$replicate]) <= step + 1e-9))
+  for (k in 1:3) {
+    expect_lt(rms(reg$curves$site1[k, ] - ref), rms(curves[k, ] - ref) / 5)
+  }
+  expect_output(print(reg), "registered")
+  # registered runs are not combined with others; bad objects and arguments are refused
+  expect_error(c(reg, runs), "Registered", class = "wavevalid_error_input")
+  expect_error(register_curves(curves, list(site1 = ref), windows), class = "wavevalid_error_input")
+  expect_error(register_curves(runs, list(site1 = ref), windows, knot_every = 2), "knot_every",
+               class = "wavevalid_error_input")
+})
+
 test_that("only one feature per window can be used", {
   t <- grid()
   ref <- event_curve(t)
