@@ -103,7 +103,7 @@ one <- function(hidden, seed) {
     ref <- simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(first$draws))[first$inputs])))
     field <- reg(tb$A$field)
   }
-  if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t))$curves, runs$t)
+  if (register_runs) runs <- reg(runs)
   fit <- calib(emulate(runs, field), field)
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
   nominal <- stats::setNames(tb$iu$nominal, tb$iu$name)[fit$inputs]

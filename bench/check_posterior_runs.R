@@ -76,12 +76,14 @@ one <- function(case) {
   }
   fit <- validate_runs(runs)
   out <- row(fit, 0L)
+  all_runs <- runs
   for (r in seq_len(rounds)) {
     wave <- simulate_suspension(design_posterior(fit, n_add, spread = spread, seed = r))
-    runs <- c(runs, wave)
+    all_runs <- c(all_runs, wave)
+    runs <- all_runs
     if (reference == "posterior") {
       field <- reg(tb$A$field, wave)
-      if (register_runs) runs <- model_runs(runs$design, reg(field_runs(runs$curves, runs$t), wave)$curves, runs$t)
+      if (register_runs) runs <- reg(all_runs, wave)
       basis <- wavelet_basis(runs, field)
     }
     fit <- validate_runs(runs)

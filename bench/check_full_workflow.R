@@ -1,0 +1,95 @@
+# The diagnosis criteria on the suspension test bed for the whole workflow:
+# validate on condition A with the 66 runs (replicates registered to the mean
+# of the runs), simulate a second wave of n_add runs at design_posterior(),
+# register the replicates and every model run (first and new) to the mean of
+# the new runs with register_curves(), build the wavelet basis anew on all the
+# runs, fit the emulators and calibrate again. Then, on that fit:
+#   where: where_fails(); with a mechanism, the flagged share of where it acts
+#          at each site (pass: > 0.2 at both); with none, the longest flagged
+#          interval in grid steps (pass: at most 3);
+#   which: explain_bias() with every mechanism re-validated (the model with it,
+#          its strength a calibration input on [0, 1], at 66 maximin runs
+#          registered to the same reference, emulators on the fit's basis,
+#          calibrated on the same registered field); pass with a mechanism:
+#          ranked first among the mechanisms, inclusion_prob >= 0.9, every
+#          other below 0.5; with none: no candidate reaches 0.5.
+#   Rscript bench/check_full_workflow.R cases=none:1,damper:2 n_add=30 cores=2 register_runs=TRUE
+# Arguments are name=value; cases default to every mechanism and none at
+# seeds 1-5 (mechanisms abbreviated: damper, bumpstop, liftoff, friction).
+suppressPackageStartupMessages(library(wavevalid))
+opts <- list(cases = NULL, n_add = "30", cores = "2", register_runs = "TRUE", n_draws = "150", n_inner = "20")
+for (a in commandArgs(trailingOnly = TRUE)) {
+  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
+  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
+  opts[[kv[1]]] <- kv[2]
+}
+short <- c(none = "none", damper = "digressive_damper", bumpstop = "progressive_bumpstop",
+           liftoff = "tire_liftoff", friction = "strut_friction")
+cases <- if (is.null(opts$cases)) {
+  as.vector(outer(names(short), 1:5, paste, sep = ":"))
+} else strsplit(opts$cases, ",")[[1]]
+n_add <- as.integer(opts$n_add)
+cores <- as.integer(opts$cores)
+register_runs <- as.logical(opts$register_runs)
+n_draws <- as.integer(opts$n_draws)
+n_inner <- as.integer(opts$n_inner)
+options(wavevalid.quiet = TRUE)
+
+one <- function(case) {
+  hidden <- unname(short[sub(":.*", "", case)])
+  seed <- as.integer(sub(".*:", "", case))
+  t0 <- proc.time()[["elapsed"]]
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
+  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  reg <- function(x, reference) register_curves(x, reference, tb$windows, features = features, knots_every = 2)
+  validate <- function(runs, field, iu) {
+    em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+    suppressWarnings(calibrate(em, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE))
+  }
+  fit0 <- validate(tb$A$runs, reg(tb$A$field, tb$A$runs), tb$iu)
+  wave <- simulate_suspension(design_posterior(fit0, n_add, seed = 1))
+  all_runs <- c(tb$A$runs, wave)
+  field <- reg(tb$A$field, wave)
+  runs <- if (register_runs) reg(all_runs, wave) else all_runs
+  fit <- validate(runs, field, tb$iu)
+  wf <- where_fails(fit)
+  truth <- c(tb$truth$u, 0.5 + tb$truth$delta)[fit$inputs]
+  where <- if (hidden == "none") {
+    longest <- max(c(0, round((wf$end - wf$start) / diff(fit$basis$t[1:2]))))
+    list(value = as.character(longest), pass = longest <= 3)
+  } else {
+    share <- flagged_share(wf, testbed_signatures(truth, hidden)[[1]])
+    list(value = paste(round(share, 2), collapse = "/"), pass = all(share > 0.2))
+  }
+  refits <- lapply(stats::setNames(nm = testbed_mechanisms()), function(m) {
+    iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
+    r <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
+    if (register_runs) r <- reg(r, wave)
+    em <- suppressWarnings(fit_emulators(r, fit$basis))
+    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                               quiet = TRUE))
+  })
+  ex <- as.data.frame(unclass(explain_bias(fit, refits, n_draws = 50)))
+  mech <- ex[!startsWith(ex$candidate, "shift:"), ]
+  which_ok <- if (hidden == "none") {
+    all(ex$inclusion_prob < 0.5)
+  } else {
+    mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && all(mech$inclusion_prob[-1] < 0.5)
+  }
+  data.frame(case = case, where = where$value, where_ok = where$pass,
+             first = mech$candidate[1], prob = signif(mech$inclusion_prob[1], 3),
+             second = signif(mech$inclusion_prob[2], 3), which_ok = which_ok,
+             credible = signif(max(attr(wf, "credible")$credible_bias), 3),
+             seconds = round(proc.time()[["elapsed"]] - t0))
+}
+
+cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain\n",
+            n_add, if (register_runs) " and every run" else "", n_draws, n_inner))
+res <- parallel::mclapply(cases, function(k) tryCatch(one(k), error = function(e) {
+  data.frame(case = k, where = conditionMessage(e), where_ok = NA, first = NA, prob = NA, second = NA,
+             which_ok = NA, credible = NA, seconds = NA)
+}), mc.cores = cores, mc.preschedule = FALSE)
+res <- do.call(rbind, res)
+print(res, row.names = FALSE)
+cat(sprintf("where: %d of %d pass; which: %d of %d pass\n", sum(res$where_ok, na.rm = TRUE), nrow(res),
+            sum(res$which_ok, na.rm = TRUE), nrow(res)))
