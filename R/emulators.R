@@ -220,13 +220,7 @@ emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
       "i" = "A GASP with {p} inputs needs at least {p + 2} runs (about 10 per input is usual)."
     ), call = call)
   }
-  dup <- which(duplicated(design) | duplicated(design, fromLast = TRUE))
-  if (length(dup)) {
-    wv_abort(c(
-      "The design has duplicated rows: runs {dup}.",
-      "i" = "A GASP interpolates, so every run must be at its own input; remove the duplicates."
-    ), call = call)
-  }
+  check_distinct_runs(design, call = call)
   lower <- apply(design, 2L, min)
   width <- apply(design, 2L, max) - lower
   if (any(width <= 0)) {

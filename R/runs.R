@@ -298,14 +298,23 @@ c.wv_runs <- function(...) {
   }
   design <- do.call(rbind, lapply(runs, function(r) r$design[inputs]))
   rownames(design) <- NULL
-  repeated <- duplicated(design)
-  if (any(repeated)) {
-    wv_abort(c("Combined runs must not repeat a design point.",
-               "x" = "{cli::qty(sum(repeated))}Run{?s} {which(repeated)} of the combined design repeat{?s/} an earlier one.",
-               "i" = "A repeated run adds nothing to a deterministic model and makes the emulators' correlation matrix singular; drop it."))
-  }
+  check_distinct_runs(design)
   curves <- stats::setNames(lapply(sites, function(s) do.call(rbind, lapply(runs, function(r) r$curves[[s]]))), sites)
   validate_wv_runs(new_wv_runs(design, first$t, curves))
+}
+
+# Refuses a design (matrix or data frame of runs) that repeats a point: the
+# emulators interpolate, so two runs at one input make their correlation
+# matrix singular.
+check_distinct_runs <- function(design, call = rlang::caller_env()) {
+  dup <- which(duplicated(design) | duplicated(design, fromLast = TRUE))
+  if (length(dup)) {
+    wv_abort(c(
+      "The design repeats a point: runs {dup} are at the same inputs.",
+      "i" = "A deterministic model gives the same curve twice and the emulators' correlation matrix is singular; keep one run of each."
+    ), call = call)
+  }
+  invisible(design)
 }
 
 #' @export
