@@ -168,15 +168,18 @@ log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
     v <- c(grid, fine)
     l <- c(ll, at(fine))
     o <- order(v)
-    v <- v[o]
-    l <- l[o]
-    m <- max(l)
-    log_int <- m + log(sum(diff(v) * (exp(l[-1] - m) + exp(l[-length(l)] - m)) / 2))
     if (!is.null(tick)) tick()
-    l[1] - log_int
+    l[o][1] - log_trapezoid(v[o], l[o])
   }, numeric(1))
   m <- max(out)
   m + log(mean(exp(out - m)))
+}
+
+# Log of the integral of exp(l) over increasing points v by the trapezoidal
+# rule, scaled by the largest l so that exp() cannot overflow.
+log_trapezoid <- function(v, l) {
+  m <- max(l)
+  m + log(sum(diff(v) * (exp(l[-1] - m) + exp(l[-length(l)] - m)) / 2))
 }
 
 # The candidate table for re-validated models.

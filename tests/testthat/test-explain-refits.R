@@ -124,3 +124,11 @@ test_that("re-validated models on another basis or field, without a strength, or
                                        quiet = TRUE))
   expect_error(explain_bias(base, list(bump = as_var)), "calibration input", class = "wavevalid_error_input")
 })
+
+test_that("the log of a trapezoidal integral is exact for a linear integrand and does not overflow", {
+  v <- seq(1, 2, length.out = 7)
+  expect_equal(log_trapezoid(v, log(v)), log(1.5))
+  w <- seq(-8, 8, length.out = 2001)
+  expect_equal(log_trapezoid(w, stats::dnorm(w, log = TRUE) + 1000), 1000, tolerance = 1e-6)
+  expect_equal(log_trapezoid(w, stats::dnorm(w, log = TRUE) - 1000), -1000, tolerance = 1e-6)
+})
