@@ -13,11 +13,15 @@
 #          calibrated on the same registered field); pass with a mechanism:
 #          ranked first among the mechanisms, inclusion_prob >= 0.9, every
 #          other below 0.5; with none: no candidate reaches 0.5.
-#   Rscript bench/check_full_workflow.R cases=none:1,damper:2 n_add=30 cores=2 register_runs=TRUE
+# reuse = TRUE gives each re-validated model the runs of the model without
+# the mechanism too, as runs at strength 0 (where the mechanism is off), so
+# that its emulators are as good as the fit's where the posterior lies.
+#   Rscript bench/check_full_workflow.R cases=none:1,damper:2 n_add=30 cores=2 register_runs=TRUE reuse=FALSE
 # Arguments are name=value; cases default to every mechanism and none at
 # seeds 1-5 (mechanisms abbreviated: damper, bumpstop, liftoff, friction).
 suppressPackageStartupMessages(library(wavevalid))
-opts <- list(cases = NULL, n_add = "30", cores = "2", register_runs = "TRUE", n_draws = "150", n_inner = "20")
+opts <- list(cases = NULL, n_add = "30", cores = "2", register_runs = "TRUE", n_draws = "150", n_inner = "20",
+             reuse = "FALSE")
 for (a in commandArgs(trailingOnly = TRUE)) {
   kv <- strsplit(a, "=", fixed = TRUE)[[1]]
   if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
@@ -26,13 +30,14 @@ for (a in commandArgs(trailingOnly = TRUE)) {
 short <- c(none = "none", damper = "digressive_damper", bumpstop = "progressive_bumpstop",
            liftoff = "tire_liftoff", friction = "strut_friction")
 cases <- if (is.null(opts$cases)) {
-  as.vector(outer(names(short), 1:5, paste, sep = ":"))
+  as.vector(t(outer(names(short), 1:5, paste, sep = ":")))
 } else strsplit(opts$cases, ",")[[1]]
 n_add <- as.integer(opts$n_add)
 cores <- as.integer(opts$cores)
 register_runs <- as.logical(opts$register_runs)
 n_draws <- as.integer(opts$n_draws)
 n_inner <- as.integer(opts$n_inner)
+reuse <- as.logical(opts$reuse)
 options(wavevalid.quiet = TRUE)
 
 one <- function(case) {
@@ -64,6 +69,11 @@ one <- function(case) {
   refits <- lapply(stats::setNames(nm = testbed_mechanisms()), function(m) {
     iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
     r <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
+    if (reuse) {
+      off <- all_runs
+      off$design[[paste0("s_", m)]] <- 0
+      r <- c(off, r)
+    }
     if (register_runs) r <- reg(r, wave)
     em <- suppressWarnings(fit_emulators(r, fit$basis))
     suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
@@ -76,15 +86,18 @@ one <- function(case) {
   } else {
     mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && all(mech$inclusion_prob[-1] < 0.5)
   }
-  data.frame(case = case, where = where$value, where_ok = where$pass,
-             first = mech$candidate[1], prob = signif(mech$inclusion_prob[1], 3),
-             second = signif(mech$inclusion_prob[2], 3), which_ok = which_ok,
-             credible = signif(max(attr(wf, "credible")$credible_bias), 3),
-             seconds = round(proc.time()[["elapsed"]] - t0))
+  out <- data.frame(case = case, where = where$value, where_ok = where$pass,
+                    first = mech$candidate[1], prob = signif(mech$inclusion_prob[1], 3),
+                    second = signif(mech$inclusion_prob[2], 3), which_ok = which_ok,
+                    credible = signif(max(attr(wf, "credible")$credible_bias), 3),
+                    seconds = round(proc.time()[["elapsed"]] - t0))
+  message(paste(utils::capture.output(print(out, row.names = FALSE))[2], collapse = ""))
+  out
 }
 
-cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain\n",
-            n_add, if (register_runs) " and every run" else "", n_draws, n_inner))
+cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain%s\n",
+            n_add, if (register_runs) " and every run" else "", n_draws, n_inner,
+            if (reuse) "; re-validated models reuse the runs at strength 0" else ""))
 res <- parallel::mclapply(cases, function(k) tryCatch(one(k), error = function(e) {
   data.frame(case = k, where = conditionMessage(e), where_ok = NA, first = NA, prob = NA, second = NA,
              which_ok = NA, credible = NA, seconds = NA)
