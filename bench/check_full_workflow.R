@@ -16,12 +16,15 @@
 # reuse = TRUE gives each re-validated model the runs of the model without
 # the mechanism too, as runs at strength 0 (where the mechanism is off), so
 # that its emulators are as good as the fit's where the posterior lies.
+# pool_levels is calibrate()'s (e.g. 0:3, NULL by default); explain = FALSE
+# skips the re-validations and explain_bias() (criterion "which").
 #   Rscript bench/check_full_workflow.R cases=none:1,damper:2 n_add=30 cores=2 register_runs=TRUE reuse=FALSE
+#                                       pool_levels=NULL explain=TRUE
 # Arguments are name=value; cases default to every mechanism and none at
 # seeds 1-5 (mechanisms abbreviated: damper, bumpstop, liftoff, friction).
 suppressPackageStartupMessages(library(wavevalid))
 opts <- list(cases = NULL, n_add = "30", cores = "2", register_runs = "TRUE", n_draws = "150", n_inner = "20",
-             reuse = "FALSE")
+             reuse = "FALSE", pool_levels = "NULL", explain = "TRUE")
 for (a in commandArgs(trailingOnly = TRUE)) {
   kv <- strsplit(a, "=", fixed = TRUE)[[1]]
   if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
@@ -38,6 +41,8 @@ register_runs <- as.logical(opts$register_runs)
 n_draws <- as.integer(opts$n_draws)
 n_inner <- as.integer(opts$n_inner)
 reuse <- as.logical(opts$reuse)
+pool_levels <- eval(parse(text = opts$pool_levels))
+explain <- as.logical(opts$explain)
 options(wavevalid.quiet = TRUE)
 
 one <- function(case) {
@@ -49,7 +54,8 @@ one <- function(case) {
   reg <- function(x, reference) register_curves(x, reference, tb$windows, features = features, knots_every = 2)
   validate <- function(runs, field, iu) {
     em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
-    suppressWarnings(calibrate(em, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE))
+    suppressWarnings(calibrate(em, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE,
+                               pool_levels = pool_levels))
   }
   fit0 <- validate(tb$A$runs, reg(tb$A$field, tb$A$runs), tb$iu)
   wave <- simulate_suspension(design_posterior(fit0, n_add, seed = 1))
@@ -66,6 +72,13 @@ one <- function(case) {
     share <- flagged_share(wf, testbed_signatures(truth, hidden)[[1]])
     list(value = paste(round(share, 2), collapse = "/"), pass = all(share > 0.2))
   }
+  if (!explain) {
+    out <- data.frame(case = case, where = where$value, where_ok = where$pass,
+                      credible = signif(max(attr(wf, "credible")$credible_bias), 3),
+                      seconds = round(proc.time()[["elapsed"]] - t0))
+    message(utils::capture.output(print(out, row.names = FALSE))[2])
+    return(out)
+  }
   refits <- lapply(stats::setNames(nm = testbed_mechanisms()), function(m) {
     iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
     r <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
@@ -77,7 +90,7 @@ one <- function(case) {
     if (register_runs) r <- reg(r, wave)
     em <- suppressWarnings(fit_emulators(r, fit$basis))
     suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               quiet = TRUE))
+                               quiet = TRUE, pool_levels = pool_levels))
   })
   ex <- as.data.frame(unclass(explain_bias(fit, refits, n_draws = 50)))
   mech <- ex[!startsWith(ex$candidate, "shift:"), ]
@@ -95,14 +108,16 @@ one <- function(case) {
   out
 }
 
-cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain%s\n",
+cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain%s%s\n",
             n_add, if (register_runs) " and every run" else "", n_draws, n_inner,
-            if (reuse) "; re-validated models reuse the runs at strength 0" else ""))
+            if (reuse) "; re-validated models reuse the runs at strength 0" else "",
+            if (is.null(pool_levels)) "" else paste0("; levels ", opts$pool_levels, " pooled")))
 res <- parallel::mclapply(cases, function(k) tryCatch(one(k), error = function(e) {
   data.frame(case = k, where = conditionMessage(e), where_ok = NA, first = NA, prob = NA, second = NA,
              which_ok = NA, credible = NA, seconds = NA)
 }), mc.cores = cores, mc.preschedule = FALSE)
-res <- do.call(rbind, res)
+res <- do.call(rbind, lapply(res, function(r) r[intersect(names(res[[1]]), names(r))]))
 print(res, row.names = FALSE)
-cat(sprintf("where: %d of %d pass; which: %d of %d pass\n", sum(res$where_ok, na.rm = TRUE), nrow(res),
-            sum(res$which_ok, na.rm = TRUE), nrow(res)))
+cat(sprintf("where: %d of %d pass", sum(res$where_ok, na.rm = TRUE), nrow(res)))
+if (explain) cat(sprintf("; which: %d of %d pass", sum(res$which_ok, na.rm = TRUE), nrow(res)))
+cat("\n")
