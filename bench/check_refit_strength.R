@@ -1,18 +1,24 @@
 # Why re-validated mechanisms are claimed with nothing hidden on the
 # suspension test bed (seed 1) after a second wave of 30 runs at
-# design_posterior(): for the digressive damper, the model with the
-# mechanism (its strength a calibration input on [0, 1]) is re-validated on
-# 66 maximin runs plus the 96 runs without it at strength 0, registered to
-# the mean of the second wave when runs_registered is TRUE. Prints the
-# strength's posterior quantiles, its log Bayes factor and inclusion
-# probability from explain_bias(), and the rms gap (kN, per site) between the
-# fit's and the refit's emulators at the fit's posterior mean inputs with the
-# strength at 0.
-#   Rscript bench/check_refit_strength.R [runs_registered=TRUE]
+# design_posterior(): the model with the mechanism (its strength a
+# calibration input on [0, 1]) is re-validated on 66 maximin runs, plus, with
+# reuse = TRUE, the 96 runs without it at strength 0; with registered = TRUE
+# the runs are registered to the mean of the second wave like the field.
+# Prints the strength's posterior quantiles, its log Bayes factor and
+# inclusion probability from explain_bias(), and the rms gap (kN, per site)
+# between the fit's and the refit's emulated curves at the fit's posterior
+# mean inputs with the strength at 0.
+#   Rscript bench/check_refit_strength.R registered=TRUE reuse=TRUE mechanisms=digressive_damper
 suppressPackageStartupMessages(library(wavevalid))
 options(wavevalid.quiet = TRUE)
-args <- commandArgs(trailingOnly = TRUE)
-rr <- if (length(args)) as.logical(args[1]) else TRUE
+opts <- list(registered = "TRUE", reuse = "TRUE", mechanisms = "digressive_damper")
+for (a in commandArgs(trailingOnly = TRUE)) {
+  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
+  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
+  opts[[kv[1]]] <- kv[2]
+}
+rr <- as.logical(opts$registered)
+reuse <- as.logical(opts$reuse)
 tb <- testbed_suspension(seed = 1, hidden = "none")
 reg <- function(x, reference) register_curves(x, reference, tb$windows, knots_every = 2)
 val <- function(runs, field, iu) {
@@ -25,13 +31,15 @@ all_runs <- c(tb$A$runs, wave)
 field <- reg(tb$A$field, wave)
 runs <- if (rr) reg(all_runs, wave) else all_runs
 fit <- val(runs, field, tb$iu)
-for (m in c("digressive_damper")) {
+for (m in strsplit(opts$mechanisms, ",")[[1]]) {
   s <- paste0("s_", m)
   iu_m <- iu_add(tb$iu, s, lower = 0, upper = 1, nominal = 0.5)
   r <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
-  off <- all_runs
-  off$design[[s]] <- 0
-  r <- c(off, r)
+  if (reuse) {
+    off <- all_runs
+    off$design[[s]] <- 0
+    r <- c(off, r)
+  }
   if (rr) r <- reg(r, wave)
   em <- suppressWarnings(fit_emulators(r, fit$basis))
   rf <- suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = 150, n_inner = 20, chains = 1, seed = 1, quiet = TRUE))
@@ -42,10 +50,10 @@ for (m in c("digressive_damper")) {
   gap <- sapply(names(fit$wb), function(site) {
     a <- wavevalid:::gasp_bank_predict_cpp(fit$emulators$banks[[site]], matrix(z[fit$inputs], 1, dimnames = list(NULL, fit$inputs)))$mean
     b <- wavevalid:::gasp_bank_predict_cpp(rf$emulators$banks[[site]], matrix(zz, 1, dimnames = list(NULL, rf$inputs)))$mean
-    sqrt(mean(drop(fit$basis$Psi %*% drop(a - b))^2))
+    sqrt(mean((fit$basis$Psi %*% drop(a - b))^2))
   })
   cat(sprintf("  emulator gap (rms kN) fit vs refit at strength 0: %s\n", paste(signif(gap, 3), collapse = "/")))
-  cat(sprintf("%s runs registered %s: strength q05/q50/q95 %s; log_bf %.1f; inclusion %.3f\n", m, rr,
+  cat(sprintf("%s runs registered %s, reuse %s: strength q05/q50/q95 %s; log_bf %.1f; inclusion %.3f\n", m, rr, reuse,
               paste(signif(stats::quantile(d[, s], c(.05, .5, .95)), 2), collapse = "/"),
               attr(ex, "log_bf")[[1]], ex$inclusion_prob[1]))
 }
