@@ -72,13 +72,16 @@ one <- function(case) {
     share <- flagged_share(wf, testbed_signatures(truth, hidden)[[1]])
     list(value = paste(round(share, 2), collapse = "/"), pass = all(share > 0.2))
   }
-  if (!explain) {
-    out <- data.frame(case = case, where = where$value, where_ok = where$pass,
-                      credible = signif(max(attr(wf, "credible")$credible_bias), 3),
-                      seconds = round(proc.time()[["elapsed"]] - t0))
-    message(utils::capture.output(print(out, row.names = FALSE))[2])
-    return(out)
-  }
+  out <- data.frame(case = case, where = where$value, where_ok = where$pass,
+                    credible = signif(max(attr(wf, "credible")$credible_bias), 3))
+  if (explain) out <- cbind(out, explain_row(fit, tb, hidden, all_runs, wave, reg))
+  out$seconds <- round(proc.time()[["elapsed"]] - t0)
+  message(utils::capture.output(print(out, row.names = FALSE))[2])
+  out
+}
+
+# Criterion "which": every mechanism re-validated, explain_bias() on them.
+explain_row <- function(fit, tb, hidden, all_runs, wave, reg) {
   refits <- lapply(stats::setNames(nm = testbed_mechanisms()), function(m) {
     iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
     r <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
@@ -99,13 +102,8 @@ one <- function(case) {
   } else {
     mech$candidate[1] == hidden && mech$inclusion_prob[1] >= 0.9 && all(mech$inclusion_prob[-1] < 0.5)
   }
-  out <- data.frame(case = case, where = where$value, where_ok = where$pass,
-                    first = mech$candidate[1], prob = signif(mech$inclusion_prob[1], 3),
-                    second = signif(mech$inclusion_prob[2], 3), which_ok = which_ok,
-                    credible = signif(max(attr(wf, "credible")$credible_bias), 3),
-                    seconds = round(proc.time()[["elapsed"]] - t0))
-  message(paste(utils::capture.output(print(out, row.names = FALSE))[2], collapse = ""))
-  out
+  data.frame(first = mech$candidate[1], prob = signif(mech$inclusion_prob[1], 3),
+             second = signif(mech$inclusion_prob[2], 3), which_ok = which_ok)
 }
 
 cat(sprintf("full workflow: second wave of %d runs, field%s registered to its mean, %d x %d draws, 1 chain%s%s\n",
@@ -113,10 +111,12 @@ cat(sprintf("full workflow: second wave of %d runs, field%s registered to its me
             if (reuse) "; re-validated models reuse the runs at strength 0" else "",
             if (is.null(pool_levels)) "" else paste0("; levels ", opts$pool_levels, " pooled")))
 res <- parallel::mclapply(cases, function(k) tryCatch(one(k), error = function(e) {
-  data.frame(case = k, where = conditionMessage(e), where_ok = NA, first = NA, prob = NA, second = NA,
-             which_ok = NA, credible = NA, seconds = NA)
+  out <- data.frame(case = k, where = conditionMessage(e), where_ok = NA, credible = NA)
+  if (explain) out <- cbind(out, data.frame(first = NA, prob = NA, second = NA, which_ok = NA))
+  out$seconds <- NA
+  out
 }), mc.cores = cores, mc.preschedule = FALSE)
-res <- do.call(rbind, lapply(res, function(r) r[intersect(names(res[[1]]), names(r))]))
+res <- do.call(rbind, res)
 print(res, row.names = FALSE)
 cat(sprintf("where: %d of %d pass", sum(res$where_ok, na.rm = TRUE), nrow(res)))
 if (explain) cat(sprintf("; which: %d of %d pass", sum(res$which_ok, na.rm = TRUE), nrow(res)))
