@@ -368,7 +368,7 @@ simultaneous_band <- function(Y, level) {
 #' autoplot(fit, "reality")
 autoplot.wv_fit <- function(object, type = c("inputs", "bias", "reality", "trace"), level = 0.9,
                             windows = NULL, ...) {
-  type <- match.arg(type)
+  type <- check_choice(type)
   switch(type,
     inputs = plot_fit_inputs(object),
     trace = plot_fit_trace(object),

@@ -182,7 +182,7 @@
 #'   than one when the chains run one after another (the default sequential
 #'   [future::plan()]); with one worker per core, keep 1.
 #' @param quiet Suppress the progress bar (default `getOption("wavevalid.quiet")`).
-#' @param ... Must be empty.
+#' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
 #'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
 #'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
@@ -220,7 +220,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                       burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
                       inform_levels = NULL, temper = 1, threads = getOption("wavevalid.threads", 1L),
                       quiet = getOption("wavevalid.quiet", FALSE), ...) {
-  rlang::check_dots_empty()
+  check_dots_none(...)
   check_class(emulators, "wv_emulators")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
@@ -228,7 +228,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(n_inner, min = 1, integer = TRUE)
   check_number(chains, min = 1, integer = TRUE)
   check_number(step, min = 1e-6, max = 1)
-  proposal <- rlang::arg_match(proposal)
+  proposal <- check_choice(proposal)
   if (is.null(burnin)) {
     burnin <- if (proposal == "adaptive") max(5000, floor(n_draws * n_inner / 4)) else 0
   }

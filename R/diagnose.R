@@ -25,7 +25,7 @@
 #' @param tolerance The bias the intended use can accept, in the units of the
 #'   curves: a non-negative number, or a named vector with one per site. `0`
 #'   (default) reports every interval where the band excludes zero.
-#' @param ... Unused.
+#' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
 #'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
 #'   posterior mean bias over the interval), `share_of_signal` (that integral
@@ -52,9 +52,10 @@
 #' autoplot(wf)
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
                         tolerance = 0, ...) {
+  check_dots_none(...)
   check_class(fit, "wv_fit")
   check_level(level)
-  band <- rlang::arg_match(band)
+  band <- check_choice(band)
   check_number(min_steps, min = 1, integer = TRUE)
   tol <- site_tolerance(tolerance, names(fit$wb))
   b <- bias(fit, level = level)
@@ -291,7 +292,7 @@ print.summary_wv_fails <- function(x, ...) {
 #'   `"levels"` (bias energy by wavelet level).
 #' @export
 autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
-  type <- match.arg(type)
+  type <- check_choice(type)
   if (type == "levels") {
     lv <- attr(object, "levels")
     return(ggplot2::ggplot(lv, ggplot2::aes(factor(.data$level), .data$share)) +

@@ -170,7 +170,7 @@ print.summary_wv_emulators <- function(x, ...) {
 #' @param newdata A data frame or matrix with one column per input (matched by
 #'   name when named) and one row per point.
 #' @param site Site name; `NULL` for every site.
-#' @param ... Unused.
+#' @param ... Must be empty: an unknown argument is an error.
 #' @return For one `site`: a list with `mean` and `var`, N x n matrices (rows:
 #'   points, columns: coefficients, named by their index). For `site = NULL`:
 #'   a named list of such lists, one per site.
@@ -184,6 +184,7 @@ print.summary_wv_emulators <- function(x, ...) {
 #' pr <- predict(em, data.frame(a = c(0.2, 0.7), b = 0.5), site = "site1")
 #' dim(pr$mean)
 predict.wv_emulators <- function(object, newdata, site = NULL, ...) {
+  check_dots_none(...)
   Z <- emulator_newdata(object, newdata)
   sites <- site %||% names(object$banks)
   miss <- setdiff(sites, names(object$banks))
@@ -348,7 +349,7 @@ loo_residuals <- function(object) {
 #' autoplot(em)
 #' autoplot(em, type = "loo")
 autoplot.wv_emulators <- function(object, type = c("parameters", "loo"), site = NULL, ...) {
-  type <- rlang::arg_match(type)
+  type <- check_choice(type)
   p <- object$params
   if (!is.null(site)) p <- p[p$site %in% site, , drop = FALSE]
   p <- p[is.finite(p$loglik), , drop = FALSE]

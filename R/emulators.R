@@ -69,7 +69,7 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
                           log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(basis, "wv_basis")
-  engine <- rlang::arg_match(engine)
+  engine <- check_choice(engine)
   check_number(starts, min = 1, max = 100, integer = TRUE)
   check_number(chunk_size, min = 1, integer = TRUE)
   if (!is.numeric(log_beta_range) || length(log_beta_range) != 2L || any(!is.finite(log_beta_range)) ||

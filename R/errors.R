@@ -103,6 +103,23 @@ with_rng_seed <- function(seed, code) {
   force(code)
 }
 
+# The value of a choice argument (a character vector of choices as its
+# default in the calling function): the first choice when left at its
+# default, else the one choice that `arg` names or begins (as match.arg()),
+# with a classed error that lists the choices otherwise.
+check_choice <- function(arg, arg_name = deparse(substitute(arg)), call = rlang::caller_env()) {
+  values <- eval(formals(sys.function(sys.parent()))[[arg_name]], envir = call)
+  if (identical(arg, values)) return(values[[1L]])
+  hit <- if (is.character(arg) && length(arg) == 1L && !is.na(arg)) pmatch(arg, values) else NA_integer_
+  if (is.na(hit)) {
+    wv_abort(c(
+      "{.arg {arg_name}} must be one of {.or {.val {values}}}.",
+      "x" = "It is {.val {format(arg)}}."
+    ), call = call)
+  }
+  values[[hit]]
+}
+
 check_flag <- function(x, arg = deparse(substitute(x)), call = rlang::caller_env()) {
   if (!is.logical(x) || length(x) != 1L || is.na(x)) {
     wv_abort("{.arg {arg}} must be {.code TRUE} or {.code FALSE}.", call = call)

@@ -140,7 +140,7 @@
 #'   candidate: candidates with the same name are versions of one effect, such
 #'   as its signature simulated at different inputs (see Details). The table
 #'   then has one row per effect, named by `effect`.
-#' @param ... Unused.
+#' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
 #'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
@@ -184,6 +184,7 @@
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, ...) {
+  check_dots_none(...)
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)

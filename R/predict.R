@@ -56,7 +56,7 @@
 #' @param keep_draws Keep the curve draws in the result (memory: draws x time
 #'   points per site).
 #' @param seed Seed for the draws (`NULL`: drawn from R's RNG).
-#' @param ... Unused.
+#' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_prediction`: a list with `summary` (data frame with columns
 #'   `site`, `t`, `mean`, `lower`, `upper` (pointwise band), `lower_curve`,
 #'   `upper_curve` (band holding a `level` share of whole curves), `model`
@@ -68,8 +68,9 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
                            x_nom = NULL,
                            x_new = NULL, residual = TRUE, noise = NULL, guard = 0.01, keep_draws = FALSE,
                            seed = NULL, ...) {
-  type <- match.arg(type)
-  bias <- match.arg(bias)
+  check_dots_none(...)
+  type <- check_choice(type)
+  bias <- check_choice(bias)
   check_level(level)
   check_flag(residual)
   residual <- residual && type %in% c("reality", "field_run", "added_load")
@@ -356,7 +357,7 @@ print.summary_wv_prediction <- function(x, ...) {
 #' @return A ggplot object.
 #' @export
 autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = c("pointwise", "curve"), ...) {
-  band <- match.arg(band)
+  band <- check_choice(band)
   s <- object$summary
   if (band == "curve") {
     s$lower <- s$lower_curve

@@ -84,7 +84,7 @@ print.summary_wv_testbed <- function(x, ...) {
 #' autoplot(tb, "B")
 autoplot.wv_testbed <- function(object, condition = c("A", "B", "added_mass"),
                                 windows = object$windows, ...) {
-  condition <- match.arg(condition)
+  condition <- check_choice(condition)
   autoplot(object[[condition]]$runs, field = object[[condition]]$field, windows = windows)
 }
 

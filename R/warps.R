@@ -133,3 +133,113 @@ plot.wv_warps <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
 }
+
+# --- warp knots ---------------------------------------------------------------
+
+# Further knots of a warp between the event windows, each placed by least
+# squares between the registered curve and the reference over the points
+# outside the windows: a vectorised grid search, then optimize(); two sweeps.
+fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid = 41L) {
+  inside <- Reduce(`|`, lapply(windows, function(w) t > w[1] & t < w[2]))
+  at <- seq(t[1], t[length(t)], by = every)
+  near <- vapply(at, function(x) any(vapply(windows, function(w) x > w[1] - every / 2 && x < w[2] + every / 2,
+                                            logical(1))), logical(1))
+  at <- at[!near & at > t[1] + every / 2 & at < t[length(t)] - every / 2]
+  at <- setdiff(at, knots$after)
+  if (!length(at)) return(list(knots = knots, before = numeric(), after = numeric()))
+  start <- stats::approx(knots$after, knots$before, xout = at)$y
+  after <- c(knots$after, at)
+  before <- c(knots$before, start)
+  o <- order(after)
+  after <- after[o]
+  before <- before[o]
+  free <- match(at, after)
+  reach <- every / 10
+  eps <- 1e-3 * diff(t[1:2])
+  # the points each knot moves (outside the windows) and their weight on it;
+  # the knot times in registered time never change
+  span <- lapply(free, function(j) {
+    idx <- which(t >= after[j - 1L] & t <= after[j + 1L] & !inside)
+    tt <- t[idx]
+    left <- tt <= after[j]
+    w <- ifelse(left, (tt - after[j - 1L]) / (after[j] - after[j - 1L]), (after[j + 1L] - tt) / (after[j + 1L] - after[j]))
+    list(idx = idx, left = left, w = w)
+  })
+  sse <- function(k, b) {
+    # squared distance for candidate positions b of knot free[k] (vectorised over b)
+    sp <- span[[k]]
+    if (length(sp$idx) < 4L) return(rep(0, length(b)))
+    j <- free[k]
+    base <- ifelse(sp$left, before[j - 1L], before[j + 1L])
+    src <- outer(base * (1 - sp$w), rep(1, length(b))) + outer(sp$w, b)
+    val <- matrix(stats::approx(t, y, xout = src, rule = 2)$y, nrow = length(sp$idx))
+    colSums((val - ref[sp$idx])^2)
+  }
+  for (pass in seq_len(sweeps)) {
+    for (k in seq_along(free)) {
+      j <- free[k]
+      lo <- max(before[j - 1L] + eps, start[k] - reach)
+      hi <- min(before[j + 1L] - eps, start[k] + reach)
+      if (hi <= lo) next
+      g <- seq(lo, hi, length.out = n_grid)
+      v <- sse(k, g)
+      if (all(v == 0)) next
+      i <- which.min(v)
+      before[j] <- stats::optimize(function(b) sse(k, b), c(g[max(1L, i - 1L)], g[min(n_grid, i + 1L)]),
+                                   tol = 1e-4 * diff(t[1:2]))$minimum
+    }
+  }
+  list(knots = list(before = before, after = after), before = before[free], after = after[free])
+}
+
+# Knots of the warps of all replicates (rows of Y) between the windows, fitted
+# to the replicates' own consensus instead of the reference: the mean of the
+# replicates registered so far (by their landmarks first), each replicate's
+# knots placed by least squares against it (fit_warp_knots()), then shifted
+# together so that at each knot the replicates' displacements from their
+# landmark warps average zero (the consensus keeps the time of the landmark
+# warps between the events); `iters` rounds.
+consensus_warp_knots <- function(Y, t, knots, windows, every, iters = 2L) {
+  R <- nrow(Y)
+  current <- knots
+  fitted <- NULL
+  for (it in seq_len(iters)) {
+    cons <- colMeans(do.call(rbind, lapply(seq_len(R), function(r) apply_inverse_warp(Y[r, ], t, current[[r]]))))
+    fitted <- lapply(seq_len(R), function(r) fit_warp_knots(Y[r, ], cons, t, knots[[r]], windows, every))
+    if (!length(fitted[[1]]$after)) return(fitted)
+    start <- vapply(seq_len(R), function(r) stats::approx(knots[[r]]$after, knots[[r]]$before,
+                                                          xout = fitted[[r]]$after)$y,
+                    numeric(length(fitted[[1]]$after)))
+    moved <- vapply(fitted, function(f) f$before, numeric(length(fitted[[1]]$after)))
+    shift <- rowMeans(matrix(moved - start, ncol = R))
+    fitted <- lapply(fitted, function(f) {
+      b <- f$knots$before
+      b[match(f$after, f$knots$after)] <- f$before - shift
+      # a shift that would fold the warp leaves that replicate's own fit
+      if (is.unsorted(b, strictly = TRUE)) return(f)
+      f$before <- f$before - shift
+      f$knots$before <- b
+      f
+    })
+    current <- lapply(fitted, function(f) f$knots)
+  }
+  fitted
+}
+
+# Registered curve: y evaluated at the inverse warp of the grid.
+apply_inverse_warp <- function(y, t, knots) {
+  t_src <- stats::approx(knots$after, knots$before, xout = t, rule = 2)$y
+  stats::approx(t, y, xout = t_src, rule = 2)$y
+}
+
+# Knots of the warp of one replicate from a wv_warps table.
+warp_knots <- function(warps, replicate, site = NULL) {
+  d <- warps[warps$replicate == replicate, , drop = FALSE]
+  if (!is.null(site)) d <- d[d$site == site, , drop = FALSE]
+  d <- d[order(d$t_after), , drop = FALSE]
+  rg <- attr(warps, "range")
+  before <- c(rg[1], d$t_before, rg[2])
+  after <- c(rg[1], d$t_after, rg[2])
+  keep <- !(duplicated(before) & duplicated(after))
+  list(before = before[keep], after = after[keep])
+}

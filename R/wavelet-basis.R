@@ -343,7 +343,7 @@ print.summary_wv_basis <- function(x, ...) {
 #' autoplot(basis)
 #' autoplot(basis, type = "reconstruction", curve = runs$curves$site1[5, ])
 autoplot.wv_basis <- function(object, type = c("levels", "reconstruction"), curve = NULL, ...) {
-  type <- match.arg(type)
+  type <- check_choice(type)
   if (type == "reconstruction") {
     if (!is.numeric(curve) || length(curve) != length(object$t)) {
       wv_abort("{.arg curve} must be a numeric vector of {length(object$t)} values on the basis grid.")

@@ -70,3 +70,42 @@ test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
   expect_classed(testbed_suspension(hidden = "gremlins"))
   expect_classed(testbed_signatures("u1"))
 })
+
+# A misspelt argument is an error that names it, never silently ignored (an
+# argument that begins a formal's name is that argument, as in base R).
+test_that("fit-based verbs refuse unknown arguments with classed errors that name them", {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                    seed = 1, quiet = TRUE))
+  expect_error(where_fails(fit, tolerence = 0.1), "tolerence", class = "wavevalid_error_input")
+  expect_error(explain_bias(fit, list(), ndraws = 10), "ndraws", class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, ndraws = 10), "ndraws", class = "wavevalid_error_input")
+  expect_error(predict(fit, kind = "new_vehicle"), "kind", class = "wavevalid_error_input")
+  expect_error(predict(ex$emulators, data.frame(u1 = 0.5), sites = "site1"), "sites",
+               class = "wavevalid_error_input")
+  expect_error(where_fails(fit, 0.9, "simultaneous", 1L, 0, 5), class = "wavevalid_error_input")
+})
+
+# A choice argument outside its choices is a classed error that lists them; a
+# unique beginning of a choice picks it.
+test_that("choice arguments refuse values outside their choices with classed errors", {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                    seed = 1, quiet = TRUE))
+  expect_error(predict(fit, type = "new_run"), "new_vehicle", class = "wavevalid_error_input")
+  expect_error(predict(fit, bias = "additiv3"), "multiplicative", class = "wavevalid_error_input")
+  expect_error(predict(fit, type = c("reality", "field_run")), "type", class = "wavevalid_error_input")
+  expect_error(where_fails(fit, band = "curve"), "simultaneous", class = "wavevalid_error_input")
+  expect_error(where_fails(fit, band = NA), "band", class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, proposal = "gibbs"), "adaptive",
+               class = "wavevalid_error_input")
+  t <- seq(0, 1, length.out = 64)
+  design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
+  runs <- model_runs(design, t(apply(design, 1, function(z) sin(2 * pi * t * (1 + z[1])) + z[2] * t)), t)
+  expect_error(fit_emulators(runs, wavelet_basis(runs), engine = "mlegp"), "dicekriging",
+               class = "wavevalid_error_input")
+  expect_error(autoplot(fit, type = "traces"), "trace", class = "wavevalid_error_input")
+  expect_error(autoplot(where_fails(fit), type = "level"), NA)
+  expect_identical(attr(where_fails(fit, band = "point"), "band"), "pointwise")
+  expect_identical(attr(where_fails(fit), "band"), "simultaneous")
+})

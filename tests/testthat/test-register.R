@@ -253,7 +253,7 @@ test_that("knots fitted to the replicates' consensus are not misled by a shape t
   expect_error(register_curves(field_runs(reps[1, , drop = FALSE], t), ref, windows, knots_every = 1,
                                knots_to = "replicates"), class = "wavevalid_error_input")
   expect_error(register_curves(field, ref, windows, knots_every = 1, knots_to = "model"),
-               class = "rlang_error")
+               "knots_to", class = "wavevalid_error_input")
 })
 
 test_that("knots_every must be a sensible spacing", {
