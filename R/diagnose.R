@@ -340,10 +340,20 @@ plot.wv_fails <- function(x, ...) {
 #' mechanism at the true inputs (from [testbed_signatures()]), it says
 #' whether the diagnosis looks in the right place.
 #'
+#' Flags that cover the whole record cover the effect too. `of = "flags"`
+#' gives the other side: the share of the flagged points where the effect
+#' acts. Flags thrown at random would score the share of the grid where it
+#' acts (attribute `acting`); flags that lie where the effect acts score
+#' well above it.
+#'
 #' @param fails A `wv_fails` result of [where_fails()].
 #' @param effect A named list by site of curves on the fit's grid.
 #' @param threshold Share of the effect's peak above which it counts as acting.
-#' @return A named numeric vector by site (`NA` where the effect is zero).
+#' @param of `"effect"` (default): the share of the points where the effect
+#'   acts that are flagged; `"flags"`: the share of the flagged points where
+#'   the effect acts (`NA` at a site with no flag).
+#' @return A named numeric vector by site (`NA` where the effect is zero),
+#'   with attribute `acting`: the share of the grid where the effect acts.
 #' @export
 #' @examples
 #' ex <- wavevalid:::example_calibration_inputs()
@@ -351,17 +361,21 @@ plot.wv_fails <- function(x, ...) {
 #'                  chains = 1, seed = 1, quiet = TRUE)
 #' t <- ex$field$t
 #' # the field data of the example carry a bump near t = 0.25 that the model lacks
-#' flagged_share(where_fails(fit), list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2)))
-flagged_share <- function(fails, effect, threshold = 0.1) {
+#' bump <- list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2))
+#' flagged_share(where_fails(fit), bump)
+#' # how much of what is flagged lies on the bump
+#' flagged_share(where_fails(fit), bump, of = "flags")
+flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flags")) {
   check_class(fails, "wv_fails")
   check_number(threshold, min = 0, max = 1)
+  of <- check_choice(of)
   b <- attr(fails, "bias")
   sites <- unique(b$site)
   if (!is.list(effect) || is.null(names(effect)) || !all(names(effect) %in% sites)) {
     wv_abort(c("{.arg effect} must be a list of curves named by site.",
                "i" = "The fit's sites are {.val {sites}}."))
   }
-  vapply(names(effect), function(s) {
+  out <- vapply(names(effect), function(s) {
     t <- b$t[b$site == s]
     y <- effect[[s]]
     if (!is.numeric(y) || length(y) != length(t) || anyNA(y)) {
@@ -369,10 +383,13 @@ flagged_share <- function(fails, effect, threshold = 0.1) {
                  "x" = "It has {length(y)} value{?s}; the grid has {length(t)} points."))
     }
     peak <- max(abs(y))
-    if (peak == 0) return(NA_real_)
+    if (peak == 0) return(c(NA_real_, 0))
+    acts <- abs(y) > threshold * peak
     w <- fails[fails$site == s, , drop = FALSE]
     flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                       rep(FALSE, length(t)))
-    mean(flagged[abs(y) > threshold * peak])
-  }, numeric(1))
+    share <- if (of == "effect") mean(flagged[acts]) else if (any(flagged)) mean(acts[flagged]) else NA_real_
+    c(share, mean(acts))
+  }, numeric(2))
+  structure(out[1L, ], acting = out[2L, ])
 }

@@ -461,8 +461,9 @@ testbed_signatures <- function(inputs, mechanisms = testbed_mechanisms()) {
 # The validation of the model without any mechanism on the test bed's
 # condition A, as the diagnosis tests and bench scripts run it: field data
 # registered to the runs (the maximum alone for a hidden tire lift-off, whose
-# minimum is flat), the report's basis, emulators and one chain.
-testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L) {
+# minimum is flat), the report's basis, emulators and one chain; pool_levels
+# is calibrate()'s.
+testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL) {
   old <- options(wavevalid.quiet = TRUE)
   on.exit(options(old), add = TRUE)
   tb <- testbed_suspension(seed = seed, hidden = hidden)
@@ -471,14 +472,15 @@ testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L) {
   basis <- wavelet_basis(tb$A$runs, field)
   em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
   fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                                    quiet = TRUE))
+                                    pool_levels = pool_levels, quiet = TRUE))
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
 }
 
 # The model re-validated with each test-bed mechanism in turn, on the field
 # data and basis of `fit` (a testbed_validation()'s): its strength s_<m> a
 # calibration input on [0, 1], the model with it simulated at an n_runs-point
-# maximin design. A named list of fits, for explain_bias().
+# maximin design, calibrated with the bias prior of `fit` (its pool_levels).
+# A named list of fits, for explain_bias().
 testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_runs = 66L, n_draws = 150L,
                                  n_inner = 20L) {
   old <- options(wavevalid.quiet = TRUE)
@@ -488,7 +490,7 @@ testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_r
     runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
     em <- suppressWarnings(fit_emulators(runs, fit$basis))
     suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               quiet = TRUE))
+                               pool_levels = fit$settings$pool_levels, quiet = TRUE))
   })
   stats::setNames(fits, mechanisms)
 }

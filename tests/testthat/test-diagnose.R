@@ -331,14 +331,43 @@ test_that("on three test beds, versions of each mechanism's signature find the h
   expect_lte(sum(res$decoy >= 0.5), 1L, label = lab)
 })
 
-test_that("on the test bed, the hidden mechanism is flagged where it acts", {
+# Whether the flags cover where the mechanism acts, and whether they lie
+# there. With the method's prior (one bias variance per level) the calibration
+# of seed 1 trades the events against the mean of the record when a bump stop
+# or a tire lift-off is hidden: most of the bias energy is at level 0, the
+# whole record is flagged, and the flags cover where the mechanism acts only
+# by covering everything (the share of the flags where it acts is below the
+# share of the grid where it acts). With levels 0 to 3 pooled
+# (calibrate(pool_levels = 0:3)) the offset goes and the flags lie where the
+# mechanism acts: at 4 to 15 times the rate of flags thrown at random for the
+# bump stop and the lift-off. The strut friction acts over more than half the
+# record, so its flags can score at most twice that rate.
+test_that("on the test bed, the hidden mechanism is flagged where it acts, and only there once levels 0-3 are pooled", {
   skip_on_cran()
+  withr::local_options(list(wavevalid.quiet = TRUE))
   for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
     d <- testbed_diagnosis(h)
     truth <- c(d$tb$truth$u, 0.5 + d$tb$truth$delta)[d$fit$inputs]
-    share <- flagged_share(d$fails, testbed_signatures(truth, h)[[1]])
+    effect <- testbed_signatures(truth, h)[[1]]
+    share <- flagged_share(d$fails, effect)
     expect_named(share, c("site1", "site2"))
     expect_true(all(share > 0.2), label = paste(h, paste(round(share, 2), collapse = ", ")))
+    pooled <- where_fails(wavevalid:::testbed_validation(h, 1L, pool_levels = 0:3)$fit)
+    lv <- attr(pooled, "levels")
+    expect_true(all(lv$share[lv$level == 0] < 0.01), label = h)
+    share <- flagged_share(pooled, effect)
+    on <- flagged_share(pooled, effect, of = "flags")
+    lab <- paste(h, paste(round(share, 2), collapse = ", "), paste(round(on / attr(on, "acting"), 1), collapse = ", "))
+    expect_true(all(share > 0.2), label = lab)
+    if (h == "strut_friction") {
+      expect_true(all(on > attr(on, "acting")), label = lab)
+    } else {
+      expect_true(all(on > 3 * attr(on, "acting")), label = lab)
+      lv <- attr(d$fails, "levels")
+      expect_true(all(lv$share[lv$level == 0] > 0.5), label = h)
+      unpooled <- flagged_share(d$fails, effect, of = "flags")
+      expect_true(all(unpooled < attr(unpooled, "acting")), label = h)
+    }
   }
 })
 
@@ -400,8 +429,23 @@ test_that("flagged_share counts the flagged points where an effect acts", {
   w <- fails[fails$site == "site1", ]
   flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                     rep(FALSE, length(t)))
-  expect_equal(flagged_share(fails, list(site1 = bump)), c(site1 = mean(flagged[bump > 0.1])))
+  expect_equal(c(flagged_share(fails, list(site1 = bump))), c(site1 = mean(flagged[bump > 0.1])))
   expect_gt(flagged_share(fails, list(site1 = bump)), 0.5)
+  # the other side: the flags lie on the bump, far above the share of the
+  # grid it covers
+  on_bump <- flagged_share(fails, list(site1 = bump), of = "flags")
+  expect_equal(c(on_bump), c(site1 = mean(bump[flagged] > 0.1)))
+  expect_equal(attr(on_bump, "acting"), c(site1 = mean(bump > 0.1)))
+  expect_gt(on_bump, 2 * attr(on_bump, "acting"))
+  # flags over the whole record score the share of the grid the effect covers
+  everything <- fails
+  everything$start[] <- min(t)
+  everything$end[] <- max(t) + diff(t[1:2])
+  expect_equal(c(flagged_share(everything, list(site1 = bump), of = "flags")), c(site1 = mean(bump > 0.1)))
+  nothing <- fails
+  nothing$end <- nothing$start
+  expect_true(is.na(flagged_share(nothing, list(site1 = bump), of = "flags")))
+  expect_error(flagged_share(fails, list(site1 = bump), of = "precision"), class = "wavevalid_error_input")
   expect_true(is.na(flagged_share(fails, list(site1 = 0 * t))))
   expect_error(flagged_share(fails, list(site9 = bump)), class = "wavevalid_error_input")
   expect_error(flagged_share(fails, list(site1 = bump[-1])), class = "wavevalid_error_input")
