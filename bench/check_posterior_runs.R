@@ -23,17 +23,24 @@
 #                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
 #                                        [reference=first|posterior] [refine=FALSE] [register_runs=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
-args <- commandArgs(trailingOnly = TRUE)
-cases <- if (length(args) >= 1) strsplit(args[1], ",")[[1]] else paste0("none:", 1:5)
-field_kind <- if (length(args) >= 2) match.arg(args[2], c("registered", "unwarped")) else "unwarped"
-n_add <- if (length(args) >= 3) as.integer(args[3]) else 30L
-rounds <- if (length(args) >= 4) as.integer(args[4]) else 1L
-spread <- if (length(args) >= 5) as.numeric(args[5]) else 0.05
-cores <- if (length(args) >= 6) as.integer(args[6]) else 2L
-reg_var <- if (length(args) >= 7) as.logical(args[7]) else FALSE
-reference <- if (length(args) >= 8) match.arg(args[8], c("first", "posterior")) else "first"
-refine <- if (length(args) >= 9) as.logical(args[9]) else FALSE
-register_runs <- if (length(args) >= 10) as.logical(args[10]) else FALSE
+opts <- list(cases = paste0("none:", 1:5, collapse = ","), field = "unwarped", n_add = "30", rounds = "1",
+             spread = "0.05", cores = "2", registration_variance = "FALSE", reference = "first",
+             refine = "FALSE", register_runs = "FALSE")
+for (a in commandArgs(trailingOnly = TRUE)) {
+  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
+  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
+  opts[[kv[1]]] <- kv[2]
+}
+cases <- strsplit(opts$cases, ",")[[1]]
+field_kind <- match.arg(opts$field, c("registered", "unwarped"))
+n_add <- as.integer(opts$n_add)
+rounds <- as.integer(opts$rounds)
+spread <- as.numeric(opts$spread)
+cores <- as.integer(opts$cores)
+reg_var <- as.logical(opts$registration_variance)
+reference <- match.arg(opts$reference, c("first", "posterior"))
+refine <- as.logical(opts$refine)
+register_runs <- as.logical(opts$register_runs)
 if (register_runs && reference != "posterior") stop("register_runs = TRUE needs reference = \"posterior\"")
 if (reference == "posterior" && field_kind != "registered") stop("reference = \"posterior\" needs field = \"registered\"")
 options(wavevalid.quiet = TRUE)
