@@ -44,18 +44,21 @@ stopifnot(all(explain %in% c("signatures", "refits", "none")))
 options(wavevalid.quiet = TRUE)
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 
+# recall and precision are flagged_share()'s two sides; the flagged share of
+# the grid is the intervals' total length (they are disjoint, on the grid).
 site_stats <- function(fails, sig) {
   b <- attr(fails, "bias")
   lv <- attr(fails, "levels")
+  recall <- flagged_share(fails, sig)
+  precision <- flagged_share(fails, sig, of = "flags")
+  precision[is.na(precision)] <- 0
+  dt <- diff(b$t[1:2])
   vapply(names(sig), function(s) {
-    t <- b$t[b$site == s]
-    y <- sig[[s]]
-    acts <- abs(y) > 0.1 * max(abs(y))
-    w <- fails[fails$site == s, , drop = FALSE]
-    fl <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]), rep(FALSE, length(t)))
+    acts <- abs(sig[[s]]) > 0.1 * max(abs(sig[[s]]))
     m <- abs(b$mean[b$site == s])
-    c(recall = mean(fl[acts]), precision = if (any(fl)) mean(acts[fl]) else 0, base = mean(acts),
-      flagged = mean(fl), lift = mean(m[acts]) / mean(m[!acts]),
+    w <- fails[fails$site == s, , drop = FALSE]
+    c(recall = recall[[s]], precision = precision[[s]], base = attr(precision, "acting")[[s]],
+      flagged = sum(w$end - w$start) / (length(m) * dt), lift = mean(m[acts]) / mean(m[!acts]),
       level0 = lv$share[lv$site == s & lv$level == 0])
   }, numeric(6))
 }
