@@ -462,8 +462,9 @@ testbed_signatures <- function(inputs, mechanisms = testbed_mechanisms()) {
 # condition A, as the diagnosis tests and bench scripts run it: field data
 # registered to the runs (the maximum alone for a hidden tire lift-off, whose
 # minimum is flat), the report's basis, emulators and one chain; pool_levels
-# is calibrate()'s.
-testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL) {
+# and registration_variance are calibrate()'s.
+testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL,
+                               registration_variance = FALSE) {
   old <- options(wavevalid.quiet = TRUE)
   on.exit(options(old), add = TRUE)
   tb <- testbed_suspension(seed = seed, hidden = hidden)
@@ -472,14 +473,16 @@ testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool
   basis <- wavelet_basis(tb$A$runs, field)
   em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
   fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                                    pool_levels = pool_levels, quiet = TRUE))
+                                    pool_levels = pool_levels, registration_variance = registration_variance,
+                                    quiet = TRUE))
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
 }
 
 # The model re-validated with each test-bed mechanism in turn, on the field
 # data and basis of `fit` (a testbed_validation()'s): its strength s_<m> a
 # calibration input on [0, 1], the model with it simulated at an n_runs-point
-# maximin design, calibrated with the bias prior of `fit` (its pool_levels).
+# maximin design, calibrated with the bias prior of `fit` (its pool_levels)
+# and its field variance (its registration_variance).
 # A named list of fits, for explain_bias().
 testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_runs = 66L, n_draws = 150L,
                                  n_inner = 20L) {
@@ -490,7 +493,8 @@ testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_r
     runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
     em <- suppressWarnings(fit_emulators(runs, fit$basis))
     suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               pool_levels = fit$settings$pool_levels, quiet = TRUE))
+                               pool_levels = fit$settings$pool_levels,
+                               registration_variance = isTRUE(fit$settings$registration_variance), quiet = TRUE))
   })
   stats::setNames(fits, mechanisms)
 }

@@ -26,11 +26,14 @@
 # includes "refits"): the hidden mechanism first among the mechanisms at
 # >= 0.9 and every other mechanism below 0.5 (shift_max: the largest
 # inclusion of a shift); with none, no candidate at 0.5, shifts included.
+# registration_variance is calibrate()'s (the re-validated models take it
+# too).
 #   Rscript bench/check_localization.R [hidden=none,digressive_damper,...] [seeds=1:5]
-#                                      [pool_levels=NULL] [explain=signatures,refits]
+#                                      [pool_levels=NULL] [registration_variance=FALSE]
+#                                      [explain=signatures,refits]
 suppressPackageStartupMessages(library(wavevalid))
 opt <- list(hidden = paste(c("none", testbed_mechanisms()), collapse = ","), seeds = "1:5",
-            pool_levels = "NULL", explain = "signatures,refits")
+            pool_levels = "NULL", registration_variance = "FALSE", explain = "signatures,refits")
 for (a in commandArgs(trailingOnly = TRUE)) {
   kv <- strsplit(a, "=", fixed = TRUE)[[1]]
   if (length(kv) != 2L || !kv[1] %in% names(opt)) stop("unknown argument: ", a)
@@ -40,6 +43,8 @@ hidden <- strsplit(opt$hidden, ",")[[1]]
 seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 pool <- eval(parse(text = opt$pool_levels))
 explain <- strsplit(opt$explain, ",")[[1]]
+rv <- as.logical(opt$registration_variance)
+stopifnot(!is.na(rv))
 stopifnot(all(explain %in% c("signatures", "refits", "none")))
 options(wavevalid.quiet = TRUE)
 clock <- function() as.numeric(proc.time()[["elapsed"]])
@@ -67,7 +72,7 @@ res <- NULL
 for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
-    v <- wavevalid:::testbed_validation(h, seed, pool_levels = pool)
+    v <- wavevalid:::testbed_validation(h, seed, pool_levels = pool, registration_variance = rv)
     fit <- v$fit
     fails <- where_fails(fit)
     dt <- diff(fit$basis$t[1:2])
@@ -114,7 +119,7 @@ for (h in hidden) {
     res <- rbind(res, row)
   }
 }
-cat("\npool_levels =", opt$pool_levels, "\n")
+cat("\npool_levels =", opt$pool_levels, " registration_variance =", rv, "\n")
 print(res, row.names = FALSE)
 cat("\ncases meeting each criterion\n")
 ok <- intersect(c("where_ok", "localised", "sig_ok", "refit_ok"), names(res))
