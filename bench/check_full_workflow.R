@@ -23,13 +23,10 @@
 # Arguments are name=value; cases default to every mechanism and none at
 # seeds 1-5 (mechanisms abbreviated: damper, bumpstop, liftoff, friction).
 suppressPackageStartupMessages(library(wavevalid))
+source("bench/args.R")
 opts <- list(cases = NULL, n_add = "30", cores = "2", register_runs = "TRUE", n_draws = "150", n_inner = "20",
              reuse = "FALSE", pool_levels = "NULL", explain = "TRUE")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
-  opts[[kv[1]]] <- kv[2]
-}
+opts <- bench_args(opts)
 short <- c(none = "none", damper = "digressive_damper", bumpstop = "progressive_bumpstop",
            liftoff = "tire_liftoff", friction = "strut_friction")
 cases <- if (is.null(opts$cases)) {

@@ -18,13 +18,10 @@
 #                                    [emulators=fitted,rescaled] [pool_levels=NULL,0:3]
 #                                    [registration_variance=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
+source("bench/args.R")
 opt <- list(seeds = "1:5", field = "registered,unwarped,mean_warp", emulators = "fitted,rescaled",
             pool_levels = "NULL,0:3", registration_variance = "FALSE")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opt)) stop("unknown argument: ", a)
-  opt[[kv[1]]] <- kv[2]
-}
+opt <- bench_args(opt)
 seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 fields <- strsplit(opt$field, ",")[[1]]
 emulators <- strsplit(opt$emulators, ",")[[1]]
@@ -40,14 +37,7 @@ field_data <- function(tb, seed, kind) {
   if (kind == "unwarped") return(ns$unwarped_field(tb, seed))
   w <- tb$truth$warps
   w <- w[w$condition == "A", ]
-  mw <- stats::aggregate(w ~ t, data = w, FUN = mean)
-  f <- tb$A$field
-  ns$with_rng_seed(seed, for (s in names(f$curves)) {
-    f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])),
-                              function(r) ns$apply_warp(tb$truth$reality[[s]], f$t, mw) + ns$ar1_noise(length(f$t)),
-                              numeric(length(f$t))))
-  })
-  f
+  ns$unwarped_field(tb, seed, warp = stats::aggregate(w ~ t, data = w, FUN = mean))
 }
 
 check <- NULL

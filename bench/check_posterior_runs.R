@@ -23,14 +23,11 @@
 #                                        [spread=0.05] [cores=2] [registration_variance=FALSE]
 #                                        [reference=first|posterior] [refine=FALSE] [register_runs=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
+source("bench/args.R")
 opts <- list(cases = paste0("none:", 1:5, collapse = ","), field = "unwarped", n_add = "30", rounds = "1",
              spread = "0.05", cores = "2", registration_variance = "FALSE", reference = "first",
              refine = "FALSE", register_runs = "FALSE")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
-  opts[[kv[1]]] <- kv[2]
-}
+opts <- bench_args(opts)
 cases <- strsplit(opts$cases, ",")[[1]]
 field_kind <- match.arg(opts$field, c("registered", "unwarped"))
 n_add <- as.integer(opts$n_add)

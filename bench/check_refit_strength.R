@@ -11,12 +11,9 @@
 #   Rscript bench/check_refit_strength.R registered=TRUE reuse=TRUE mechanisms=digressive_damper
 suppressPackageStartupMessages(library(wavevalid))
 options(wavevalid.quiet = TRUE)
+source("bench/args.R")
 opts <- list(registered = "TRUE", reuse = "TRUE", mechanisms = "digressive_damper")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opts)) stop("unknown argument ", a, "; known: ", toString(names(opts)))
-  opts[[kv[1]]] <- kv[2]
-}
+opts <- bench_args(opts)
 rr <- as.logical(opts$registered)
 reuse <- as.logical(opts$reuse)
 tb <- testbed_suspension(seed = 1, hidden = "none")

@@ -19,13 +19,10 @@
 #   Rscript bench/check_reregistration.R [hidden=none,digressive_damper,...] [seeds=1:5]
 #                                        [pool_levels=0:3] [rescale=TRUE] [explain=signatures,refits]
 suppressPackageStartupMessages(library(wavevalid))
+source("bench/args.R")
 opt <- list(hidden = paste(c("none", testbed_mechanisms()), collapse = ","), seeds = "1:5",
             pool_levels = "0:3", rescale = "TRUE", explain = "signatures,refits")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opt)) stop("unknown argument: ", a)
-  opt[[kv[1]]] <- kv[2]
-}
+opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 pool <- eval(parse(text = opt$pool_levels))
@@ -33,6 +30,7 @@ rescale <- as.logical(opt$rescale)
 explain <- strsplit(opt$explain, ",")[[1]]
 stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")))
 options(wavevalid.quiet = TRUE)
+ns <- asNamespace("wavevalid")
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 iu0 <- testbed_suspension(1)$iu
 check0 <- if (rescale) simulate_suspension(design_maximin(iu0, 30, nominal = FALSE, seed = 9)) else NULL
@@ -48,16 +46,6 @@ cal <- function(em, field, iu) {
 longest <- function(fails, fit) {
   if (nrow(fails)) round(max(fails$end - fails$start) / diff(fit$basis$t[1:2])) else 0
 }
-revalidate <- function(fit) {
-  fits <- lapply(testbed_mechanisms(), function(m) {
-    iu_m <- iu_add(fit$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
-    runs <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
-    check <- if (rescale) simulate_suspension(design_maximin(iu_m, 30, nominal = FALSE, seed = 9), mechanism = m)
-    cal(emulate(runs, fit$basis, check), fit$field, iu_m)
-  })
-  stats::setNames(fits, testbed_mechanisms())
-}
-
 res <- NULL
 for (h in hidden) {
   for (seed in seeds) {
@@ -78,39 +66,30 @@ for (h in hidden) {
                       longest = longest(fails, fit), recall = NA_character_, precision = NA_character_,
                       base = NA_character_, where_ok = NA, localised = NA,
                       err_in = signif(sqrt(mean((z_hat - truth[fit$inputs])^2)), 2), stringsAsFactors = FALSE)
-    if (h == "none") {
-      row$where_ok <- row$localised <- row$longest <= 3
-    } else {
-      sig <- testbed_signatures(truth[fit$inputs], h)[[1]]
-      rec <- flagged_share(fails, sig)
-      pre <- flagged_share(fails, sig, of = "flags")
-      pre[is.na(pre)] <- 0
-      base <- attr(pre, "acting")
+    sig <- if (h != "none") testbed_signatures(truth[fit$inputs], h)[[1]]
+    verdict <- ns$testbed_where_verdict(fails, h, sig)
+    row$where_ok <- verdict$where_ok
+    row$localised <- verdict$localised
+    if (h != "none") {
       f2 <- function(x) paste(formatC(x, digits = 2, format = "fg"), collapse = "/")
-      row$recall <- f2(rec)
-      row$precision <- f2(pre)
-      row$base <- f2(base)
-      row$where_ok <- all(rec > 0.2)
-      row$localised <- row$where_ok && all(if (h == "strut_friction") pre > base else pre > 2 * base)
+      row$recall <- f2(verdict$recall)
+      row$precision <- f2(verdict$precision)
+      row$base <- f2(verdict$base)
     }
     judge <- function(ex) {
-      ex <- as.data.frame(unclass(ex))
-      mech <- ex[!startsWith(ex$candidate, "shift:"), ]
-      if (h == "none") return(c(top = sprintf("%s %.3f", ex$candidate[1], ex$inclusion_prob[1]),
-                                ok = all(ex$inclusion_prob < 0.5)))
-      p <- mech$inclusion_prob[mech$candidate == h]
-      c(top = sprintf("%s %.3f", mech$candidate[1], mech$inclusion_prob[1]),
-        ok = mech$candidate[1] == h && p >= 0.9 && all(mech$inclusion_prob[mech$candidate != h] < 0.5))
+      v <- ns$testbed_explain_verdict(ex, h)
+      list(top = sprintf("%s %.3f", v$top, v$top_prob), ok = v$ok)
     }
     if ("signatures" %in% explain) {
       j <- judge(explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1))
-      row$sig_top <- j[["top"]]
-      row$sig_ok <- as.logical(j[["ok"]])
+      row$sig_top <- j$top
+      row$sig_ok <- j$ok
     }
     if ("refits" %in% explain) {
-      j <- judge(explain_bias(fit, revalidate(fit), n_draws = 50))
-      row$refit_top <- j[["top"]]
-      row$refit_ok <- as.logical(j[["ok"]])
+      refits <- ns$testbed_revalidation(tb, fit, n_check = if (rescale) 30L else 0L)
+      j <- judge(explain_bias(fit, refits, n_draws = 50))
+      row$refit_top <- j$top
+      row$refit_ok <- j$ok
     }
     row$secs <- round(clock() - t0)
     print(row, row.names = FALSE)

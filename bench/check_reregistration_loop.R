@@ -12,12 +12,9 @@
 # by more than 70% and holdout_rmse to fall.
 #   Rscript bench/check_reregistration_loop.R [hidden=tire_liftoff,...] [seed=1]
 suppressPackageStartupMessages(library(wavevalid))
+source("bench/args.R")
 opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1")
-for (a in commandArgs(trailingOnly = TRUE)) {
-  kv <- strsplit(a, "=", fixed = TRUE)[[1]]
-  if (length(kv) != 2L || !kv[1] %in% names(opt)) stop("unknown argument: ", a)
-  opt[[kv[1]]] <- kv[2]
-}
+opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seed <- as.integer(opt$seed)
 options(wavevalid.quiet = TRUE)

@@ -232,3 +232,18 @@ test_that("the unwarped field is reality plus the field noise, without time warp
     expect_gt(sqrt(mean(warped^2)), 3 * sqrt(mean(err^2)))
   }
 })
+
+test_that("the field warped by one given warp differs from the unwarped one by the warp of reality", {
+  w <- tb$truth$warps
+  w <- w[w$condition == "A" & w$replicate == 1, c("t", "w")]
+  f0 <- unwarped_field(tb, seed = 3)
+  f1 <- unwarped_field(tb, seed = 3, warp = w)
+  for (s in sites) {
+    moved <- apply_warp(tb$truth$reality[[s]], f0$t, w) - tb$truth$reality[[s]]
+    expect_gt(max(abs(moved)), 0.1)
+    d <- f1$curves[[s]] - f0$curves[[s]]
+    expect_equal(d, matrix(moved, nrow(d), length(moved), byrow = TRUE), tolerance = 1e-12)
+  }
+  identity <- data.frame(t = range(f0$t), w = range(f0$t))
+  expect_equal(unwarped_field(tb, seed = 3, warp = identity), f0, tolerance = 1e-10)
+})
