@@ -268,6 +268,9 @@ class Sampler {
     return -std::log(t2 + sigbar_(g) / sites_[group_site_[g]].R);
   }
 
+  // The log likelihoods below are the target's: raised to the power
+  // settings.temper (multiplied by it on the log scale), so that every
+  // acceptance ratio takes them as they are.
   double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
                      const Eigen::VectorXd& tau2) const {
     double ll = 0.0;
@@ -281,7 +284,7 @@ class Sampler {
         ll -= 0.5 * (std::log(tot) + r * r / tot);
       }
     }
-    return ll;
+    return set_.temper * ll;
   }
 
   // The log likelihood of the coefficients that inform the inputs (all of
@@ -297,7 +300,7 @@ class Sampler {
         ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
       }
     }
-    return ll;
+    return set_.temper * ll;
   }
 
   // The report's joint tau2 step. With a cut, the groups that inform the
@@ -319,7 +322,7 @@ class Sampler {
       Eigen::VectorXd next = tau2_;
       for (int g = 0; g < G_; ++g)
         if (!cut || (informs_[g] ? 0 : 1) == part) next(g) = prop(g);
-      const double l = lr[part] + set_.temper * (loglik(next, true) - loglik(tau2_, true));
+      const double l = lr[part] + loglik(next, true) - loglik(tau2_, true);
       if (std::log(unif_(rng_)) < l) {
         tau2_ = next;
         acc_tau_ += cut ? 0.5 : 1.0;
@@ -335,7 +338,7 @@ class Sampler {
       const double tot = base_[s](i) + t2;
       ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
     }
-    return ll;
+    return set_.temper * ll;
   }
 
   // One log-uniform step per group; only the group's coefficients enter.
@@ -344,7 +347,7 @@ class Sampler {
       if (members_[g].empty()) continue;
       const double cur = tau2_(g);
       const double prop = cur * std::exp(-0.7 + 1.4 * unif_(rng_));
-      double lr = set_.temper * (group_loglik(g, prop) - group_loglik(g, cur)) + log_prior_tau(g, prop) -
+      double lr = group_loglik(g, prop) - group_loglik(g, cur) + log_prior_tau(g, prop) -
                   log_prior_tau(g, cur);
       if (set_.debug_break != 2) lr += std::log(prop / cur);
       n_tau_ += 1.0 / G_;
@@ -373,7 +376,7 @@ class Sampler {
     if (std::isfinite(lp)) {
       predict_all(zp_, mp_, vp_);
       ll_prop = loglik_with(mp_, vp_, tau2_);
-      lr = set_.temper * (ll_prop - ll_cur) + lp - log_prior_inputs(z_);
+      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
     }
     const double u = std::log(unif_(rng_));
     const bool accept = u < lr;
@@ -393,7 +396,7 @@ class Sampler {
   // there: the score of a candidate start.
   double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
     t2 = set_.fix_tau2 ? tau2_ : moment_tau2(m_, v_);
-    double lp = set_.temper * loglik_with(m_, v_, t2) + log_prior_inputs(z);
+    double lp = loglik_with(m_, v_, t2) + log_prior_inputs(z);
     for (int g = 0; g < G_; ++g)
       if (informs_[g]) lp += log_prior_tau(g, t2(g));
     return lp;
@@ -435,7 +438,7 @@ class Sampler {
     }
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
-    lr += set_.temper * (ll_prop - ll_cur);
+    lr += ll_prop - ll_cur;
     n_input_ += 1;
     if (std::log(unif_(rng_)) < lr) {
       z_.swap(zp_);
