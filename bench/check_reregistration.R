@@ -5,7 +5,9 @@
 # (rescale_emulators()) and levels 0-3 pooled:
 #   pass 1  field registered to the mean of the runs, calibrated;
 #   pass 2  field registered to the model run at the posterior mean inputs of
-#           pass 1 (the same emulators and basis), calibrated again.
+#           pass 1 (the same emulators and basis), calibrated again; with
+#           again=emulator, to pass 1's model_prediction() (the posterior
+#           mean of the emulated model) instead of a run.
 # Printed for pass 2 (and the longest flag of pass 1): criterion 1, recall
 # and precision of where_fails() against where the mechanism acts (as
 # bench/check_localization.R), with nothing hidden the longest flagged
@@ -18,17 +20,18 @@
 # against the truth (coded).
 #   Rscript bench/check_reregistration.R [hidden=none,digressive_damper,...] [seeds=1:5]
 #                                        [pool_levels=0:3] [rescale=TRUE] [explain=signatures,refits]
+#                                        [again=run]
 suppressPackageStartupMessages(library(wavevalid))
 source("bench/args.R")
 opt <- list(hidden = paste(c("none", testbed_mechanisms()), collapse = ","), seeds = "1:5",
-            pool_levels = "0:3", rescale = "TRUE", explain = "signatures,refits")
+            pool_levels = "0:3", rescale = "TRUE", explain = "signatures,refits", again = "run")
 opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 pool <- eval(parse(text = opt$pool_levels))
 rescale <- as.logical(opt$rescale)
 explain <- strsplit(opt$explain, ",")[[1]]
-stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")))
+stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")), opt$again %in% c("run", "emulator"))
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
 clock <- function() as.numeric(proc.time()[["elapsed"]])
@@ -57,7 +60,12 @@ for (h in hidden) {
     basis <- wavelet_basis(tb$A$runs, field1)
     em <- emulate(tb$A$runs, basis, check0)
     fit1 <- cal(em, field1, tb$iu)
-    run <- simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs])))
+    run <- if (opt$again == "run") {
+      simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs])))
+    } else {
+      mp <- model_prediction(fit1)
+      split(mp$mean, factor(mp$site, levels = unique(mp$site)))
+    }
     field2 <- register_curves(tb$A$field, run, tb$windows, features = features, knots_every = 2)
     fit <- cal(em, field2, tb$iu)
     fails <- where_fails(fit)
@@ -96,7 +104,7 @@ for (h in hidden) {
     res <- rbind(res, row)
   }
 }
-cat("\npool_levels =", opt$pool_levels, " rescale =", rescale, "\n")
+cat("\npool_levels =", opt$pool_levels, " rescale =", rescale, " again =", opt$again, "\n")
 print(res, row.names = FALSE)
 cat("\ncases meeting each criterion\n")
 ok <- intersect(c("where_ok", "localised", "sig_ok", "refit_ok"), names(res))
