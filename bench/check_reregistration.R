@@ -7,7 +7,9 @@
 #   pass 2  field registered to the model run at the posterior mean inputs of
 #           pass 1 (the same emulators and basis), calibrated again; with
 #           again=emulator, to pass 1's model_prediction() (the posterior
-#           mean of the emulated model) instead of a run.
+#           mean of the emulated model) instead of a run; with again=knots,
+#           the landmarks to the runs' mean as in pass 1 and only the
+#           further knots fitted to the run.
 # Printed for pass 2 (and the longest flag of pass 1): criterion 1, recall
 # and precision of where_fails() against where the mechanism acts (as
 # bench/check_localization.R), with nothing hidden the longest flagged
@@ -31,7 +33,8 @@ seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 pool <- eval(parse(text = opt$pool_levels))
 rescale <- as.logical(opt$rescale)
 explain <- strsplit(opt$explain, ",")[[1]]
-stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")), opt$again %in% c("run", "emulator"))
+stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")),
+          opt$again %in% c("run", "emulator", "knots"))
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
 clock <- function() as.numeric(proc.time()[["elapsed"]])
@@ -45,6 +48,24 @@ emulate <- function(runs, basis, check) {
 cal <- function(em, field, iu) {
   suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
                              pool_levels = pool, quiet = TRUE))
+}
+# The replicates' landmarks moved to those of the runs' mean, as the first
+# registration, and the further knots fitted to the curves `target` (a run)
+# instead of that mean: register_curves(knots_every = 2) with the landmark
+# site shared, its two references apart.
+register_hybrid <- function(field, runs, target, windows, features) {
+  t <- field$t
+  ref <- lapply(runs$curves, colMeans)
+  s <- names(field$curves)[1]
+  ref_lm <- ns$curve_landmarks(ref[[s]], t, windows, features)
+  out <- field
+  for (r in seq_len(nrow(field$curves[[s]]))) {
+    rep_lm <- ns$curve_landmarks(field$curves[[s]][r, ], t, windows, features)
+    kn <- ns$warp_knots_from(rep_lm, ref_lm, t, site = s, replicate = r)
+    kn <- ns$fit_warp_knots(field$curves[[s]][r, ], target$curves[[s]][1, ], t, kn, windows, 2)$knots
+    for (s2 in names(field$curves)) out$curves[[s2]][r, ] <- ns$apply_inverse_warp(field$curves[[s2]][r, ], t, kn)
+  }
+  out
 }
 longest <- function(fails, fit) {
   if (nrow(fails)) round(max(fails$end - fails$start) / diff(fit$basis$t[1:2])) else 0
@@ -60,13 +81,17 @@ for (h in hidden) {
     basis <- wavelet_basis(tb$A$runs, field1)
     em <- emulate(tb$A$runs, basis, check0)
     fit1 <- cal(em, field1, tb$iu)
-    run <- if (opt$again == "run") {
-      simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs])))
-    } else {
+    run <- if (opt$again == "emulator") {
       mp <- model_prediction(fit1)
       split(mp$mean, factor(mp$site, levels = unique(mp$site)))
+    } else {
+      simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs])))
     }
-    field2 <- register_curves(tb$A$field, run, tb$windows, features = features, knots_every = 2)
+    field2 <- if (opt$again == "knots") {
+      register_hybrid(tb$A$field, tb$A$runs, run, tb$windows, features)
+    } else {
+      register_curves(tb$A$field, run, tb$windows, features = features, knots_every = 2)
+    }
     fit <- cal(em, field2, tb$iu)
     fails <- where_fails(fit)
     z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
