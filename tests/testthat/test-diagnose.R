@@ -1,18 +1,3 @@
-# The example problem: reality has a bump at t = 0.25 that the model lacks.
-diag_setup <- function() {
-  ex <- wavevalid:::example_calibration_inputs()
-  t <- ex$field$t
-  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) +
-    0.3 * exp(-((t - 0.25) / 0.05)^2)
-  ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 20, chains = 2,
-                                    seed = 11, quiet = TRUE))
-  list(ex = ex, fit = fit, t = t,
-       candidates = list(bump = exp(-((t - 0.25) / 0.05)^2),
-                         late_bump = exp(-((t - 0.8) / 0.05)^2),
-                         wiggle = sin(6 * pi * t)))
-}
-
 test_that("where_fails finds the interval where the missing bump acts", {
   d <- diag_setup()
   wf <- where_fails(d$fit)
@@ -450,49 +435,6 @@ test_that("flagged_share counts the flagged points where an effect acts", {
   expect_error(flagged_share(fails, list(site9 = bump)), class = "wavevalid_error_input")
   expect_error(flagged_share(fails, list(site1 = bump[-1])), class = "wavevalid_error_input")
   expect_error(flagged_share(d$fit, list(site1 = bump)), class = "wavevalid_error_input")
-})
-
-test_that("the test-bed verdicts judge flags and explanations by the criteria", {
-  d <- diag_setup()
-  fails <- where_fails(d$fit)
-  t <- d$t
-  bump <- list(site1 = exp(-((t - 0.25) / 0.05)^2))
-  v <- wavevalid:::testbed_where_verdict(fails, "bump", bump)
-  on <- flagged_share(fails, bump, of = "flags")
-  expect_equal(v$recall, c(flagged_share(fails, bump)))
-  expect_equal(v$base, attr(on, "acting"))
-  expect_true(v$where_ok)
-  expect_true(v$localised)
-  # flags over the whole record cover the bump but do not lie on it
-  everything <- fails
-  everything$start[] <- min(t)
-  everything$end[] <- max(t) + diff(t[1:2])
-  v_all <- wavevalid:::testbed_where_verdict(everything, "bump", bump)
-  expect_true(v_all$where_ok)
-  expect_false(v_all$localised)
-  expect_equal(v_all$longest, length(t))
-  # an effect over most of the grid: localised takes half the room above base
-  wide <- list(site1 = as.numeric(t < 0.8))
-  v_wide <- wavevalid:::testbed_where_verdict(everything, "wide", wide)
-  expect_false(v_wide$localised)
-  on_wide <- everything
-  on_wide$end[] <- 0.8
-  expect_true(wavevalid:::testbed_where_verdict(on_wide, "wide", wide)$localised)
-  expect_false(wavevalid:::testbed_where_verdict(everything, "none")$where_ok)
-  expect_true(wavevalid:::testbed_where_verdict(fails[0, ], "none")$where_ok)
-  expect_error(wavevalid:::testbed_where_verdict(fails, "bump"), class = "wavevalid_error_input")
-
-  ex <- function(cand, p) structure(data.frame(candidate = cand, inclusion_prob = p), class = c("wv_explain", "data.frame"))
-  judge <- wavevalid:::testbed_explain_verdict
-  expect_true(judge(ex(c("a", "shift:u1", "b"), c(0.95, 0.7, 0.1)), "a")$ok)
-  expect_false(judge(ex(c("a", "b"), c(0.85, 0.1)), "a")$ok)
-  expect_false(judge(ex(c("a", "b"), c(0.95, 0.6)), "a")$ok)
-  expect_false(judge(ex(c("b", "a"), c(0.95, 0.94)), "a")$ok)
-  expect_false(judge(ex(c("shift:u1", "a"), c(0.7, 0.1)), "none")$ok)
-  expect_true(judge(ex(c("shift:u1", "a"), c(0.4, 0.1)), "none")$ok)
-  expect_identical(judge(ex(c("shift:u1", "a", "b"), c(0.7, 0.6, 0.1)), "b")$top, "a")
-  expect_error(judge(ex("a", 0.9), "c"), class = "wavevalid_error_input")
-  expect_error(judge(data.frame(candidate = "a", inclusion_prob = 1), "a"), class = "wavevalid_error_input")
 })
 
 # Each mechanism re-validated: the model with it (its strength a calibration

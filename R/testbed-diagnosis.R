@@ -1,0 +1,103 @@
+# --- the diagnosis on the test bed ----------------------------------------------
+# How the diagnosis tests and bench scripts validate the model on the test bed,
+# re-validate it with each mechanism, and judge the diagnosis criteria.
+
+# The validation of the model without any mechanism on the test bed's
+# condition A, as the diagnosis tests and bench scripts run it: field data
+# registered to the runs (the maximum alone for a hidden tire lift-off, whose
+# minimum is flat), the report's basis, emulators and one chain; pool_levels
+# and registration_variance are calibrate()'s.
+testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL,
+                               registration_variance = FALSE) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
+  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
+  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
+  basis <- wavelet_basis(tb$A$runs, field)
+  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                                    pool_levels = pool_levels, registration_variance = registration_variance,
+                                    quiet = TRUE))
+  list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
+}
+
+# The model re-validated with each test-bed mechanism in turn, on the field
+# data and basis of `fit` (a testbed_validation()'s): its strength s_<m> a
+# calibration input on [0, 1], the model with it simulated at an n_runs-point
+# maximin design, calibrated with the bias prior of `fit` (its pool_levels)
+# and its field variance (its registration_variance). With n_check > 0 the
+# emulators are rescaled (rescale_emulators()) on that many held-out runs of
+# the model with the mechanism, at a maximin design over the inputs' ranges.
+# A named list of fits, for explain_bias().
+testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_runs = 66L, n_draws = 150L,
+                                 n_inner = 20L, n_check = 0L) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  fits <- lapply(mechanisms, function(m) {
+    iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
+    runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
+    em <- suppressWarnings(fit_emulators(runs, fit$basis))
+    if (n_check > 0L) {
+      check <- simulate_suspension(design_maximin(iu_m, n_check, nominal = FALSE, seed = 9), mechanism = m)
+      em <- rescale_emulators(em, check)
+    }
+    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                               pool_levels = fit$settings$pool_levels,
+                               registration_variance = isTRUE(fit$settings$registration_variance), quiet = TRUE))
+  })
+  stats::setNames(fits, mechanisms)
+}
+
+# The verdicts of the diagnosis criteria on one test-bed case, as the bench
+# scripts judge them.
+#
+# Criterion 1, from a where_fails() table `fails` of a fit with mechanism
+# `hidden` hidden and that mechanism's signature `effect` at the true inputs
+# (a list by site; NULL with nothing hidden). With nothing hidden, the case
+# passes when no flagged interval is longer than `max_steps` grid steps.
+# Otherwise `where_ok` asks recall > 0.2 at every site (flagged_share(), the
+# share of the points where the mechanism acts that are flagged), and
+# `localised` adds that the flags lie where it acts: their precision (the
+# share of the flagged points where it acts) exceeds the rate of flags thrown
+# at random (`base`, the share of the grid where it acts) by at least that
+# rate, or by half the room above it when the mechanism acts over more than a
+# third of the grid (precision - base > min(base, (1 - base) / 2)).
+testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
+  check_class(fails, "wv_fails")
+  t <- attr(fails, "bias")$t
+  longest <- if (nrow(fails)) round(max(fails$end - fails$start) / (t[2] - t[1])) else 0
+  if (identical(hidden, "none")) {
+    ok <- longest <= max_steps
+    return(list(longest = longest, recall = NULL, precision = NULL, base = NULL, where_ok = ok, localised = ok))
+  }
+  if (is.null(effect)) wv_abort("A hidden mechanism needs its {.arg effect} to judge the flags.")
+  recall <- flagged_share(fails, effect)
+  precision <- flagged_share(fails, effect, of = "flags")
+  base <- attr(precision, "acting")
+  precision <- c(precision)
+  precision[is.na(precision)] <- 0
+  where_ok <- all(recall > 0.2)
+  list(longest = longest, recall = c(recall), precision = precision, base = base, where_ok = where_ok,
+       localised = where_ok && all(precision - base > pmin(base, (1 - base) / 2)))
+}
+
+# Criterion 2, from an explain_bias() table `ex`: with a mechanism hidden, it
+# is first among the mechanisms (the shift candidates aside) with
+# inclusion_prob >= 0.9, and every other mechanism is below 0.5; with nothing
+# hidden, no candidate (shifts included) reaches 0.5. `top` and `top_prob`
+# name the leading candidate (among the mechanisms when one is hidden).
+testbed_explain_verdict <- function(ex, hidden) {
+  check_class(ex, "wv_explain")
+  ex <- as.data.frame(unclass(ex))
+  if (identical(hidden, "none")) {
+    return(list(top = ex$candidate[1], top_prob = ex$inclusion_prob[1], ok = all(ex$inclusion_prob < 0.5)))
+  }
+  mech <- ex[!startsWith(ex$candidate, "shift:"), , drop = FALSE]
+  if (!hidden %in% mech$candidate) {
+    wv_abort("{.val {hidden}} is not among the candidates {.val {mech$candidate}}.")
+  }
+  p <- mech$inclusion_prob[mech$candidate == hidden]
+  list(top = mech$candidate[1], top_prob = mech$inclusion_prob[1],
+       ok = mech$candidate[1] == hidden && p >= 0.9 && all(mech$inclusion_prob[mech$candidate != hidden] < 0.5))
+}
