@@ -9,25 +9,32 @@
 # is held out as in the test: each model's runs at B registered to their mean,
 # the after-model's strength spread over its 99% posterior interval.
 # Printed: compare_validations() by mechanism; the test asks bias_rms to fall
-# by more than 70% and holdout_rmse to fall.
-#   Rscript bench/check_reregistration_loop.R [hidden=tire_liftoff,...] [seed=1]
+# by more than 70% and holdout_rmse to fall. With protocol=default, the
+# package's test instead (test-diagnose.R, testbed_loop()): landmarks between
+# grid points, the emulators as fitted, the method's prior, one registration
+# to each model's own runs; the seed chooses the test bed.
+#   Rscript bench/check_reregistration_loop.R [hidden=tire_liftoff,...] [seed=1] [protocol=reregister]
 suppressPackageStartupMessages(library(wavevalid))
 source("bench/args.R")
-opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1")
+opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1", protocol = "reregister")
 opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seed <- as.integer(opt$seed)
+stopifnot(opt$protocol %in% c("reregister", "default"))
+default <- opt$protocol == "default"
 options(wavevalid.quiet = TRUE)
 
 cal <- function(em, field, iu) {
   suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = 0:3, quiet = TRUE))
+                             pool_levels = if (!default) 0:3, quiet = TRUE))
 }
 # The protocol for one model: runs, held-out runs, the I/U map, its mechanism.
 two_pass <- function(tb, runs, check, iu, mechanism, features) {
-  reg <- function(ref) register_curves(tb$A$field, ref, tb$windows, features = features, knots_every = 2)
+  reg <- function(ref) register_curves(tb$A$field, ref, tb$windows, features = features, knots_every = 2,
+                                       refine = default)
   field1 <- reg(runs)
   basis <- wavelet_basis(runs, field1)
+  if (default) return(cal(suppressWarnings(fit_emulators(runs, basis)), field1, iu))
   em <- rescale_emulators(suppressWarnings(fit_emulators(runs, basis)), check)
   fit1 <- cal(em, field1, iu)
   at <- as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs]))
@@ -54,13 +61,14 @@ for (h in hidden) {
   withr::with_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
                      nrow(design_B))
   runs_B <- simulate_suspension(design_B, mechanism = h)
-  reg_B <- function(ref) register_curves(tb$B$field, ref, tb$windows, features = features, knots_every = 2)
+  reg_B <- function(ref) register_curves(tb$B$field, ref, tb$windows, features = features, knots_every = 2,
+                                         refine = default)
   p_before <- suppressWarnings(predict(before, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom,
                                        seed = 1))
   p_after <- suppressWarnings(predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom, seed = 1))
   holdout <- list(field = list(before = reg_B(tb$B$runs), after = reg_B(runs_B)), before = p_before, after = p_after)
   cmp <- compare_validations(before, after, holdout = holdout)
-  cat(sprintf("\n%s, seed %d (%.0f s): strength %.2f\n", h, seed, proc.time()[["elapsed"]] - t0,
+  cat(sprintf("\n%s, seed %d, %s (%.0f s): strength %.2f\n", h, seed, opt$protocol, proc.time()[["elapsed"]] - t0,
               mean(as.matrix(after$draws)[, s_name])))
   print(as.data.frame(unclass(cmp)), row.names = FALSE, digits = 3)
 }
