@@ -12,16 +12,24 @@
 # by more than 70% and holdout_rmse to fall. With protocol=default, the
 # package's test instead (test-diagnose.R, testbed_loop()): landmarks between
 # grid points, the emulators as fitted, the method's prior, one registration
-# to each model's own runs; the seed chooses the test bed.
+# to each model's own runs; the seed chooses the test bed. With
+# holdout_again=TRUE (protocol reregister only) condition B's replicates are
+# registered to one run of each model, at its posterior mean calibration
+# inputs (and strength) and B's nominal variation inputs, instead of the mean
+# of its B runs.
 #   Rscript bench/check_reregistration_loop.R [hidden=tire_liftoff,...] [seed=1] [protocol=reregister]
+#                                             [holdout_again=FALSE]
 suppressPackageStartupMessages(library(wavevalid))
 source("bench/args.R")
-opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1", protocol = "reregister")
+opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1", protocol = "reregister",
+            holdout_again = "FALSE")
 opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seed <- as.integer(opt$seed)
 stopifnot(opt$protocol %in% c("reregister", "default"))
 default <- opt$protocol == "default"
+holdout_again <- as.logical(opt$holdout_again)
+stopifnot(!is.na(holdout_again), !(holdout_again && default))
 options(wavevalid.quiet = TRUE)
 
 cal <- function(em, field, iu) {
@@ -66,7 +74,19 @@ for (h in hidden) {
   p_before <- suppressWarnings(predict(before, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom,
                                        seed = 1))
   p_after <- suppressWarnings(predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom, seed = 1))
-  holdout <- list(field = list(before = reg_B(tb$B$runs), after = reg_B(runs_B)), before = p_before, after = p_after)
+  ref_B <- list(before = tb$B$runs, after = runs_B)
+  if (holdout_again) {
+    # one run of each model for condition B: its calibration inputs (and the
+    # strength) at their posterior means, the variation inputs at B's nominals
+    at_B <- function(fit, mechanism) {
+      z <- colMeans(as.matrix(fit$draws))[fit$inputs]
+      z[names(tb$B$x_nom)] <- tb$B$x_nom
+      simulate_suspension(as.data.frame(as.list(z)), mechanism = mechanism)
+    }
+    ref_B <- list(before = at_B(before, NULL), after = at_B(after, h))
+  }
+  holdout <- list(field = list(before = reg_B(ref_B$before), after = reg_B(ref_B$after)), before = p_before,
+                  after = p_after)
   cmp <- compare_validations(before, after, holdout = holdout)
   cat(sprintf("\n%s, seed %d, %s (%.0f s): strength %.2f\n", h, seed, opt$protocol, proc.time()[["elapsed"]] - t0,
               mean(as.matrix(after$draws)[, s_name])))
