@@ -68,6 +68,29 @@ warn_fit_flags <- function(fit) {
 #' @export
 as.mcmc.list.wv_fit <- function(x, ...) x$draws
 
+#' Posterior means of the calibrated inputs
+#'
+#' The posterior mean of each input of a fit (calibration inputs and, for
+#' inputs with manufacturing variation, the nominal plus the variation), in
+#' the inputs' own units: the point at which to run the model once more, for
+#' instance to register the field data to a run at the calibrated inputs.
+#'
+#' @param object A `wv_fit`.
+#' @param ... Not used; an unknown argument is an error.
+#' @return A named numeric vector, one element per input of the fit.
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 10,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' coef(fit)
+#' # one row of a design, to run the model there
+#' as.data.frame(as.list(coef(fit)))
+coef.wv_fit <- function(object, ...) {
+  check_dots_none(...)
+  posterior_mean_inputs(object)
+}
+
 #' @export
 print.wv_fit <- function(x, ...) {
   H <- nrow(x$draws[[1]])

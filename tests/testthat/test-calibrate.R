@@ -361,6 +361,9 @@ test_that("a fit has the documented layout, mcmc.list and print", {
   # variation inputs are reported in their own units around x_nom
   X <- as.matrix(ml)
   expect_true(all(X[, "x1"] >= 0 & X[, "x1"] <= 1))
+  # coef(): the posterior means of the inputs over both chains, in their units
+  expect_equal(coef(fit), colMeans(X[, c("u1", "x1")]))
+  expect_error(coef(fit, "median"), class = "wavevalid_error_input")
   expect_snapshot(print(fit))
   expect_snapshot(print(summary(fit)))
   expect_s3_class(autoplot(fit, "inputs"), "ggplot")
