@@ -12,7 +12,8 @@
 # by more than 70% and holdout_rmse to fall. With protocol=default, the
 # package's test instead (test-diagnose.R, testbed_loop()): landmarks between
 # grid points, the emulators as fitted, the method's prior, one registration
-# to each model's own runs; the seed chooses the test bed. With
+# to each model's own runs; the seed chooses the test bed. protocol=pooled is
+# that with levels 0-3 pooled (calibrate(pool_levels = 0:3)). With
 # holdout_again=TRUE (protocol reregister only) condition B's replicates are
 # registered to one run of each model, at its posterior mean calibration
 # inputs (and strength) and B's nominal variation inputs, instead of the mean
@@ -26,23 +27,24 @@ opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1", pr
 opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seed <- as.integer(opt$seed)
-stopifnot(opt$protocol %in% c("reregister", "default"))
-default <- opt$protocol == "default"
+stopifnot(opt$protocol %in% c("reregister", "default", "pooled"))
+one_pass <- opt$protocol %in% c("default", "pooled")
+pool <- if (opt$protocol != "default") 0:3
 holdout_again <- as.logical(opt$holdout_again)
-stopifnot(!is.na(holdout_again), !(holdout_again && default))
+stopifnot(!is.na(holdout_again), !(holdout_again && one_pass))
 options(wavevalid.quiet = TRUE)
 
 cal <- function(em, field, iu) {
   suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = if (!default) 0:3, quiet = TRUE))
+                             pool_levels = pool, quiet = TRUE))
 }
 # The protocol for one model: runs, held-out runs, the I/U map, its mechanism.
 two_pass <- function(tb, runs, check, iu, mechanism, features) {
   reg <- function(ref) register_curves(tb$A$field, ref, tb$windows, features = features, knots_every = 2,
-                                       refine = default)
+                                       refine = one_pass)
   field1 <- reg(runs)
   basis <- wavelet_basis(runs, field1)
-  if (default) return(cal(suppressWarnings(fit_emulators(runs, basis)), field1, iu))
+  if (one_pass) return(cal(suppressWarnings(fit_emulators(runs, basis)), field1, iu))
   em <- rescale_emulators(suppressWarnings(fit_emulators(runs, basis)), check)
   fit1 <- cal(em, field1, iu)
   at <- as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs]))
@@ -70,7 +72,7 @@ for (h in hidden) {
                      nrow(design_B))
   runs_B <- simulate_suspension(design_B, mechanism = h)
   reg_B <- function(ref) register_curves(tb$B$field, ref, tb$windows, features = features, knots_every = 2,
-                                         refine = default)
+                                         refine = one_pass)
   p_before <- suppressWarnings(predict(before, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom,
                                        seed = 1))
   p_after <- suppressWarnings(predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom, seed = 1))
