@@ -93,4 +93,10 @@ for (h in hidden) {
   cat(sprintf("\n%s, seed %d, %s (%.0f s): strength %.2f\n", h, seed, opt$protocol, proc.time()[["elapsed"]] - t0,
               mean(as.matrix(after$draws)[, s_name])))
   print(as.data.frame(unclass(cmp)), row.names = FALSE, digits = 3)
+  # the share of each fit's bias energy at wavelet level 0 (an offset of the record), by site
+  level0 <- function(fit) {
+    lv <- attr(where_fails(fit), "levels")
+    paste(formatC(lv$share[lv$level == 0], digits = 2, format = "f"), collapse = "/")
+  }
+  cat(sprintf("level-0 share of the bias energy: before %s, after %s\n", level0(before), level0(after)))
 }
