@@ -29,16 +29,8 @@ seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 scale <- as.numeric(opt$scale)
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
-clock <- function() as.numeric(proc.time()[["elapsed"]])
-iu0 <- testbed_suspension(1)$iu
-check0 <- simulate_suspension(design_maximin(iu0, 30, nominal = FALSE, seed = 9))
-cal <- function(em, field, iu) {
-  suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = 0:3, quiet = TRUE))
-}
-longest <- function(fails, fit) {
-  if (nrow(fails)) round(max(fails$end - fails$start) / diff(fit$basis$t[1:2])) else 0
-}
+source("bench/protocol.R")
+check0 <- held_out_runs(testbed_suspension(1)$iu)
 
 # The landmarks' hat functions times the field mean's slope, by site (T x K
 # matrices), and their prior sd; landmarks shared by sites are one column.
@@ -99,35 +91,18 @@ for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
     tb <- testbed_suspension(seed = seed, hidden = h)
-    features <- if (h == "tire_liftoff") "max" else c("min", "max")
-    field1 <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
-    basis <- wavelet_basis(tb$A$runs, field1)
-    em <- rescale_emulators(suppressWarnings(fit_emulators(tb$A$runs, basis)), check0)
-    fit1 <- cal(em, field1, tb$iu)
-    off <- remove_offsets(fit1)
-    fit <- cal(em, off$field, tb$iu)
-    fails <- where_fails(fit)
-    f2 <- function(x) paste(formatC(x, digits = 2, format = "fg"), collapse = "/")
-    row <- data.frame(hidden = h, seed = seed, longest1 = longest(where_fails(fit1), fit1),
-                      longest = longest(fails, fit), recall = NA_character_, precision = NA_character_,
-                      base = NA_character_, where_ok = NA, localised = NA,
+    p1 <- first_pass(tb, h, check0)
+    off <- remove_offsets(p1$fit)
+    fit <- calibrate_short(p1$emulators, off$field, tb$iu)
+    truth <- c(tb$truth$u, 0.5 + tb$truth$delta)
+    sig <- if (h != "none") testbed_signatures(truth[fit$inputs], h)[[1]]
+    verdict <- ns$testbed_where_verdict(where_fails(fit), h, sig)
+    f2 <- function(x) if (is.null(x)) NA_character_ else paste(formatC(x, digits = 2, format = "fg"), collapse = "/")
+    row <- data.frame(hidden = h, seed = seed, longest1 = longest_flag(p1$fit), longest = verdict$longest,
+                      recall = f2(verdict$recall), precision = f2(verdict$precision), base = f2(verdict$base),
+                      where_ok = verdict$where_ok, localised = verdict$localised,
                       offset_rms = signif(sqrt(mean(off$steps^2)), 2), offset_max = signif(max(abs(off$steps)), 2),
                       prior_sd = signif(sqrt(mean(off$prior_steps^2)), 2), stringsAsFactors = FALSE)
-    if (h == "none") {
-      row$where_ok <- row$localised <- row$longest <= 3
-    } else {
-      truth <- c(tb$truth$u, 0.5 + tb$truth$delta)
-      sig <- testbed_signatures(truth[fit$inputs], h)[[1]]
-      rec <- ns$flagged_share(fails, sig)
-      pre <- ns$flagged_share(fails, sig, of = "flags")
-      pre[is.na(pre)] <- 0
-      base <- attr(pre, "acting")
-      row$recall <- f2(rec)
-      row$precision <- f2(pre)
-      row$base <- f2(base)
-      row$where_ok <- all(rec > 0.2)
-      row$localised <- row$where_ok && all(if (h == "strut_friction") pre > base else pre > 2 * base)
-    }
     row$secs <- round(clock() - t0)
     print(row, row.names = FALSE)
     res <- rbind(res, row)

@@ -37,18 +37,8 @@ stopifnot(!is.na(rescale), all(explain %in% c("signatures", "refits", "none")),
           opt$again %in% c("run", "emulator", "knots"))
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
-clock <- function() as.numeric(proc.time()[["elapsed"]])
-iu0 <- testbed_suspension(1)$iu
-check0 <- if (rescale) simulate_suspension(design_maximin(iu0, 30, nominal = FALSE, seed = 9)) else NULL
-
-emulate <- function(runs, basis, check) {
-  em <- suppressWarnings(fit_emulators(runs, basis))
-  if (rescale) rescale_emulators(em, check) else em
-}
-cal <- function(em, field, iu) {
-  suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = pool, quiet = TRUE))
-}
+source("bench/protocol.R")
+check0 <- if (rescale) held_out_runs(testbed_suspension(1)$iu)
 # The replicates' landmarks moved to those of the runs' mean, as the first
 # registration, and the further knots fitted to the curves `target` (a run)
 # instead of that mean: register_curves(knots_every = 2) with the landmark
@@ -67,40 +57,35 @@ register_hybrid <- function(field, runs, target, windows, features) {
   }
   out
 }
-longest <- function(fails, fit) {
-  if (nrow(fails)) round(max(fails$end - fails$start) / diff(fit$basis$t[1:2])) else 0
-}
 res <- NULL
 for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
     tb <- testbed_suspension(seed = seed, hidden = h)
-    features <- if (h == "tire_liftoff") "max" else c("min", "max")
     truth <- c(tb$truth$u, 0.5 + tb$truth$delta)
-    field1 <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
-    basis <- wavelet_basis(tb$A$runs, field1)
-    em <- emulate(tb$A$runs, basis, check0)
-    fit1 <- cal(em, field1, tb$iu)
+    p1 <- first_pass(tb, h, check0, pool)
     run <- if (opt$again == "emulator") {
-      mp <- model_prediction(fit1)
+      mp <- model_prediction(p1$fit)
       split(mp$mean, factor(mp$site, levels = unique(mp$site)))
     } else {
-      simulate_suspension(as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs])))
+      simulate_suspension(as.data.frame(as.list(coef(p1$fit))))
     }
     field2 <- if (opt$again == "knots") {
+      features <- if (h == "tire_liftoff") "max" else c("min", "max")
       register_hybrid(tb$A$field, tb$A$runs, run, tb$windows, features)
     } else {
-      register_curves(tb$A$field, run, tb$windows, features = features, knots_every = 2)
+      register_case(tb, h, run)
     }
-    fit <- cal(em, field2, tb$iu)
+    fit <- calibrate_short(p1$emulators, field2, tb$iu, pool)
     fails <- where_fails(fit)
-    z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-    row <- data.frame(hidden = h, seed = seed, longest1 = longest(where_fails(fit1), fit1),
-                      longest = longest(fails, fit), recall = NA_character_, precision = NA_character_,
+    z_hat <- coef(fit)
+    row <- data.frame(hidden = h, seed = seed, longest1 = longest_flag(p1$fit),
+                      longest = NA_real_, recall = NA_character_, precision = NA_character_,
                       base = NA_character_, where_ok = NA, localised = NA,
                       err_in = signif(sqrt(mean((z_hat - truth[fit$inputs])^2)), 2), stringsAsFactors = FALSE)
     sig <- if (h != "none") testbed_signatures(truth[fit$inputs], h)[[1]]
     verdict <- ns$testbed_where_verdict(fails, h, sig)
+    row$longest <- verdict$longest
     row$where_ok <- verdict$where_ok
     row$localised <- verdict$localised
     if (h != "none") {

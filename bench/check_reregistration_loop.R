@@ -34,10 +34,8 @@ holdout_again <- as.logical(opt$holdout_again)
 stopifnot(!is.na(holdout_again), !(holdout_again && one_pass))
 options(wavevalid.quiet = TRUE)
 
-cal <- function(em, field, iu) {
-  suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = pool, quiet = TRUE))
-}
+source("bench/protocol.R")
+cal <- function(em, field, iu) calibrate_short(em, field, iu, pool)
 # The protocol for one model: runs, held-out runs, the I/U map, its mechanism.
 two_pass <- function(tb, runs, check, iu, mechanism, features) {
   reg <- function(ref) register_curves(tb$A$field, ref, tb$windows, features = features, knots_every = 2,
@@ -47,7 +45,7 @@ two_pass <- function(tb, runs, check, iu, mechanism, features) {
   if (one_pass) return(cal(suppressWarnings(fit_emulators(runs, basis)), field1, iu))
   em <- rescale_emulators(suppressWarnings(fit_emulators(runs, basis)), check)
   fit1 <- cal(em, field1, iu)
-  at <- as.data.frame(as.list(colMeans(as.matrix(fit1$draws))[fit1$inputs]))
+  at <- as.data.frame(as.list(coef(fit1)))
   cal(em, reg(simulate_suspension(at, mechanism = mechanism)), iu)
 }
 
@@ -55,7 +53,7 @@ for (h in hidden) {
   t0 <- proc.time()[["elapsed"]]
   tb <- testbed_suspension(seed = seed, hidden = h)
   features <- if (h == "tire_liftoff") "max" else c("min", "max")
-  check <- simulate_suspension(design_maximin(tb$iu, 30, nominal = FALSE, seed = 9))
+  check <- held_out_runs(tb$iu)
   before <- two_pass(tb, tb$A$runs, check, tb$iu, NULL, features)
 
   s_name <- paste0("s_", h)
@@ -63,7 +61,7 @@ for (h in hidden) {
   design <- tb$A$runs$design
   withr::with_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
   runs <- simulate_suspension(design, mechanism = h)
-  check_after <- simulate_suspension(design_maximin(iu_after, 30, nominal = FALSE, seed = 9), mechanism = h)
+  check_after <- held_out_runs(iu_after, h)
   after <- two_pass(tb, runs, check_after, iu_after, h, features)
 
   design_B <- tb$B$runs$design
@@ -81,7 +79,7 @@ for (h in hidden) {
     # one run of each model for condition B: its calibration inputs (and the
     # strength) at their posterior means, the variation inputs at B's nominals
     at_B <- function(fit, mechanism) {
-      z <- colMeans(as.matrix(fit$draws))[fit$inputs]
+      z <- coef(fit)
       z[names(tb$B$x_nom)] <- tb$B$x_nom
       simulate_suspension(as.data.frame(as.list(z)), mechanism = mechanism)
     }

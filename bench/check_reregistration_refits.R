@@ -21,14 +21,8 @@ hidden <- strsplit(opt$hidden, ",")[[1]]
 seeds <- eval(parse(text = paste0("c(", opt$seeds, ")")))
 options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
-clock <- function() as.numeric(proc.time()[["elapsed"]])
-iu0 <- testbed_suspension(1)$iu
-check0 <- simulate_suspension(design_maximin(iu0, 30, nominal = FALSE, seed = 9))
-cal <- function(em, field, iu) {
-  suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = 0:3, quiet = TRUE))
-}
-z_mean <- function(fit) colMeans(as.matrix(fit$draws))[fit$inputs]
+source("bench/protocol.R")
+check0 <- held_out_runs(testbed_suspension(1)$iu)
 log_bf <- function(rf, strength) {
   rf$draw_matrix <- as.matrix(rf$draws)
   H <- nrow(rf$draw_matrix)
@@ -45,23 +39,18 @@ for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
     tb <- testbed_suspension(seed = seed, hidden = h)
-    features <- if (h == "tire_liftoff") "max" else c("min", "max")
-    reg <- function(reference) register_curves(tb$A$field, reference, tb$windows, features = features, knots_every = 2)
-    field1 <- reg(tb$A$runs)
-    basis <- wavelet_basis(tb$A$runs, field1)
-    em <- rescale_emulators(suppressWarnings(fit_emulators(tb$A$runs, basis)), check0)
-    fit1 <- cal(em, field1, tb$iu)
-    field2 <- reg(simulate_suspension(as.data.frame(as.list(z_mean(fit1)))))
+    reg <- function(reference) register_case(tb, h, reference)
+    p1 <- first_pass(tb, h, check0)
+    field2 <- reg(simulate_suspension(as.data.frame(as.list(coef(p1$fit)))))
     out <- lapply(testbed_mechanisms(), function(m) {
       s <- paste0("s_", m)
       iu_m <- iu_add(tb$iu, s, lower = 0, upper = 1, nominal = 0.5)
       runs <- simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
-      check <- simulate_suspension(design_maximin(iu_m, 30, nominal = FALSE, seed = 9), mechanism = m)
-      em_m <- rescale_emulators(suppressWarnings(fit_emulators(runs, basis)), check)
-      r1 <- cal(em_m, field2, iu_m)
-      own <- reg(simulate_suspension(as.data.frame(as.list(z_mean(r1))), mechanism = m))
-      r2 <- cal(em_m, own, iu_m)
-      c(s1 = z_mean(r1)[[s]], lb1 = log_bf(r1, s), s2 = z_mean(r2)[[s]], lb2 = log_bf(r2, s))
+      em_m <- rescale_emulators(suppressWarnings(fit_emulators(runs, p1$basis)), held_out_runs(iu_m, m))
+      r1 <- calibrate_short(em_m, field2, iu_m)
+      own <- reg(simulate_suspension(as.data.frame(as.list(coef(r1))), mechanism = m))
+      r2 <- calibrate_short(em_m, own, iu_m)
+      c(s1 = coef(r1)[[s]], lb1 = log_bf(r1, s), s2 = coef(r2)[[s]], lb2 = log_bf(r2, s))
     })
     tab <- as.data.frame(do.call(rbind, out))
     tab$p1 <- inclusion(tab$lb1)
