@@ -14,14 +14,34 @@
 # Named list by site of the variances (one per coefficient of `basis`), or
 # NULL when the field was not registered to model runs.
 registration_extra_variance <- function(field, basis) {
+  cols <- registration_landmark_columns(field, names(field$curves))
+  if (is.null(cols)) return(NULL)
+  lapply(cols$H, function(H) {
+    v <- numeric(ncol(basis$Psi))
+    for (k in seq_along(cols$sd)) {
+      if (!any(H[, k] != 0)) next
+      v <- v + cols$sd[k]^2 * drop(basis_coef(basis, H[, k]))^2
+    }
+    v
+  })
+}
+
+# The first-order effect of each of the reference's landmarks on the
+# registered field mean: for landmark k, its hat function h_k times the field
+# mean's slope, a column of a T x K matrix for each site in `sites` (zero at
+# the sites the landmark does not act on; a landmark shared by the sites acts
+# on all of them), and sd_k, its spread over the runs. Landmarks with no
+# spread or on the edge of the knots are left out. NULL when the field was not
+# registered to model runs.
+registration_landmark_columns <- function(field, sites) {
   w <- field$warps
   spread <- if (is.null(w)) NULL else attr(w, "landmark_sd")
   if (is.null(spread)) return(NULL)
   t <- field$t
-  sites <- names(field$curves)
-  out <- stats::setNames(lapply(sites, function(s) numeric(ncol(basis$Psi))), sites)
-  slope <- lapply(field$curves, function(Y) grid_slope(colMeans(Y), t))
+  slope <- lapply(field$curves[sites], function(Y) grid_slope(colMeans(Y), t))
   shared <- !is.na(attr(w, "landmark_site"))
+  H <- stats::setNames(lapply(sites, function(s) matrix(0, length(t), 0L)), sites)
+  sd <- numeric(0)
   for (m in unique(spread$site)) {
     lm <- spread[spread$site == m, , drop = FALSE]
     targets <- if (shared) intersect(attr(w, "sites"), sites) else m
@@ -33,13 +53,11 @@ registration_extra_variance <- function(field, basis) {
       if (j == 1L || j == length(after)) next
       h <- stats::approx(after[(j - 1L):(j + 1L)], c(0, 1, 0), xout = t, rule = 2)$y
       h[t < after[j - 1L] | t > after[j + 1L]] <- 0
-      for (s in targets) {
-        g <- drop(basis_coef(basis, h * slope[[s]]))
-        out[[s]] <- out[[s]] + lm$sd[k]^2 * g^2
-      }
+      sd <- c(sd, lm$sd[k])
+      for (s in sites) H[[s]] <- cbind(H[[s]], if (s %in% targets) h * slope[[s]] else 0 * t)
     }
   }
-  out
+  list(H = H, sd = sd)
 }
 
 # Slope of a curve on its grid: central differences, one-sided at the ends.

@@ -48,20 +48,17 @@ options(wavevalid.quiet = TRUE)
 ns <- asNamespace("wavevalid")
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 
-# recall and precision are flagged_share()'s two sides; the flagged share of
+# recall, precision and base as testbed_where_verdict() gives them; the flagged share of
 # the grid is the intervals' total length (they are disjoint, on the grid).
-site_stats <- function(fails, sig) {
+site_stats <- function(fails, sig, verdict) {
   b <- attr(fails, "bias")
   lv <- attr(fails, "levels")
-  recall <- flagged_share(fails, sig)
-  precision <- flagged_share(fails, sig, of = "flags")
-  precision[is.na(precision)] <- 0
   dt <- diff(b$t[1:2])
   vapply(names(sig), function(s) {
     acts <- abs(sig[[s]]) > 0.1 * max(abs(sig[[s]]))
     m <- abs(b$mean[b$site == s])
     w <- fails[fails$site == s, , drop = FALSE]
-    c(recall = recall[[s]], precision = precision[[s]], base = attr(precision, "acting")[[s]],
+    c(recall = verdict$recall[[s]], precision = verdict$precision[[s]], base = verdict$base[[s]],
       flagged = sum(w$end - w$start) / (length(m) * dt), lift = mean(m[acts]) / mean(m[!acts]),
       level0 = lv$share[lv$site == s & lv$level == 0])
   }, numeric(6))
@@ -85,9 +82,9 @@ for (h in hidden) {
     } else {
       truth <- c(v$tb$truth$u, 0.5 + v$tb$truth$delta)[fit$inputs]
       sig <- testbed_signatures(truth, h)[[1]]
-      st <- site_stats(fails, sig)
-      for (k in rownames(st)) row[[k]] <- paste(formatC(st[k, ], digits = 2, format = "fg"), collapse = "/")
       verdict <- ns$testbed_where_verdict(fails, h, sig)
+      st <- site_stats(fails, sig, verdict)
+      for (k in rownames(st)) row[[k]] <- paste(formatC(st[k, ], digits = 2, format = "fg"), collapse = "/")
       row$where_ok <- verdict$where_ok
       row$localised <- verdict$localised
     }

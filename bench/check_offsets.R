@@ -3,7 +3,7 @@
 # parameters. Registration moves each replicate's landmarks onto those of the
 # runs' mean; the model at the true inputs has its landmarks elsewhere. An
 # error d_k in landmark k's time moves the registered field mean by about
-# -d_k h_k(t) ybar'(t) (R/registration-variance.R), so the field mean's
+# -d_k h_k(t) ybar'(t) (registration_landmark_columns()), so the field mean's
 # coefficients are wbar = w + G d, G's column k being -Psi'(h_k ybar'), with
 # d_k ~ N(0, sd_k^2), sd_k the landmark's spread over the runs.
 #
@@ -32,39 +32,11 @@ ns <- asNamespace("wavevalid")
 source("bench/protocol.R")
 check0 <- held_out_runs(testbed_suspension(1)$iu)
 
-# The landmarks' hat functions times the field mean's slope, by site (T x K
-# matrices), and their prior sd; landmarks shared by sites are one column.
-offset_columns <- function(field, sites) {
-  w <- field$warps
-  spread <- attr(w, "landmark_sd")
-  t <- field$t
-  slope <- lapply(field$curves, function(Y) ns$grid_slope(colMeans(Y), t))
-  shared <- !is.na(attr(w, "landmark_site"))
-  H <- stats::setNames(lapply(sites, function(s) NULL), sites)
-  sd <- numeric(0)
-  for (m in unique(spread$site)) {
-    lm <- spread[spread$site == m, , drop = FALSE]
-    targets <- if (shared) intersect(attr(w, "sites"), sites) else m
-    first <- min(w$replicate[w$site == m])
-    after <- sort(unique(ns$warp_knots(w, first, site = m)$after))
-    for (k in seq_len(nrow(lm))) {
-      if (!(lm$sd[k] > 0)) next
-      j <- which.min(abs(after - lm$t_after[k]))
-      if (j == 1L || j == length(after)) next
-      h <- stats::approx(after[(j - 1L):(j + 1L)], c(0, 1, 0), xout = t, rule = 2)$y
-      h[t < after[j - 1L] | t > after[j + 1L]] <- 0
-      sd <- c(sd, lm$sd[k])
-      for (s in sites) H[[s]] <- cbind(H[[s]], if (s %in% targets) h * slope[[s]] else 0 * t)
-    }
-  }
-  list(H = H, sd = sd)
-}
-
 remove_offsets <- function(fit) {
   field <- fit$field
   sites <- names(fit$wb)
-  oc <- offset_columns(field, sites)
-  z <- posterior_mean <- colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
+  oc <- ns$registration_landmark_columns(field, sites)
+  z <- colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
   d <- as.matrix(fit$draws)
   K <- length(oc$sd)
   P <- diag(1 / (scale * oc$sd)^2, K)

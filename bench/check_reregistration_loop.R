@@ -17,13 +17,14 @@
 # holdout_again=TRUE (protocol reregister only) condition B's replicates are
 # registered to one run of each model, at its posterior mean calibration
 # inputs (and strength) and B's nominal variation inputs, instead of the mean
-# of its B runs.
+# of its B runs. With rescale=FALSE (protocol reregister only) the emulators
+# are used as fitted, not rescaled on the held-out runs.
 #   Rscript bench/check_reregistration_loop.R [hidden=tire_liftoff,...] [seed=1] [protocol=reregister]
-#                                             [holdout_again=FALSE]
+#                                             [holdout_again=FALSE] [rescale=TRUE]
 suppressPackageStartupMessages(library(wavevalid))
 source("bench/args.R")
 opt <- list(hidden = paste(testbed_mechanisms(), collapse = ","), seed = "1", protocol = "reregister",
-            holdout_again = "FALSE")
+            holdout_again = "FALSE", rescale = "TRUE")
 opt <- bench_args(opt)
 hidden <- strsplit(opt$hidden, ",")[[1]]
 seed <- as.integer(opt$seed)
@@ -31,7 +32,8 @@ stopifnot(opt$protocol %in% c("reregister", "default", "pooled"))
 one_pass <- opt$protocol %in% c("default", "pooled")
 pool <- if (opt$protocol != "default") 0:3
 holdout_again <- as.logical(opt$holdout_again)
-stopifnot(!is.na(holdout_again), !(holdout_again && one_pass))
+rescale <- as.logical(opt$rescale)
+stopifnot(!is.na(holdout_again), !(holdout_again && one_pass), !is.na(rescale), rescale || !one_pass)
 options(wavevalid.quiet = TRUE)
 
 source("bench/protocol.R")
@@ -43,7 +45,8 @@ two_pass <- function(tb, runs, check, iu, mechanism, features) {
   field1 <- reg(runs)
   basis <- wavelet_basis(runs, field1)
   if (one_pass) return(cal(suppressWarnings(fit_emulators(runs, basis)), field1, iu))
-  em <- rescale_emulators(suppressWarnings(fit_emulators(runs, basis)), check)
+  em <- suppressWarnings(fit_emulators(runs, basis))
+  if (rescale) em <- rescale_emulators(em, check)
   fit1 <- cal(em, field1, iu)
   at <- as.data.frame(as.list(coef(fit1)))
   cal(em, reg(simulate_suspension(at, mechanism = mechanism)), iu)

@@ -415,6 +415,13 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   expect_gt(max(spread$sd), 0)
   r <- registration_extra_variance(field, ex$emulators$basis)$site1
   expect_true(all(r >= 0) && any(r > 0))
+  # the variance is that of the first-order effect of the landmarks' errors:
+  # each landmark's hat times the slope of the field mean, with the landmark's spread
+  cols <- registration_landmark_columns(field, "site1")
+  expect_equal(cols$sd, spread$sd[spread$sd > 0])
+  expect_equal(dim(cols$H$site1), c(length(t), length(cols$sd)))
+  G <- crossprod(ex$emulators$basis$Psi, cols$H$site1)
+  expect_equal(r, drop(G^2 %*% cols$sd^2))
   # a coefficient whose support lies outside the hat of the moving landmark gets nothing
   after <- sort(unique(warp_knots(field$warps, 1, "site1")$after))
   hat <- range(after[which.min(abs(after - spread$t_after[spread$sd > 0])) + c(-1, 1)])
