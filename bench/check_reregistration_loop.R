@@ -9,11 +9,13 @@
 # is held out as in the test: each model's runs at B registered to their mean,
 # the after-model's strength spread over its 99% posterior interval.
 # Printed: compare_validations() by mechanism; the test asks bias_rms to fall
-# by more than 70% and holdout_rmse to fall. With protocol=default, the
-# package's test instead (test-diagnose.R, testbed_loop()): landmarks between
-# grid points, the emulators as fitted, the method's prior, one registration
-# to each model's own runs; the seed chooses the test bed. protocol=pooled is
-# that with levels 0-3 pooled (calibrate(pool_levels = 0:3)). With
+# by more than 70% and holdout_rmse to fall. The package's test
+# (test-diagnose.R, testbed_loop()) is protocol=reregister with rescale=FALSE
+# at seeds 1 and 2. With protocol=default, the missing-effect vignette's loop
+# (sections 4 and 5) instead: landmarks between grid points, the emulators as
+# fitted, the method's prior, one registration to each model's own runs; the
+# seed chooses the test bed. protocol=pooled is that with levels 0-3 pooled
+# (calibrate(pool_levels = 0:3)). With
 # holdout_again=TRUE (protocol reregister only) condition B's replicates are
 # registered to one run of each model, at its posterior mean calibration
 # inputs (and strength) and B's nominal variation inputs, instead of the mean
