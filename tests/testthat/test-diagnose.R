@@ -365,11 +365,12 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts, and o
 # spreading the strength over the strength's 99% posterior interval.
 # bench/check_reregistration_loop.R runs it at any seed (rescale=FALSE): over
 # seeds 1-5 the bias fell by more than 70% and the condition B error fell in
-# 18 of the 20 cases (the lift-off at seed 3 and the bump stop at seed 4 kept
-# more bias: -56% and -55%). Registered once, to each model's runs, with the
-# method's prior (one bias variance per level), it held in 9 of 20, all four
-# at seed 1 and none at seed 2: the model with the mechanism kept more bias in
-# seven cases, an offset of the whole record (level 0).
+# 18 of the 20 cases (the bias of the lift-off at seed 3 and of the bump stop
+# at seed 4 fell by only 56% and 55%). Registered once, to each model's runs,
+# with the method's prior (one bias variance per level), it held in 9 of 20,
+# all four at seed 1 and none at seed 2: the model with the mechanism kept
+# more bias in seven cases, where measured an offset of the whole record
+# (level 0).
 testbed_protocol <- function(tb, runs, iu, mechanism, features) {
   reg <- function(ref) register_curves(tb$A$field, ref, tb$windows, features = features, knots_every = 2)
   field <- reg(runs)
