@@ -36,8 +36,8 @@ remove_offsets <- function(fit) {
   field <- fit$field
   sites <- names(fit$wb)
   oc <- ns$registration_landmark_columns(field, sites)
-  z <- colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
   d <- as.matrix(fit$draws)
+  z <- colMeans(d[, fit$inputs, drop = FALSE])
   K <- length(oc$sd)
   P <- diag(1 / (scale * oc$sd)^2, K)
   b <- numeric(K)

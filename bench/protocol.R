@@ -1,5 +1,6 @@
 # Pieces shared by the bench scripts of the second-registration protocol
-# (check_reregistration.R, check_reregistration_refits.R, check_offsets.R):
+# (check_reregistration.R, check_reregistration_refits.R, check_offsets.R,
+# check_reregistration_loop.R):
 # condition A of a test-bed case as the tests run it (66 runs, 150 x 20 draws,
 # one chain), emulators rescaled on held-out runs, levels 0-3 pooled. Source
 # after library(wavevalid), from the package's root.
