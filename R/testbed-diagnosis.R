@@ -2,24 +2,76 @@
 # How the diagnosis tests and bench scripts validate the model on the test bed,
 # re-validate it with each mechanism, and judge the diagnosis criteria.
 
+# Field data of condition `condition` of test bed `tb` registered to
+# `reference` (model runs, whose mean is then the reference, or curves by
+# site) as the diagnosis tests and bench scripts register it: further knots
+# every 2 time units, and the maximum alone for a hidden tire lift-off, whose
+# minimum is flat. `refine` is register_curves()'s.
+testbed_register <- function(tb, reference, condition = "A", refine = FALSE) {
+  features <- if (identical(tb$truth$hidden, "tire_liftoff")) "max" else c("min", "max")
+  register_curves(tb[[condition]]$field, reference, tb$windows, features = features, knots_every = 2,
+                  refine = refine)
+}
+
+# calibrate() as the diagnosis tests and bench scripts run it: one chain,
+# seed 1, quiet, its warnings (short chains) muffled.
+testbed_calibrate <- function(emulators, field, iu, pool_levels = NULL, n_draws = 150L, n_inner = 20L,
+                              registration_variance = FALSE, n_search = 200L) {
+  suppressWarnings(calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                             pool_levels = pool_levels, registration_variance = registration_variance,
+                             n_search = n_search, quiet = TRUE))
+}
+
 # The validation of the model without any mechanism on the test bed's
 # condition A, as the diagnosis tests and bench scripts run it: field data
-# registered to the runs (the maximum alone for a hidden tire lift-off, whose
-# minimum is flat), the report's basis, emulators and one chain; pool_levels
-# and registration_variance are calibrate()'s.
+# registered to the runs (testbed_register()), the report's basis, emulators
+# and one chain; pool_levels and registration_variance are calibrate()'s.
 testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL,
                                registration_variance = FALSE) {
   old <- options(wavevalid.quiet = TRUE)
   on.exit(options(old), add = TRUE)
   tb <- testbed_suspension(seed = seed, hidden = hidden)
-  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
-  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = features, knots_every = 2)
+  field <- testbed_register(tb, tb$A$runs)
   basis <- wavelet_basis(tb$A$runs, field)
   em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                                    pool_levels = pool_levels, registration_variance = registration_variance,
-                                    quiet = TRUE))
+  fit <- testbed_calibrate(em, field, tb$iu, pool_levels, n_draws, n_inner, registration_variance)
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
+}
+
+# The re-registration protocol for one model on condition A of test bed `tb`:
+# the model's `runs` (at a design over the I/U map `iu`, simulated with
+# `mechanism`, NULL for none), the field registered to `start` ("runs", the
+# runs' mean, or "replicates", the replicates' own pointwise mean), the basis
+# and emulators (rescaled on the held-out runs `check` with
+# rescale_emulators(), unless NULL), calibrated with levels `pool_levels`
+# pooled; then, `passes` - 1 times, the field registered again to one run of
+# the model at coef() of the last fit and calibrated again on the same
+# emulators. Each chain's start is searched among `n_search` draws from the
+# prior (calibrate()'s). A list: `first` (the first pass: field, basis,
+# emulators, fit), `fits` (every pass's fit) and `fit`, the last.
+# testbed_first_pass() is the first pass alone.
+testbed_two_pass <- function(tb, runs, iu, mechanism = NULL, check = NULL, pool_levels = 0:3,
+                             start = c("runs", "replicates"), passes = 2L, n_search = 2000L) {
+  start <- match.arg(start)
+  first <- testbed_first_pass(tb, runs, iu, check, pool_levels, start, n_search)
+  fits <- list(first$fit)
+  for (k in seq_len(passes - 1L)) {
+    at <- simulate_suspension(as.data.frame(as.list(coef(fits[[k]]))), mechanism = mechanism)
+    fits[[k + 1L]] <- testbed_calibrate(first$emulators, testbed_register(tb, at), iu, pool_levels,
+                                        n_search = n_search)
+  }
+  list(first = first, fits = fits, fit = fits[[passes]])
+}
+
+testbed_first_pass <- function(tb, runs, iu, check = NULL, pool_levels = 0:3, start = c("runs", "replicates"),
+                               n_search = 200L) {
+  start <- match.arg(start)
+  field <- testbed_register(tb, if (start == "runs") runs else lapply(tb$A$field$curves, colMeans))
+  basis <- wavelet_basis(runs, field)
+  em <- suppressWarnings(fit_emulators(runs, basis))
+  if (!is.null(check)) em <- rescale_emulators(em, check)
+  list(field = field, basis = basis, emulators = em,
+       fit = testbed_calibrate(em, field, iu, pool_levels, n_search = n_search))
 }
 
 # The model re-validated with each test-bed mechanism in turn, on the field
@@ -42,9 +94,8 @@ testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_r
       check <- simulate_suspension(design_maximin(iu_m, n_check, nominal = FALSE, seed = 9), mechanism = m)
       em <- rescale_emulators(em, check)
     }
-    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               pool_levels = fit$settings$pool_levels,
-                               registration_variance = isTRUE(fit$settings$registration_variance), quiet = TRUE))
+    testbed_calibrate(em, fit$field, iu_m, fit$settings$pool_levels, n_draws, n_inner,
+                      isTRUE(fit$settings$registration_variance))
   })
   stats::setNames(fits, mechanisms)
 }

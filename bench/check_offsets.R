@@ -63,7 +63,7 @@ for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
     tb <- testbed_suspension(seed = seed, hidden = h)
-    p1 <- first_pass(tb, h, check0)
+    p1 <- first_pass(tb, check0)
     off <- remove_offsets(p1$fit)
     fit <- calibrate_short(p1$emulators, off$field, tb$iu)
     truth <- c(tb$truth$u, 0.5 + tb$truth$delta)

@@ -39,8 +39,8 @@ for (h in hidden) {
   for (seed in seeds) {
     t0 <- clock()
     tb <- testbed_suspension(seed = seed, hidden = h)
-    reg <- function(reference) register_case(tb, h, reference)
-    p1 <- first_pass(tb, h, check0)
+    reg <- function(reference) register_case(tb, reference)
+    p1 <- first_pass(tb, check0)
     field2 <- reg(simulate_suspension(as.data.frame(as.list(coef(p1$fit)))))
     out <- lapply(testbed_mechanisms(), function(m) {
       s <- paste0("s_", m)

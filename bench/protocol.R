@@ -12,27 +12,20 @@ held_out_runs <- function(iu, mechanism = NULL) {
   simulate_suspension(design_maximin(iu, 30, nominal = FALSE, seed = 9), mechanism = mechanism)
 }
 
+# The tests' calibration (testbed_calibrate(): one chain, 150 x 20 draws), levels 0-3 pooled unless told.
 calibrate_short <- function(em, field, iu, pool_levels = 0:3) {
-  suppressWarnings(calibrate(em, field, iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1,
-                             pool_levels = pool_levels, quiet = TRUE))
+  asNamespace("wavevalid")$testbed_calibrate(em, field, iu, pool_levels)
 }
 
-# Condition A's field data of test bed `tb` (mechanism `hidden`) registered to
-# `reference` (model runs, or curves by site): the maximum alone for a hidden
-# tire lift-off, whose minimum is flat.
-register_case <- function(tb, hidden, reference) {
-  features <- if (hidden == "tire_liftoff") "max" else c("min", "max")
-  register_curves(tb$A$field, reference, tb$windows, features = features, knots_every = 2)
-}
+# Condition A's field data of test bed `tb` registered to `reference` (model
+# runs, or curves by site), as testbed_register() does it.
+register_case <- function(tb, reference) asNamespace("wavevalid")$testbed_register(tb, reference)
 
-# The first pass: the field registered to the runs' mean, the basis, the
-# emulators (rescaled on `check` unless it is NULL) and the calibration.
-first_pass <- function(tb, hidden, check, pool_levels = 0:3) {
-  field <- register_case(tb, hidden, tb$A$runs)
-  basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
-  if (!is.null(check)) em <- rescale_emulators(em, check)
-  list(field = field, basis = basis, emulators = em, fit = calibrate_short(em, field, tb$iu, pool_levels))
+# The first pass of testbed_two_pass() on the model without mechanism: the
+# field registered to the runs' mean, the basis, the emulators (rescaled on
+# `check` unless it is NULL) and the calibration.
+first_pass <- function(tb, check, pool_levels = 0:3) {
+  asNamespace("wavevalid")$testbed_first_pass(tb, tb$A$runs, tb$iu, check, pool_levels)
 }
 
 # Longest flagged interval of a fit, in grid steps.

@@ -456,3 +456,26 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   expect_error(calibrate(ex$emulators, field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
                          registration_variance = NA), class = "wavevalid_error_input")
 })
+
+test_that("n_search sets the search for each chain's start", {
+  withr::local_seed(7)
+  pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
+  truth <- c(0.35, 0.6)
+  n <- length(pb$basis$index)
+  W <- matrix(pb$f(truth), 7, n, byrow = TRUE) + matrix(stats::rnorm(7 * n, 0, 0.01), 7, n)
+  field <- field_from_coef(pb$basis, W)
+  run <- function(n_search) {
+    calibrate(pb$emulators, field, pb$iu, n_draws = 20, n_inner = 5, chains = 2, seed = 3, burnin = 10,
+              n_search = n_search, quiet = TRUE)
+  }
+  # no search: the burn-in starts at the nominals
+  none <- suppressWarnings(run(0))
+  expect_equal(unname(none$start), matrix(0.5, 2, 2))
+  expect_identical(none$settings$n_search, 0)
+  # a wide search starts next to the narrow posterior around the truth
+  wide <- suppressWarnings(run(2000))
+  gap <- sqrt(rowSums(sweep(wide$start, 2, truth)^2))
+  expect_true(all(gap < 0.05), label = paste(signif(gap, 3), collapse = ", "))
+  expect_error(run(-1), class = "wavevalid_error_input")
+  expect_error(run(2.5), class = "wavevalid_error_input")
+})
