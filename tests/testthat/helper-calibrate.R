@@ -89,3 +89,15 @@ small_problem <- function(n_t = 16, index = 1:8, level = NULL, two_inputs = TRUE
 field_from_coef <- function(basis, W, site = "site1") {
   wavevalid:::new_wv_field(basis$t, stats::setNames(list(W %*% t(basis$Psi)), site))
 }
+
+# small_problem() with 24 coefficients and 30 runs, and seven field replicates
+# at u1 = 0.35, x1 = 0.6 with little noise: a narrow posterior. Draws from
+# R's RNG (set the seed first).
+narrow_problem <- function() {
+  pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
+  pb$truth <- c(0.35, 0.6)
+  n <- length(pb$basis$index)
+  W <- matrix(pb$f(pb$truth), 7, n, byrow = TRUE) + matrix(stats::rnorm(7 * n, 0, 0.01), 7, n)
+  pb$field <- field_from_coef(pb$basis, W)
+  pb
+}

@@ -255,11 +255,9 @@ test_that("inform_levels refuses levels the basis lacks, a split pool, and leavi
 
 test_that("the adaptive sampler mixes on a narrow posterior where the report's does not", {
   withr::local_seed(7)
-  pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
-  truth <- c(0.35, 0.6)
-  n <- length(pb$basis$index)
-  W <- matrix(pb$f(truth), 7, n, byrow = TRUE) + matrix(stats::rnorm(7 * n, 0, 0.01), 7, n)
-  field <- field_from_coef(pb$basis, W)
+  pb <- narrow_problem()
+  truth <- pb$truth
+  field <- pb$field
   fit <- calibrate(pb$emulators, field, pb$iu, n_draws = 300, n_inner = 10, chains = 2, seed = 3,
                    quiet = TRUE)
   expect_true(all(fit$rhat < 1.1), label = paste(signif(fit$rhat, 3), collapse = ", "))
@@ -459,11 +457,9 @@ test_that("registration_variance adds the landmark spread of the runs to the var
 
 test_that("n_search sets the search for each chain's start", {
   withr::local_seed(7)
-  pb <- small_problem(n_t = 32, index = 1:24, K = 30, beta = 1)
-  truth <- c(0.35, 0.6)
-  n <- length(pb$basis$index)
-  W <- matrix(pb$f(truth), 7, n, byrow = TRUE) + matrix(stats::rnorm(7 * n, 0, 0.01), 7, n)
-  field <- field_from_coef(pb$basis, W)
+  pb <- narrow_problem()
+  truth <- pb$truth
+  field <- pb$field
   run <- function(n_search) {
     calibrate(pb$emulators, field, pb$iu, n_draws = 20, n_inner = 5, chains = 2, seed = 3, burnin = 10,
               n_search = n_search, quiet = TRUE)
