@@ -367,7 +367,7 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts, and o
 # bench/check_reregistration_loop.R runs it at any seed (rescale=FALSE): over
 # seeds 1-5 the bias fell by more than 70% and the condition B error fell in
 # 18 of the 20 cases; the bias of the bump stop, whose effect the model's
-# bump-stop inputs absorb in part, fell by 46% at seed 4 and 69.7% at seed 5.
+# bump-stop inputs absorb in part, fell by 46% at seed 4 and 69.6% at seed 5.
 # Its condition B coverage was 0.73 to 0.79 at seed 5, above 0.95 elsewhere.
 # With the start searched among 200 draws, the lift-off's model at seed 3
 # stayed in a mode with both calibration inputs near 0.87 (the truth: 0.39
