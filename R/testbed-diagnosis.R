@@ -56,7 +56,7 @@ testbed_two_pass <- function(tb, runs, iu, mechanism = NULL, check = NULL, pool_
   first <- testbed_first_pass(tb, runs, iu, check, pool_levels, start, n_search)
   fits <- list(first$fit)
   for (k in seq_len(passes - 1L)) {
-    at <- simulate_suspension(as.data.frame(as.list(coef(fits[[k]]))), mechanism = mechanism)
+    at <- simulate_suspension(as.data.frame(as.list(stats::coef(fits[[k]]))), mechanism = mechanism)
     fits[[k + 1L]] <- testbed_calibrate(first$emulators, testbed_register(tb, at), iu, pool_levels,
                                         n_search = n_search)
   }
