@@ -152,3 +152,53 @@ testbed_explain_verdict <- function(ex, hidden) {
   list(top = mech$candidate[1], top_prob = mech$inclusion_prob[1],
        ok = mech$candidate[1] == hidden && p >= 0.9 && all(mech$inclusion_prob[mech$candidate != hidden] < 0.5))
 }
+
+# Criterion 3, the whole loop on test bed `seed` with mechanism `hidden`
+# hidden: the model without it ("before") and the model with it ("after", its
+# strength s_<hidden> a calibration input on [0, 1], its 66 runs at condition
+# A's design with the strength spread over [0, 1]) each fitted by
+# `fit_model(tb, runs, iu, mechanism)` (by default testbed_two_pass()'s last
+# fit) and compared by compare_validations() with condition B held out: new
+# nominal inputs, the after-model's B runs spreading the strength over its 99%
+# posterior interval, B's replicates registered to the mean of each model's B
+# runs (testbed_register(), `refine` its), or with `holdout_again` to one run
+# of each model at its posterior mean calibration inputs and B's nominal
+# variation inputs. A list: tb, before, after and comparison.
+testbed_loop <- function(hidden, seed, fit_model = NULL, refine = FALSE, holdout_again = FALSE) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  if (is.null(fit_model)) {
+    fit_model <- function(tb, runs, iu, mechanism) testbed_two_pass(tb, runs, iu, mechanism)$fit
+  }
+  tb <- testbed_suspension(seed = seed, hidden = hidden)
+  before <- fit_model(tb, tb$A$runs, tb$iu, NULL)
+  s_name <- paste0("s_", hidden)
+  design <- tb$A$runs$design
+  with_rng_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
+  runs <- simulate_suspension(design, mechanism = hidden)
+  iu_after <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
+  after <- fit_model(tb, runs, iu_after, hidden)
+
+  design_B <- tb$B$runs$design
+  s_range <- stats::quantile(as.matrix(after$draws)[, s_name], c(0.005, 0.995))
+  with_rng_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
+                     nrow(design_B))
+  runs_B <- simulate_suspension(design_B, mechanism = hidden)
+  p_before <- suppressWarnings(stats::predict(before, type = "new_nominal", new_runs = tb$B$runs,
+                                              x_nom = tb$B$x_nom, seed = 1))
+  p_after <- suppressWarnings(stats::predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom,
+                                             seed = 1))
+  ref_B <- list(before = tb$B$runs, after = runs_B)
+  if (holdout_again) {
+    at_B <- function(fit, mechanism) {
+      z <- stats::coef(fit)
+      z[names(tb$B$x_nom)] <- tb$B$x_nom
+      simulate_suspension(as.data.frame(as.list(z)), mechanism = mechanism)
+    }
+    ref_B <- list(before = at_B(before, NULL), after = at_B(after, hidden))
+  }
+  reg_B <- function(ref) testbed_register(tb, ref, condition = "B", refine = refine)
+  holdout <- list(field = list(before = reg_B(ref_B$before), after = reg_B(ref_B$after)), before = p_before,
+                  after = p_after)
+  list(tb = tb, before = before, after = after, comparison = compare_validations(before, after, holdout = holdout))
+}

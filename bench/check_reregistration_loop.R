@@ -6,8 +6,9 @@
 # with it, its strength a calibration input on [0, 1] ("after"), go through
 # it; the after-model's 66 runs are the test bed's condition A design with
 # the strength spread over [0, 1], as the package's test does it. Condition B
-# is held out as in the test: each model's runs at B registered to their mean,
-# the after-model's strength spread over its 99% posterior interval.
+# is held out as in the test (testbed_loop()): each model's runs at B
+# registered to their mean, the after-model's strength spread over its 99%
+# posterior interval.
 # Printed: compare_validations() by mechanism; the test asks bias_rms to fall
 # by more than 70% and holdout_rmse to fall. The package's test
 # (test-diagnose.R, testbed_loop()) is protocol=reregister with rescale=FALSE
@@ -50,11 +51,13 @@ options(wavevalid.quiet = TRUE)
 
 source("bench/protocol.R")
 ns <- asNamespace("wavevalid")
-# The protocol for one model: its runs, held-out runs, I/U map and mechanism.
-two_pass <- function(tb, runs, check, iu, mechanism) {
+# The protocol for one model: its runs, I/U map and mechanism (held-out runs
+# of that model when rescaling).
+fit_model <- function(tb, runs, iu, mechanism) {
   if (!one_pass) {
-    return(ns$testbed_two_pass(tb, runs, iu, mechanism, if (rescale) check, pool, opt$start,
-                               as.integer(opt$passes), as.integer(opt$n_search))$fit)
+    check <- if (rescale) held_out_runs(iu, mechanism)
+    return(ns$testbed_two_pass(tb, runs, iu, mechanism, check, pool, opt$start, as.integer(opt$passes),
+                               as.integer(opt$n_search))$fit)
   }
   field <- ns$testbed_register(tb, runs, refine = TRUE)
   calibrate_short(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field))), field, iu, pool)
@@ -62,48 +65,15 @@ two_pass <- function(tb, runs, check, iu, mechanism) {
 
 for (h in hidden) {
   t0 <- proc.time()[["elapsed"]]
-  tb <- testbed_suspension(seed = seed, hidden = h)
-  check <- held_out_runs(tb$iu)
-  before <- two_pass(tb, tb$A$runs, check, tb$iu, NULL)
-
+  loop <- ns$testbed_loop(h, seed, fit_model, refine = one_pass, holdout_again = holdout_again)
   s_name <- paste0("s_", h)
-  iu_after <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
-  design <- tb$A$runs$design
-  withr::with_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
-  runs <- simulate_suspension(design, mechanism = h)
-  check_after <- held_out_runs(iu_after, h)
-  after <- two_pass(tb, runs, check_after, iu_after, h)
-
-  design_B <- tb$B$runs$design
-  s_range <- stats::quantile(as.matrix(after$draws)[, s_name], c(0.005, 0.995))
-  withr::with_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
-                     nrow(design_B))
-  runs_B <- simulate_suspension(design_B, mechanism = h)
-  reg_B <- function(ref) ns$testbed_register(tb, ref, condition = "B", refine = one_pass)
-  p_before <- suppressWarnings(predict(before, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom,
-                                       seed = 1))
-  p_after <- suppressWarnings(predict(after, type = "new_nominal", new_runs = runs_B, x_nom = tb$B$x_nom, seed = 1))
-  ref_B <- list(before = tb$B$runs, after = runs_B)
-  if (holdout_again) {
-    # one run of each model for condition B: its calibration inputs (and the
-    # strength) at their posterior means, the variation inputs at B's nominals
-    at_B <- function(fit, mechanism) {
-      z <- coef(fit)
-      z[names(tb$B$x_nom)] <- tb$B$x_nom
-      simulate_suspension(as.data.frame(as.list(z)), mechanism = mechanism)
-    }
-    ref_B <- list(before = at_B(before, NULL), after = at_B(after, h))
-  }
-  holdout <- list(field = list(before = reg_B(ref_B$before), after = reg_B(ref_B$after)), before = p_before,
-                  after = p_after)
-  cmp <- compare_validations(before, after, holdout = holdout)
   cat(sprintf("\n%s, seed %d, %s (%.0f s): strength %.2f\n", h, seed, opt$protocol, proc.time()[["elapsed"]] - t0,
-              mean(as.matrix(after$draws)[, s_name])))
-  print(as.data.frame(unclass(cmp)), row.names = FALSE, digits = 3)
+              mean(as.matrix(loop$after$draws)[, s_name])))
+  print(as.data.frame(unclass(loop$comparison)), row.names = FALSE, digits = 3)
   # the share of each fit's bias energy at wavelet level 0 (an offset of the record), by site
   level0 <- function(fit) {
     lv <- attr(where_fails(fit), "levels")
     paste(formatC(lv$share[lv$level == 0], digits = 2, format = "f"), collapse = "/")
   }
-  cat(sprintf("level-0 share of the bias energy: before %s, after %s\n", level0(before), level0(after)))
+  cat(sprintf("level-0 share of the bias energy: before %s, after %s\n", level0(loop$before), level0(loop$after)))
 }

@@ -458,10 +458,8 @@ test_that("registration_variance adds the landmark spread of the runs to the var
 test_that("n_search sets the search for each chain's start", {
   withr::local_seed(7)
   pb <- narrow_problem()
-  truth <- pb$truth
-  field <- pb$field
   run <- function(n_search) {
-    calibrate(pb$emulators, field, pb$iu, n_draws = 20, n_inner = 5, chains = 2, seed = 3, burnin = 10,
+    calibrate(pb$emulators, pb$field, pb$iu, n_draws = 20, n_inner = 5, chains = 2, seed = 3, burnin = 10,
               n_search = n_search, quiet = TRUE)
   }
   # no search: the burn-in starts at the nominals
@@ -470,7 +468,7 @@ test_that("n_search sets the search for each chain's start", {
   expect_identical(none$settings$n_search, 0)
   # a wide search starts next to the narrow posterior around the truth
   wide <- suppressWarnings(run(2000))
-  gap <- sqrt(rowSums(sweep(wide$start, 2, truth)^2))
+  gap <- sqrt(rowSums(sweep(wide$start, 2, pb$truth)^2))
   expect_true(all(gap < 0.05), label = paste(signif(gap, 3), collapse = ", "))
   expect_error(run(-1), class = "wavevalid_error_input")
   expect_error(run(2.5), class = "wavevalid_error_input")
