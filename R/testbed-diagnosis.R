@@ -90,14 +90,18 @@ testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_r
     iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
     runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
     em <- suppressWarnings(fit_emulators(runs, fit$basis))
-    if (n_check > 0L) {
-      check <- simulate_suspension(design_maximin(iu_m, n_check, nominal = FALSE, seed = 9), mechanism = m)
-      em <- rescale_emulators(em, check)
-    }
+    if (n_check > 0L) em <- rescale_emulators(em, testbed_check_runs(iu_m, m, n_check))
     testbed_calibrate(em, fit$field, iu_m, fit$settings$pool_levels, n_draws, n_inner,
                       isTRUE(fit$settings$registration_variance))
   })
   stats::setNames(fits, mechanisms)
+}
+
+# Held-out runs of the test bed's model (with `mechanism`, NULL for none) for
+# rescale_emulators(): n of them at a maximin design over the ranges of the
+# I/U map `iu`.
+testbed_check_runs <- function(iu, mechanism = NULL, n = 30L) {
+  simulate_suspension(design_maximin(iu, n, nominal = FALSE, seed = 9), mechanism = mechanism)
 }
 
 # The verdicts of the diagnosis criteria on one test-bed case, as the bench

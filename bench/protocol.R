@@ -8,9 +8,7 @@ clock <- function() as.numeric(proc.time()[["elapsed"]])
 
 # 30 held-out runs of the model (with `mechanism`) at a maximin design over
 # the ranges of the I/U map `iu`, for rescale_emulators().
-held_out_runs <- function(iu, mechanism = NULL) {
-  simulate_suspension(design_maximin(iu, 30, nominal = FALSE, seed = 9), mechanism = mechanism)
-}
+held_out_runs <- function(iu, mechanism = NULL) asNamespace("wavevalid")$testbed_check_runs(iu, mechanism)
 
 # The tests' calibration (testbed_calibrate(): one chain, 150 x 20 draws), levels 0-3 pooled unless told.
 calibrate_short <- function(em, field, iu, pool_levels = 0:3) {
