@@ -1,7 +1,8 @@
 # Two entry points (see README.md):
 #   make demo   install every dependency and the package, run the validation demo on the test bed
-#   make test   install every dependency, build the package (running the vignettes) and run R CMD check
-#               (tests, and the vignettes' code once more; their output, built with the tarball, is not rebuilt)
+#   make test   install every dependency, build the package (running the vignettes: an error in one fails the
+#               build) and run R CMD check with the full test suite, its files spread over two processes;
+#               the check does not run the vignettes' code a second time
 
 R       ?= R
 RSCRIPT ?= Rscript
@@ -39,7 +40,7 @@ $(TARBALL): deps
 	$(R) CMD build .
 
 test: $(TARBALL)
-	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-build-vignettes $(TARBALL)
+	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes $(TARBALL)
 	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
 
 check: $(TARBALL)

@@ -11,7 +11,7 @@
 # posterior interval.
 # Printed: compare_validations() by mechanism; the test asks bias_rms to fall
 # by more than 70% and holdout_rmse to fall. The package's test
-# (test-diagnose.R, testbed_loop()) is protocol=reregister with rescale=FALSE
+# (test-diagnose-loop.R, testbed_loop()) is protocol=reregister with rescale=FALSE
 # at seeds 1 and 2. With protocol=default, the missing-effect vignette's loop
 # (sections 4 and 5) instead: landmarks between grid points, the emulators as
 # fitted, the method's prior, one registration to each model's own runs; the

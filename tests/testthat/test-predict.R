@@ -144,7 +144,7 @@ test_that("a fit survives saveRDS/readRDS and still predicts, plots and diagnose
 # A's band under half of B's. The test bed's own condition B vehicle at seed
 # 5 lies 1.5 population standard deviations from the population mean, and
 # the bands hold 0.69 to 0.79 of its replicates' points
-# (test-diagnose.R's loop).
+# (test-diagnose-loop.R).
 test_that("the bands for a new vehicle hold their share of new vehicles, at the tested nominals and at new ones", {
   skip_on_cran()
   withr::local_options(list(wavevalid.quiet = TRUE))
