@@ -152,7 +152,13 @@
 #'   `boundary` (the inputs whose posterior piles up at a bound of their range,
 #'   see [calibrate()]) and, with `effect`, `versions` (each candidate's
 #'   inclusion probability, amplitude and share explained, with the effect it
-#'   is a version of).
+#'   is a version of), and with `shifts = TRUE`, `absorbed`: for each of the
+#'   user's candidates, the share of its signature (in the regression's
+#'   metric) that the parameter shifts span, and the inputs that carry it.
+#'   `print` warns of a candidate 75% or more of which is a parameter shift:
+#'   the bias can hardly tell such an effect from a change of those inputs,
+#'   since the calibration has already moved them to absorb what they can,
+#'   and a low inclusion probability is then no evidence against it.
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -195,6 +201,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
   draws <- as.matrix(fit$draws)
+  n_user <- ncol(cand)
   if (isTRUE(shifts)) {
     sh <- shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE]))
     cand <- cbind(cand, sh)
@@ -222,6 +229,10 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   colnames(lead) <- names(res$lead)
   attr(out, "curves") <- explain_curves(fit, lead, out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
+  if (isTRUE(shifts)) {
+    attr(out, "absorbed") <- shift_absorption(cand[, seq_len(n_user), drop = FALSE],
+                                              cand[, -seq_len(n_user), drop = FALSE], colMeans(Wt))
+  }
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
   out
@@ -323,6 +334,33 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
   if (is.null(dim(out))) out <- matrix(out, ncol = length(em$inputs))
   colnames(out) <- paste0("shift:", em$inputs)
   out[, colSums(out^2) > 0, drop = FALSE]
+}
+
+# How much of each user candidate (columns of `cand`) the parameter-shift
+# directions `sh` span, in the metric of the regression (weights `w`, one per
+# coefficient): the share of the candidate's weighted energy that its weighted
+# least-squares projection on the shifts takes up, and the inputs whose shifts
+# carry at least a quarter as much of the projection as the largest, largest
+# first. A data frame, one row per candidate; NULL without candidates or
+# shifts.
+shift_absorption <- function(cand, sh, w) {
+  if (!ncol(cand) || !ncol(sh)) return(NULL)
+  sw <- sqrt(w)
+  A <- sh * sw
+  qa <- qr(A)
+  size <- sqrt(colSums(A^2))
+  rows <- lapply(colnames(cand), function(k) {
+    y <- cand[, k] * sw
+    share <- sum(qr.fitted(qa, y)^2) / sum(y^2)
+    beta <- qr.coef(qa, y)
+    beta[is.na(beta)] <- 0
+    contrib <- abs(beta) * size
+    by <- order(contrib, decreasing = TRUE)
+    by <- by[contrib[by] >= 0.25 * max(contrib)]
+    data.frame(candidate = k, absorbed = min(1, share),
+               inputs = paste(sub("^shift:", "", colnames(sh)[by]), collapse = ", "))
+  })
+  do.call(rbind, rows)
 }
 
 # Cluster of each coefficient (all sites stacked, in the order of fit$wb) for
@@ -428,6 +466,14 @@ print.wv_explain <- function(x, ...) {
   pos <- attr(x, "positive")
   if (length(pos)) {
     cli::cat_line("Amplitudes constrained to be non-negative: ", paste(pos, collapse = ", "))
+  }
+  ab <- attr(x, "absorbed")
+  if (!is.null(ab)) ab <- ab[ab$absorbed >= 0.75, , drop = FALSE]
+  for (k in seq_len(NROW(ab))) {
+    cli::cat_line(sprintf(paste0("! %.0f%% of the signature of %s is what moving %s would do: the bias can hardly ",
+                                 "tell that effect from a change of %s."),
+                          100 * ab$absorbed[k], ab$candidate[k], ab$inputs[k],
+                          if (grepl(",", ab$inputs[k])) "those inputs" else "that input"))
   }
   bd <- attr(x, "boundary")
   if (length(bd)) {
