@@ -165,13 +165,14 @@
 #'   `boundary` (the inputs whose posterior piles up at a bound of their range,
 #'   see [calibrate()]) and, with `effect`, `versions` (each candidate's
 #'   inclusion probability, amplitude and share explained, with the effect it
-#'   is a version of), and with `shifts = TRUE`, `absorbed`: for each of the
-#'   user's candidates, the share of its signature (in the regression's
-#'   metric) that the parameter shifts span, and the inputs that carry it.
-#'   `print` warns of a candidate 75% or more of which is a parameter shift:
-#'   the bias can hardly tell such an effect from a change of those inputs,
-#'   since the calibration has already moved them to absorb what they can,
-#'   and a low inclusion probability is then no evidence against it.
+#'   is a version of), and with curve candidates and `shifts = TRUE`,
+#'   `absorbed`: for each of the user's candidates, the share of its signature
+#'   (in the regression's metric) that the parameter shifts span, and the
+#'   inputs that carry it. `print` warns of a candidate 75% or more of which
+#'   is a parameter shift: the bias can hardly tell such an effect from a
+#'   change of those inputs, since the calibration has already moved them to
+#'   absorb what they can, and a low inclusion probability is then weak
+#'   evidence against it.
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -244,7 +245,8 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
   if (isTRUE(shifts)) {
     attr(out, "absorbed") <- shift_absorption(cand[, seq_len(n_user), drop = FALSE],
-                                              cand[, -seq_len(n_user), drop = FALSE], colMeans(Wt))
+                                              cand[, n_user + seq_len(ncol(cand) - n_user), drop = FALSE],
+                                              colMeans(Wt))
   }
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
