@@ -215,7 +215,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
   draws <- as.matrix(fit$draws)
-  n_user <- ncol(cand)
+  user <- cand
   if (isTRUE(shifts)) {
     sh <- shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE]))
     cand <- cbind(cand, sh)
@@ -244,9 +244,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   attr(out, "curves") <- explain_curves(fit, lead, out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
   if (isTRUE(shifts)) {
-    attr(out, "absorbed") <- shift_absorption(cand[, seq_len(n_user), drop = FALSE],
-                                              cand[, n_user + seq_len(ncol(cand) - n_user), drop = FALSE],
-                                              colMeans(Wt))
+    attr(out, "absorbed") <- shift_absorption(user, sh, colMeans(Wt))
   }
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
@@ -452,83 +450,6 @@ explain_curves <- function(fit, cand, table, n_lead = 3L) {
   }))
 }
 
-#' @export
-print.wv_explain <- function(x, ...) {
-  cli::cat_line("<wv_explain> candidate effects ranked by posterior inclusion probability")
-  df <- as.data.frame(unclass(x)[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower",
-                                    "amplitude_upper", "share_explained")], stringsAsFactors = FALSE)
-  num <- vapply(df, is.numeric, logical(1))
-  df[num] <- lapply(df[num], signif, digits = 3)
-  print(df, row.names = FALSE)
-  sub <- attr(x, "subsets")
-  if (identical(attr(x, "method"), "revalidated")) {
-    lbf <- attr(x, "log_bf")
-    cli::cat_line("Each candidate a re-validated model, weighed against itself with the mechanism off ",
-                  "(log Bayes factor: ", paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")
-    cli::cat_line("Most probable: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
-  } else if (!is.null(sub)) {
-    cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
-  }
-  ver <- attr(x, "versions")
-  if (!is.null(ver)) {
-    multi <- ver$effect %in% ver$effect[duplicated(ver$effect)]
-    top <- ver[multi & !duplicated(ver$effect) & ver$inclusion_prob >= 0.005, , drop = FALSE]
-    if (nrow(top)) {
-      cli::cat_line("Most probable version of each effect: ",
-                    paste(sprintf("%s (%.2f)", top$candidate, top$inclusion_prob), collapse = ", "))
-    }
-  }
-  pos <- attr(x, "positive")
-  if (length(pos)) {
-    cli::cat_line("Amplitudes constrained to be non-negative: ", paste(pos, collapse = ", "))
-  }
-  ab <- attr(x, "absorbed")
-  if (!is.null(ab)) ab <- ab[ab$absorbed >= 0.75, , drop = FALSE]
-  for (k in seq_len(NROW(ab))) {
-    cli::cat_line(sprintf(paste0("! %.0f%% of the signature of %s is what moving %s would do: the bias can hardly ",
-                                 "tell that effect from a change of %s."),
-                          100 * ab$absorbed[k], ab$candidate[k], ab$inputs[k],
-                          if (grepl(",", ab$inputs[k])) "those inputs" else "that input"))
-  }
-  bd <- attr(x, "boundary")
-  if (length(bd)) {
-    cli::cat_line("! The posterior of ", paste(bd, collapse = ", "), " piles up at a bound of its range: ",
-                  "candidates simulated at the posterior mean inputs may differ from the effect at the true ",
-                  "inputs; give versions simulated at other inputs too (argument `effect`).")
-  }
-  eta <- attr(x, "eta")
-  if (!is.null(eta) && stats::median(eta) < 0.995) {
-    cli::cat_line(sprintf(paste0("Evidence tempered by eta = %.2f (median over draws): the residuals are more ",
-                                 "dispersed, or more alike within a time segment, than the regression assumes."),
-                          stats::median(eta)))
-  }
-  invisible(x)
-}
-
-#' @export
-summary.wv_explain <- function(object, ...) {
-  lead <- object[1, , drop = FALSE]
-  structure(list(
-    leader = lead$candidate,
-    inclusion = lead$inclusion_prob,
-    n_candidates = nrow(object),
-    n_likely = sum(object$inclusion_prob >= 0.5),
-    subsets = attr(object, "subsets"),
-    eta = if (!is.null(attr(object, "eta"))) stats::median(attr(object, "eta"))
-  ), class = "summary_wv_explain")
-}
-
-#' @export
-print.summary_wv_explain <- function(x, ...) {
-  cli::cat_line(sprintf("%d candidate effects; %d with inclusion probability >= 0.5", x$n_candidates, x$n_likely))
-  cli::cat_line(sprintf("Leading candidate: %s (inclusion probability %.2f)", x$leader, x$inclusion))
-  if (!is.null(x$eta) && x$eta < 0.995) {
-    cli::cat_line(sprintf("Evidence tempered by eta = %.2f (median over draws)", x$eta))
-  }
-  print(utils::head(x$subsets, 5), row.names = FALSE)
-  invisible(x)
-}
-
 #' @rdname explain_bias
 #' @param object A `wv_explain` result.
 #' @export
@@ -544,10 +465,4 @@ autoplot.wv_explain <- function(object, ...) {
                   title = "Posterior mean bias and the leading candidate effects, scaled") +
     ggplot2::theme_bw() +
     ggplot2::theme(legend.position = "bottom")
-}
-
-#' @export
-plot.wv_explain <- function(x, ...) {
-  print(autoplot(x, ...))
-  invisible(x)
 }

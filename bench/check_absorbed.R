@@ -23,8 +23,7 @@ rows <- NULL
 for (seed in seeds) {
   for (h in hidden_all) {
     fit <- ns$testbed_validation(h, seed, pool_levels = pool)$fit
-    z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
-    ex <- explain_bias(fit, testbed_signatures(z_hat), n_draws = 50, seed = 1)
+    ex <- explain_bias(fit, testbed_signatures(ns$posterior_mean_inputs(fit)), n_draws = 50, seed = 1)
     ab <- attr(ex, "absorbed")
     ab$inclusion_prob <- ex$inclusion_prob[match(ab$candidate, ex$candidate)]
     ab <- cbind(seed = seed, hidden = h, ab[c("candidate", "absorbed", "inclusion_prob", "inputs")])

@@ -14,12 +14,11 @@ diag_setup <- function() {
                          wiggle = sin(6 * pi * t)))
 }
 
-# The diagnosis on the suspension test bed, short chains: without a hidden
-# mechanism nothing is flagged or explained; with one, where_fails flags where
-# it acts and explain_bias ranks it first among the mechanisms. (A hidden
-# digressive damper is left out: the calibration absorbs most of it into the
-# damping coefficients, and the bump stop's signature competes with its own.)
-# Fits are kept by hidden mechanism and test-bed seed, in each test process
+# The diagnosis on the suspension test bed with mechanism `hidden` hidden,
+# short chains (testbed_validation()): the test bed, the fit, where_fails()
+# and explain_bias() of the four mechanisms' signatures at the posterior mean
+# inputs (`explain` without the shift candidates, `all` with them). Fits are
+# kept by hidden mechanism and test-bed seed, in each test process
 # (test-diagnose.R and test-diagnose-revalidation.R each fit their own).
 testbed_fits <- new.env()
 testbed_diagnosis <- function(hidden, seed = 1L) {
