@@ -53,10 +53,8 @@ cases <- if (nzchar(opts$cases)) {
               stringsAsFactors = FALSE)
 }
 
-sim_flat <- function(Z, mechanism = NULL) {
-  runs <- simulate_suspension(as.data.frame(Z), mechanism = mechanism)
-  do.call(cbind, runs$curves)
-}
+# The model's runs at the rows of Z, the two sites side by side.
+sim_flat <- function(Z) do.call(cbind, simulate_suspension(as.data.frame(Z))$curves)
 
 # The method's log posterior of the inputs, up to a constant: eq. 18 with the
 # noise variances plugged in and each tau^2 at its mode (under its prior).
@@ -88,9 +86,7 @@ one <- function(hidden, seed) {
   spec <- ns$calibration_spec(fit$emulators, fit$field, iu)
   z_fit <- ns$posterior_mean_inputs(fit)
   z_true <- c(v$tb$truth$u, 0.5 + v$tb$truth$delta)[fit$inputs]
-  on <- as.list(z_true)
-  on[[paste0("s_", hidden)]] <- 1
-  y_real <- drop(sim_flat(as.data.frame(on), hidden))
+  y_real <- unlist(v$tb$truth$reality, use.names = FALSE)
   loss <- function(z) mean((drop(sim_flat(t(stats::setNames(z, fit$inputs)))) - y_real)^2)
   z_ls <- stats::setNames(stats::optim(z_true, loss, method = "L-BFGS-B", lower = iu$lower, upper = iu$upper,
                                        control = list(maxit = 100))$par, fit$inputs)
@@ -109,11 +105,10 @@ one <- function(hidden, seed) {
   Zm <- t(z_fit - diag(h, length(z_fit)))
   colnames(Zp) <- colnames(Zm) <- fit$inputs
   S <- t(sim_flat(Zp) - sim_flat(Zm)) / (2 * h)
-  on_fit <- as.list(z_fit)
-  on_fit[[paste0("s_", hidden)]] <- 1
-  sig <- drop(sim_flat(as.data.frame(on_fit), hidden)) - y_fit
+  signatures <- ns$testbed_signatures(z_fit)
+  sig <- unlist(signatures[[hidden]], use.names = FALSE)
   explained <- function(X) 1 - sum(stats::lm.fit(X, e)$residuals^2) / sum(e^2)
-  ex <- as.data.frame(unclass(explain_bias(fit, ns$testbed_signatures(z_fit), n_draws = 50, seed = 1)))
+  ex <- as.data.frame(unclass(explain_bias(fit, signatures, n_draws = 50, seed = 1)))
   mech <- ex[!startsWith(ex$candidate, "shift:"), ]
   data.frame(hidden = hidden, seed = seed, dist = sqrt(mean((z_fit - z_true)^2)),
              lp_true = lp(z_true) - lp_fit, lp_ls = lp(z_ls) - lp_fit, lp_opt = lp_opt - lp_fit,
