@@ -3,6 +3,8 @@
 #   make test   install every dependency, build the package (running the vignettes: an error in one fails the
 #               build) and run R CMD check with the full test suite, its files spread over two processes;
 #               the check does not run the vignettes' code a second time
+# The shared library is installed stripped of its debugging symbols (R CMD INSTALL --strip): they are 22 of its
+# 23 MB.
 
 R       ?= R
 RSCRIPT ?= Rscript
@@ -30,7 +32,7 @@ document:
 	$(RSCRIPT) -e 'Rcpp::compileAttributes(); roxygen2::roxygenise()'
 
 install: deps
-	$(R) CMD INSTALL --preclean --no-multiarch .
+	$(R) CMD INSTALL --preclean --no-multiarch --strip .
 
 demo: install
 	$(RSCRIPT) inst/scripts/demo.R $(OUT)
@@ -40,11 +42,11 @@ $(TARBALL): deps
 	$(R) CMD build .
 
 test: $(TARBALL)
-	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes $(TARBALL)
+	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
 	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
 
 check: $(TARBALL)
-	$(R) CMD check --as-cran --no-manual $(TARBALL)
+	$(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
 
 bench: install
 	for f in bench/*.R; do echo "== $$f"; $(RSCRIPT) $$f || exit 1; done
