@@ -1,8 +1,11 @@
-# Two entry points (see README.md):
-#   make demo   install every dependency and the package, run the validation demo on the test bed
-#   make test   install every dependency, build the package (running the vignettes: an error in one fails the
-#               build) and run R CMD check with the full test suite, its files spread over two processes;
-#               the check does not run the vignettes' code a second time
+# Entry points (see README.md):
+#   make demo       install every dependency and the package, run the validation demo on the test bed
+#   make test       install every dependency, build the package (running the vignettes: an error in one fails
+#                   the build) and run R CMD check with the default test tier, its files spread over two
+#                   processes; the check does not run the vignettes' code a second time
+#   make test-slow  install the package and run the test suite with the slow tier switched on
+#                   (WAVEVALID_SLOW_TESTS=true: full-size simulation-based calibration, coverage and diagnosis
+#                   over several test beds)
 # The shared library is installed stripped of its debugging information (R CMD INSTALL --strip): it is 22 of its
 # 23 MB. Only that: R CMD check reads the symbol table, which R's default strip command would remove too.
 
@@ -21,7 +24,7 @@ DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggp
 R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
            withr cli rlang testthat DiceKriging
 
-.PHONY: deps document install demo test check bench sanitize clean
+.PHONY: deps document install demo test test-slow check bench sanitize clean
 
 deps:
 	@if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
@@ -44,8 +47,11 @@ $(TARBALL): deps
 	$(R) CMD build .
 
 test: $(TARBALL)
-	NOT_CRAN=true _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
-	@$(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout
+	NOT_CRAN=true WAVEVALID_SLOW_TESTS=false _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
+	@mkdir -p .test-counts && $(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout .test-counts/default.txt
+
+test-slow: install
+	@mkdir -p .test-counts && $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt
 
 check: $(TARBALL)
 	$(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
@@ -60,4 +66,4 @@ sanitize: deps
 	  $(RSCRIPT) -e 'testthat::test_local(".", load_package = "installed", stop_on_failure = TRUE)'
 
 clean:
-	rm -rf $(PKG)_*.tar.gz $(PKG).Rcheck src/*.o src/*.so .sanitize
+	rm -rf $(PKG)_*.tar.gz $(PKG).Rcheck .test-counts src/*.o src/*.so .sanitize
