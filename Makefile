@@ -50,8 +50,18 @@ test: $(TARBALL)
 	NOT_CRAN=true WAVEVALID_SLOW_TESTS=false _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
 	@mkdir -p .test-counts && $(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout .test-counts/default.txt
 
-test-slow: install
-	@mkdir -p .test-counts && $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt
+# The slow tier runs on the package that `make test` checked when it is newer than the sources (as in CI),
+# otherwise on the sources installed into .lib; only the test files that hold slow tests.
+SLOW_FILES = calibrate|diagnose|predict
+test-slow: deps
+	@if [ -f $(PKG).Rcheck/$(PKG)/DESCRIPTION ] && \
+	    [ -z "$$(find R src/*.cpp src/*.h DESCRIPTION NAMESPACE -newer $(PKG).Rcheck/$(PKG)/DESCRIPTION 2>/dev/null)" ]; then \
+	  lib=$(CURDIR)/$(PKG).Rcheck; \
+	else \
+	  mkdir -p .lib && $(R) CMD INSTALL --preclean --no-multiarch --strip -l .lib . >/dev/null && lib=$(CURDIR)/.lib; \
+	fi; \
+	echo "slow tier on the package installed in $$lib"; \
+	mkdir -p .test-counts && R_LIBS="$$lib$${R_LIBS:+:$$R_LIBS}" $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt '$(SLOW_FILES)'
 
 check: $(TARBALL)
 	$(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
@@ -66,4 +76,4 @@ sanitize: deps
 	  $(RSCRIPT) -e 'testthat::test_local(".", load_package = "installed", stop_on_failure = TRUE)'
 
 clean:
-	rm -rf $(PKG)_*.tar.gz $(PKG).Rcheck .test-counts src/*.o src/*.so .sanitize
+	rm -rf $(PKG)_*.tar.gz $(PKG).Rcheck .test-counts .lib src/*.o src/*.so .sanitize

@@ -34,7 +34,7 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
 }
 
 test_that("simulation-based calibration: ranks are uniform, and not when the Hastings ratio is broken", {
-  skip_on_cran()
+  skip_unless_slow()
   withr::local_seed(20240611)
   p_ok <- sbc_pvalues(6000)
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
@@ -44,7 +44,7 @@ test_that("simulation-based calibration: ranks are uniform, and not when the Has
 })
 
 test_that("simulation-based calibration of the adaptive sampler", {
-  skip_on_cran()
+  skip_unless_slow()
   withr::local_seed(20240612)
   p_ok <- sbc_pvalues(4000, n_draws = 49L, n_inner = 10L, proposal = "adaptive")
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
@@ -55,6 +55,18 @@ test_that("simulation-based calibration of the adaptive sampler", {
   p_broken <- sbc_pvalues(10000, debug_break = 1L, n_draws = 49L, n_inner = 10L, proposal = "adaptive",
                           p_global = 0.5)
   expect_lt(p_broken[["u1"]], 0.01)
+})
+
+# The same studies at a smaller size, for the default tier: they detect a
+# gross error of the sampler, the full-size ones (slow tier) a broken
+# Hastings ratio too.
+test_that("simulation-based calibration at a small size: ranks are uniform for both samplers", {
+  withr::local_seed(20240613)
+  p_report <- sbc_pvalues(1500)
+  expect_true(all(p_report > 0.01), label = paste(signif(p_report, 3), collapse = ", "))
+  withr::local_seed(20240614)
+  p_adaptive <- sbc_pvalues(1000, n_draws = 49L, n_inner = 10L, proposal = "adaptive")
+  expect_true(all(p_adaptive > 0.01), label = paste(signif(p_adaptive, 3), collapse = ", "))
 })
 
 # One input, one tau2 group, sigma2 known: the posterior of (u1, tau2) is

@@ -22,7 +22,7 @@
 # and none at seed 2: the model with the mechanism kept more bias in seven
 # cases, where measured an offset of the whole record (level 0).
 test_that("on two test beds, adding each hidden mechanism makes the bias and the condition B error fall", {
-  skip_on_cran()
+  skip_unless_slow()
   for (seed in 1:2) {
     for (h in testbed_mechanisms()) {
       cmp <- wavevalid:::testbed_loop(h, seed)$comparison

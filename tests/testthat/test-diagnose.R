@@ -263,7 +263,7 @@ test_that("on the test bed without a hidden mechanism, nothing is flagged or exp
 # the damping coefficients, and the bump stop's signature competes with its
 # own.
 test_that("on three test beds, explain_bias ranks the hidden mechanism first and claims no other", {
-  skip_on_cran()
+  skip_unless_slow()
   for (seed in 1:3) {
     d <- testbed_diagnosis("none", seed)
     expect_true(all(d$all$inclusion_prob < 0.5), label = paste("none, seed", seed))
@@ -302,7 +302,7 @@ testbed_versions <- function(hidden, seed) {
 }
 
 test_that("on three test beds, versions of each mechanism's signature find the hidden one, the damper too", {
-  skip_on_cran()
+  skip_unless_slow()
   for (seed in 1:3) {
     ex <- testbed_versions("none", seed)
     expect_true(all(ex$inclusion_prob < 0.5), label = paste("none, seed", seed))
@@ -336,7 +336,7 @@ test_that("on three test beds, versions of each mechanism's signature find the h
 # bump stop and the lift-off. The strut friction acts over more than half the
 # record, so its flags can score at most twice that rate.
 test_that("on the test bed, the hidden mechanism is flagged where it acts, and only there once levels 0-3 are pooled", {
-  skip_on_cran()
+  skip_unless_slow()
   withr::local_options(list(wavevalid.quiet = TRUE))
   for (h in c("progressive_bumpstop", "tire_liftoff", "strut_friction")) {
     d <- testbed_diagnosis(h)

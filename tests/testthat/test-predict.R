@@ -148,10 +148,11 @@ test_that("a fit survives saveRDS/readRDS and still predicts, plots and diagnose
 test_that("the bands for a new vehicle hold their share of new vehicles, at the tested nominals and at new ones", {
   skip_on_cran()
   withr::local_options(list(wavevalid.quiet = TRUE))
-  v <- wavevalid:::testbed_validation("none", 1L)
+  v <- testbed_diagnosis("none")
   tb <- v$tb
   xn <- names(tb$B$x_nom)
-  vehicles <- function(nominal, seed, n = 200L) {
+  # 200 vehicles in the slow tier, 50 in the default one (a wider Monte Carlo error)
+  vehicles <- function(nominal, seed, n = if (slow_tier()) 200L else 50L) {
     withr::with_seed(seed, {
       d <- as.data.frame(wavevalid:::iu_prior_draws(tb$iu, n, nominal = nominal))
       d$u1 <- tb$truth$u[["u1"]]
