@@ -430,26 +430,6 @@ field_long <- function(field) {
   }))
 }
 
-with_windows <- function(d, windows, whole = NULL) {
-  if (is.null(d)) return(d)
-  if (is.null(windows)) {
-    if (!is.null(whole)) d$window <- whole
-    return(d)
-  }
-  ok <- is.list(windows) && all(vapply(windows, function(w) is.numeric(w) && length(w) == 2L && w[1] < w[2],
-                                       logical(1)))
-  if (!ok) wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.")
-  labels <- vapply(windows, function(w) sprintf("[%g, %g]", w[1], w[2]), "")
-  out <- do.call(rbind, lapply(seq_along(windows), function(k) {
-    w <- windows[[k]]
-    x <- d[d$t >= w[1] & d$t <= w[2], , drop = FALSE]
-    x$window <- rep(labels[k], nrow(x))
-    x
-  }))
-  out$window <- factor(out$window, levels = labels)
-  out
-}
-
 plot_fit_band <- function(band, model, field, ylab, title) {
   p <- ggplot2::ggplot(band, ggplot2::aes(.data$t))
   if (!is.null(field)) {
