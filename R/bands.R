@@ -99,11 +99,6 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   }))
 }
 
-# Posterior mean of the inputs (own units).
-posterior_mean_inputs <- function(fit) {
-  colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
-}
-
 # Pure-model curve of eq. (24) at one site: Psi m(z_hat).
 pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
   bank <- fit$emulators$banks[[site]]

@@ -382,19 +382,3 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
   fit$flags <- diag$flags
   validate_wv_fit(fit)
 }
-
-new_wv_fit <- function(x) structure(x, class = "wv_fit")
-
-validate_wv_fit <- function(x, call = rlang::caller_env()) {
-  need <- c("draws", "wM", "wb", "sigma2", "chain", "basis", "field", "iu", "inputs")
-  miss <- setdiff(need, names(x))
-  if (length(miss)) wv_abort("A {.cls wv_fit} needs {.field {miss}}.", class = "state", call = call)
-  H <- length(x$chain)
-  for (s in names(x$wb)) {
-    if (nrow(x$wb[[s]]) != H || nrow(x$wM[[s]]) != H || ncol(x$wb[[s]]) != ncol(x$basis$Psi)) {
-      wv_abort("Site {.val {s}}: coefficient draws do not match the chains and the basis.",
-               class = "state", call = call)
-    }
-  }
-  x
-}

@@ -410,19 +410,6 @@ residual_regression_data <- function(fit, draws, keep) {
        variance = do.call(cbind, lapply(parts, `[[`, "v")))
 }
 
-# Variance of the field mean's wavelet coefficients at site `s` for the rows
-# `rows` of the draws: sigma^2 / R plus the registration variance (rows x
-# coefficients).
-field_mean_variance <- function(fit, s, rows) {
-  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
-}
-
-# Names of the draws' columns holding the bias variance tau^2 of each
-# coefficient's (site, level) group at site `s`.
-tau2_columns <- function(fit, s) {
-  paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
-}
-
 # Per-draw bias variance tau^2 of each coefficient's (site, level) group, for
 # the rows of the draws matrix `d`: H x n matrix, sites stacked in the order of
 # fit$wb.
