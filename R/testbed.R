@@ -158,10 +158,6 @@ load_testbed <- function(dir = system.file("extdata", package = "wavevalid")) {
 
 # --- building ----------------------------------------------------------------
 
-testbed_grid <- function() 65 * (0:4095) / 4096
-
-testbed_windows <- function() list(c(6, 11), c(37, 41))
-
 testbed_iu <- function() {
   iu_map(
     name = c("u1", "u2", paste0("x", 1:7)),
