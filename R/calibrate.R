@@ -330,12 +330,15 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
       id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
       progress <- function(h) cli::cli_progress_update(id = id, set = h)
     }
-    calibrate_chain_cpp(spec$sites, spec$priors, nrow(spec$groups), as.numeric(spec$z_init),
-                        as.numeric(tau_init), fix, as.integer(n_draws), as.integer(n_inner),
-                        as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
-                        progress, identical(proposal, "adaptive"), as.integer(burnin),
-                        as.numeric(p_global), as.integer(n_search), as.integer(threads),
-                        as.integer(spec$informs %||% integer(0)), as.numeric(spec$temper %||% 1))
+    settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
+                     tau2_init = as.numeric(tau_init), fix_tau2 = fix, n_draws = as.integer(n_draws),
+                     n_inner = as.integer(n_inner), step = as.numeric(step), seed = as.numeric(seed),
+                     chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
+                     adaptive = identical(proposal, "adaptive"), burnin = as.integer(burnin),
+                     p_global = as.numeric(p_global), n_search = as.integer(n_search),
+                     threads = as.integer(threads), informs = as.integer(spec$informs %||% integer(0)),
+                     temper = as.numeric(spec$temper %||% 1))
+    calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
   future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }
