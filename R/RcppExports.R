@@ -25,8 +25,8 @@ gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
     .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
 }
 
-calibrate_chain_cpp <- function(sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress, adaptive = FALSE, burnin = 0L, p_global = 0.1, n_search = 200L, threads = 1L, informs = as.integer( c()), temper = 1.0) {
-    .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress, adaptive, burnin, p_global, n_search, threads, informs, temper)
+calibrate_chain_cpp <- function(sites, priors, settings) {
+    .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, settings)
 }
 
 suspension_simulate_cpp <- function(params, strength, t, nsub) {

@@ -1,5 +1,6 @@
 # Methods of wv_fit: convergence diagnostics and flags (R-hat, effective
-# sizes, inputs piled at a bound), print, summary and the coda conversion.
+# sizes, inputs piled at a bound), print, summary, the coda conversion and
+# the figures.
 
 # --- diagnostics ---------------------------------------------------------------
 
@@ -176,3 +177,118 @@ print.summary_wv_fit <- function(x, ...) {
   print(x$acceptance, row.names = FALSE, digits = 3)
   invisible(x)
 }
+
+# --- figures ---------------------------------------------------------------------
+
+#' Plot a calibration fit
+#'
+#' * `"inputs"`: posterior histogram of every input with its prior density
+#'   (report Figure 5);
+#' * `"bias"`: posterior mean of the bias with its pointwise band, by site
+#'   (Figure 6);
+#' * `"reality"`: bias-corrected prediction with its band, pure-model
+#'   prediction and the field replicates (Figure 7);
+#' * `"trace"`: trace of every input by chain.
+#'
+#' @param object A `wv_fit` object.
+#' @param type One of `"inputs"`, `"bias"`, `"reality"`, `"trace"`.
+#' @param level Probability content of the bands.
+#' @param windows Optional list of `c(from, to)` time windows to zoom into.
+#' @param ... Unused.
+#' @return A ggplot object.
+#' @export
+#' @examples
+#' ex <- wavevalid:::example_calibration_inputs()
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
+#'                  chains = 1, seed = 1, quiet = TRUE)
+#' autoplot(fit, "inputs")
+#' autoplot(fit, "reality")
+autoplot.wv_fit <- function(object, type = c("inputs", "bias", "reality", "trace"), level = 0.9,
+                            windows = NULL, ...) {
+  type <- check_choice(type)
+  switch(type,
+    inputs = plot_fit_inputs(object),
+    trace = plot_fit_trace(object),
+    bias = plot_fit_band(with_windows(bias(object, level), windows), NULL, NULL, "bias",
+                         sprintf("Bias with %g%% pointwise band", 100 * level)),
+    reality = plot_fit_band(with_windows(reality(object, level), windows),
+                            with_windows(model_prediction(object, level), windows),
+                            with_windows(field_long(object$field), windows), "output",
+                            sprintf("Bias-corrected prediction with %g%% band", 100 * level))
+  )
+}
+
+#' @export
+plot.wv_fit <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
+plot_fit_inputs <- function(fit) {
+  X <- as.matrix(fit$draws)
+  d <- do.call(rbind, lapply(fit$inputs, function(v) data.frame(input = v, value = X[, v])))
+  pr <- fit$prior_iu
+  dens <- do.call(rbind, lapply(seq_along(fit$inputs), function(k) {
+    v <- seq(pr$lower[k], pr$upper[k], length.out = 201)
+    data.frame(input = fit$inputs[k], value = v, density = iu_prior_density(pr, k, v))
+  }))
+  d$input <- factor(d$input, levels = fit$inputs)
+  dens$input <- factor(dens$input, levels = fit$inputs)
+  ggplot2::ggplot(d, ggplot2::aes(.data$value)) +
+    ggplot2::geom_histogram(ggplot2::aes(y = ggplot2::after_stat(density)), bins = 30,
+                            fill = "grey75", colour = "grey40") +
+    ggplot2::geom_line(data = dens, ggplot2::aes(.data$value, .data$density)) +
+    ggplot2::facet_wrap(~input, scales = "free") +
+    ggplot2::labs(x = "input value (own units)", y = "density",
+                  title = "Posterior draws of each input with its prior") +
+    ggplot2::theme_bw()
+}
+
+plot_fit_trace <- function(fit) {
+  d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {
+    m <- as.matrix(fit$draws[[ch]])
+    do.call(rbind, lapply(fit$inputs, function(v) {
+      data.frame(chain = factor(ch), draw = seq_len(nrow(m)), input = v, value = m[, v])
+    }))
+  }))
+  d$input <- factor(d$input, levels = fit$inputs)
+  ggplot2::ggplot(d, ggplot2::aes(.data$draw, .data$value, colour = .data$chain)) +
+    ggplot2::geom_line(linewidth = 0.3) +
+    ggplot2::facet_wrap(~input, scales = "free_y") +
+    ggplot2::labs(x = "saved draw", y = "value", colour = "chain") +
+    ggplot2::theme_bw()
+}
+
+field_long <- function(field) {
+  do.call(rbind, lapply(names(field$curves), function(s) {
+    m <- field$curves[[s]]
+    data.frame(site = s, t = rep(field$t, each = nrow(m)), replicate = factor(rep(seq_len(nrow(m)), length(field$t))),
+               y = as.vector(m))
+  }))
+}
+
+plot_fit_band <- function(band, model, field, ylab, title) {
+  p <- ggplot2::ggplot(band, ggplot2::aes(.data$t))
+  if (!is.null(field)) {
+    p <- p + ggplot2::geom_line(data = field, ggplot2::aes(.data$t, .data$y, group = .data$replicate),
+                                colour = "goldenrod2", linewidth = 0.3)
+  }
+  p <- p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "steelblue", alpha = 0.25)
+  if (is.null(model)) p <- p + ggplot2::geom_hline(yintercept = 0, colour = "grey50")
+  if (!is.null(model)) {
+    p <- p + ggplot2::geom_line(data = model, ggplot2::aes(.data$t, .data$mean), colour = "grey50")
+  }
+  p <- p +
+    ggplot2::geom_line(ggplot2::aes(y = .data$lower), linetype = "dashed", linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$upper), linetype = "dashed", linewidth = 0.3) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean)) +
+    ggplot2::labs(x = "t", y = ylab, title = title) +
+    ggplot2::theme_bw()
+  if ("window" %in% names(band)) {
+    p + ggplot2::facet_grid(site ~ window, scales = "free")
+  } else {
+    p + ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y")
+  }
+}
+
+utils::globalVariables("density")

@@ -330,12 +330,15 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
       id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
       progress <- function(h) cli::cli_progress_update(id = id, set = h)
     }
-    calibrate_chain_cpp(spec$sites, spec$priors, nrow(spec$groups), as.numeric(spec$z_init),
-                        as.numeric(tau_init), fix, as.integer(n_draws), as.integer(n_inner),
-                        as.numeric(step), as.numeric(seed), as.integer(ch), as.integer(debug_break),
-                        progress, identical(proposal, "adaptive"), as.integer(burnin),
-                        as.numeric(p_global), as.integer(n_search), as.integer(threads),
-                        as.integer(spec$informs %||% integer(0)), as.numeric(spec$temper %||% 1))
+    settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
+                     tau2_init = as.numeric(tau_init), fix_tau2 = fix, n_draws = as.integer(n_draws),
+                     n_inner = as.integer(n_inner), step = as.numeric(step), seed = as.numeric(seed),
+                     chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
+                     adaptive = identical(proposal, "adaptive"), burnin = as.integer(burnin),
+                     p_global = as.numeric(p_global), n_search = as.integer(n_search),
+                     threads = as.integer(threads), informs = as.integer(spec$informs %||% integer(0)),
+                     temper = as.numeric(spec$temper %||% 1))
+    calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
   future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }
@@ -381,20 +384,4 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
   fit$ess <- diag$ess
   fit$flags <- diag$flags
   validate_wv_fit(fit)
-}
-
-new_wv_fit <- function(x) structure(x, class = "wv_fit")
-
-validate_wv_fit <- function(x, call = rlang::caller_env()) {
-  need <- c("draws", "wM", "wb", "sigma2", "chain", "basis", "field", "iu", "inputs")
-  miss <- setdiff(need, names(x))
-  if (length(miss)) wv_abort("A {.cls wv_fit} needs {.field {miss}}.", class = "state", call = call)
-  H <- length(x$chain)
-  for (s in names(x$wb)) {
-    if (nrow(x$wb[[s]]) != H || nrow(x$wM[[s]]) != H || ncol(x$wb[[s]]) != ncol(x$basis$Psi)) {
-      wv_abort("Site {.val {s}}: coefficient draws do not match the chains and the basis.",
-               class = "state", call = call)
-    }
-  }
-  x
 }

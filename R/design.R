@@ -132,3 +132,33 @@ design_posterior <- function(fit, n, spread = 0.05, seed = NULL) {
   colnames(d) <- fit$inputs
   as.data.frame(d)
 }
+
+# Approximately maximin Latin hypercube in [0, 1]^p: the best of n_start
+# random LHDs, improved by element swaps within a column that increase the
+# smallest inter-point distance. Uses R's RNG.
+maximin_lhd <- function(n, p, n_start = 50L, n_swap = 2000L) {
+  random_lhd <- function() vapply(seq_len(p), function(j) (sample.int(n) - stats::runif(n)) / n, numeric(n))
+  mindist <- function(x) min(stats::dist(x))
+  best <- random_lhd()
+  best_d <- mindist(best)
+  for (i in seq_len(n_start - 1L)) {
+    cand <- random_lhd()
+    d <- mindist(cand)
+    if (d > best_d) {
+      best <- cand
+      best_d <- d
+    }
+  }
+  for (i in seq_len(n_swap)) {
+    j <- sample.int(p, 1L)
+    ab <- sample.int(n, 2L)
+    cand <- best
+    cand[ab, j] <- cand[rev(ab), j]
+    d <- mindist(cand)
+    if (d > best_d) {
+      best <- cand
+      best_d <- d
+    }
+  }
+  best
+}

@@ -1,5 +1,5 @@
-# print, summary and plot methods of the wv_explain table of explain_bias()
-# (autoplot() is documented with explain_bias(), in explain.R).
+# print, summary, autoplot and plot methods of the wv_explain table of
+# explain_bias() (autoplot() is documented with explain_bias()).
 
 #' @export
 print.wv_explain <- function(x, ...) {
@@ -82,4 +82,21 @@ print.summary_wv_explain <- function(x, ...) {
 plot.wv_explain <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
+}
+
+#' @rdname explain_bias
+#' @param object A `wv_explain` result.
+#' @export
+autoplot.wv_explain <- function(object, ...) {
+  d <- attr(object, "curves")
+  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$value, colour = .data$curve)) +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey70") +
+    ggplot2::geom_line(linewidth = 0.4) +
+    ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
+    ggplot2::scale_colour_manual(values = c("black", "#D55E00", "#0072B2", "#009E73")[seq_along(unique(d$curve))],
+                                 breaks = unique(d$curve)) +
+    ggplot2::labs(x = "time", y = "bias", colour = NULL,
+                  title = "Posterior mean bias and the leading candidate effects, scaled") +
+    ggplot2::theme_bw() +
+    ggplot2::theme(legend.position = "bottom")
 }

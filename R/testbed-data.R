@@ -1,4 +1,5 @@
-# The wv_testbed class (print, summary, plot) and its storage as CSV files.
+# The wv_testbed class (print, summary, plot), its storage as CSV files, and
+# its time grid and event windows.
 
 # --- class -------------------------------------------------------------------
 
@@ -222,3 +223,10 @@ read_testbed <- function(dir) {
     windows = testbed_windows()
   )))
 }
+
+# --- grid and windows ---------------------------------------------------------
+
+# The test bed's time grid and its event windows.
+testbed_grid <- function() 65 * (0:4095) / 4096
+
+testbed_windows <- function() list(c(6, 11), c(37, 41))

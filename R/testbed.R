@@ -158,10 +158,6 @@ load_testbed <- function(dir = system.file("extdata", package = "wavevalid")) {
 
 # --- building ----------------------------------------------------------------
 
-testbed_grid <- function() 65 * (0:4095) / 4096
-
-testbed_windows <- function() list(c(6, 11), c(37, 41))
-
 testbed_iu <- function() {
   iu_map(
     name = c("u1", "u2", paste0("x", 1:7)),
@@ -285,36 +281,6 @@ check_testbed_design <- function(design, mechanism, nominal, call = rlang::calle
 
 hidden_strength <- function(hidden, k = 1L) {
   matrix(as.numeric(testbed_mechanisms() %in% hidden), k, 4L, byrow = TRUE)
-}
-
-# Approximately maximin Latin hypercube in [0, 1]^p: the best of n_start
-# random LHDs, improved by element swaps within a column that increase the
-# smallest inter-point distance. Uses R's RNG.
-maximin_lhd <- function(n, p, n_start = 50L, n_swap = 2000L) {
-  random_lhd <- function() vapply(seq_len(p), function(j) (sample.int(n) - stats::runif(n)) / n, numeric(n))
-  mindist <- function(x) min(stats::dist(x))
-  best <- random_lhd()
-  best_d <- mindist(best)
-  for (i in seq_len(n_start - 1L)) {
-    cand <- random_lhd()
-    d <- mindist(cand)
-    if (d > best_d) {
-      best <- cand
-      best_d <- d
-    }
-  }
-  for (i in seq_len(n_swap)) {
-    j <- sample.int(p, 1L)
-    ab <- sample.int(n, 2L)
-    cand <- best
-    cand[ab, j] <- cand[rev(ab), j]
-    d <- mindist(cand)
-    if (d > best_d) {
-      best <- cand
-      best_d <- d
-    }
-  }
-  best
 }
 
 # Smooth monotone time warp: knots at the start, both events, between and at

@@ -1,17 +1,6 @@
 # Diagnostics of the wavelet representation: reconstruction accuracy of the
 # retained coefficients and the independent-coefficient error model.
 
-plot_reconstruction <- function(t, y, yhat, title) {
-  d <- rbind(data.frame(t = t, y = y, curve = "original"), data.frame(t = t, y = yhat, curve = "reconstructed"))
-  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$y, colour = .data$curve, linetype = .data$curve)) +
-    ggplot2::geom_line(linewidth = 0.35) +
-    ggplot2::scale_colour_manual(values = c(original = "black", reconstructed = "red")) +
-    ggplot2::scale_linetype_manual(values = c(original = "solid", reconstructed = "dashed")) +
-    ggplot2::labs(x = "time", y = "output", colour = NULL, linetype = NULL,
-                  title = title %||% sprintf("Relative L2 error %.3g", sqrt(sum((y - yhat)^2) / sum(y^2)))) +
-    ggplot2::theme_bw()
-}
-
 # --- diagnostics ---------------------------------------------------------------
 
 #' Accuracy of the wavelet reconstruction

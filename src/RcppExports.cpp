@@ -95,32 +95,15 @@ BEGIN_RCPP
 END_RCPP
 }
 // calibrate_chain_cpp
-Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors, int n_groups, const Eigen::Map<Eigen::VectorXd>& z_init, const Eigen::Map<Eigen::VectorXd>& tau2_init, bool fix_tau2, int n_draws, int n_inner, double step, double seed, int chain, int debug_break, Rcpp::RObject progress, bool adaptive, int burnin, double p_global, int n_search, int threads, Rcpp::IntegerVector informs, double temper);
-RcppExport SEXP _wavevalid_calibrate_chain_cpp(SEXP sitesSEXP, SEXP priorsSEXP, SEXP n_groupsSEXP, SEXP z_initSEXP, SEXP tau2_initSEXP, SEXP fix_tau2SEXP, SEXP n_drawsSEXP, SEXP n_innerSEXP, SEXP stepSEXP, SEXP seedSEXP, SEXP chainSEXP, SEXP debug_breakSEXP, SEXP progressSEXP, SEXP adaptiveSEXP, SEXP burninSEXP, SEXP p_globalSEXP, SEXP n_searchSEXP, SEXP threadsSEXP, SEXP informsSEXP, SEXP temperSEXP) {
+Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors, const Rcpp::List& settings);
+RcppExport SEXP _wavevalid_calibrate_chain_cpp(SEXP sitesSEXP, SEXP priorsSEXP, SEXP settingsSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
     Rcpp::traits::input_parameter< const Rcpp::List& >::type sites(sitesSEXP);
     Rcpp::traits::input_parameter< const Rcpp::List& >::type priors(priorsSEXP);
-    Rcpp::traits::input_parameter< int >::type n_groups(n_groupsSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type z_init(z_initSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type tau2_init(tau2_initSEXP);
-    Rcpp::traits::input_parameter< bool >::type fix_tau2(fix_tau2SEXP);
-    Rcpp::traits::input_parameter< int >::type n_draws(n_drawsSEXP);
-    Rcpp::traits::input_parameter< int >::type n_inner(n_innerSEXP);
-    Rcpp::traits::input_parameter< double >::type step(stepSEXP);
-    Rcpp::traits::input_parameter< double >::type seed(seedSEXP);
-    Rcpp::traits::input_parameter< int >::type chain(chainSEXP);
-    Rcpp::traits::input_parameter< int >::type debug_break(debug_breakSEXP);
-    Rcpp::traits::input_parameter< Rcpp::RObject >::type progress(progressSEXP);
-    Rcpp::traits::input_parameter< bool >::type adaptive(adaptiveSEXP);
-    Rcpp::traits::input_parameter< int >::type burnin(burninSEXP);
-    Rcpp::traits::input_parameter< double >::type p_global(p_globalSEXP);
-    Rcpp::traits::input_parameter< int >::type n_search(n_searchSEXP);
-    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
-    Rcpp::traits::input_parameter< Rcpp::IntegerVector >::type informs(informsSEXP);
-    Rcpp::traits::input_parameter< double >::type temper(temperSEXP);
-    rcpp_result_gen = Rcpp::wrap(calibrate_chain_cpp(sites, priors, n_groups, z_init, tau2_init, fix_tau2, n_draws, n_inner, step, seed, chain, debug_break, progress, adaptive, burnin, p_global, n_search, threads, informs, temper));
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type settings(settingsSEXP);
+    rcpp_result_gen = Rcpp::wrap(calibrate_chain_cpp(sites, priors, settings));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -157,7 +140,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
-    {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 20},
+    {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
     {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
     {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
     {NULL, NULL, 0}

@@ -1,6 +1,8 @@
 // R glue for the modular Metropolis-Hastings sampler (one chain per call).
 #include <RcppEigen.h>
+#include <algorithm>
 #include <memory>
+#include <string>
 #include "sampler.h"
 
 // [[Rcpp::depends(RcppEigen)]]
@@ -9,20 +11,135 @@ namespace wavevalid {
 GaspBank bank_from_list(const Rcpp::List& b);
 }
 
+namespace {
+
+// The settings of one chain, read once from the R list `settings` of
+// calibrate_chain_cpp().
+struct ChainSettings {
+  int n_groups = 0;
+  Rcpp::RObject progress;  // R function called with the number of finished draws, or NULL
+  wavevalid::SamplerSettings sampler;
+};
+
+const char* const kRequired[] = {"n_groups", "z_init", "tau2_init", "fix_tau2", "n_draws",
+                                 "n_inner", "step", "seed", "chain"};
+const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global",
+                                 "n_search", "threads", "informs", "temper"};
+
+bool has_entry(const Rcpp::List& x, const char* name) {
+  return x.containsElementNamed(name);
+}
+
+// A required entry, or an error naming it.
+SEXP required_entry(const Rcpp::List& x, const char* name) {
+  if (!has_entry(x, name)) Rcpp::stop("settings: entry '%s' is missing", name);
+  return x[name];
+}
+
+// One number (numeric, integer or logical, length 1, not NA).
+SEXP scalar(SEXP v, const char* name) {
+  const int type = TYPEOF(v);
+  if ((type != REALSXP && type != INTSXP && type != LGLSXP) || Rf_xlength(v) != 1)
+    Rcpp::stop("settings: entry '%s' must be a single number", name);
+  if ((type == REALSXP && ISNAN(REAL(v)[0])) || (type == INTSXP && INTEGER(v)[0] == NA_INTEGER) ||
+      (type == LGLSXP && LOGICAL(v)[0] == NA_LOGICAL))
+    Rcpp::stop("settings: entry '%s' is NA", name);
+  return v;
+}
+
+template <typename T>
+T required_scalar(const Rcpp::List& x, const char* name) {
+  return Rcpp::as<T>(scalar(required_entry(x, name), name));
+}
+
+template <typename T>
+T optional_scalar(const Rcpp::List& x, const char* name, T value) {
+  return has_entry(x, name) ? Rcpp::as<T>(scalar(x[name], name)) : value;
+}
+
+// A numeric vector (numeric or integer).
+Eigen::VectorXd required_vector(const Rcpp::List& x, const char* name) {
+  SEXP v = required_entry(x, name);
+  if (TYPEOF(v) != REALSXP && TYPEOF(v) != INTSXP)
+    Rcpp::stop("settings: entry '%s' must be a numeric vector", name);
+  return Rcpp::as<Eigen::VectorXd>(v);
+}
+
+ChainSettings read_settings(const Rcpp::List& x) {
+  SEXP nm = Rf_getAttrib(x, R_NamesSymbol);
+  if (x.size() > 0 && Rf_isNull(nm)) Rcpp::stop("settings must be a named list");
+  if (!Rf_isNull(nm)) {
+    Rcpp::CharacterVector names(nm);
+    for (R_xlen_t i = 0; i < names.size(); ++i) {
+      const std::string n = Rcpp::as<std::string>(names[i]);
+      bool known = false;
+      for (const char* k : kRequired) known = known || n == k;
+      for (const char* k : kOptional) known = known || n == k;
+      if (!known) Rcpp::stop("settings: unknown entry '%s'", n.c_str());
+    }
+  }
+  ChainSettings out;
+  wavevalid::SamplerSettings& set = out.sampler;
+  out.n_groups = required_scalar<int>(x, "n_groups");
+  set.z_init = required_vector(x, "z_init");
+  set.tau2_init = required_vector(x, "tau2_init");
+  set.fix_tau2 = required_scalar<bool>(x, "fix_tau2");
+  set.n_draws = required_scalar<int>(x, "n_draws");
+  set.n_inner = required_scalar<int>(x, "n_inner");
+  set.step = required_scalar<double>(x, "step");
+  set.seed = static_cast<std::uint64_t>(required_scalar<double>(x, "seed"));
+  set.chain = required_scalar<int>(x, "chain");
+  set.debug_break = optional_scalar<int>(x, "debug_break", 0);
+  set.report_every = std::max(1, std::min(10, set.n_draws / 100));
+  set.adaptive = optional_scalar<bool>(x, "adaptive", false);
+  set.burnin = optional_scalar<int>(x, "burnin", 0);
+  set.p_global = optional_scalar<double>(x, "p_global", 0.1);
+  set.n_search = optional_scalar<int>(x, "n_search", 200);
+  set.threads = optional_scalar<int>(x, "threads", 1);
+  if (has_entry(x, "informs")) {
+    SEXP v = x["informs"];
+    if (TYPEOF(v) != INTSXP && TYPEOF(v) != REALSXP && !Rf_isNull(v))
+      Rcpp::stop("settings: entry 'informs' must be an integer vector");
+    if (!Rf_isNull(v)) {
+      Rcpp::IntegerVector informs(v);
+      set.informs.assign(informs.begin(), informs.end());
+    }
+  }
+  if (!set.informs.empty() && static_cast<int>(set.informs.size()) != out.n_groups)
+    Rcpp::stop("informs must have one value per group");
+  set.temper = optional_scalar<double>(x, "temper", 1.0);
+  if (!(set.temper > 0.0 && set.temper <= 1.0)) Rcpp::stop("temper must lie in (0, 1]");
+  if (has_entry(x, "progress")) {
+    SEXP progress = x["progress"];
+    out.progress = progress;
+  }
+  if (!out.progress.isNULL() && !Rf_isFunction(out.progress))
+    Rcpp::stop("settings: entry 'progress' must be a function or NULL");
+  return out;
+}
+
+}  // namespace
+
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
 //   group (0-based global tau2 group per coefficient), extra (optional,
 //   length n: variance of wbar added to sigma2 / R).
 // priors: list with lower, upper, normal (logical), mean, sd (length p each).
-// progress: R function called with the number of finished draws, or NULL.
+// settings: named list with
+//   n_groups (number of tau2 groups), z_init (p starting inputs, coded),
+//   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
+//   fix_tau2, n_draws, n_inner, step, seed, chain;
+//   optional: debug_break (0; 1: no mixture-density ratio, 2: no tau2 ratio,
+//   only to show that the simulation-based checks detect errors), progress
+//   (R function called with the number of finished draws, or NULL), adaptive
+//   (FALSE), burnin (0), p_global (0.1), n_search (200), threads (1), informs
+//   (one 0/1 per group, or empty: all inform), temper (1).
 // [[Rcpp::export]]
-Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors, int n_groups,
-                               const Eigen::Map<Eigen::VectorXd>& z_init,
-                               const Eigen::Map<Eigen::VectorXd>& tau2_init, bool fix_tau2,
-                               int n_draws, int n_inner, double step, double seed, int chain,
-                               int debug_break, Rcpp::RObject progress, bool adaptive = false,
-                               int burnin = 0, double p_global = 0.1, int n_search = 200,
-                               int threads = 1, Rcpp::IntegerVector informs = Rcpp::IntegerVector::create(),
-                               double temper = 1.0) {
+Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,
+                               const Rcpp::List& settings) {
+  const ChainSettings cs = read_settings(settings);
+  const wavevalid::SamplerSettings& set = cs.sampler;
+  const int n_groups = cs.n_groups;
+  const Eigen::VectorXd& z_init = set.z_init;
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
@@ -67,32 +184,11 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   }
   if (static_cast<int>(pr.size()) != z_init.size()) Rcpp::stop("priors and z_init differ in length");
 
-  wavevalid::SamplerSettings set;
-  set.n_draws = n_draws;
-  set.n_inner = n_inner;
-  set.step = step;
-  set.seed = static_cast<std::uint64_t>(seed);
-  set.chain = chain;
-  set.fix_tau2 = fix_tau2;
-  set.tau2_init = tau2_init;
-  set.z_init = z_init;
-  set.debug_break = debug_break;
-  set.report_every = std::max(1, std::min(10, n_draws / 100));
-  set.adaptive = adaptive;
-  set.burnin = burnin;
-  set.p_global = p_global;
-  set.n_search = n_search;
-  set.threads = threads;
-  if (informs.size() > 0 && informs.size() != n_groups) Rcpp::stop("informs must have one value per group");
-  set.informs.assign(informs.begin(), informs.end());
-  if (!(temper > 0.0 && temper <= 1.0)) Rcpp::stop("temper must lie in (0, 1]");
-  set.temper = temper;
-
-  const bool has_progress = !progress.isNULL();
+  const bool has_progress = !cs.progress.isNULL();
   Rcpp::Function* fn = nullptr;
   std::unique_ptr<Rcpp::Function> holder;
   if (has_progress) {
-    holder.reset(new Rcpp::Function(progress));
+    holder.reset(new Rcpp::Function(cs.progress));
     fn = holder.get();
   }
   auto cb = [fn](int h) {

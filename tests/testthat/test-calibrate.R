@@ -22,9 +22,10 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
     wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
     wb <- stats::rnorm(n, 0, sqrt(tau2))
     spec$sites$site1$wbar <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, G, 0.5, rep(tau2, G), TRUE,
-                                           n_draws, n_inner, step, r, 1L, debug_break, NULL,
-                                           adaptive, if (adaptive) burnin else 0L, p_global, 20L)
+    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+      n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
+      n_inner = n_inner, step = step, seed = r, chain = 1L, debug_break = debug_break,
+      adaptive = adaptive, burnin = if (adaptive) burnin else 0L, p_global = p_global, n_search = 20L))
     keep <- burn:n_draws
     ranks[r, ] <- c(sum(out$inputs[keep, 1] < z), sum(out$wb[[1]][keep, 1] < wb[1]),
                     sum(out$wM[[1]][keep, 2] < wM[2]))

@@ -126,3 +126,32 @@ check_flag <- function(x, arg = deparse(substitute(x)), call = rlang::caller_env
   }
   invisible(x)
 }
+
+resolve_site <- function(site, sites, arg, call = rlang::caller_env()) {
+  if (is.numeric(site) && length(site) == 1L && site %in% seq_along(sites)) return(sites[site])
+  if (is.character(site) && length(site) == 1L && site %in% sites) return(site)
+  wv_abort(c(
+    "{.arg {arg}} must name one site (or give its position).",
+    "x" = "Sites are {.val {sites}}."
+  ), call = call)
+}
+
+check_same_grid <- function(t1, t2, arg1, arg2, call = rlang::caller_env()) {
+  if (length(t1) != length(t2)) {
+    wv_abort(c(
+      "{.arg {arg1}} and {.arg {arg2}} must be on the same time grid.",
+      "x" = "{.arg {arg1}} has {length(t1)} time points and {.arg {arg2}} has {length(t2)}.",
+      "i" = "Interpolate both to one grid first (e.g. {.fn stats::approx} onto the model-run grid)."
+    ), call = call)
+  }
+  d <- max(abs(t1 - t2))
+  if (d > 1e-8 * max(1, abs(t1), abs(t2))) {
+    i <- which.max(abs(t1 - t2))
+    wv_abort(c(
+      "{.arg {arg1}} and {.arg {arg2}} must be on the same time grid.",
+      "x" = "Both have {length(t1)} points but differ by up to {signif(d, 3)} (point {i}: {signif(t1[i], 6)} vs {signif(t2[i], 6)}); ranges [{signif(min(t1), 5)}, {signif(max(t1), 5)}] and [{signif(min(t2), 5)}, {signif(max(t2), 5)}].",
+      "i" = "Interpolate both to one grid first (e.g. {.fn stats::approx} onto the model-run grid)."
+    ), call = call)
+  }
+  invisible(TRUE)
+}

@@ -410,19 +410,6 @@ residual_regression_data <- function(fit, draws, keep) {
        variance = do.call(cbind, lapply(parts, `[[`, "v")))
 }
 
-# Variance of the field mean's wavelet coefficients at site `s` for the rows
-# `rows` of the draws: sigma^2 / R plus the registration variance (rows x
-# coefficients).
-field_mean_variance <- function(fit, s, rows) {
-  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
-}
-
-# Names of the draws' columns holding the bias variance tau^2 of each
-# coefficient's (site, level) group at site `s`.
-tau2_columns <- function(fit, s) {
-  paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
-}
-
 # Per-draw bias variance tau^2 of each coefficient's (site, level) group, for
 # the rows of the draws matrix `d`: H x n matrix, sites stacked in the order of
 # fit$wb.
@@ -455,21 +442,4 @@ explain_curves <- function(fit, cand, table, n_lead = 3L) {
     }
     out
   }))
-}
-
-#' @rdname explain_bias
-#' @param object A `wv_explain` result.
-#' @export
-autoplot.wv_explain <- function(object, ...) {
-  d <- attr(object, "curves")
-  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$value, colour = .data$curve)) +
-    ggplot2::geom_hline(yintercept = 0, colour = "grey70") +
-    ggplot2::geom_line(linewidth = 0.4) +
-    ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
-    ggplot2::scale_colour_manual(values = c("black", "#D55E00", "#0072B2", "#009E73")[seq_along(unique(d$curve))],
-                                 breaks = unique(d$curve)) +
-    ggplot2::labs(x = "time", y = "bias", colour = NULL,
-                  title = "Posterior mean bias and the leading candidate effects, scaled") +
-    ggplot2::theme_bw() +
-    ggplot2::theme(legend.position = "bottom")
 }

@@ -1,0 +1,36 @@
+# The calibration fit (class wv_fit): constructor, validator and accessors
+# read by the bands, the diagnostics, predictions and explanations.
+
+new_wv_fit <- function(x) structure(x, class = "wv_fit")
+
+validate_wv_fit <- function(x, call = rlang::caller_env()) {
+  need <- c("draws", "wM", "wb", "sigma2", "chain", "basis", "field", "iu", "inputs")
+  miss <- setdiff(need, names(x))
+  if (length(miss)) wv_abort("A {.cls wv_fit} needs {.field {miss}}.", class = "state", call = call)
+  H <- length(x$chain)
+  for (s in names(x$wb)) {
+    if (nrow(x$wb[[s]]) != H || nrow(x$wM[[s]]) != H || ncol(x$wb[[s]]) != ncol(x$basis$Psi)) {
+      wv_abort("Site {.val {s}}: coefficient draws do not match the chains and the basis.",
+               class = "state", call = call)
+    }
+  }
+  x
+}
+
+# Posterior mean of the inputs (own units).
+posterior_mean_inputs <- function(fit) {
+  colMeans(as.matrix(fit$draws)[, fit$inputs, drop = FALSE])
+}
+
+# Variance of the field mean's wavelet coefficients at site `s` for the rows
+# `rows` of the draws: sigma^2 / R plus the registration variance (rows x
+# coefficients).
+field_mean_variance <- function(fit, s, rows) {
+  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
+}
+
+# Names of the draws' columns holding the bias variance tau^2 of each
+# coefficient's (site, level) group at site `s`.
+tau2_columns <- function(fit, s) {
+  paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
+}
