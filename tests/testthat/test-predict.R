@@ -148,7 +148,7 @@ test_that("a fit survives saveRDS/readRDS and still predicts, plots and diagnose
 test_that("the bands for a new vehicle hold their share of new vehicles, at the tested nominals and at new ones", {
   skip_on_cran()
   withr::local_options(list(wavevalid.quiet = TRUE))
-  v <- wavevalid:::testbed_validation("none", 1L)
+  v <- testbed_validation("none", 1L)
   tb <- v$tb
   xn <- names(tb$B$x_nom)
   vehicles <- function(nominal, seed, n = 200L) {
