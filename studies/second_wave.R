@@ -191,7 +191,7 @@ settings <- sprintf("%d runs, pool_levels = %s, register_runs = %s, reuse = %s",
 if ("rounds" %in% measure) {
   cat(sprintf("== rounds: field %s, %d round(s), spread %g, reference %s, %s\n", opt$field, n_rounds, spread,
               opt$reference, settings))
-  run_cases(rounds_case)
+  invisible(run_cases(rounds_case))
 }
 if ("workflow" %in% measure) {
   cat(sprintf("\n== workflow: second wave of %s\n", settings))
