@@ -12,7 +12,6 @@ options(wavevalid.quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 n_draws <- if (length(args) >= 1) as.integer(args[1]) else 1000L
 n_inner <- if (length(args) >= 2) as.integer(args[2]) else 200L
-ns <- asNamespace("wavevalid")
 
 t0 <- proc.time()[["elapsed"]]
 tb <- testbed_suspension(seed = 1)
@@ -49,11 +48,23 @@ a2 <- one_chain("Sites 1 and 2", emulators, field)
 fit <- a1$fit
 el <- a1$el
 
-# (b) one cycle: C++ (short chain, no burn-in) against plain R
-spec <- ns$calibration_spec(emulators, field, iu)
-tau <- ns$resolve_fix_tau2(NULL, spec$groups)
-cpp <- system.time(ns$run_chains(spec, 50, 100, 1, 1, 0.1, tau, 0L, quiet = TRUE,
-                                 proposal = "adaptive", burnin = 0L))[["elapsed"]] / 5000
+# (b) one cycle: the C++ sampler's cost per cycle, the difference of two
+# calibrations of both sites that differ only in their number of cycles
+# (the start search and burn-in cancel), against plain R
+cycles_time <- function(n_draws) {
+  system.time(calibrate(emulators, field, iu, n_draws = n_draws, n_inner = 100, chains = 1, seed = 1,
+                        quiet = TRUE))[["elapsed"]]
+}
+cpp <- (cycles_time(55) - cycles_time(5)) / 5000
+
+# The data of the likelihood by site: the field mean's retained coefficients
+# (wbar), the replicates' sums of squared deviations (s2), their number (R)
+sites <- lapply(stats::setNames(nm = names(emulators$banks)), function(s) {
+  W <- wavelet_coef(basis, field$curves[[s]])
+  wbar <- colMeans(W)
+  list(bank = emulators$banks[[s]], wbar = wbar, s2 = colSums(sweep(W, 2L, wbar)^2), R = nrow(W))
+})
+prior <- as.data.frame(iu)[match(emulators$inputs, iu$name), ]
 
 # DiceKriging: one km object per (site, coefficient) with the fitted
 # hyperparameters; powexp correlation exp(-sum (|h| / theta)^p) with
@@ -78,23 +89,23 @@ dk_predict <- function(models, bank, z) {
   list(m = vapply(pr, function(x) x$mean, 0), v = vapply(pr, function(x) x$sd^2, 0))
 }
 loglik_r <- function(pred, tau2, sigma2, site) {
-  tot <- pred$v + sigma2 / site$R + tau2[site$group + 1]
+  tot <- pred$v + sigma2 / site$R + tau2
   sum(stats::dnorm(site$wbar, pred$m, sqrt(tot), log = TRUE))
 }
 set.seed(1)
-tau2 <- rep(0.01, nrow(spec$groups))
-draw_z <- function() spec$priors$lower + stats::runif(p) * (spec$priors$upper - spec$priors$lower)
+tau2 <- 0.01
+draw_z <- function() prior$lower + stats::runif(p) * (prior$upper - prior$lower)
 z_check <- draw_z()
 chk <- dk_predict(kms[[1]], emulators$banks[[1]], z_check)
-ref <- ns$gasp_bank_predict_cpp(emulators$banks[[1]], matrix(z_check, 1))
+ref <- predict(emulators, matrix(z_check, 1, dimnames = list(NULL, emulators$inputs)), site = names(emulators$banks)[1])
 cat(sprintf("    DiceKriging vs C++ predictions (site 1): max |mean diff| %.1e, max |var diff| %.1e\n",
             max(abs(chk$m - drop(ref$mean))), max(abs(chk$v - drop(ref$var)))))
 n_dk <- 3
 el_dk <- system.time(for (k in seq_len(n_dk)) {
   z <- draw_z()
-  for (s in names(spec$sites)) {
-    site <- spec$sites[[s]]
-    loglik_r(dk_predict(kms[[s]], site$bank, z), tau2, spec$s2[[s]] / 6, site)
+  for (s in names(sites)) {
+    site <- sites[[s]]
+    loglik_r(dk_predict(kms[[s]], site$bank, z), tau2, site$s2 / (site$R - 1), site)
   }
 })[["elapsed"]] / n_dk
 
@@ -115,9 +126,9 @@ r_predict <- function(bank, z) {
 n_r <- 10
 el_r <- system.time(for (k in seq_len(n_r)) {
   z <- draw_z()
-  for (s in names(spec$sites)) {
-    site <- spec$sites[[s]]
-    loglik_r(r_predict(site$bank, z), tau2, spec$s2[[s]] / 6, site)
+  for (s in names(sites)) {
+    site <- sites[[s]]
+    loglik_r(r_predict(site$bank, z), tau2, site$s2 / (site$R - 1), site)
   }
 })[["elapsed"]] / n_r
 cat(sprintf("(b) per cycle, both sites: C++ %.2f ms; DiceKriging::predict loop %.0f ms (ratio %.0fx); vectorised base R %.0f ms (ratio %.0fx)\n",

@@ -5,9 +5,14 @@
 # curves (500 MiB).
 #
 # The fit is synthesised cheaply: a problem with four sites on 4096 points and
-# emulators with fixed hyperparameters is calibrated with a short chain, and
-# its 40 saved draws (inputs, model and bias coefficients, field variances) are
-# repeated and slightly perturbed up to 4000 draws.
+# 12 runs is calibrated with a short chain, and its 40 saved draws (inputs,
+# model and bias coefficients, field variances) are repeated and slightly
+# perturbed up to 4000 draws.
+#
+# The peer, run side by side: the same summary of the bias in plain R, each
+# site's curve draws built whole (coefficient draws %*% t(Psi)) and their
+# pointwise mean and 5% and 95% quantiles taken; the ratio of the package's
+# peak to the plain-R peak is printed.
 #
 # Two measures are printed for each call: R's own high-water mark of vector
 # memory (gc(reset = TRUE) before, "max used" after, minus what was in use
@@ -27,10 +32,9 @@
 #     garbage from the blocks not yet collected; the curves held at any time
 #     are one block of about 2^20 values (8 MiB).
 #
-# Run: R_LIBS=<lib> Rscript bench/bench_memory.R [n_draws]
+# Run: Rscript bench/bench_memory.R [n_draws]
 library(wavevalid)
 options(wavevalid.quiet = TRUE)
-ns <- asNamespace("wavevalid")
 args <- commandArgs(trailingOnly = TRUE)
 H <- if (length(args) >= 1) as.integer(args[1]) else 4000L
 n_t <- 4096L
@@ -45,28 +49,20 @@ iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), uppe
 model <- function(u, x, k) {
   (1 + 0.5 * x) * sin(2 * pi * t / (13 + k)) + u * exp(-((t - 7 - 8 * k) / 1.5)^2)
 }
-design <- cbind(u1 = (0:11 + stats::runif(12)) / 12, x1 = (sample(12) - stats::runif(12)) / 12)
-basis <- ns$basis_from_index(t, 1:64)
-banks <- list()
-params <- list()
+design <- data.frame(u1 = (0:11 + stats::runif(12)) / 12, x1 = (sample(12) - stats::runif(12)) / 12)
+run_curves <- list()
 curves <- list()
 for (k in seq_along(sites)) {
-  runs_k <- t(apply(design, 1, function(z) model(z[1], z[2], k)))
-  Y <- runs_k %*% basis$Psi
-  bank <- ns$bank_fixed_hyper(design, Y, beta = c(2, 2), alpha = c(0, 0))
-  banks[[sites[k]]] <- bank
-  params[[k]] <- data.frame(site = sites[k], index = basis$index, level = basis$level, mu = bank$mu,
-                            lambda = bank$lambda, nugget = bank$nugget, loglik = NA_real_,
-                            beta_u1 = bank$beta[, 1], alpha_u1 = bank$alpha[, 1],
-                            beta_x1 = bank$beta[, 2], alpha_x1 = bank$alpha[, 2])
+  run_curves[[sites[k]]] <- t(apply(as.matrix(design), 1, function(z) model(z[1], z[2], k)))
   truth <- model(0.3, 0.55, k) + 0.1 * exp(-((t - 30 - 5 * k) / 0.8)^2)
   curves[[sites[k]]] <- t(replicate(4, truth + stats::rnorm(n_t, sd = 0.03)))
 }
-emulators <- structure(list(params = do.call(rbind, params), inputs = c("u1", "x1"), design = design,
-                            banks = banks, basis = basis, engine = "gasp", t = t),
-                       class = "wv_emulators")
-field <- ns$new_wv_field(t, curves, x_nom = c(x1 = 0.5))
-small <- calibrate(emulators, field, iu, n_draws = 40, n_inner = 5, chains = 1, burnin = 200, seed = 1)
+runs <- model_runs(design, run_curves, t)
+field <- field_runs(curves, t, x_nom = c(x1 = 0.5))
+basis <- wavelet_basis(runs, field)
+emulators <- suppressWarnings(fit_emulators(runs, basis))
+small <- suppressWarnings(calibrate(emulators, field, iu, n_draws = 40, n_inner = 5, chains = 1, burnin = 200,
+                                    seed = 1))
 
 # --- repeat and perturb its draws up to H -------------------------------------
 grow <- function(m, sd_rel = 0.02) {
@@ -85,7 +81,7 @@ draws[, fit$inputs] <- pmin(pmax(grow(dm[, fit$inputs, drop = FALSE]), 0), 1)
 fit$draws <- coda::mcmc.list(coda::mcmc(draws))
 fit$chain <- rep(1L, H)
 fit$settings$n_draws <- H
-rm(small, draws, dm, curves, banks, params)
+rm(small, draws, dm, curves, run_curves)
 
 one_site <- mib(8 * n_t * H)
 cat(sprintf("Fit: %d sites x %d time points x %d draws, %d coefficients per site; fit object %.1f MiB\n",
@@ -127,6 +123,15 @@ measure <- function(label, expr) {
   invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA))
 }
 
+# the peer: bias() in plain R, the curves of each site built whole
+plain_bias <- function(fit) {
+  lapply(names(fit$wb), function(s) {
+    Y <- tcrossprod(fit$wb[[s]], fit$basis$Psi)
+    rbind(mean = colMeans(Y), apply(Y, 2L, stats::quantile, c(0.05, 0.95)))
+  })
+}
+plain <- measure("bias(), plain R (peer)", plain_bias(fit))
+
 out <- rbind(
   `bias()` = measure("bias()", bias(fit)),
   `reality()` = measure("reality()", reality(fit)),
@@ -135,5 +140,6 @@ out <- rbind(
   `predict(type = "field_run")` = measure("predict(type = \"field_run\")", predict(fit, "field_run", seed = 1)),
   `where_fails()` = measure("where_fails()", where_fails(fit))
 )
+cat(sprintf("\nbias() against the plain-R peer: R peak ratio %.2f\n", out["bias()", "r"] / plain[["r"]]))
 cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all four sites' curves)\n",
             max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))

@@ -25,7 +25,7 @@ testbed_diagnosis <- function(hidden, seed = 1L) {
   key <- paste(hidden, seed)
   if (!is.null(testbed_fits[[key]])) return(testbed_fits[[key]])
   withr::local_options(list(wavevalid.quiet = TRUE))
-  v <- wavevalid:::testbed_validation(hidden, seed)
+  v <- testbed_validation(hidden, seed)
   tb <- v$tb
   fit <- v$fit
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]

@@ -25,7 +25,7 @@ test_that("on two test beds, adding each hidden mechanism makes the bias and the
   skip_unless_slow()
   for (seed in 1:2) {
     for (h in testbed_mechanisms()) {
-      cmp <- wavevalid:::testbed_loop(h, seed)$comparison
+      cmp <- testbed_loop(h, seed)$comparison
       change <- stats::setNames(cmp$change, cmp$metric)
       lab <- paste0(h, ", seed ", seed)
       expect_lt(change[["bias_rms"]], -0.7, label = lab)

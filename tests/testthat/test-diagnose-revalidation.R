@@ -6,7 +6,7 @@
 testbed_revalidated <- function(hidden, seed) {
   d <- testbed_diagnosis(hidden, seed)
   withr::local_options(list(wavevalid.quiet = TRUE))
-  fits <- wavevalid:::testbed_revalidation(d$tb, d$fit)
+  fits <- testbed_revalidation(d$tb, d$fit)
   as.data.frame(unclass(explain_bias(d$fit, fits, n_draws = 50)))
 }
 

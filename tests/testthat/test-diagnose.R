@@ -345,7 +345,7 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts, and o
     share <- flagged_share(d$fails, effect)
     expect_named(share, c("site1", "site2"))
     expect_true(all(share > 0.2), label = paste(h, paste(round(share, 2), collapse = ", ")))
-    pooled <- where_fails(wavevalid:::testbed_validation(h, 1L, pool_levels = 0:3)$fit)
+    pooled <- where_fails(testbed_validation(h, 1L, pool_levels = 0:3)$fit)
     lv <- attr(pooled, "levels")
     expect_true(all(lv$share[lv$level == 0] < 0.01), label = h)
     share <- flagged_share(pooled, effect)

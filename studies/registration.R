@@ -3,22 +3,22 @@
 # placing the knots between the event windows (register_curves(knots_to =):
 # against the mean of the model runs, or against the replicates' own
 # consensus), with landmarks at grid points or refined:
-#   knot_err   RMS error of the fitted knots against the true warps, in grid steps;
-#   knot_max   the largest such error;
+#   knot_err   rms error of the fitted knots against the true warps, in grid
+#              steps; knot_max, the largest such error;
 #   fine, coarse  energy (sum of squared retained wavelet coefficients) of the
 #              registered field mean minus the noise-free truth, at levels >= 7
 #              and below, by site;
 #   oracle     the same fine-level energy with the true warps.
 # With nothing hidden the model at the true inputs is the truth, so what is
 # left is the registration's own error (and the noise).
-#   Rscript bench/check_registration.R [seeds=1:5] [hidden=none] [refine=FALSE] [knots_every=2]
+#   Rscript studies/registration.R [seeds=1] [hidden=none] [refine=FALSE] [knots_every=2]
 suppressPackageStartupMessages(library(wavevalid))
-args <- commandArgs(trailingOnly = TRUE)
-seeds <- if (length(args) >= 1) eval(parse(text = paste0("c(", args[1], ")"))) else 1:5
-hidden <- if (length(args) >= 2) args[2] else "none"
-refine <- if (length(args) >= 3) as.logical(args[3]) else FALSE
-every <- if (length(args) >= 4) as.numeric(args[4]) else 2
-ns <- asNamespace("wavevalid")
+source("studies/args.R")
+opt <- study_args(list(seeds = "1", hidden = "none", refine = "FALSE", knots_every = "2"))
+seeds <- arg_numbers(opt$seeds)
+hidden <- opt$hidden
+refine <- arg_flag(opt$refine)
+every <- as.numeric(opt$knots_every)
 
 one <- function(seed) {
   tb <- testbed_suspension(seed = seed, hidden = hidden)
@@ -35,9 +35,10 @@ one <- function(seed) {
     stats::approx(stats::splinefun(k$t, k$w, method = "monoH.FC")(tt), tt, xout = x, rule = 2)$y
   }
   energy <- function(curves, s, keep) {
-    w <- drop(ns$basis_coef(basis, colMeans(curves[[s]]) - tb$truth$reality[[s]]))
+    w <- drop(wavelet_coef(basis, colMeans(curves[[s]]) - tb$truth$reality[[s]]))
     sum(w[keep]^2)
   }
+  # the replicates registered with their true warps
   oracle <- tb$A$field$curves
   for (r in seq_len(nrow(oracle[[1]]))) {
     src <- inverse(r, t)

@@ -1,10 +1,25 @@
 # --- the diagnosis on the test bed ----------------------------------------------
-# How the diagnosis tests and bench scripts validate the model on the test bed,
-# re-validate it with each mechanism, and judge the diagnosis criteria.
+# How the diagnosis tests and the studies (studies/, which source this file
+# from the package's root after library(wavevalid)) validate the model on the
+# test bed, re-validate it with each mechanism, and judge the diagnosis
+# criteria. Only the package's exported functions are used.
+
+# A classed error of the package's kind ("wavevalid_error_input"), for the
+# verdicts' checks of their arguments.
+testbed_abort <- function(message) {
+  stop(errorCondition(message, class = c("wavevalid_error_input", "wavevalid_error"), call = sys.call(-1L)))
+}
+
+# Evaluates `code` with R's random number generator (default kinds) seeded by
+# `seed`, restoring the caller's state.
+testbed_with_seed <- function(seed, code) {
+  withr::with_seed(seed, code, .rng_kind = "Mersenne-Twister", .rng_normal_kind = "Inversion",
+                   .rng_sample_kind = "Rejection")
+}
 
 # Field data of condition `condition` of test bed `tb` registered to
 # `reference` (model runs, whose mean is then the reference, or curves by
-# site) as the diagnosis tests and bench scripts register it: further knots
+# site) as the diagnosis tests and the studies register it: further knots
 # every 2 time units, and the maximum alone for a hidden tire lift-off, whose
 # minimum is flat. `refine` is register_curves()'s.
 testbed_register <- function(tb, reference, condition = "A", refine = FALSE) {
@@ -13,7 +28,7 @@ testbed_register <- function(tb, reference, condition = "A", refine = FALSE) {
                   refine = refine)
 }
 
-# calibrate() as the diagnosis tests and bench scripts run it: one chain,
+# calibrate() as the diagnosis tests and the studies run it: one chain,
 # seed 1, quiet, its warnings (short chains) muffled.
 testbed_calibrate <- function(emulators, field, iu, pool_levels = NULL, n_draws = 150L, n_inner = 20L,
                               registration_variance = FALSE, n_search = 200L) {
@@ -23,7 +38,7 @@ testbed_calibrate <- function(emulators, field, iu, pool_levels = NULL, n_draws 
 }
 
 # The validation of the model without any mechanism on the test bed's
-# condition A, as the diagnosis tests and bench scripts run it: field data
+# condition A, as the diagnosis tests and the studies run it: field data
 # registered to the runs (testbed_register()), the report's basis, emulators
 # and one chain; pool_levels and registration_variance are calibrate()'s.
 testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL,
@@ -104,8 +119,8 @@ testbed_check_runs <- function(iu, mechanism = NULL, n = 30L) {
   simulate_suspension(design_maximin(iu, n, nominal = FALSE, seed = 9), mechanism = mechanism)
 }
 
-# The verdicts of the diagnosis criteria on one test-bed case, as the bench
-# scripts judge them.
+# The verdicts of the diagnosis criteria on one test-bed case, as the studies
+# judge them.
 #
 # Criterion 1, from a where_fails() table `fails` of a fit with mechanism
 # `hidden` hidden and that mechanism's signature `effect` at the true inputs
@@ -119,14 +134,14 @@ testbed_check_runs <- function(iu, mechanism = NULL, n = 30L) {
 # rate, or by half the room above it when the mechanism acts over more than a
 # third of the grid (precision - base > min(base, (1 - base) / 2)).
 testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
-  check_class(fails, "wv_fails")
+  if (!inherits(fails, "wv_fails")) testbed_abort("`fails` must be a <wv_fails> object.")
   t <- attr(fails, "bias")$t
   longest <- if (nrow(fails)) round(max(fails$end - fails$start) / (t[2] - t[1])) else 0
   if (identical(hidden, "none")) {
     ok <- longest <= max_steps
     return(list(longest = longest, recall = NULL, precision = NULL, base = NULL, where_ok = ok, localised = ok))
   }
-  if (is.null(effect)) wv_abort("A hidden mechanism needs its {.arg effect} to judge the flags.")
+  if (is.null(effect)) testbed_abort("A hidden mechanism needs its `effect` to judge the flags.")
   recall <- flagged_share(fails, effect)
   precision <- flagged_share(fails, effect, of = "flags")
   base <- attr(precision, "acting")
@@ -143,14 +158,15 @@ testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
 # hidden, no candidate (shifts included) reaches 0.5. `top` and `top_prob`
 # name the leading candidate (among the mechanisms when one is hidden).
 testbed_explain_verdict <- function(ex, hidden) {
-  check_class(ex, "wv_explain")
+  if (!inherits(ex, "wv_explain")) testbed_abort("`ex` must be a <wv_explain> object.")
   ex <- as.data.frame(unclass(ex))
   if (identical(hidden, "none")) {
     return(list(top = ex$candidate[1], top_prob = ex$inclusion_prob[1], ok = all(ex$inclusion_prob < 0.5)))
   }
   mech <- ex[!startsWith(ex$candidate, "shift:"), , drop = FALSE]
   if (!hidden %in% mech$candidate) {
-    wv_abort("{.val {hidden}} is not among the candidates {.val {mech$candidate}}.")
+    testbed_abort(sprintf("\"%s\" is not among the candidates %s.", hidden,
+                          paste0("\"", mech$candidate, "\"", collapse = ", ")))
   }
   p <- mech$inclusion_prob[mech$candidate == hidden]
   list(top = mech$candidate[1], top_prob = mech$inclusion_prob[1],
@@ -178,15 +194,15 @@ testbed_loop <- function(hidden, seed, fit_model = NULL, refine = FALSE, holdout
   before <- fit_model(tb, tb$A$runs, tb$iu, NULL)
   s_name <- paste0("s_", hidden)
   design <- tb$A$runs$design
-  with_rng_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
+  testbed_with_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
   runs <- simulate_suspension(design, mechanism = hidden)
   iu_after <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
   after <- fit_model(tb, runs, iu_after, hidden)
 
   design_B <- tb$B$runs$design
   s_range <- stats::quantile(as.matrix(after$draws)[, s_name], c(0.005, 0.995))
-  with_rng_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
-                     nrow(design_B))
+  testbed_with_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
+                         nrow(design_B))
   runs_B <- simulate_suspension(design_B, mechanism = hidden)
   p_before <- suppressWarnings(stats::predict(before, type = "new_nominal", new_runs = tb$B$runs,
                                               x_nom = tb$B$x_nom, seed = 1))
