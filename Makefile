@@ -17,6 +17,9 @@ VERSION  = $(shell sed -n 's/^Version: //p' DESCRIPTION)
 TARBALL  = $(PKG)_$(VERSION).tar.gz
 
 export R_STRIP_SHARED_LIB = strip --strip-debug
+# The C++ files compile two at a time (R CMD INSTALL, build and check run make with these flags).
+JOBS ?= 2
+RMAKE = MAKEFLAGS=-j$(JOBS)
 
 DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggplot2 \
            r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 \
@@ -37,17 +40,17 @@ document:
 	$(RSCRIPT) -e 'Rcpp::compileAttributes(); roxygen2::roxygenise()'
 
 install: deps
-	$(R) CMD INSTALL --preclean --no-multiarch --strip .
+	$(RMAKE) $(R) CMD INSTALL --preclean --no-multiarch --strip .
 
 demo: install
 	$(RSCRIPT) inst/scripts/demo.R $(OUT)
 
 $(TARBALL): deps
 	rm -f $(PKG)_*.tar.gz
-	$(R) CMD build .
+	$(RMAKE) $(R) CMD build .
 
 test: $(TARBALL)
-	NOT_CRAN=true WAVEVALID_SLOW_TESTS=false _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
+	$(RMAKE) NOT_CRAN=true WAVEVALID_SLOW_TESTS=false _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
 	@mkdir -p .test-counts && $(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout .test-counts/default.txt
 
 # The slow tier runs on the package that `make test` checked when it is newer than the sources (as in CI),
@@ -58,13 +61,13 @@ test-slow: deps
 	    [ -z "$$(find R src/*.cpp src/*.h DESCRIPTION NAMESPACE -newer $(PKG).Rcheck/$(PKG)/DESCRIPTION 2>/dev/null)" ]; then \
 	  lib=$(CURDIR)/$(PKG).Rcheck; \
 	else \
-	  mkdir -p .lib && $(R) CMD INSTALL --preclean --no-multiarch --strip -l .lib . >/dev/null && lib=$(CURDIR)/.lib; \
+	  mkdir -p .lib && $(RMAKE) $(R) CMD INSTALL --preclean --no-multiarch --strip -l .lib . >/dev/null && lib=$(CURDIR)/.lib; \
 	fi; \
 	echo "slow tier on the package installed in $$lib"; \
 	mkdir -p .test-counts && R_LIBS="$$lib$${R_LIBS:+:$$R_LIBS}" $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt '$(SLOW_FILES)'
 
 check: $(TARBALL)
-	$(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
+	$(RMAKE) $(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
 
 bench: install
 	for f in bench/*.R; do echo "== $$f"; $(RSCRIPT) $$f || exit 1; done
