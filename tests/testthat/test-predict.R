@@ -151,8 +151,7 @@ test_that("the bands for a new vehicle hold their share of new vehicles, at the 
   v <- testbed_diagnosis("none")
   tb <- v$tb
   xn <- names(tb$B$x_nom)
-  # 200 vehicles in the slow tier, 50 in the default one (a wider Monte Carlo error)
-  vehicles <- function(nominal, seed, n = if (slow_tier()) 200L else 50L) {
+  vehicles <- function(nominal, seed, n = 200L) {
     withr::with_seed(seed, {
       d <- as.data.frame(wavevalid:::iu_prior_draws(tb$iu, n, nominal = nominal))
       d$u1 <- tb$truth$u[["u1"]]
