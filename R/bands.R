@@ -28,7 +28,7 @@
 #'   Each curve draw is scored by its largest standardised distance from the
 #'   pointwise mean, `max_t |y_h(t) - mean(t)| / sd(t)`; the `ceiling(level * H)`
 #'   curves with the smallest scores are kept and the band is their pointwise
-#'   envelope. At most `100 (1 - level)`% of the curve draws leave it, and,
+#'   envelope. At most `100 (1 - level)`\% of the curve draws leave it, and,
 #'   because the score follows the pointwise spread, it is close to the
 #'   narrowest band with that property.
 #'

@@ -192,7 +192,7 @@ print.summary_wv_fit <- function(x, ...) {
 #' @param type One of `"inputs"`, `"bias"`, `"reality"`, `"trace"`.
 #' @inheritParams bands
 #' @param windows Optional list of `c(from, to)` time windows to zoom into,
-#'   one panel each (`NULL`: the whole record).
+#'   one column of panels each (`NULL`: the whole record).
 #' @param ... Unused.
 #' @return A ggplot object.
 #' @export

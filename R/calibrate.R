@@ -7,7 +7,7 @@
 #' and model coefficients `w^M`.
 #'
 #' Per site the field replicates are projected on the basis
-#' (`W = curves %*% Psi`); their mean `wbar`, sum of squares `s2` and the number
+#' (`W = curves \%*\% Psi`); their mean `wbar`, sum of squares `s2` and the number
 #' of replicates `R` are the data. For each saved draw the sampler
 #' 1. draws `sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2)` (the replicates
 #'    alone fix sigma: the modularization of the method), or uses `sigma2`;
@@ -36,7 +36,7 @@
 #'   during the burn-in (adaptive Metropolis, Haario, Saksman and Tamminen
 #'   2001): `(2.38^2 / d) (Sigma_hat + eps)` from the running covariance of the
 #'   chain, times a scale tuned towards acceptance 0.234, starting from a
-#'   diagonal proposal of 2% of each range. Proposals outside the support have
+#'   diagonal proposal of 2\% of each range. Proposals outside the support have
 #'   zero posterior density and are rejected (this keeps the kernel symmetric,
 #'   which reflection at the bounds would not be for a correlated proposal).
 #'   The burn-in starts from the best, by profile likelihood (`tau2` at its

@@ -153,7 +153,7 @@
 #'   is a version of), and with curve candidates and `shifts = TRUE`,
 #'   `absorbed`: for each of the user's candidates, the share of its signature
 #'   (in the regression's metric) that the parameter shifts span, and the
-#'   inputs that carry it. `print` warns of a candidate 75% or more of which
+#'   inputs that carry it. `print` warns of a candidate 75\% or more of which
 #'   is a parameter shift: the bias can hardly tell such an effect from a
 #'   change of those inputs, since the calibration has already moved them to
 #'   absorb what they can, and a low inclusion probability is then weak

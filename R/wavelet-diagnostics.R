@@ -118,7 +118,7 @@ plot.wv_reconstruction <- function(x, ...) {
 #' coefficient as independent across coefficients, with its own variance.
 #' This check (report Figure 3) sets the residual processes of the field data
 #' (each replicate minus the replicate mean) beside R processes simulated from
-#' that model, `Psi %*% rnorm(|I|, sd = sigma)`, with `sigma_i^2 = s_i^2 / (R -
+#' that model, `Psi \%*\% rnorm(|I|, sd = sigma)`, with `sigma_i^2 = s_i^2 / (R -
 #' 1)` the unbiased replicate variance of coefficient i. Similar time
 #' correlation in both panels supports the model. The field needs at least
 #' two replicates at the site checked.
