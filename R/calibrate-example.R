@@ -59,13 +59,13 @@ bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
 #'
 #' `example_fit()` is `calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200,
 #' n_inner = 20, chains = 2, seed = seed, quiet = TRUE)` on
-#' `ex <- example_problem(seed)`, with the warning that chains this short have
-#' not mixed muffled. It is meant to show the functions at work, not to be
-#' read as a converged posterior.
+#' `ex <- example_problem(seed)`, muffling the warning that chains this short
+#' have not mixed. It is meant to show the functions at work, not to be read
+#' as a converged posterior.
 #'
-#' @param seed A whole number fixing the designs' jitter and the field noise
-#'   (`example_problem()`) and, the same number, the draws (`example_fit()`).
-#'   The same seed gives identical objects.
+#' @param seed A whole number fixing the design of the runs and the field
+#'   noise and, for `example_fit()`, the draws of the calibration. The same
+#'   seed gives identical objects.
 #' @return `example_problem()`: a list with `emulators` (a `wv_emulators`
 #'   object), `field` (a `wv_field` object) and `iu` (a `wv_iu` object), the
 #'   first three arguments of [calibrate()]. `example_fit()`: a `wv_fit`
