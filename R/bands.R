@@ -28,7 +28,7 @@
 #'   Each curve draw is scored by its largest standardised distance from the
 #'   pointwise mean, `max_t |y_h(t) - mean(t)| / sd(t)`; the `ceiling(level * H)`
 #'   curves with the smallest scores are kept and the band is their pointwise
-#'   envelope. At most `100 (1 - level)`% of the curve draws leave it, and,
+#'   envelope. At most `100 (1 - level)`\% of the curve draws leave it, and,
 #'   because the score follows the pointwise spread, it is close to the
 #'   narrowest band with that property.
 #'
@@ -40,8 +40,9 @@
 #' error quantiles) and `lower_curve`, `upper_curve` bound reality around the
 #' pure-model curve.
 #'
-#' @param fit A `wv_fit` object.
-#' @param level Probability content of the bands (default 0.9).
+#' @param fit A `wv_fit` object, from [calibrate()] or [validate()].
+#' @param level Credibility: the probability content of the bands (default
+#'   0.9).
 #' @param residual Add the detail of the field curves outside the retained
 #'   basis to reality (see Details).
 #' @return A data frame with columns `site`, `t`, `mean`, `lower`, `upper`,
@@ -49,9 +50,7 @@
 #'   `model_prediction()`).
 #' @name bands
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
+#' fit <- example_fit()
 #' head(bias(fit))
 #' head(reality(fit, level = 0.8))
 #' head(model_prediction(fit))

@@ -41,7 +41,47 @@ bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
        weights = weights, chol = chol, y = Y, lower = lower, width = width)
 }
 
-example_calibration_inputs <- function(seed = 1) {
+#' Example objects
+#'
+#' A small calibration problem and a fit of it, for examples, tests and
+#' trying the functions out: `example_problem()` builds in a moment what
+#' [calibrate()] needs, `example_fit()` calibrates it in about a second.
+#'
+#' The problem has one site and a grid of 32 time points. The model has one
+#' calibration input `u1` and one variation input `x1`, both on [0, 1]:
+#' `(1 + x1 / 2) sin(2 pi t)` plus a bump of height `u1` near `t = 0.6`. Its
+#' 12 runs are summarised by 16 wavelet coefficients, each with a GASP
+#' emulator of fixed correlation parameters. The field data are four
+#' replicates of the model at `u1 = 0.3`, `x1 = 0.55`, with noise of standard
+#' deviation 0.03 and a bump of height 0.1 near `t = 0.25` that the model
+#' lacks: the bias that [where_fails()] should find and [explain_bias()]
+#' explain.
+#'
+#' `example_fit()` is `calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200,
+#' n_inner = 20, chains = 2, seed = seed, quiet = TRUE)` on
+#' `ex <- example_problem(seed)`, muffling the warning that chains this short
+#' have not mixed. It is meant to show the functions at work, not to be read
+#' as a converged posterior.
+#'
+#' @param seed A whole number fixing the design of the runs and the field
+#'   noise and, for `example_fit()`, the draws of the calibration. The same
+#'   seed gives identical objects.
+#' @return `example_problem()`: a list with `emulators` (a `wv_emulators`
+#'   object), `field` (a `wv_field` object) and `iu` (a `wv_iu` object), the
+#'   first three arguments of [calibrate()]. `example_fit()`: a `wv_fit`
+#'   object (see [calibrate()]).
+#' @export
+#' @examples
+#' ex <- example_problem()
+#' ex$emulators
+#' ex$field
+#' ex$iu
+#'
+#' fit <- example_fit()
+#' fit
+#' head(bias(fit))
+example_problem <- function(seed = 1) {
+  check_number(seed, integer = TRUE)
   with_rng_seed(seed, {
     t <- seq(0, 1, length.out = 33)[-33]
     iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1),
@@ -65,3 +105,17 @@ example_calibration_inputs <- function(seed = 1) {
     list(emulators = emulators, field = field, iu = iu)
   })
 }
+
+#' @rdname example_problem
+#' @export
+example_fit <- function(seed = 1) {
+  ex <- example_problem(seed)
+  withCallingHandlers(
+    calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 20, chains = 2,
+              seed = seed, quiet = TRUE),
+    wavevalid_warning_mixing = function(w) invokeRestart("muffleWarning")
+  )
+}
+
+# The former name of example_problem(), kept for the package's tests.
+example_calibration_inputs <- example_problem

@@ -81,9 +81,7 @@ as.mcmc.list.wv_fit <- function(x, ...) x$draws
 #' @return A named numeric vector, one element per input of the fit.
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 10,
-#'                  chains = 1, seed = 1, quiet = TRUE)
+#' fit <- example_fit()
 #' coef(fit)
 #' # one row of a design, to run the model there
 #' as.data.frame(as.list(coef(fit)))
@@ -192,15 +190,14 @@ print.summary_wv_fit <- function(x, ...) {
 #'
 #' @param object A `wv_fit` object.
 #' @param type One of `"inputs"`, `"bias"`, `"reality"`, `"trace"`.
-#' @param level Probability content of the bands.
-#' @param windows Optional list of `c(from, to)` time windows to zoom into.
+#' @inheritParams bands
+#' @param windows Optional list of `c(from, to)` time windows to zoom into,
+#'   one column of panels each (`NULL`: the whole record).
 #' @param ... Unused.
 #' @return A ggplot object.
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
+#' fit <- example_fit()
 #' autoplot(fit, "inputs")
 #' autoplot(fit, "reality")
 autoplot.wv_fit <- function(object, type = c("inputs", "bias", "reality", "trace"), level = 0.9,

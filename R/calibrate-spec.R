@@ -94,10 +94,11 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
 
 # The bias-variance groups of the coefficients of a basis: one per level, or
 # one for the levels in pool_levels (those present) and one per other level.
-# Returns label and (lowest) level of each group, the 1-based group of each
-# coefficient and the pooled levels.
-bias_groups <- function(level, pool_levels = NULL, call = rlang::caller_env()) {
-  lv <- sort(unique(level))
+# `coef_level` is the wavelet level of each coefficient. Returns label and
+# (lowest) level of each group, the 1-based group of each coefficient and the
+# pooled levels.
+bias_groups <- function(coef_level, pool_levels = NULL, call = rlang::caller_env()) {
+  lv <- sort(unique(coef_level))
   if (!is.null(pool_levels)) {
     if (!is.numeric(pool_levels) || anyNA(pool_levels) || any(pool_levels != round(pool_levels)) ||
         any(pool_levels < 0) || length(unique(pool_levels)) < 2L) {
@@ -115,9 +116,9 @@ bias_groups <- function(level, pool_levels = NULL, call = rlang::caller_env()) {
       ), call = call)
     }
   }
-  if (is.null(pool_levels)) return(list(label = as.character(lv), level = lv, group = match(level, lv), pooled = NULL))
+  if (is.null(pool_levels)) return(list(label = as.character(lv), level = lv, group = match(coef_level, lv), pooled = NULL))
   low <- min(pool_levels)
-  key <- ifelse(level %in% pool_levels, low, level)
+  key <- ifelse(coef_level %in% pool_levels, low, coef_level)
   lev <- sort(unique(key))
   label <- as.character(lev)
   contiguous <- identical(pool_levels, seq(low, max(pool_levels)))

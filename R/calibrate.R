@@ -7,7 +7,7 @@
 #' and model coefficients `w^M`.
 #'
 #' Per site the field replicates are projected on the basis
-#' (`W = curves %*% Psi`); their mean `wbar`, sum of squares `s2` and the number
+#' (`W = curves \%*\% Psi`); their mean `wbar`, sum of squares `s2` and the number
 #' of replicates `R` are the data. For each saved draw the sampler
 #' 1. draws `sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2)` (the replicates
 #'    alone fix sigma: the modularization of the method), or uses `sigma2`;
@@ -36,7 +36,7 @@
 #'   during the burn-in (adaptive Metropolis, Haario, Saksman and Tamminen
 #'   2001): `(2.38^2 / d) (Sigma_hat + eps)` from the running covariance of the
 #'   chain, times a scale tuned towards acceptance 0.234, starting from a
-#'   diagonal proposal of 2% of each range. Proposals outside the support have
+#'   diagonal proposal of 2\% of each range. Proposals outside the support have
 #'   zero posterior density and are rejected (this keeps the kernel symmetric,
 #'   which reflection at the bounds would not be for a correlated proposal).
 #'   The burn-in starts from the best, by profile likelihood (`tau2` at its
@@ -46,7 +46,8 @@
 #'   chain; with probability 0.1 a cycle uses the report's mixture step instead
 #'   of the random walk, for global moves.
 #'
-#' Variation inputs have prior `N(x_nom, prior_sd^2)` truncated to the I/U
+#' `iu` holds every input of the emulators. Variation inputs have prior
+#' `N(x_nom, prior_sd^2)` truncated to the I/U
 #' range shifted by `x_nom - nominal` (`x_nom` from `field$x_nom` when given,
 #' else the nominals of `iu`); calibration inputs are uniform on their range.
 #' The chain starts at the nominals. Several sites share the inputs; each has
@@ -62,26 +63,15 @@
 #' the whole record. `pool_levels = 0:3` gives the coefficients of levels 0
 #' to 3 (the levels the basis keeps whole by default) one variance per site,
 #' with `mean(sigma2)` over them in its prior; the other levels keep their own.
-#' On the suspension test bed with nothing hidden, after a second wave of runs
-#' at [design_posterior()] and the replicates registered anew to its mean, one
-#' seed of five flagged 1843 grid steps, 99\% of the bias energy at level 0
-#' (reality 0.08-0.14 kN above the model along the whole record); with
-#' `pool_levels = 0:3` the longest flagged interval at the five seeds was 0,
-#' 12, 16, 24 and 8 steps (3 to 1843 without), while a hidden mechanism was
-#' flagged where it acts at 17 of 20 (mechanism, seed) cases (18 without;
-#' `bench/check_full_workflow.R`).
-#'
-#' Without a second wave (the package's tests' settings, seeds 1 to 5), the
-#' method's prior left a level-0 offset of up to 0.68 kN in 8 of the 20 cases
-#' with a mechanism hidden, and the whole record was flagged; with
-#' `pool_levels = 0:3` the level-0 share of the bias energy stayed below
-#' 0.5\% and the flags of a hidden bump stop or tire lift-off lay where it
-#' acts ([flagged_share()] with `of = "flags"`: 2.8 to 15 times the share of
-#' the grid where it acts, in 9 of 10 cases). But with nothing hidden the
-#' flags grew to 7-37 steps (1-4096 without), re-validating each mechanism
-#' ([explain_bias()]) claimed one at 3 seeds of 5 (none without), and adding
-#' a hidden bump stop cut the root mean square bias by 61\% at seed 1 (more
-#' than 70\% without): `bench/check_localization.R`.
+#' Pooling helps most after a second wave of runs at [design_posterior()]:
+#' on the suspension test bed with nothing hidden, the method's prior then
+#' let a level-0 offset flag the whole record at one seed of five, and
+#' `pool_levels = 0:3` cut the longest flagged interval to 24 grid steps or
+#' fewer while a hidden mechanism was still flagged where it acts in 17 of 20
+#' cases. Without a second wave, pooling kept level-0 offsets out of the bias
+#' and the flags where a hidden mechanism acts, but with nothing hidden
+#' [explain_bias()] then claimed a mechanism at three seeds of five (the
+#' studies in the package's source repository, folder `studies/`).
 #'
 #' @section Levels cut off the inputs:
 #' Every coefficient informs the inputs in the method. When some wavelet
@@ -94,18 +84,12 @@
 #' levels alone, and the other levels' `tau2` and bias coefficients from their
 #' conditional posterior given the inputs drawn. The bias of the levels cut
 #' off is then the discrepancy at inputs they did not choose, and their bands
-#' widen with the inputs' uncertainty. On the suspension test bed (nothing
-#' hidden, seeds 1-5, field registered on grid landmarks, 150 x 20 draws) the
-#' posterior-mean inputs were 0.03-0.17 (coded, root mean square) from the
-#' truth with every level, 0.06-0.13 with levels 0 to 7 and 0.07-0.09 with
-#' levels 0 to 5; the truth was 7.8-25.5, 3.9-8.3 and 2.0-3.1 posterior
-#' standard deviations away, and inside the 90\% intervals for 29\%, 29\% and
-#' 80\% of the inputs. The levels cut off then carry more bias, and
-#' [explain_bias()] read more into it: with nothing hidden, a mechanism
-#' reached inclusion 1.00 at one seed of five with levels 0 to 7 or 0 to 5,
-#' and some candidate (a mechanism or a parameter shift) reached 0.5 at every
-#' seed, where with every level none did. The cut is a sensitivity check on
-#' how far the fine levels move the inputs, not a default.
+#' widen with the inputs' uncertainty. On the suspension test bed with
+#' nothing hidden, levels 0 to 5 alone put the true inputs inside the 90\%
+#' intervals for 80\% of them (29\% with every level), but the levels cut off
+#' then carry more bias, and [explain_bias()] read a mechanism into it more
+#' often. The cut is a sensitivity check on how far the fine levels move the
+#' inputs, not a default.
 #'
 #' @section Tempered posterior:
 #' The method's likelihood treats the errors of the several hundred retained
@@ -122,18 +106,11 @@
 #' coefficients. The bias and model coefficients are still drawn from eq.
 #' (16)-(17) given the inputs, variances and field data.
 #'
-#' On the suspension test bed (seeds 1 to 5, field registered on grid
-#' landmarks, 150 x 20 draws, one chain) with nothing hidden, the true inputs
-#' fell inside the 90\% intervals for 11\% to 44\% of the inputs at temper 1
-#' and for 67\% to 100\% at 0.1 and at 0.02 (posterior standard deviations
-#' about 0.3 to 0.5 and 0.7 to 0.8 of the prior's). The longest interval
-#' [where_fails()] flagged was 1, 59, 36, 8 and 4096 grid steps at temper 1; 0,
-#' 0, 8, 1 and 1783 at 0.1; and 0, 6, 2, 4 and 3 at 0.02. The power to see a
-#' missing mechanism fell with them: the flagged intervals covered more than a
-#' fifth of where it acts, at both sites, in 18 of the 20 cases with a
-#' mechanism hidden (four mechanisms, five seeds) at temper 1, in 7 at 0.1
-#' and in 3 at 0.02. A hidden strut friction was so covered at every seed at
-#' temper 1 and at none at 0.1. It is a sensitivity option, not a default: with
+#' On the suspension test bed with nothing hidden, `temper = 0.1` put the
+#' true inputs inside the 90\% intervals for two thirds or more of them (a
+#' tenth to a half at `temper = 1`) and shortened the flagged intervals; but
+#' a hidden mechanism was then flagged where it acts in 7 of 20 cases,
+#' against 18 at `temper = 1`. It is a sensitivity option, not a default: with
 #' the likelihood tempered, the bias band flags less, wrongly and rightly.
 #'
 #' The loop runs in C++. Each chain is one future
@@ -141,12 +118,16 @@
 #' run, and `seed` alone decides the draws.
 #'
 #' @param emulators A `wv_emulators` object ([fit_emulators()]).
-#' @param field A `wv_field` object on the grid of the emulators' basis.
-#' @param iu A `wv_iu` object holding every input of the emulators.
+#' @param field A `wv_field` object ([field_runs()]): the field replicates, on
+#'   the grid of the model runs and of the wavelet basis.
+#' @param iu A `wv_iu` object ([iu_map()]): the uncertain inputs with their
+#'   types, ranges, nominal values and priors.
 #' @param n_draws Saved draws per chain.
 #' @param n_inner Metropolis-Hastings cycles between saved draws (thinning).
 #' @param chains Number of chains.
-#' @param seed `NULL` (drawn from R's RNG) or a whole number.
+#' @param seed `NULL` (a seed drawn from R's random number generator, so
+#'   that [set.seed()] applies) or a whole number: the random draws depend on
+#'   it alone, not on the state of R's generator.
 #' @param sigma2 Optional fixed field variances: a numeric vector (one value or
 #'   one per coefficient) for a single site, or a named list of such vectors by
 #'   site. Needed for sites with fewer than two replicates; `"finest"`
@@ -192,19 +173,17 @@
 #'   with the nominal point, for the start of each chain's burn-in under
 #'   `"adaptive"` (the best by profile likelihood; 0 starts at the nominals).
 #'   The random walk stays in the mode it starts in, so where the posterior
-#'   has several, a wider search finds the better one more often. On the
-#'   suspension test bed with a hidden tire lift-off and its strength added
-#'   as an input (ten inputs), a chain started from 200 draws stayed with both
-#'   calibration inputs near 0.87, the truth being 0.39 and 0.72; four chains
-#'   started from 2000 draws each settled near the truth. Each draw costs one
-#'   emulator prediction: there, 2000 draws added 1.7 s to a calibration of
-#'   7.7 s (150 draws of 20 cycles). See the section Proposals.
+#'   has several, a wider search finds the better one more often (on the
+#'   suspension test bed with ten inputs, chains started from 2000 draws found
+#'   the mode near the true inputs that 200 draws missed). Each draw costs
+#'   one emulator prediction. See the section Proposals.
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
 #'   than one when the chains run one after another (the default sequential
 #'   [future::plan()]); with one worker per core, keep 1.
-#' @param quiet Suppress the progress bar (default `getOption("wavevalid.quiet")`).
+#' @param quiet Suppress the progress bar (default
+#'   `getOption("wavevalid.quiet", FALSE)`).
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
 #'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
@@ -234,7 +213,7 @@
 #' @seealso [bias()], [reality()], [model_prediction()], [validate()].
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
+#' ex <- example_problem()
 #' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
 #'                  chains = 2, seed = 1, quiet = TRUE)
 #' fit
@@ -284,12 +263,13 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
 
 # --- running the chains -------------------------------------------------------
 
-# One value per tau2 group: 1 when its coefficients inform the inputs (their
+# One value per tau2 group (`coef_level`: the wavelet level of each
+# coefficient): 1 when its coefficients inform the inputs (their
 # levels are all in inform_levels), 0 when they are cut off; NULL when every
 # level informs them.
-informing_groups <- function(inform_levels, level, bias_group, groups, call = rlang::caller_env()) {
+informing_groups <- function(inform_levels, coef_level, bias_group, groups, call = rlang::caller_env()) {
   if (is.null(inform_levels)) return(NULL)
-  lv <- sort(unique(level))
+  lv <- sort(unique(coef_level))
   if (!is.numeric(inform_levels) || !length(inform_levels) || anyNA(inform_levels) ||
       any(inform_levels != round(inform_levels))) {
     wv_abort(c("{.arg inform_levels} must be whole wavelet levels (0 for the scaling coefficient), or NULL.",
@@ -300,7 +280,7 @@ informing_groups <- function(inform_levels, level, bias_group, groups, call = rl
     wv_abort(c("{.arg inform_levels} names level{?s} {absent} that the basis does not hold.",
                "i" = "The basis holds levels {lv}."), call = call)
   }
-  inside <- level %in% inform_levels
+  inside <- coef_level %in% inform_levels
   out <- vapply(groups$name, function(g) {
     k <- unlist(lapply(bias_group, function(b) b == g))
     here <- unique(rep(inside, length(bias_group))[k])

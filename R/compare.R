@@ -22,7 +22,7 @@
 #'   other nominal inputs). `field` is a `wv_field`, or a list of two,
 #'   `before` and `after`, when each model's held-out field is registered to
 #'   that model's runs.
-#' @param level Probability of the bands.
+#' @inheritParams bands
 #' @return A `wv_comparison` data frame with columns `metric`, `before`,
 #'   `after`, `change` (relative change, after / before - 1) and rows
 #'   `bias_rms`, `bias_peak`, `band_width`, `model_rmse` (pure-model
@@ -30,14 +30,13 @@
 #'   `holdout_rmse` and `holdout_coverage`.
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' before <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                     chains = 1, seed = 1, quiet = TRUE)
+#' before <- example_fit()
+#' ex <- example_problem()
 #' # in practice `after` is the model with the added effect (see
 #' # vignette("missing-effect", package = "wavevalid")); here the same model
 #' # with the bias variances held small, to show the layout
-#' after <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                    chains = 1, seed = 1, fix_tau2 = 1e-4, quiet = TRUE)
+#' after <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 20,
+#'                    chains = 2, seed = 1, fix_tau2 = 1e-4, quiet = TRUE)
 #' cmp <- compare_validations(before, after)
 #' cmp
 #' autoplot(cmp)

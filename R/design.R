@@ -11,11 +11,9 @@
 #' their errors away from the runs exceed their predictive variances and the
 #' calibrated inputs compensate. Adding runs is the remedy.
 #'
-#' @param iu A `wv_iu` object ([iu_map()]).
+#' @inheritParams calibrate
 #' @param n Number of runs, including the nominal point when `nominal = TRUE`.
 #' @param nominal Add the nominal point as the last run.
-#' @param seed `NULL` (R's RNG) or a whole number; the design depends only on
-#'   it, not on the state of R's generator.
 #' @return A data frame with one column per input of `iu` and `n` rows, in the
 #'   inputs' own units.
 #' @export
@@ -57,40 +55,26 @@ design_maximin <- function(iu, n, nominal = TRUE, seed = NULL) {
 #' fitting the emulators again on the same basis and calibrating again removes
 #' most of that error.
 #'
-#' On the test bed with nothing hidden (`bench/check_posterior_runs.R`, seeds
-#' 1 to 5, 30 runs added to 66), with the replicates free of time warps (what
-#' a perfect registration would leave): the error of the posterior mean
-#' inputs fell from 0.012--0.034 to 0.001--0.003 (root mean square over the
-#' nine coded inputs), and the true inputs fell inside the 90\% intervals for
-#' 7 of the 9 inputs at every seed (3 to 6 before). At the two seeds where
-#' the first emulators' error was flagged all along the record, the largest
-#' credible bias fell from 0.13 and 0.06 kN to 0.005 and 0. Elsewhere it
-#' stayed below 0.01 kN (0.2\% of the load), but the narrower band then
-#' flagged it over longer intervals (up to 74 grid steps, from up to 28): a
-#' `tolerance` in [where_fails()] says how small a bias does not matter.
-#' With the replicates registered to the mean of the first runs the inputs
-#' also came closer to the truth (0.03--0.17 to 0.006--0.10), but what the
-#' registration leaves at the events is then a credible misfit of the model,
-#' and the flags grew at three seeds of five: the second wave shows the
-#' registration's error more sharply, it does not hide it. Registering the
-#' replicates again to the mean of the new runs, whose landmarks sit near
-#' where the model at the calibrated inputs has them, and building the basis
-#' anew on all the runs, cut the largest credible bias at seeds 2 to 5 from
-#' 0.23--0.43 kN to 0.005--0.12 and the input error from 0.05--0.10 to
-#' 0.03--0.06; flags longer than 3 grid steps remained at four seeds of five,
-#' and a third wave, registered again, made them longer at four. Nor does it bring
-#' back inputs that make up for a missing mechanism: with the bump stop
-#' hidden (seed 1), the calibrated inputs stayed as far from the truth
-#' (0.158, then 0.168) and the offset of the record's mean, which the inputs
-#' trade against the events, grew nearly sixfold in energy.
+#' On the suspension test bed with nothing hidden and replicates free of
+#' time warps, 30 runs added to 66 cut the error of the posterior mean inputs
+#' about tenfold, and the largest credible bias from about 0.1 kN to 0.005 kN
+#' or less where the first emulators' error had been flagged along the whole
+#' record (the studies in the package's source repository, folder
+#' `studies/`). The narrower band can then flag a small bias over longer
+#' intervals: a `tolerance` in [where_fails()] says how small a bias does
+#' not matter. With registered
+#' replicates, the second wave shows the registration's error at the events
+#' more sharply rather than hiding it: register the replicates again to the
+#' mean of the new runs, whose landmarks sit near where the calibrated model
+#' has them, and build the basis anew on all the runs. Nor does a second wave
+#' bring back inputs that make up for a missing mechanism.
 #'
-#' @param fit A `wv_fit` ([calibrate()]).
+#' @inheritParams bands
+#' @inheritParams calibrate
 #' @param n Number of runs.
 #' @param spread Standard deviation of the step added to each posterior
 #'   draw, as a share of each input's range (`0`: the posterior draws
 #'   themselves).
-#' @param seed `NULL` (R's RNG) or a whole number; the design depends only on
-#'   it and `fit`, not on the state of R's generator.
 #' @return A data frame with one column per input of the fit's emulators and
 #'   `n` rows, in the inputs' own units: the variation inputs at their actual
 #'   values (nominal plus variation), as the runs' design has them.
@@ -98,9 +82,7 @@ design_maximin <- function(iu, n, nominal = TRUE, seed = NULL) {
 #'   new runs to the old.
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
+#' fit <- example_fit()
 #' design_posterior(fit, 5, seed = 1)
 design_posterior <- function(fit, n, spread = 0.05, seed = NULL) {
   check_class(fit, "wv_fit")

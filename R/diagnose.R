@@ -13,8 +13,7 @@
 #' small offset of the whole record, or a misfit at the scale of the field
 #' noise that many replicates make credible, then drops out.
 #'
-#' @param fit A `wv_fit`.
-#' @param level Probability of the bias band.
+#' @inheritParams bands
 #' @param band `"simultaneous"` (default): the narrowest band holding whole
 #'   bias curves with probability `level` (see [bias()]), so that a bias curve
 #'   that is zero everywhere is flagged nowhere with probability about
@@ -41,9 +40,7 @@
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
+#' fit <- example_fit()
 #' wf <- where_fails(fit)
 #' wf
 #' attr(wf, "levels")
@@ -356,10 +353,8 @@ plot.wv_fails <- function(x, ...) {
 #'   with attribute `acting`: the share of the grid where the effect acts.
 #' @export
 #' @examples
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
-#' t <- ex$field$t
+#' fit <- example_fit()
+#' t <- fit$field$t
 #' # the field data of the example carry a bump near t = 0.25 that the model lacks
 #' bump <- list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2))
 #' flagged_share(where_fails(fit), bump)

@@ -24,7 +24,7 @@
 #' runs; a level needs `min_errors` of them (otherwise its variances are left
 #' as they are, with a warning).
 #'
-#' @param emulators A `wv_emulators` object from [fit_emulators()].
+#' @inheritParams calibrate
 #' @param new_runs Held-out model runs (`wv_runs`) on the basis grid, with
 #'   every input of the emulators and every emulated site, not among the runs
 #'   the emulators were fitted to.

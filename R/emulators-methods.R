@@ -42,9 +42,8 @@ print.wv_emulators <- function(x, ...) {
 #' posterior of the inputs will be too narrow and off; add runs to the design,
 #' or widen the predictive variances by level with [rescale_emulators()].
 #'
+#' @inheritParams rescale_emulators
 #' @param object A `wv_emulators` object.
-#' @param new_runs Optional held-out model runs (`wv_runs`) on the basis grid,
-#'   with every input of the emulators and every emulated site.
 #' @param ... Unused.
 #' @return A `summary_wv_emulators` object: a list with `engine`, `n_runs`,
 #'   `inputs`, `n_new` and `by_level`, a data frame with, per site and level,
@@ -234,10 +233,12 @@ emulator_newdata <- function(object, newdata, arg = "newdata", call = rlang::cal
 #' one row and the weights are updated by the block-inverse formula, at
 #' O(K^2) cost per coefficient.
 #'
-#' @param object A `wv_emulators` object.
+#' @inheritParams calibrate
 #' @param z The new input point: a named numeric vector or one-row data frame.
 #' @param w Its coefficient values: for one site a numeric vector (one value
 #'   per coefficient), otherwise a named list by site.
+#' @param ... Must be empty. `object`, the former name of `emulators`, is
+#'   still accepted, with a deprecation warning.
 #' @return A `wv_emulators` object with the augmented design and banks
 #'   (`params` unchanged).
 #' @export
@@ -250,11 +251,16 @@ emulator_newdata <- function(object, newdata, arg = "newdata", call = rlang::cal
 #' z <- c(a = 0.5, b = 0.5)
 #' em2 <- augment_emulators(em, z, predict(em, z, site = "site1")$mean[1, ])
 #' nrow(em2$design)
-augment_emulators <- function(object, z, w) {
-  check_class(object, "wv_emulators")
-  Z <- emulator_newdata(object, z, arg = "z")
+augment_emulators <- function(emulators, z, w, ...) {
+  if (...length()) {
+    call <- renamed_arg(sys.call(), "object", "emulators", "augment_emulators")
+    if (!is.null(call)) return(eval(call, parent.frame()))
+    check_dots_none(...)
+  }
+  check_class(emulators, "wv_emulators")
+  Z <- emulator_newdata(emulators, z, arg = "z")
   if (nrow(Z) != 1L) wv_abort("{.arg z} must be a single point.")
-  sites <- names(object$banks)
+  sites <- names(emulators$banks)
   if (!is.list(w)) {
     if (length(sites) != 1L) wv_abort("{.arg w} must be a named list by site: {.val {sites}}.")
     w <- stats::setNames(list(w), sites)
@@ -263,14 +269,14 @@ augment_emulators <- function(object, z, w) {
   if (length(miss)) wv_abort("{.arg w} lacks site{?s} {.val {miss}}.")
   for (s in sites) {
     v <- as.numeric(w[[s]])
-    n <- length(object$banks[[s]]$mu)
+    n <- length(emulators$banks[[s]]$mu)
     if (length(v) != n || any(!is.finite(v))) {
       wv_abort("{.arg w} for site {.val {s}} must hold {n} finite values, one per coefficient; it has {length(v)}.")
     }
-    object$banks[[s]] <- bank_augment(object$banks[[s]], Z[1, ], v)
+    emulators$banks[[s]] <- bank_augment(emulators$banks[[s]], Z[1, ], v)
   }
-  object$design <- rbind(object$design, Z)
-  object
+  emulators$design <- rbind(emulators$design, Z)
+  emulators
 }
 
 # eq. (26) on one bank (list form), in C++.
@@ -290,7 +296,7 @@ bank_augment <- function(bank, z, w) {
 #' for run k, the prediction error is `e_k = [R^-1 (y - mu)]_k / [R^-1]_kk`
 #' and its variance `1 / (lambda [R^-1]_kk)`.
 #'
-#' @param object A `wv_emulators` object.
+#' @inheritParams augment_emulators
 #' @return A data frame with one row per site, coefficient and run: `site`,
 #'   `index`, `level`, `run`, `observed`, `predicted` (LOO mean), `sd` (LOO
 #'   standard deviation) and `residual` (`(observed - predicted) / sd`). Flat
@@ -303,11 +309,16 @@ bank_augment <- function(bank, z, w) {
 #' runs <- model_runs(design, curves, t)
 #' em <- fit_emulators(runs, wavelet_basis(runs))
 #' head(loo_residuals(em))
-loo_residuals <- function(object) {
-  check_class(object, "wv_emulators")
-  out <- lapply(names(object$banks), function(s) {
-    b <- object$banks[[s]]
-    p <- object$params[object$params$site == s, , drop = FALSE]
+loo_residuals <- function(emulators, ...) {
+  if (...length()) {
+    call <- renamed_arg(sys.call(), "object", "emulators", "loo_residuals")
+    if (!is.null(call)) return(eval(call, parent.frame()))
+    check_dots_none(...)
+  }
+  check_class(emulators, "wv_emulators")
+  out <- lapply(names(emulators$banks), function(s) {
+    b <- emulators$banks[[s]]
+    p <- emulators$params[emulators$params$site == s, , drop = FALSE]
     k <- nrow(b$X)
     n <- length(b$mu)
     res <- lapply(seq_len(n), function(i) {

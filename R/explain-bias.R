@@ -67,34 +67,24 @@
 #' its unconstrained evidence, and a candidate whose amplitude would be
 #' credibly negative gets almost none. (Truncating each subset's g-prior and
 #' renormalising it instead would double the density of the amplitudes that
-#' remain and so up to double the evidence of a candidate of the right sign;
-#' on the suspension test bed that made a false claim, 0.44 rising to 0.55
-#' with nothing hidden.) The shifts `shift:<input>` stay free in sign: an
-#' input may move either way. Set `positive = FALSE` for candidates whose
-#' sign is arbitrary, such as a physical feature curve, or give one logical
-#' per candidate.
-#'
-#' On the suspension test bed (five seeds, each mechanism and nothing hidden:
-#' 25 cases, the settings of the package's tests) the constraint removed the
-#' false claim of a decoy whose amplitude was negative (tire lift-off at 0.55
-#' with a hidden digressive damper fell to 0.001) and made none. The hidden
-#' mechanism was ranked first among the mechanisms in 19 of the 20 cases
-#' (18 without the constraint) and reached 0.9 in 15 (as without).
+#' remain and so up to double the evidence of a candidate of the right sign.)
+#' On the suspension test bed the constraint removed the false claim of a
+#' decoy whose amplitude was negative and made none. The shifts
+#' `shift:<input>` stay free in sign: an input may move either way. Set
+#' `positive = FALSE` for candidates whose sign is arbitrary, such as a
+#' physical feature curve, or give one logical per candidate.
 #'
 #' When the posterior of an input piles up at a bound of its range, the
 #' calibration is likely using that input to make up for the missing effect,
 #' and the calibrated inputs can be far from the true ones. A mechanism's
 #' effect often depends on the inputs, so a candidate simulated at the
 #' posterior mean inputs can then differ from the effect the data carry (on
-#' the suspension test bed with a hidden digressive damper, its signature at
-#' the calibrated inputs captures about 55% of the energy of the true effect, at the
-#' nominal inputs 82%). `print` says so; compare with candidates simulated at
-#' other inputs (the nominal ones, say) before concluding. Neither choice wins
-#' everywhere: over the 25 test-bed cases, candidates simulated at the nominal
-#' inputs ranked the hidden damper first with at least 0.98 at four of five
-#' seeds (three at the posterior mean), but the bump stop reached 0.9 at two
-#' seeds (three) and the lift-off at three (four). With nothing hidden no
-#' candidate reached 0.5 either way.
+#' the suspension test bed, the signature of a hidden digressive damper at the
+#' calibrated inputs held about 55\% of the energy of its true effect, at the
+#' nominal inputs 82\%). `print` says so; compare with candidates simulated
+#' at other inputs (the nominal ones, say) before concluding. Neither choice
+#' wins everywhere: on the test bed each found some hidden mechanisms more
+#' often than the other.
 #'
 #' Rather than choose, give both: `effect` names, for each candidate, the
 #' effect it is a version of, so that a mechanism's signature simulated at the
@@ -105,41 +95,30 @@
 #' draws those of the version each draw includes. The result has one row per
 #' effect; the attribute `versions` gives each version's inclusion
 #' probability. A version identical to another adds nothing: the effect keeps
-#' the inclusion probability it had with one. On the 25 test-bed cases, both
-#' versions of each of the four mechanisms ranked the hidden one first with
-#' at least 0.9 in 16 of the 20 cases (15 at the posterior mean alone, 14 at
-#' the nominal inputs alone): the damper at four seeds of five (three, four),
-#' the bump stop at three (three, two), the lift-off at four (four, three), the
-#' friction at five. With nothing hidden no candidate reached 0.5 (largest
-#' 0.48); with a mechanism hidden another mechanism did in one case (the bump
-#' stop at 0.76 with the damper hidden, where it reached 0.93 at the posterior
-#' mean and 0.65 at the nominal inputs). Keep the versions few and chosen
-#' for a reason: a mixture of many versions can fit what none of them
-#' explains alone. With three more versions of each mechanism, simulated at
-#' draws from the prior of the inputs, the damper passed 0.8 on a test bed
-#' with nothing hidden.
+#' the inclusion probability it had with one. On the suspension test bed, two
+#' versions of each of four mechanisms (at the posterior mean and at the
+#' nominal inputs) ranked the hidden one first with at least 0.9 in 16 of 20
+#' cases (15 and 14 with either version alone), and with nothing hidden no
+#' candidate reached 0.5. Keep the versions few and chosen for a reason: a
+#' mixture of many versions can fit what none of them explains alone (with
+#' three more versions of each mechanism, simulated at draws from the prior
+#' of the inputs, one passed 0.8 with nothing hidden).
 #'
 #' Some effects the model's own inputs can mimic, and the calibration then
 #' takes up most of them before the bias is ever looked at. The attribute
 #' `absorbed` says, for each candidate, how much of its signature the
-#' parameter shifts span; `print` warns at 75% and above. On the 25 test-bed
-#' cases the shifts spanned on average 16% of the strut friction's signature,
-#' 55% of the tire lift-off's, 63% of the bump stop's and 70% of the
-#' damper's. In the simulator itself, the best setting of the model's nine
-#' inputs takes up 89% to 92% of the damper's effect at four seeds of five
-#' (72% at the fifth), against 7% to 18% of the friction's: what is left for
-#' the bias to carry of a hidden damper is about a tenth of its energy. At
-#' the inputs the calibration settles on, which its posterior prefers to the
-#' truth in every case, the shift directions there explain 86% to 99% of
-#' what a hidden bump stop or damper leaves of reality (in the simulator,
-#' one damper case excepted), and the signature adds at most 6 percentage
-#' points; the cases where one of them went unnamed all had 1 point or less
-#' (`bench/check_confounding.R`). A low inclusion probability for a
-#' candidate that is mostly a parameter shift is weak evidence against it:
-#' re-validate the model with it instead (section "Re-validated models as
-#' candidates").
+#' parameter shifts span; `print` warns at 75\% and above. On the suspension
+#' test bed the shifts spanned from a sixth (strut friction) to seven tenths
+#' (digressive damper) of a mechanism's signature, and the best setting of
+#' the model's own inputs took up about nine tenths of a hidden damper's
+#' effect, leaving the bias a tenth of its energy to carry (the studies in
+#' the package's source repository, folder `studies/`). A low inclusion
+#' probability for a candidate that is mostly a parameter shift is weak
+#' evidence against it: re-validate the model with it instead (section
+#' "Re-validated models as candidates").
 #'
-#' @param fit A `wv_fit` from [calibrate()] or [validate()].
+#' @inheritParams bands
+#' @inheritParams calibrate
 #' @param candidates A named list of candidate curves on the fit's grid: each a
 #'   numeric vector (used at every site) or a named list by site of vectors.
 #'   May be empty when `shifts = TRUE`. Or a named list of `wv_fit` objects,
@@ -151,8 +130,6 @@
 #' @param max_size Largest number of candidates in one subset.
 #' @param n_draws Number of posterior draws used (evenly thinned).
 #' @param level Probability of the amplitude intervals.
-#' @param seed Seed for the draws of subsets behind the amplitude intervals
-#'   (`NULL`: drawn from R's RNG).
 #' @param segments Number of equal time segments of the record whose
 #'   coefficients count as one cluster when the evidence is tempered (see
 #'   Details); `NULL` for no tempering.
@@ -164,7 +141,8 @@
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
 #'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
-#'   out), `amplitude_lower`, `amplitude_upper`, `share_explained` (mean share
+#'   out), `amplitude_lower`, `amplitude_upper` (from draws of subsets that
+#'   `seed` fixes), `share_explained` (mean share
 #'   of the residual energy that the candidate alone explains). Attributes
 #'   `subsets` (top subsets with their probabilities), `eta` (the tempering
 #'   power of each draw used), `curves` (bias and scaled candidates by
@@ -175,7 +153,7 @@
 #'   is a version of), and with curve candidates and `shifts = TRUE`,
 #'   `absorbed`: for each of the user's candidates, the share of its signature
 #'   (in the regression's metric) that the parameter shifts span, and the
-#'   inputs that carry it. `print` warns of a candidate 75% or more of which
+#'   inputs that carry it. `print` warns of a candidate 75\% or more of which
 #'   is a parameter shift: the bias can hardly tell such an effect from a
 #'   change of those inputs, since the calibration has already moved them to
 #'   absorb what they can, and a low inclusion probability is then weak
@@ -183,10 +161,8 @@
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
-#' ex <- wavevalid:::example_calibration_inputs()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 1, seed = 1, quiet = TRUE)
-#' t <- ex$field$t
+#' fit <- example_fit()
+#' t <- fit$field$t
 #' candidates <- list(bump_early = exp(-((t - 0.25) / 0.05)^2),
 #'                    bump_late = exp(-((t - 0.75) / 0.05)^2))
 #' ex_b <- explain_bias(fit, candidates, seed = 1)
@@ -205,7 +181,7 @@
 #' model <- function(u, x, s) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) +
 #'   s * exp(-((t - 0.25) / 0.05)^2)
 #' runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
-#' iu_bump <- iu_add(ex$iu, "s_bump", lower = 0, upper = 1)
+#' iu_bump <- iu_add(fit$iu, "s_bump", lower = 0, upper = 1)
 #' with_bump <- calibrate(fit_emulators(runs, fit$basis), fit$field, iu_bump, n_draws = 100,
 #'                        n_inner = 20, chains = 1, seed = 2, quiet = TRUE)
 #' explain_bias(fit, list(bump = with_bump))

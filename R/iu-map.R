@@ -71,15 +71,12 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
 #' run at a design, emulated and validated again (see [compare_validations()]
 #' and the re-validated candidates of [explain_bias()]).
 #'
-#' @param iu A `wv_iu` object from [iu_map()].
+#' @inheritParams calibrate
 #' @param name Names of the new inputs, none of them already in `iu`.
 #' @param type For each new input, `"calibration"` (default) or
 #'   `"variation"`.
 #' @param lower,upper Uncertainty range of each new input.
-#' @param nominal Nominal value of each new input (default the centre of its
-#'   range).
-#' @param prior_sd Prior standard deviation of the manufacturing variation
-#'   (default a sixth of the range); ignored for calibration inputs.
+#' @inheritParams iu_map
 #' @return The `wv_iu` object with the new inputs after those of `iu`.
 #' @seealso [iu_map()].
 #' @export

@@ -11,8 +11,8 @@
 #' departure from the report's modular estimate: bands then rest on this
 #' estimate and on the noise being close to white.
 #'
-#' @param field A `wv_field`.
-#' @param basis A `wv_basis` on the field's grid.
+#' @inheritParams calibrate
+#' @inheritParams wavelet_coef
 #' @return A named list by site of variance vectors, one value per retained
 #'   coefficient, with attribute `sd` (the estimated standard deviation by site).
 #' @export

@@ -30,10 +30,11 @@
 #' output of a draw is near zero (below `guard` times its largest absolute
 #' value) the additive bias is used instead.
 #'
+#' @inheritParams bands
+#' @inheritParams calibrate
 #' @param object A `wv_fit`.
 #' @param type What to predict; see Details.
 #' @param bias How the bias carries over to new settings.
-#' @param level Probability of the tolerance bands.
 #' @param new_runs A `wv_runs`: for `"added_load"` the nominal run and the run
 #'   with the changed inputs; for `"new_nominal"` the model runs under the new
 #'   nominals.
@@ -55,7 +56,6 @@
 #'   absolute model output of a draw.
 #' @param keep_draws Keep the curve draws in the result (memory: draws x time
 #'   points per site).
-#' @param seed Seed for the draws (`NULL`: drawn from R's RNG).
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_prediction`: a list with `summary` (data frame with columns
 #'   `site`, `t`, `mean`, `lower`, `upper` (pointwise band), `lower_curve`,
@@ -349,9 +349,9 @@ print.summary_wv_prediction <- function(x, ...) {
 #' pure-model prediction (grey), field runs (orange) and, for new nominals, the
 #' model runs (light grey): the report's Figures 7 to 11.
 #'
+#' @inheritParams autoplot.wv_fit
 #' @param object A `wv_prediction`.
 #' @param field Field runs to overlay (default: those kept in the prediction).
-#' @param windows Optional list of time windows to zoom into.
 #' @param band `"pointwise"` or `"curve"` (the whole-curve band).
 #' @param ... Unused.
 #' @return A ggplot object.

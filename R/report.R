@@ -6,14 +6,14 @@
 #' when given, the ranking of candidate effects, predictions in new settings
 #' and a before/after comparison.
 #'
-#' @param fit A `wv_fit`.
+#' @inheritParams bands
+#' @inheritParams autoplot.wv_fit
 #' @param file Path of the HTML file to write.
 #' @param runs Optional `wv_runs` the fit was built from (for the figure of
 #'   runs and field data).
 #' @param candidates Optional candidate effects for [explain_bias()].
 #' @param predictions Optional named list of `wv_prediction` objects.
 #' @param comparison Optional `wv_comparison` from [compare_validations()].
-#' @param windows Optional list of time windows to zoom into.
 #' @param title Title of the report.
 #' @param quiet Silence the rendering.
 #' @return The path of the report, invisibly.

@@ -90,10 +90,9 @@ validate_wv_runs <- function(x, call = rlang::caller_env()) {
 #'
 #' @param curves An R x T matrix of replicate curves (one site) or a named list
 #'   of such matrices.
-#' @param t The time grid, T increasing values.
+#' @inheritParams model_runs
 #' @param x_nom Optional named numeric vector of nominal input values of the
 #'   tested system (defaults to the nominals of the I/U map at calibration).
-#' @param site Site name(s) when `curves` is a matrix or an unnamed list.
 #' @return A `wv_field` object: a list with `t`, `curves` (named list of R x T
 #'   matrices) and `x_nom`.
 #' @export
@@ -394,10 +393,9 @@ print.summary_wv_field <- function(x, ...) {
 #' per site (and per event window when `windows` is given), with the window
 #' limits as dashed lines: the look of Figure 1 of the method's report.
 #'
+#' @inheritParams autoplot.wv_fit
 #' @param object A `wv_runs` or `wv_field` object.
 #' @param field Optional `wv_field` to overlay on model runs.
-#' @param windows Optional list of length-2 numeric vectors: time windows to zoom
-#'   into, one column of panels each.
 #' @param ... Unused.
 #' @return A ggplot object.
 #' @name autoplot-curves

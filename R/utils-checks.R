@@ -14,6 +14,25 @@ wv_warn <- function(message, class = "warning", ..., .envir = parent.frame()) {
   cli::cli_warn(message, class = c(paste0("wavevalid_warning_", class), "wavevalid_warning"), ..., .envir = .envir)
 }
 
+# An argument renamed from `old` to `new`. A call that still names `old`
+# lands in the function's `...`: `renamed_arg()` then warns and returns the
+# call with `new` in its place, for the function to evaluate instead; it
+# returns NULL when the call does not name `old`. Use it as
+#   if (...length()) {
+#     call <- renamed_arg(sys.call(), "old", "new", "fun")
+#     if (!is.null(call)) return(eval(call, parent.frame()))
+#     check_dots_none(...)
+#   }
+renamed_arg <- function(call, old, new, fun) {
+  nm <- names(call)
+  if (is.null(nm) || !old %in% nm[-1L]) return(NULL)
+  wv_warn(c("The argument {.arg {old}} of {.fn {fun}} is deprecated.",
+            "i" = "Use {.arg {new}} instead: {.code {fun}({new} = ...)}."),
+          class = "deprecated")
+  names(call)[nm == old] <- new
+  call
+}
+
 wv_inform <- function(message, ..., .envir = parent.frame()) {
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
     cli::cli_inform(message, class = "wavevalid_message", ..., .envir = .envir)

@@ -5,9 +5,8 @@
 #' builds the wavelet basis ([wavelet_basis()]), fits one emulator per retained
 #' coefficient ([fit_emulators()]) and calibrates ([calibrate()]).
 #'
-#' @param runs A `wv_runs` object (model runs).
-#' @param field A `wv_field` object (field replicates).
-#' @param iu A `wv_iu` object (I/U map).
+#' @inheritParams fit_emulators
+#' @inheritParams calibrate
 #' @param windows Optional list of `c(from, to)` event windows; when given,
 #'   the field curves are registered first.
 #' @param reference Reference curves for the registration (passed to
@@ -15,7 +14,6 @@
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]; `NULL`: landmarks only).
 #' @param basis_args A list of further arguments to [wavelet_basis()].
-#' @param engine Emulator engine, passed to [fit_emulators()].
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
 #'   ...).
 #' @return A `wv_fit` object (see [calibrate()]).

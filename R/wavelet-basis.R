@@ -16,7 +16,7 @@
 #' `accessD(w, l)` has index `2^l + k`. The report's level is 0 for the scaling
 #' coefficient and `l + 1` for wavethresh detail level `l`.
 #'
-#' @param runs A `wv_runs` object.
+#' @inheritParams fit_emulators
 #' @param field A `wv_field` object on the same grid (usually registered with
 #'   [register_curves()]), or `NULL` to use the model runs only.
 #' @param filter.number,family The wavelet, passed to [wavethresh::wd()];
@@ -84,7 +84,7 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
     n_curves[[s]] <- c(runs = nrow(runs$curves[[s]]), field = n_field)
   }
   index <- sort(unique(unlist(by_site, use.names = FALSE)))
-  basis <- new_wv_basis(index = index, level = index_level(index), Psi = basis_matrix(index, settings),
+  basis <- new_wv_basis(index = index, coef_level = index_level(index), Psi = basis_matrix(index, settings),
                         t = runs$t, sites = sites, settings = settings, by_site = by_site,
                         n_curves = do.call(rbind, n_curves))
   validate_wv_basis(basis)
@@ -182,8 +182,8 @@ basis_matrix <- function(index, settings) {
   psi
 }
 
-new_wv_basis <- function(index, level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL) {
-  structure(list(index = as.integer(index), level = as.integer(level), Psi = Psi, t = t, sites = sites,
+new_wv_basis <- function(index, coef_level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL) {
+  structure(list(index = as.integer(index), level = as.integer(coef_level), Psi = Psi, t = t, sites = sites,
                  settings = settings, by_site = by_site, n_curves = n_curves), class = "wv_basis")
 }
 
@@ -223,7 +223,7 @@ basis_curves <- function(basis, W) {
 #' time point) from such coefficients. Reconstructing the coefficients of a
 #' curve gives its projection on the retained basis.
 #'
-#' @param basis A `wv_basis` object.
+#' @param basis A `wv_basis` object ([wavelet_basis()]).
 #' @param curves A numeric vector of T values, an N x T matrix, or a `wv_runs`
 #'   or `wv_field` object on the basis grid (then a named list by site is
 #'   returned).

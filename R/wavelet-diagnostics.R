@@ -10,7 +10,7 @@
 #' largest absolute error of each curve. `autoplot()` of the result draws one
 #' curve and its reconstruction (report Figure 2).
 #'
-#' @param basis A `wv_basis` object.
+#' @inheritParams wavelet_coef
 #' @param runs,field `wv_runs` and `wv_field` objects on the basis grid (either
 #'   may be `NULL`).
 #' @return A `wv_reconstruction` data frame with columns `site`, `source`
@@ -118,14 +118,14 @@ plot.wv_reconstruction <- function(x, ...) {
 #' coefficient as independent across coefficients, with its own variance.
 #' This check (report Figure 3) sets the residual processes of the field data
 #' (each replicate minus the replicate mean) beside R processes simulated from
-#' that model, `Psi %*% rnorm(|I|, sd = sigma)`, with `sigma_i^2 = s_i^2 / (R -
+#' that model, `Psi \%*\% rnorm(|I|, sd = sigma)`, with `sigma_i^2 = s_i^2 / (R -
 #' 1)` the unbiased replicate variance of coefficient i. Similar time
-#' correlation in both panels supports the model.
+#' correlation in both panels supports the model. The field needs at least
+#' two replicates at the site checked.
 #'
-#' @param basis A `wv_basis` object.
-#' @param field A `wv_field` object with at least two replicates.
+#' @inheritParams wavelet_coef
+#' @inheritParams calibrate
 #' @param site Site to check (name or position; default the first).
-#' @param seed Seed for the simulated processes; `NULL` draws one from R's RNG.
 #' @param project If `TRUE`, the field residuals are projected on the retained
 #'   basis first, so both panels hold processes in the span of `Psi` (the
 #'   simulated ones always are); by default they are the raw residuals, as in

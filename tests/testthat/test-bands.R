@@ -12,7 +12,7 @@ test_that("pointwise bands cover the stated fraction of draws at each t", {
 })
 
 test_that("bias(), reality() and model_prediction() give tidy bands built from the draws", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 2, quiet = TRUE)
   b <- bias(fit)
   expect_named(b, c("site", "t", "mean", "lower", "upper", "lower_curve", "upper_curve"))
@@ -121,7 +121,7 @@ test_that("curve summaries built by blocks of time points match the whole-matrix
 })
 
 test_that("predictions rebuilt by blocks of time points match the draws computed at once", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 5, chains = 1, seed = 5, quiet = TRUE)
   # repeat the draws so that one site's curves span several blocks
   H <- 40000

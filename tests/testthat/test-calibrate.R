@@ -177,7 +177,7 @@ test_that("pooled levels share one tau2: the sampler reproduces the grid posteri
 })
 
 test_that("pool_levels refuses what is not two or more levels of the basis", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   for (bad in list(1, c(0, -1), c(0.5, 1), "0:3", c(0, 99))) {
     expect_error(calibrate(ex$emulators, ex$field, ex$iu, pool_levels = bad, quiet = TRUE),
                  class = "wavevalid_error_input")
@@ -257,7 +257,7 @@ test_that("the inputs' posterior with inform_levels is the posterior from those 
 })
 
 test_that("inform_levels refuses levels the basis lacks, a split pool, and leaving nothing", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   for (bad in list("0:3", c(0.5, 1), 99, NA_real_, numeric(0))) {
     expect_error(calibrate(ex$emulators, ex$field, ex$iu, inform_levels = bad, quiet = TRUE),
                  class = "wavevalid_error_input")
@@ -306,7 +306,7 @@ test_that("w^b and w^M draws follow eq. 16-17 at fixed inputs", {
 test_that("same seed gives identical draws, sequentially and on two workers", {
   # short chains: the mixing warning is expected and beside the point here
   calibrate <- function(...) suppressWarnings(wavevalid::calibrate(...), classes = "wavevalid_warning_mixing")
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   f1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
   f2 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
   f3 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 10, quiet = TRUE)
@@ -337,7 +337,7 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
 })
 
 test_that("bad input gives classed errors", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   em <- ex$emulators
   f <- ex$field
   bad_grid <- wavevalid:::new_wv_field(seq(0, 2, length.out = 32), f$curves)
@@ -359,7 +359,7 @@ test_that("bad input gives classed errors", {
 })
 
 test_that("a fit has the documented layout, mcmc.list and print", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 50, chains = 2, seed = 3, quiet = TRUE)
   ml <- coda::as.mcmc.list(fit)
   expect_s3_class(ml, "mcmc.list")
@@ -382,7 +382,7 @@ test_that("a fit has the documented layout, mcmc.list and print", {
 })
 
 test_that("an input piled at its bound is flagged with a classed warning", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   f <- ex$field
   # field beyond the model at x1 = 1 and no room for bias: x1 piles at its upper bound
   t <- f$t
@@ -401,7 +401,7 @@ test_that("validate() runs the whole path", {
   skip_if_not(exists("fit_emulators", envir = asNamespace("wavevalid"), inherits = FALSE))
   skip_if_not(exists("wavelet_basis", envir = asNamespace("wavevalid"), inherits = FALSE))
   skip_on_cran()
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   runs <- model_runs(as.data.frame(ex$emulators$design),
                      ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
   fit <- validate(runs, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, quiet = TRUE)
@@ -409,7 +409,7 @@ test_that("validate() runs the whole path", {
 })
 
 test_that("registration_variance adds the landmark spread of the runs to the variance of the field mean", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   t <- ex$field$t
   d <- as.data.frame(ex$emulators$design)
   # runs whose dip after the peak moves with u1

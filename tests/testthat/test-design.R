@@ -1,5 +1,5 @@
 example_fit <- function() {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 10, chains = 1, seed = 1, quiet = TRUE)
 }
 

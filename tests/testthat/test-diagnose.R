@@ -59,7 +59,7 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
 })
 
 test_that("where_fails points at an offset of the record and at pooling the coarse levels", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + 0.3
   ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
@@ -77,7 +77,7 @@ test_that("where_fails points at an offset of the record and at pooling the coar
 })
 
 test_that("without a missing effect the whole-curve band flags (almost) nothing, the pointwise band flags chance intervals", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2)
   steps <- function(wf) sum(round((wf$end - wf$start) / diff(t[1:2])))

@@ -56,7 +56,7 @@ test_that("rescaled emulators are better calibrated at other held-out runs", {
 })
 
 test_that("a calibration with rescaled emulators has a wider posterior", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   em <- ex$emulators
   em$banks$site1$lambda <- em$banks$site1$lambda / 25
   wide <- suppressWarnings(calibrate(em, ex$field, ex$iu, n_draws = 100, n_inner = 10, chains = 1, seed = 3,

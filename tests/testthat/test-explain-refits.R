@@ -1,7 +1,7 @@
 # explain_bias() with re-validated models as candidates: the example problem's
 # model with a bump of strength s_bump added, on the example's basis and field.
 refit_problem <- function(bump = 0.1, upper = 1) {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) +
     bump * exp(-((t - 0.25) / 0.05)^2)

@@ -1,5 +1,5 @@
 test_that("explain_bias weighs each coefficient by the tau2 of its group, pooled levels included", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   lv <- sort(unique(ex$emulators$basis$level))
   pool <- lv[1:2]
   fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1,

@@ -47,7 +47,7 @@ test_that("pipeline verbs refuse objects of the wrong class with classed errors"
 })
 
 test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
                                     seed = 1, quiet = TRUE))
   for (lev in list(-1, 0, 1, 2, NA, "a", c(0.5, 0.9), NULL)) {
@@ -74,7 +74,7 @@ test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
 # A misspelt argument is an error that names it, never silently ignored (an
 # argument that begins a formal's name is that argument, as in base R).
 test_that("fit-based verbs refuse unknown arguments with classed errors that name them", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
                                     seed = 1, quiet = TRUE))
   expect_error(where_fails(fit, tolerence = 0.1), "tolerence", class = "wavevalid_error_input")
@@ -89,7 +89,7 @@ test_that("fit-based verbs refuse unknown arguments with classed errors that nam
 # A choice argument outside its choices is a classed error that lists them; a
 # unique beginning of a choice picks it.
 test_that("choice arguments refuse values outside their choices with classed errors", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
                                     seed = 1, quiet = TRUE))
   expect_error(predict(fit, type = "new_run"), "new_vehicle", class = "wavevalid_error_input")

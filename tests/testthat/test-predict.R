@@ -1,5 +1,5 @@
 example_fit <- function(seed = 3) {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_problem()
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 60, n_inner = 10, chains = 1,
                                     seed = seed, quiet = TRUE))
   list(fit = fit, ex = ex)
