@@ -146,7 +146,7 @@ test_that("a fit survives saveRDS/readRDS and still predicts, plots and diagnose
 # the bands hold 0.69 to 0.79 of its replicates' points
 # (test-diagnose-loop.R).
 test_that("the bands for a new vehicle hold their share of new vehicles, at the tested nominals and at new ones", {
-  skip_on_cran()
+  skip_unless_slow()
   withr::local_options(list(wavevalid.quiet = TRUE))
   v <- testbed_diagnosis("none")
   tb <- v$tb
