@@ -65,7 +65,7 @@
 #' em <- fit_emulators(runs, basis)
 #' em
 #' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
-fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 1,
+fit_emulators <- function(runs, basis, engine = c("gasp", "gasp_level", "dicekriging"), starts = 1,
                           log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(basis, "wv_basis")
@@ -93,7 +93,9 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
     cols <- which(!flat[[s]])
     for (lv in unique(level[cols])) {
       cl <- cols[level[cols] == lv]
-      for (ch in split(cl, ceiling(seq_along(cl) / chunk_size))) {
+      # the gasp_level engine fits a level's coefficients together
+      chunks <- if (engine == "gasp_level") list(cl) else split(cl, ceiling(seq_along(cl) / chunk_size))
+      for (ch in chunks) {
         tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L,
                                             group = rep(as.integer(lv), length(ch)))
       }
@@ -120,6 +122,7 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
       converged[r$cols] <- r$converged
     }
     bank <- emulator_bank(prep$X, W[[s]], beta, alpha, nugget, flat[[s]], prep$lower, prep$width)
+    if (engine == "gasp_level") bank <- level_predictive_variance(bank, flat[[s]], level_settings()$predictive)
     n_nugget <- n_nugget + sum(bank$nugget[!flat[[s]]] > 0)
     banks[[s]] <- bank
     params[[s]] <- emulator_params(s, basis, bank, converged, colnames(prep$X))
@@ -254,6 +257,7 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
       f$cols <- task$cols
       return(f)
     }
+    if (engine == "gasp_level") return(gasp_level_fit(X, Y, starts, log_beta_range, task$cols))
     dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
   }
 }
@@ -263,6 +267,44 @@ gasp_control <- function(starts, log_beta_range) {
   list(n_local = as.integer(starts), lb_lo = log_beta_range[1], lb_hi = log_beta_range[2],
        maxit = 200L, n_screen = 8L, memory = 30L, ftol = 1e-8, pgtol = 1e-5, precondition = 1L,
        iso_half = 0L)
+}
+
+# Settings of the gasp_level engine: the prior on the correlation parameters
+# (type 1: jointly robust, 0: none), the likelihood (restricted = 1: mu
+# integrated out instead of profiled) and the predictive variance ("student"
+# or "plugin", see level_predictive_variance()).
+level_settings <- function() {
+  utils::modifyList(list(prior = list(type = 1L, a = 0.2, b_mult = 1), restricted = 0L, predictive = "student",
+                         n_screen = 32L, n_local = 4L, alpha = c(0.1, 1)),
+                    getOption("wavevalid.gasp_level", list()))
+}
+
+# One shared (beta, alpha) for the columns of Y (a level's coefficients),
+# repeated for each of them.
+gasp_level_fit <- function(X, Y, starts, log_beta_range, cols) {
+  set <- level_settings()
+  control <- gasp_control(max(starts, set$n_local), log_beta_range)
+  control$n_screen <- as.integer(set$n_screen)
+  control$iso_half <- 1L
+  control$alpha_lo <- set$alpha[1]
+  control$alpha_hi <- set$alpha[2]
+  f <- gasp_level_fit_cpp(X, Y, control, set$prior, as.integer(set$restricted), list())
+  n <- ncol(Y)
+  list(beta = matrix(f$beta, n, ncol(X), byrow = TRUE), alpha = matrix(f$alpha, n, ncol(X), byrow = TRUE),
+       nugget = rep(f$nugget, n), converged = rep(f$converged, n), cols = cols)
+}
+
+# The predictive variance of the gasp_level engine. "plugin": 1 / lambda with
+# lambda = K / S2 (the profile-likelihood estimate, S2 = (y - mu)' R^-1 (y - mu)).
+# "student": the variance of the Student-t predictive with K - 1 degrees of
+# freedom and scale S2 / (K - 1), that is S2 / (K - 3): lambda = (K - 3) / S2,
+# 1 / lambda larger than the plug-in one by K / (K - 3).
+level_predictive_variance <- function(bank, flat, predictive) {
+  k <- nrow(bank$X)
+  if (identical(predictive, "student") && k > 3L) {
+    bank$lambda[!flat] <- bank$lambda[!flat] * (k - 3) / k
+  }
+  bank
 }
 
 dicekriging_fit <- function(X, Y, km_args, seed, cols) {
