@@ -56,9 +56,9 @@ test_that("with one coefficient and no prior the shared fit is the per-coefficie
   lev <- gasp_level_fit_cpp(X, matrix(y), ctl, list(type = 0L), 0L, list())
   # the same screening and optimiser on the same function: equal up to the
   # rounding of the two ways of summing (and the optimiser's tolerance)
-  expect_equal(as.numeric(lev$beta), as.numeric(one$beta), tolerance = 1e-5)
-  expect_equal(as.numeric(lev$alpha), as.numeric(one$alpha), tolerance = 1e-5)
-  expect_equal(lev$objective, one$loglik, tolerance = 1e-10)
+  expect_equal(as.numeric(lev$beta), as.numeric(one$beta), tolerance = 1e-4)
+  expect_equal(as.numeric(lev$alpha), as.numeric(one$alpha), tolerance = 1e-4)
+  expect_equal(lev$objective, one$loglik, tolerance = 1e-8)
 })
 
 test_that("the gasp_level engine gives valid emulators sharing parameters within a level", {
