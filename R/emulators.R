@@ -50,9 +50,9 @@
 #'
 #' @param runs A `wv_runs` object ([model_runs()]).
 #' @param basis A `wv_basis` object ([wavelet_basis()]) on the grid of `runs`.
-#' @param engine `"gasp_level"` (default; correlation parameters shared within
-#'   a resolution level), `"gasp"` (one fit per coefficient, as in the report)
-#'   or `"dicekriging"`.
+#' @param engine `"gasp"` (default; one fit per coefficient, as in the
+#'   report), `"gasp_level"` (correlation parameters shared within a
+#'   resolution level) or `"dicekriging"`.
 #' @param starts Number of local optimisations per coefficient, from the best
 #'   screened starting points (`"gasp"` engine; the `"gasp_level"` engine runs
 #'   at least 4 per level); more is slower and more
@@ -89,7 +89,7 @@
 #' em <- fit_emulators(runs, basis)
 #' em
 #' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
-fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekriging"), starts = 1,
+fit_emulators <- function(runs, basis, engine = c("gasp", "gasp_level", "dicekriging"), starts = 1,
                           log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(basis, "wv_basis")

@@ -15,8 +15,9 @@
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]; `NULL`: landmarks only).
 #' @param basis_args A list of further arguments to [wavelet_basis()].
-#' @param engine Emulator engine, passed to [fit_emulators()]: `"gasp_level"`
-#'   (default), `"gasp"` (the report's per-coefficient fit) or `"dicekriging"`.
+#' @param engine Emulator engine, passed to [fit_emulators()]: `"gasp"`
+#'   (default, the report's per-coefficient fit), `"gasp_level"` or
+#'   `"dicekriging"`.
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
 #'   ...).
 #' @return A `wv_fit` object (see [calibrate()]).
@@ -29,7 +30,7 @@
 #' fit
 #' }
 validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = NULL,
-                     basis_args = list(), engine = "gasp_level", ...) {
+                     basis_args = list(), engine = "gasp", ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")

@@ -134,16 +134,7 @@ band_coverage_case <- function(seed, engine, n_draws, n_inner) {
 }
 
 test_that("the reality band of gasp_level emulators covers the truth on one test bed", {
-  skip_on_cran()
+  skip_unless_slow()
   res <- band_coverage_case(1, "gasp_level", n_draws = 100, n_inner = 20)
   expect_gte(res[["cover"]], 0.75)
-})
-
-test_that("reality bands cover the truth at their level over five test beds (slow)", {
-  skip_unless_slow()
-  res <- vapply(1:5, band_coverage_case, numeric(2), engine = "gasp_level", n_draws = 400, n_inner = 50)
-  expect_gte(mean(res["cover", ]), 0.85)
-  expect_lte(mean(res["cover", ]), 0.95)
-  expect_gte(min(res["cover", ]), 0.75)
-  expect_gte(mean(res["inputs_in", ]), 8)
 })
