@@ -25,7 +25,7 @@ DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggp
            r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 \
            r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat pandoc qpdf pngquant
 R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
-           withr cli rlang testthat DiceKriging
+           withr cli rlang testthat DiceKriging RobustGaSP
 
 .PHONY: deps document install demo test test-slow check bench sanitize clean
 

@@ -13,6 +13,14 @@ gasp_finalize_cpp <- function(X, Y, beta, alpha, nugget) {
     .Call(`_wavevalid_gasp_finalize_cpp`, X, Y, beta, alpha, nugget)
 }
 
+gasp_level_loglik_cpp <- function(X, Y, theta, nugget, prior, restricted = 0L) {
+    .Call(`_wavevalid_gasp_level_loglik_cpp`, X, Y, theta, nugget, prior, restricted)
+}
+
+gasp_level_fit_cpp <- function(X, Y, control, prior, restricted, warm) {
+    .Call(`_wavevalid_gasp_level_fit_cpp`, X, Y, control, prior, restricted, warm)
+}
+
 gasp_bank_augment_cpp <- function(bank, z, w) {
     .Call(`_wavevalid_gasp_bank_augment_cpp`, bank, z, w)
 }

@@ -107,6 +107,10 @@ print.wv_fit <- function(x, ...) {
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
+  if (!is.null(x$emulators)) {
+    cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
+    for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
+  }
   if (!is.null(x$registration_var)) {
     share <- vapply(names(x$registration_var), function(s) {
       e <- colMeans(x$sigma2[[s]]) / x$n_rep[[s]]

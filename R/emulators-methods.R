@@ -15,6 +15,7 @@ print.wv_emulators <- function(x, ...) {
   n_flat <- sum(!is.finite(p$loglik))
   if (n_nug) cli::cli_text("{n_nug} emulator{?s} with a nugget.")
   if (n_flat) cli::cli_text("{n_flat} flat emulator{?s} (constant coefficient).")
+  for (line in emulator_calibration_text(x)) cli::cat_line(line)
   vc <- x$variance_check
   if (!is.null(vc)) {
     up <- vc[vc$scale > 1, , drop = FALSE]

@@ -8,7 +8,7 @@
 #' `alpha` in \[0, 1\]. The hyperparameters maximise the likelihood with `mu` and
 #' `lambda` profiled out.
 #'
-#' The `"gasp"` engine maximises the profile log-likelihood with its analytic
+#' The `"gasp"` engine maximises each coefficient's profile log-likelihood with its analytic
 #' gradient in C++ (a projected limited-memory BFGS over `log(beta)` and
 #' `alpha`, preconditioned for the near-collinearity of `log(beta)` and
 #' `alpha`). Each coefficient's fit first screens the likelihood, without
@@ -22,6 +22,24 @@
 #' `beta = theta^-p`, `alpha = 2 - p`. Both engines then compute `mu`,
 #' `lambda`, the weights and Cholesky factors with the same code.
 #'
+#' The `"gasp_level"` engine shares the correlation parameters within a
+#' resolution level: per site and level, one `beta` and `alpha` per input for
+#' all the level's coefficients (each keeping its own `mu` and `lambda`),
+#' maximising the sum of the coefficients' profile log-likelihoods plus the log
+#' of the jointly robust prior of Gu (2019) on the inverse ranges
+#' `rho_p = beta_p^(1 / (2 - alpha_p))` (`a = 0.2`, `b = K^(-1/p) (a + p)` on
+#' the unit cube, added once per level), with `alpha` in \[0.1, 1\] (exponent
+#' `2 - alpha` at most 1.9: the Gaussian correlation's smoothness makes
+#' predictions overconfident between the design points). One Cholesky factor
+#' per level serves every coefficient, so the fit is fast. Pooling the
+#' coefficients keeps inputs from being switched off one coefficient at a
+#' time; the predictive variance is that of the Student-t predictive with
+#' `K - 1` degrees of freedom, `S2 / (K - 3)` with `S2 = (y - mu)' R^-1 (y - mu)`,
+#' so `lambda` is `(K - 3) / S2` rather than the plug-in `K / S2`. Its
+#' `params$loglik` is each coefficient's profile log-likelihood at the shared
+#' parameters. This goes beyond the method's report, whose emulators are the
+#' `"gasp"` engine's.
+#'
 #' A nugget is added to the correlation matrix only when it is numerically
 #' singular (1e-8, 1e-6, ...); it is reported in `params$nugget`, with a
 #' warning. A coefficient that is constant across the runs gets a flat
@@ -32,9 +50,12 @@
 #'
 #' @param runs A `wv_runs` object ([model_runs()]).
 #' @param basis A `wv_basis` object ([wavelet_basis()]) on the grid of `runs`.
-#' @param engine `"gasp"` (default) or `"dicekriging"`.
+#' @param engine `"gasp"` (default; one fit per coefficient, as in the
+#'   report), `"gasp_level"` (correlation parameters shared within a
+#'   resolution level) or `"dicekriging"`.
 #' @param starts Number of local optimisations per coefficient, from the best
-#'   screened starting points (`"gasp"` engine); more is slower and more
+#'   screened starting points (`"gasp"` engine; the `"gasp_level"` engine runs
+#'   at least 4 per level); more is slower and more
 #'   thorough.
 #' @param log_beta_range Box for `log(beta)` on the unit-cube scale (`"gasp"`
 #'   engine).
@@ -49,7 +70,10 @@
 #'   per site and coefficient: `site`, `index`, `level`, `mu`, `lambda`,
 #'   `nugget`, `loglik`, `converged`, then `beta_<input>` and `alpha_<input>`),
 #'   `inputs`, `design` (K x p matrix), `banks` (named list by site of the
-#'   predictor's matrices, see Details), `basis`, `engine`, `t`.
+#'   predictor's matrices, see Details), `basis`, `engine`, `t` and
+#'   `loo_check` (by level, pooled over sites: the number `n` of leave-one-out
+#'   studentised residuals ([loo_residuals()]), their `mean_square` and the
+#'   share `cover90` inside +-1.645).
 #'
 #'   Each bank holds `X` (scaled design), `beta`, `alpha` (n x p), `mu`,
 #'   `lambda`, `nugget` (n), `weights` (K x n, `R^-1 (y - mu)`), `chol`
@@ -65,7 +89,7 @@
 #' em <- fit_emulators(runs, basis)
 #' em
 #' predict(em, data.frame(a = 0.5, b = 0.5))$mean[, 1:4]
-fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts = 1,
+fit_emulators <- function(runs, basis, engine = c("gasp", "gasp_level", "dicekriging"), starts = 1,
                           log_beta_range = c(-8, 6), chunk_size = 16, seed = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(basis, "wv_basis")
@@ -93,7 +117,9 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
     cols <- which(!flat[[s]])
     for (lv in unique(level[cols])) {
       cl <- cols[level[cols] == lv]
-      for (ch in split(cl, ceiling(seq_along(cl) / chunk_size))) {
+      # the gasp_level engine fits a level's coefficients together
+      chunks <- if (engine == "gasp_level") list(cl) else split(cl, ceiling(seq_along(cl) / chunk_size))
+      for (ch in chunks) {
         tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L,
                                             group = rep(as.integer(lv), length(ch)))
       }
@@ -120,6 +146,7 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
       converged[r$cols] <- r$converged
     }
     bank <- emulator_bank(prep$X, W[[s]], beta, alpha, nugget, flat[[s]], prep$lower, prep$width)
+    if (engine == "gasp_level") bank <- level_predictive_variance(bank, flat[[s]], level_settings()$predictive)
     n_nugget <- n_nugget + sum(bank$nugget[!flat[[s]]] > 0)
     banks[[s]] <- bank
     params[[s]] <- emulator_params(s, basis, bank, converged, colnames(prep$X))
@@ -145,8 +172,45 @@ fit_emulators <- function(runs, basis, engine = c("gasp", "dicekriging"), starts
       "i" = "The {.val gasp} engine fitted {?it/them} instead (rows with {.code converged = FALSE})."
     ), class = "engine_fallback")
   }
-  validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis, engine,
-                                         runs$t, seed))
+  em <- validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis, engine,
+                                               runs$t, seed))
+  em$loo_check <- loo_check(em)
+  em
+}
+
+# Leave-one-out studentised residuals summed up by level (pooled over the
+# sites): number, mean square and share inside +-1.645 (the 90% interval).
+loo_check <- function(em) {
+  loo <- loo_residuals(em)
+  loo <- loo[is.finite(loo$residual), , drop = FALSE]
+  if (!nrow(loo)) return(NULL)
+  by <- split(loo$residual, loo$level)
+  data.frame(level = as.integer(names(by)), n = lengths(by, use.names = FALSE),
+             mean_square = vapply(by, function(r) mean(r^2), numeric(1), USE.NAMES = FALSE),
+             cover90 = vapply(by, function(r) mean(abs(r) <= stats::qnorm(0.95)), numeric(1), USE.NAMES = FALSE))
+}
+
+# One line on the emulators' calibration: the mean squares of the
+# leave-one-out studentised residuals by level (1 for honest emulators) and,
+# after rescale_emulators(), those at its held-out runs.
+emulator_calibration_text <- function(em) {
+  lc <- em$loo_check
+  out <- character()
+  if (!is.null(lc) && nrow(lc)) {
+    out <- paste0("Leave-one-out (at the runs) mean squared studentised error by level (1 is honest): ",
+                  paste(sprintf("%d: %.2f", lc$level, lc$mean_square), collapse = ", "),
+                  sprintf("; 90%% intervals cover %.0f%%.", 100 * stats::weighted.mean(lc$cover90, lc$n)))
+  }
+  vc <- em$variance_check
+  if (!is.null(vc) && nrow(vc)) {
+    ok <- vc$n_errors > 0 & is.finite(vc$rms_before)
+    ms <- tapply(vc$rms_before[ok]^2 * vc$n_errors[ok], vc$level[ok], sum) / tapply(vc$n_errors[ok], vc$level[ok], sum)
+    if (length(ms)) {
+      out <- c(out, paste0("At ", em$variance_runs, " held-out runs, before rescaling, by level: ",
+                           paste(sprintf("%s: %.2f", names(ms), ms), collapse = ", "), "."))
+    }
+  }
+  out
 }
 
 new_wv_emulators <- function(params, inputs, design, banks, basis, engine, t, seed = NULL) {
@@ -247,6 +311,7 @@ emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
 emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args) {
   force(X)
   force(W)
+  level_set <- if (engine == "gasp_level") level_settings()
   function(task) {
     Y <- W[[task$site]][, task$cols, drop = FALSE]
     if (engine == "gasp") {
@@ -254,6 +319,7 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
       f$cols <- task$cols
       return(f)
     }
+    if (engine == "gasp_level") return(gasp_level_fit(X, Y, starts, log_beta_range, task$cols, level_set))
     dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
   }
 }
@@ -263,6 +329,45 @@ gasp_control <- function(starts, log_beta_range) {
   list(n_local = as.integer(starts), lb_lo = log_beta_range[1], lb_hi = log_beta_range[2],
        maxit = 200L, n_screen = 8L, memory = 30L, ftol = 1e-8, pgtol = 1e-5, precondition = 1L,
        iso_half = 0L)
+}
+
+# Settings of the gasp_level engine: the prior on the correlation parameters
+# (type 1: jointly robust, 0: none), the likelihood (restricted = 1: mu
+# integrated out instead of profiled), the predictive variance ("student" or
+# "plugin", see level_predictive_variance()), the screening and local
+# optimisations and the box of alpha. The option wavevalid.gasp_level (a
+# list of some of these) overrides them, for studies of the choices.
+level_settings <- function() {
+  utils::modifyList(list(prior = list(type = 1L, a = 0.2, b_mult = 1), restricted = 0L, predictive = "student",
+                         n_screen = 32L, n_local = 4L, alpha = c(0.1, 1)),
+                    getOption("wavevalid.gasp_level", list()))
+}
+
+# One shared (beta, alpha) for the columns of Y (a level's coefficients),
+# repeated for each of them.
+gasp_level_fit <- function(X, Y, starts, log_beta_range, cols, set = level_settings()) {
+  control <- gasp_control(max(starts, set$n_local), log_beta_range)
+  control$n_screen <- as.integer(set$n_screen)
+  control$iso_half <- 1L
+  control$alpha_lo <- set$alpha[1]
+  control$alpha_hi <- set$alpha[2]
+  f <- gasp_level_fit_cpp(X, Y, control, set$prior, as.integer(set$restricted), list())
+  n <- ncol(Y)
+  list(beta = matrix(f$beta, n, ncol(X), byrow = TRUE), alpha = matrix(f$alpha, n, ncol(X), byrow = TRUE),
+       nugget = rep(f$nugget, n), converged = rep(f$converged, n), cols = cols)
+}
+
+# The predictive variance of the gasp_level engine. "plugin": 1 / lambda with
+# lambda = K / S2 (the profile-likelihood estimate, S2 = (y - mu)' R^-1 (y - mu)).
+# "student": the variance of the Student-t predictive with K - 1 degrees of
+# freedom and scale S2 / (K - 1), that is S2 / (K - 3): lambda = (K - 3) / S2,
+# 1 / lambda larger than the plug-in one by K / (K - 3).
+level_predictive_variance <- function(bank, flat, predictive) {
+  k <- nrow(bank$X)
+  if (identical(predictive, "student") && k > 3L) {
+    bank$lambda[!flat] <- bank$lambda[!flat] * (k - 3) / k
+  }
+  bank
 }
 
 dicekriging_fit <- function(X, Y, km_args, seed, cols) {

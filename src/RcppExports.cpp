@@ -55,6 +55,38 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// gasp_level_loglik_cpp
+Rcpp::List gasp_level_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget, Rcpp::List prior, int restricted);
+RcppExport SEXP _wavevalid_gasp_level_loglik_cpp(SEXP XSEXP, SEXP YSEXP, SEXP thetaSEXP, SEXP nuggetSEXP, SEXP priorSEXP, SEXP restrictedSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::VectorXd>& >::type theta(thetaSEXP);
+    Rcpp::traits::input_parameter< double >::type nugget(nuggetSEXP);
+    Rcpp::traits::input_parameter< Rcpp::List >::type prior(priorSEXP);
+    Rcpp::traits::input_parameter< int >::type restricted(restrictedSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_level_loglik_cpp(X, Y, theta, nugget, prior, restricted));
+    return rcpp_result_gen;
+END_RCPP
+}
+// gasp_level_fit_cpp
+Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::List control, Rcpp::List prior, int restricted, Rcpp::List warm);
+RcppExport SEXP _wavevalid_gasp_level_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP controlSEXP, SEXP priorSEXP, SEXP restrictedSEXP, SEXP warmSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< Rcpp::List >::type control(controlSEXP);
+    Rcpp::traits::input_parameter< Rcpp::List >::type prior(priorSEXP);
+    Rcpp::traits::input_parameter< int >::type restricted(restrictedSEXP);
+    Rcpp::traits::input_parameter< Rcpp::List >::type warm(warmSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_level_fit_cpp(X, Y, control, prior, restricted, warm));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_bank_augment_cpp
 Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::VectorXd>& z, const Eigen::Map<Eigen::VectorXd>& w);
 RcppExport SEXP _wavevalid_gasp_bank_augment_cpp(SEXP bankSEXP, SEXP zSEXP, SEXP wSEXP) {
@@ -137,6 +169,8 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
     {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
+    {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
+    {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},

@@ -1,9 +1,48 @@
-// R glue for GASP fitting (numerics in gasp_lik.h, gasp_optim.h and gasp_fit.h).
+// R glue for GASP fitting (numerics in gasp_lik.h, gasp_level.h, gasp_optim.h and gasp_fit.h).
 #include <RcppEigen.h>
 #include "gasp_lik.h"
+#include "gasp_level.h"
 #include "gasp_fit.h"
 
 // [[Rcpp::depends(RcppEigen)]]
+
+// GaspSettings from a named list of its fields; absent fields keep their defaults.
+static wavevalid::GaspSettings gasp_settings(Rcpp::List control) {
+  wavevalid::GaspSettings set;
+  auto num = [&control](const char* name, double def) {
+    return control.containsElementNamed(name) ? Rcpp::as<double>(control[name]) : def;
+  };
+  set.lb_lo = num("lb_lo", set.lb_lo);
+  set.lb_hi = num("lb_hi", set.lb_hi);
+  set.maxit = static_cast<int>(num("maxit", set.maxit));
+  set.n_local = static_cast<int>(num("n_local", set.n_local));
+  set.n_screen = static_cast<int>(num("n_screen", set.n_screen));
+  set.ftol = num("ftol", set.ftol);
+  set.pgtol = num("pgtol", set.pgtol);
+  set.memory = static_cast<int>(num("memory", set.memory));
+  set.gauss_first = static_cast<int>(num("gauss_first", set.gauss_first));
+  set.precondition = static_cast<int>(num("precondition", set.precondition));
+  set.iso_half = static_cast<int>(num("iso_half", set.iso_half));
+  set.screen_lo = num("screen_lo", set.screen_lo);
+  set.screen_hi = num("screen_hi", set.screen_hi);
+  set.alpha_lo = num("alpha_lo", set.alpha_lo);
+  set.alpha_hi = num("alpha_hi", set.alpha_hi);
+  if (!(set.alpha_lo >= 0.0) || !(set.alpha_hi <= 1.0) || set.alpha_lo > set.alpha_hi ||
+      set.lb_lo >= set.lb_hi || set.maxit < 1 || set.n_local < 1 || set.n_screen < 0 || set.memory < 1) {
+    Rcpp::stop("invalid control settings");
+  }
+  return set;
+}
+
+// Prior of the shared-parameter fit from a named list (type: 0 none, 1 jointly robust; a; b_mult).
+static wavevalid::GaspLevelPrior gasp_level_prior(Rcpp::List prior) {
+  wavevalid::GaspLevelPrior pr;
+  if (prior.containsElementNamed("type")) pr.type = Rcpp::as<int>(prior["type"]);
+  if (prior.containsElementNamed("a")) pr.a = Rcpp::as<double>(prior["a"]);
+  if (prior.containsElementNamed("b_mult")) pr.b_mult = Rcpp::as<double>(prior["b_mult"]);
+  if (pr.type < 0 || pr.type > 1 || !(pr.a >= 0.0) || !(pr.b_mult > 0.0)) Rcpp::stop("invalid prior settings");
+  return pr;
+}
 
 // Profile log-likelihood and its gradient in (log beta, alpha) at theta.
 // [[Rcpp::export]]
@@ -31,26 +70,7 @@ Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<E
   const int K = X.rows(), p = X.cols(), n = Y.cols();
   if (Y.rows() != K) Rcpp::stop("Y must have one row per design row");
   if (group.size() != n) Rcpp::stop("group must have one value per column of Y");
-  wavevalid::GaspSettings set;
-  auto num = [&control](const char* name, double def) {
-    return control.containsElementNamed(name) ? Rcpp::as<double>(control[name]) : def;
-  };
-  set.lb_lo = num("lb_lo", set.lb_lo);
-  set.lb_hi = num("lb_hi", set.lb_hi);
-  set.maxit = static_cast<int>(num("maxit", set.maxit));
-  set.n_local = static_cast<int>(num("n_local", set.n_local));
-  set.n_screen = static_cast<int>(num("n_screen", set.n_screen));
-  set.ftol = num("ftol", set.ftol);
-  set.pgtol = num("pgtol", set.pgtol);
-  set.memory = static_cast<int>(num("memory", set.memory));
-  set.gauss_first = static_cast<int>(num("gauss_first", set.gauss_first));
-  set.precondition = static_cast<int>(num("precondition", set.precondition));
-  set.iso_half = static_cast<int>(num("iso_half", set.iso_half));
-  set.screen_lo = num("screen_lo", set.screen_lo);
-  set.screen_hi = num("screen_hi", set.screen_hi);
-  if (set.lb_lo >= set.lb_hi || set.maxit < 1 || set.n_local < 1 || set.n_screen < 0 || set.memory < 1) {
-    Rcpp::stop("invalid control settings");
-  }
+  const wavevalid::GaspSettings set = gasp_settings(control);
   const wavevalid::GaspDist D(X);
   const Eigen::MatrixXd pts = wavevalid::gasp_screen_points(p, set);
   Eigen::MatrixXd beta(n, p), alpha(n, p);
@@ -115,4 +135,53 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
   return Rcpp::List::create(Rcpp::Named("mu") = mu, Rcpp::Named("lambda") = lambda,
                             Rcpp::Named("nugget") = nug, Rcpp::Named("loglik") = loglik,
                             Rcpp::Named("weights") = weights, Rcpp::Named("chol") = ch);
+}
+
+// Objective of the shared-parameter fit of the columns of Y (gasp_level.h) and
+// its gradient in (log beta, alpha) at theta.
+// [[Rcpp::export]]
+Rcpp::List gasp_level_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
+                                 const Eigen::Map<Eigen::VectorXd>& theta, double nugget, Rcpp::List prior,
+                                 int restricted = 0) {
+  if (theta.size() != 2 * X.cols()) Rcpp::stop("theta must have 2 p values");
+  if (Y.rows() != X.rows()) Rcpp::stop("Y must have one row per design row");
+  const wavevalid::GaspDist D(X);
+  const Eigen::MatrixXd Yc = Y;
+  wavevalid::GaspLevelLik lik(D, Yc, gasp_level_prior(prior), restricted);
+  Eigen::VectorXd grad;
+  const double ll = lik.eval(theta, nugget, &grad, 0.0);
+  if (!std::isfinite(ll)) grad = Eigen::VectorXd::Constant(theta.size(), NA_REAL);
+  return Rcpp::List::create(Rcpp::Named("loglik") = ll, Rcpp::Named("gradient") = grad,
+                            Rcpp::Named("log_prior") = lik.log_prior(theta, nullptr),
+                            Rcpp::Named("mu") = lik.mu(), Rcpp::Named("sigma2") = lik.sigma2());
+}
+
+// Shared-parameter fit of all columns of Y (the coefficients of one level):
+// one (beta, alpha) maximising the sum of their profile log-likelihoods plus
+// the log prior, with the screening and optimiser of gasp_fit_cpp. `warm`:
+// a list of starting theta vectors (log beta, alpha).
+// [[Rcpp::export]]
+Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
+                              Rcpp::List control, Rcpp::List prior, int restricted,
+                              Rcpp::List warm) {
+  const int p = X.cols();
+  if (Y.rows() != X.rows()) Rcpp::stop("Y must have one row per design row");
+  if (Y.cols() < 1) Rcpp::stop("Y must have at least one column");
+  const wavevalid::GaspSettings set = gasp_settings(control);
+  const wavevalid::GaspDist D(X);
+  const Eigen::MatrixXd Yc = Y;
+  wavevalid::GaspLevelLik lik(D, Yc, gasp_level_prior(prior), restricted);
+  std::vector<Eigen::VectorXd> w;
+  for (R_xlen_t i = 0; i < warm.size(); ++i) w.push_back(Rcpp::as<Eigen::VectorXd>(warm[i]));
+  const Eigen::MatrixXd pts = wavevalid::gasp_screen_points(p, set);
+  Rcpp::checkUserInterrupt();
+  wavevalid::GaspFit f = wavevalid::gasp_fit_lik(lik, w, pts, set);
+  if (!std::isfinite(f.loglik)) {
+    Rcpp::stop("the shared likelihood is numerically singular at every start and nugget");
+  }
+  return Rcpp::List::create(Rcpp::Named("beta") = f.theta.head(p).array().exp().matrix(),
+                            Rcpp::Named("alpha") = f.theta.tail(p), Rcpp::Named("theta") = f.theta,
+                            Rcpp::Named("nugget") = f.nugget, Rcpp::Named("objective") = f.loglik,
+                            Rcpp::Named("n_eval") = f.n_eval, Rcpp::Named("n_grad") = f.n_grad,
+                            Rcpp::Named("converged") = f.converged);
 }

@@ -68,22 +68,23 @@ struct GaspFit {
 // points `screen` (2p x n). Then projected L-BFGS from the best n_local
 // distinct screened points; the best result is kept. The nugget is increased
 // along a ladder while the optimum is numerically singular.
-inline GaspFit gasp_fit(const GaspDist& D, const Eigen::VectorXd& y,
-                        const std::vector<Eigen::VectorXd>& warm, const Eigen::MatrixXd& screen,
-                        const GaspSettings& set) {
+// `Lik` is GaspLik (one coefficient) or GaspLevelLik (the coefficients of a
+// level sharing theta, gasp_level.h).
+template <class Lik>
+GaspFit gasp_fit_lik(Lik& lik, const std::vector<Eigen::VectorXd>& warm, const Eigen::MatrixXd& screen,
+                     const GaspSettings& set) {
   static const double ladder[] = {0.0, 1e-8, 1e-6, 1e-4, 1e-2};
-  GaspLik lik(D, y);
   const int p = lik.n_inputs();
   Eigen::VectorXd lo(2 * p), hi(2 * p);
   lo.head(p).setConstant(set.lb_lo); hi.head(p).setConstant(set.lb_hi);
-  lo.tail(p).setZero(); hi.tail(p).setOnes();
+  lo.tail(p).setConstant(set.alpha_lo); hi.tail(p).setConstant(set.alpha_hi);
   std::vector<Eigen::VectorXd> cand;
   for (const Eigen::VectorXd& w : warm) {
     if (w.size() == 2 * p && w.allFinite()) cand.push_back(w.cwiseMax(lo).cwiseMin(hi));
   }
   // (common log beta kept below 3: larger values make R close to the identity, a plateau)
-  for (double a : {0.0, 0.5}) {
-    if (a > 0.0 && !set.iso_half) continue;
+  for (double a : {set.alpha_lo, 0.5 * (set.alpha_lo + set.alpha_hi)}) {
+    if (a > set.alpha_lo && !set.iso_half) continue;
     for (double lb = set.lb_lo + 1.0; lb <= std::min(3.0, set.lb_hi); lb += 1.0) {
       Eigen::VectorXd th(2 * p);
       th.head(p).setConstant(lb);
@@ -118,8 +119,8 @@ inline GaspFit gasp_fit(const GaspDist& D, const Eigen::VectorXd& y,
       Eigen::VectorXd x1 = x0;
       if (set.gauss_first) {
         Eigen::VectorXd hi0 = hi;
-        hi0.tail(p).setZero();
-        x1.tail(p).setZero();
+        hi0.tail(p).setConstant(set.alpha_lo);
+        x1.tail(p).setConstant(set.alpha_lo);
         x1 = gasp_optimise(lik, x1, nug, lo, hi0, set).theta;
       }
       GaspOptResult r = gasp_optimise(lik, x1, nug, lo, hi, set);
@@ -137,6 +138,13 @@ inline GaspFit gasp_fit(const GaspDist& D, const Eigen::VectorXd& y,
   best.n_eval = lik.n_eval;
   best.n_grad = lik.n_grad;
   return best;
+}
+
+inline GaspFit gasp_fit(const GaspDist& D, const Eigen::VectorXd& y,
+                        const std::vector<Eigen::VectorXd>& warm, const Eigen::MatrixXd& screen,
+                        const GaspSettings& set) {
+  GaspLik lik(D, y);
+  return gasp_fit_lik(lik, warm, screen, set);
 }
 
 }  // namespace wavevalid

@@ -30,6 +30,8 @@ struct GaspSettings {
   int gauss_first = 0;       // 1: optimise with alpha = 0 first, then free alpha
   int precondition = 1;      // 1: 2 x 2 preconditioner per input in L-BFGS
   int iso_half = 0;          // 1: isotropic screening points also at alpha = 0.5
+  double alpha_lo = 0.0;     // box of alpha (the exponent is 2 - alpha)
+  double alpha_hi = 1.0;
 };
 
 struct GaspOptResult {
@@ -41,8 +43,10 @@ struct GaspOptResult {
 
 // Projected L-BFGS maximising the profile log-likelihood on the box [lo, hi].
 // Stops when the projected gradient is below pgtol or the objective changed
-// by less than ftol * max(1, |loglik|) in two successive iterations.
-inline GaspOptResult gasp_optimise(GaspLik& lik, Eigen::VectorXd x, double nugget,
+// by less than ftol * max(1, |loglik|) in two successive iterations. `Lik`
+// is GaspLik (one coefficient) or GaspLevelLik (gasp_level.h, a level).
+template <class Lik>
+GaspOptResult gasp_optimise(Lik& lik, Eigen::VectorXd x, double nugget,
                                    const Eigen::VectorXd& lo, const Eigen::VectorXd& hi,
                                    const GaspSettings& set) {
   const int n = static_cast<int>(x.size());
