@@ -14,11 +14,11 @@
 #'
 #' For draw h, with inputs `z_h`, field variances `sigma^2_h` and bias level
 #' variances `tau^2_h`, the residuals of the field data from the emulated
-#' model, `r = wbar - m(z_h)` (all sites stacked), are regressed on the
-#' candidates' coefficients `C`: under the model, `r = w^b + e`, `e` the
+#' model, `wbar - m(z_h)` (all sites stacked; `r` below), are regressed on the
+#' candidates' coefficients `C`: under the model, `r` is `w^b + e`, `e` the
 #' field and emulator error of variance `S = sigma^2_h / R + V(z_h)`; a
 #' candidate explains the mean of the bias, `w^b ~ N(C_S a_S, tau^2)`, so
-#' `r = C_S a_S + e'`, `e' ~ N(0, phi diag(S + tau^2))` (weighted least
+#' the residuals are `C_S a_S + e'`, `e' ~ N(0, phi diag(S + tau^2))` (weighted least
 #' squares with weights `1 / (S + tau^2)`). Regressing the residuals rather
 #' than the posterior draws of `w^b` keeps the signal that the bias prior
 #' shrinks towards zero at the levels where `tau^2` is small against `S`.
