@@ -55,7 +55,6 @@ test: $(TARBALL)
 
 # The slow tier runs on the package that `make test` checked when it is newer than the sources (as in CI),
 # otherwise on the sources installed into .lib; only the test files that hold slow tests.
-SLOW_FILES = calibrate|diagnose|predict
 test-slow: deps
 	@if [ -f $(PKG).Rcheck/$(PKG)/DESCRIPTION ] && \
 	    [ -z "$$(find R src/*.cpp src/*.h DESCRIPTION NAMESPACE -newer $(PKG).Rcheck/$(PKG)/DESCRIPTION 2>/dev/null)" ]; then \
@@ -64,7 +63,7 @@ test-slow: deps
 	  mkdir -p .lib && $(RMAKE) $(R) CMD INSTALL --preclean --no-multiarch --strip -l .lib . >/dev/null && lib=$(CURDIR)/.lib; \
 	fi; \
 	echo "slow tier on the package installed in $$lib"; \
-	mkdir -p .test-counts && R_LIBS="$$lib$${R_LIBS:+:$$R_LIBS}" $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt '$(SLOW_FILES)'
+	mkdir -p .test-counts && R_LIBS="$$lib$${R_LIBS:+:$$R_LIBS}" $(RSCRIPT) tools/test-slow.R .test-counts/slow.txt
 
 check: $(TARBALL)
 	$(RMAKE) $(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)

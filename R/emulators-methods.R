@@ -397,3 +397,40 @@ plot.wv_emulators <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
 }
+
+# Leave-one-out studentised residuals summed up by level (pooled over the
+# sites): number, mean square and share inside +-1.645 (the 90% interval).
+loo_check <- function(em) {
+  loo <- loo_residuals(em)
+  loo <- loo[is.finite(loo$residual), , drop = FALSE]
+  if (!nrow(loo)) return(NULL)
+  by <- split(loo$residual, loo$level)
+  data.frame(level = as.integer(names(by)), n = lengths(by, use.names = FALSE),
+             mean_square = vapply(by, function(r) mean(r^2), numeric(1), USE.NAMES = FALSE),
+             cover90 = vapply(by, function(r) mean(abs(r) <= stats::qnorm(0.95)), numeric(1), USE.NAMES = FALSE))
+}
+
+# One line on the emulators' calibration: the mean squares of the
+# leave-one-out studentised residuals by level (1 for honest emulators) and,
+# after rescale_emulators(), those at its held-out runs.
+emulator_calibration_text <- function(em) {
+  lc <- em$loo_check
+  out <- character()
+  if (!is.null(lc) && nrow(lc)) {
+    out <- c(paste0("Leave-one-out studentised errors, mean square by level (1 is honest): ",
+                    paste(sprintf("%d: %.2f", lc$level, lc$mean_square), collapse = ", "),
+                    sprintf("; 90%% intervals cover %.0f%%.", 100 * stats::weighted.mean(lc$cover90, lc$n))),
+             paste("These are taken at the design points; errors between them can be larger:",
+                   "check held-out runs with `summary(emulators, new_runs = )`."))
+  }
+  vc <- em$variance_check
+  if (!is.null(vc) && nrow(vc)) {
+    ok <- vc$n_errors > 0 & is.finite(vc$rms_before)
+    ms <- tapply(vc$rms_before[ok]^2 * vc$n_errors[ok], vc$level[ok], sum) / tapply(vc$n_errors[ok], vc$level[ok], sum)
+    if (length(ms)) {
+      out <- c(out, paste0("At ", em$variance_runs, " held-out runs, before rescaling, by level: ",
+                           paste(sprintf("%s: %.2f", names(ms), ms), collapse = ", "), "."))
+    }
+  }
+  out
+}
