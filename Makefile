@@ -25,7 +25,9 @@ DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggp
            r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 \
            r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat pandoc qpdf pngquant
 R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
-           withr cli rlang testthat DiceKriging RobustGaSP
+           withr cli rlang testthat DiceKriging
+# The benchmarks' peers, installed by `make bench` only
+BENCH_PKGS = RobustGaSP
 
 .PHONY: deps document install demo test test-slow check bench sanitize clean
 
@@ -69,6 +71,7 @@ check: $(TARBALL)
 	$(RMAKE) $(R) CMD check --as-cran --no-manual --install-args=--strip $(TARBALL)
 
 bench: install
+	$(RSCRIPT) tools/install-deps.R $(BENCH_PKGS)
 	for f in bench/*.R; do echo "== $$f"; $(RSCRIPT) $$f || exit 1; done
 
 sanitize: deps

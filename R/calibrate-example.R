@@ -48,7 +48,7 @@ bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
 #' [calibrate()] needs, `example_fit()` calibrates it in about a second.
 #'
 #' The problem has one site and a grid of 32 time points. The model has one
-#' calibration input `u1` and one variation input `x1`, both on [0, 1]:
+#' calibration input `u1` and one variation input `x1`, both on \[0, 1\]:
 #' `(1 + x1 / 2) sin(2 pi t)` plus a bump of height `u1` near `t = 0.6`. Its
 #' 12 runs are summarised by 16 wavelet coefficients, each with a GASP
 #' emulator of fixed correlation parameters. The field data are four
