@@ -59,27 +59,7 @@ class GaspLevelLik {
   const GaspDist& dist() const { return D_; }
   int n_eval = 0, n_grad = 0;
 
-  void build(const Eigen::VectorXd& theta, double nugget) {
-    S_.setZero();
-    for (int q = 0; q < p_; ++q) {
-      const double lb = theta(q);
-      const double a = theta(p_ + q);
-      if (a == 0.0) {
-        T_.col(q).noalias() = std::exp(lb) * D_.d2.col(q);
-      } else if (a == 1.0) {
-        T_.col(q).noalias() = std::exp(lb) * D_.d1.col(q);
-      } else {
-        T_.col(q) = ((2.0 - a) * D_.logd.col(q).array() + lb).exp().matrix();
-      }
-      S_ += T_.col(q).array();
-    }
-    C_ = (-S_).exp();
-    int idx = 0;
-    for (int k = 0; k < K_; ++k) {
-      R_(k, k) = 1.0 + nugget;
-      for (int j = k + 1; j < K_; ++j) R_(j, k) = C_(idx++);
-    }
-  }
+  void build(const Eigen::VectorXd& theta, double nugget) { build_correlation(D_, theta, nugget, T_, S_, C_, R_); }
 
   // log of the prior on theta, and its gradient when g is given.
   double log_prior(const Eigen::VectorXd& theta, Eigen::VectorXd* g) const {

@@ -65,6 +65,33 @@ struct GaspDist {
 // Profile log-likelihood of one coefficient y on a design (through its
 // distances). value() factorises R and keeps what gradient() needs, so the
 // gradient is computed only at points where it is used.
+// The lower triangle of the correlation matrix R (with `nugget` on its
+// diagonal) at theta = (log beta, alpha) for the pairwise distances D; keeps
+// T = beta d^(2 - alpha) by pair and input, S their sum and C = exp(-S).
+inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, double nugget, Eigen::MatrixXd& T,
+                              Eigen::ArrayXd& S, Eigen::ArrayXd& C, Eigen::MatrixXd& R) {
+  const int p = static_cast<int>(T.cols()), K = static_cast<int>(R.rows());
+  S.setZero();
+  for (int q = 0; q < p; ++q) {
+    const double lb = theta(q);
+    const double a = theta(p + q);
+    if (a == 0.0) {
+      T.col(q).noalias() = std::exp(lb) * D.d2.col(q);
+    } else if (a == 1.0) {
+      T.col(q).noalias() = std::exp(lb) * D.d1.col(q);
+    } else {
+      T.col(q) = ((2.0 - a) * D.logd.col(q).array() + lb).exp().matrix();
+    }
+    S += T.col(q).array();
+  }
+  C = (-S).exp();
+  int idx = 0;
+  for (int k = 0; k < K; ++k) {
+    R(k, k) = 1.0 + nugget;
+    for (int j = k + 1; j < K; ++j) R(j, k) = C(idx++);
+  }
+}
+
 class GaspLik {
  public:
   GaspLik(const GaspDist& D, const Eigen::VectorXd& y) : D_(D), y_(y) {
@@ -86,27 +113,7 @@ class GaspLik {
   int n_eval = 0, n_grad = 0;
 
   // Fills R (correlation + nugget) for theta; keeps T_ = beta d^(2 - alpha) per pair.
-  void build(const Eigen::VectorXd& theta, double nugget) {
-    S_.setZero();
-    for (int q = 0; q < p_; ++q) {
-      const double lb = theta(q);
-      const double a = theta(p_ + q);
-      if (a == 0.0) {
-        T_.col(q).noalias() = std::exp(lb) * D_.d2.col(q);
-      } else if (a == 1.0) {
-        T_.col(q).noalias() = std::exp(lb) * D_.d1.col(q);
-      } else {
-        T_.col(q) = ((2.0 - a) * D_.logd.col(q).array() + lb).exp().matrix();
-      }
-      S_ += T_.col(q).array();
-    }
-    C_ = (-S_).exp();
-    int idx = 0;
-    for (int k = 0; k < K_; ++k) {
-      R_(k, k) = 1.0 + nugget;
-      for (int j = k + 1; j < K_; ++j) R_(j, k) = C_(idx++);
-    }
-  }
+  void build(const Eigen::VectorXd& theta, double nugget) { build_correlation(D_, theta, nugget, T_, S_, C_, R_); }
 
   // Profile log-likelihood at theta; -inf when R is numerically singular.
   double value(const Eigen::VectorXd& theta, double nugget, double rcond_fail) {
