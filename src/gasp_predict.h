@@ -148,6 +148,7 @@ struct GaspBank {
     Eigen::ArrayXd s;
     Eigen::MatrixXd r;   // K x n: r_i(z) of the last mean_into(), one column per coefficient
     Eigen::VectorXd x;   // K: forward substitution
+    Eigen::VectorXd q;   // per distinct correlation: 1 - r' R^-1 r
     int threads = 1;     // OpenMP threads over coefficients (1: serial)
   };
 
@@ -158,78 +159,137 @@ struct GaspBank {
     ws.d2.resize(K, p);
     ws.logd.resize(K, p);
     ws.s.resize(K);
-    ws.r.resize(K, n_coef());
+    ws.r.setZero(K, n_coef());
     ws.x.resize(K);
+    ws.q.resize(static_cast<Eigen::Index>(uniq.empty() ? n_coef() : uniq.size()));
   }
 
-  // The Cholesky factors packed for the variance pass: for each coefficient
-  // the lower triangle by columns, column j as 1 / L(j, j) followed by
-  // L(j + 1 .. K - 1, j). Half the memory of the square factors, read once
-  // per prediction in order.
+  // The Cholesky factors packed for the variance pass: for each distinct
+  // correlation the lower triangle by columns, column j as 1 / L(j, j)
+  // followed by L(j + 1 .. K - 1, j). Half the memory of the square factors,
+  // read once per prediction in order.
   std::vector<double> packed;
+  // Coefficients that share their correlation (the same beta, alpha, nugget
+  // and Cholesky factor, as the emulators fitted per level do) share one
+  // correlation vector and one triangular solve: rep[i] is the first
+  // coefficient with i's correlation, uniq the list of those first ones and
+  // slot[i] the position of rep[i] in uniq (and in packed). Set by pack().
+  std::vector<int> rep, uniq, slot;
 
   std::size_t packed_stride() const {
     const std::size_t K = static_cast<std::size_t>(n_runs());
     return K * (K + 1) / 2;
   }
 
+  bool is_packed() const {
+    return static_cast<int>(rep.size()) == n_coef() &&
+           packed.size() == packed_stride() * uniq.size();
+  }
+
   void pack() {
     const int K = n_runs(), n = n_coef();
-    packed.resize(packed_stride() * static_cast<std::size_t>(n));
-    for (int i = 0; i < n; ++i) {
-      double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
+    find_shared();
+    packed.resize(packed_stride() * uniq.size());
+    for (std::size_t u = 0; u < uniq.size(); ++u) {
+      const int i = uniq[u];
+      double* P = packed.data() + packed_stride() * u;
       for (int j = 0; j < K; ++j) {
         *P++ = 1.0 / L[i](j, j);
         for (int k = j + 1; k < K; ++k) *P++ = L[i](k, j);
       }
     }
+    (void)n;
   }
 
-  // Means m (length n) at raw input z; keeps every r_i(z) in ws.r for
-  // var_into(). Inputs whose beta is zero for a coefficient cost nothing for it.
+  // Exact equality of everything the correlation vector and its solve use.
+  void find_shared() {
+    const int n = n_coef();
+    rep.assign(n, 0);
+    slot.assign(n, 0);
+    uniq.clear();
+    for (int i = 0; i < n; ++i) {
+      int found = -1;
+      // the coefficient just before is the usual match (a level's
+      // coefficients are contiguous); otherwise scan the representatives
+      if (i > 0 && same_correlation(i, rep[i - 1])) {
+        found = rep[i - 1];
+      } else {
+        for (int u : uniq) {
+          if (same_correlation(i, u)) {
+            found = u;
+            break;
+          }
+        }
+      }
+      if (found < 0) {
+        rep[i] = i;
+        slot[i] = static_cast<int>(uniq.size());
+        uniq.push_back(i);
+      } else {
+        rep[i] = found;
+        slot[i] = slot[found];
+      }
+    }
+  }
+
+  bool same_correlation(int i, int j) const {
+    if (i == j) return true;
+    if (nugget(i) != nugget(j)) return false;
+    if (beta.row(i) != beta.row(j) || alpha.row(i) != alpha.row(j)) return false;
+    return L[i] == L[j];
+  }
+
+  // Means m (length n) at raw input z; keeps the correlation vector of every
+  // representative coefficient (uniq) in ws.r for var_into(). Inputs whose
+  // beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     distances(z, ws.d1, ws.d2, ws.logd);
-    for_each_coef(ws.threads, ws.s, [&](int i, Eigen::ArrayXd& s) { mean_one(i, m, ws, s); });
+    for_each(static_cast<int>(uniq.size()), ws.threads, ws.s, [&](int u, Eigen::ArrayXd& s) {
+      corr_vector(uniq[u], ws.d1, ws.d2, ws.logd, s, ws.r.col(uniq[u]));
+    });
+    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
+      m(i) = mu(i) + ws.r.col(rep[i]).dot(weights.col(i));
+    });
   }
 
   // Variances v (length n) at the z of the last mean_into(ws):
   // V_i = (1 - |L_i^-1 r_i|^2) / lambda_i, by column-oriented forward
-  // substitution on the packed factors (pack() must have been called).
+  // substitution on the packed factors (pack() must have been called), once
+  // per distinct correlation.
   void var_into(Eigen::VectorXd& v, Workspace& ws) const {
-    for_each_coef(ws.threads, ws.x, [&](int i, Eigen::VectorXd& x) { v(i) = var_one(i, ws, x); });
+    for_each(static_cast<int>(uniq.size()), ws.threads, ws.x,
+             [&](int u, Eigen::VectorXd& x) { ws.q(u) = unexplained(u, ws, x); });
+    for (int i = 0; i < n_coef(); ++i) v(i) = ws.q(slot[i]) / lambda(i);
   }
 
  private:
-  // f(i, scratch) for every coefficient i; with several threads each has its
-  // own scratch of K values (otherwise `serial` is used). Every coefficient is
-  // computed on its own, so the results do not depend on the number of threads.
+  // f(j, scratch) for j = 0 .. count - 1; with several threads each has its
+  // own scratch of K values (otherwise `serial` is used). Every j is
+  // computed on its own, so the results do not depend on the number of
+  // threads.
   template <class Scratch, class F>
-  void for_each_coef(int threads, Scratch& serial, F f) const {
-    const int n = n_coef();
+  void for_each(int count, int threads, Scratch& serial, F f) const {
 #ifdef _OPENMP
     if (threads > 1) {
 #pragma omp parallel num_threads(threads)
       {
         Scratch local(n_runs());
 #pragma omp for schedule(static)
-        for (int i = 0; i < n; ++i) f(i, local);
+        for (int j = 0; j < count; ++j) f(j, local);
       }
       return;
     }
 #endif
-    for (int i = 0; i < n; ++i) f(i, serial);
+    for (int j = 0; j < count; ++j) f(j, serial);
   }
 
-  void mean_one(int i, Eigen::VectorXd& m, Workspace& ws, Eigen::ArrayXd& s) const {
-    corr_vector(i, ws.d1, ws.d2, ws.logd, s, ws.r.col(i));
-    m(i) = mu(i) + ws.r.col(i).dot(weights.col(i));
-  }
-
-  double var_one(int i, const Workspace& ws, Eigen::VectorXd& xv) const {
+  // 1 - |L^-1 r|^2 (floored at 0) for the u-th distinct correlation, r its
+  // correlation vector in ws.r.
+  double unexplained(int u, const Workspace& ws, Eigen::VectorXd& xv) const {
     const int K = n_runs();
-    xv = ws.r.col(i);
+    xv = ws.r.col(uniq[u]);
     double* x = xv.data();
-    const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(i);
+    const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(u);
     double q = 0.0;
     for (int j = 0; j < K; ++j) {
       const double xj = x[j] * (*P++);
@@ -240,8 +300,8 @@ struct GaspBank {
         P += len;
       }
     }
-    const double u = 1.0 - q;
-    return (u > 0.0 ? u : 0.0) / lambda(i);
+    const double w = 1.0 - q;
+    return w > 0.0 ? w : 0.0;
   }
 
  public:

@@ -69,7 +69,7 @@ class Sampler {
       const int n = sites_[s].bank->n_coef();
       m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
       sigma2_[s].resize(n); ebar_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
-      if (sites_[s].bank->packed.size() != sites_[s].bank->packed_stride() * static_cast<std::size_t>(n))
+      if (!sites_[s].bank->is_packed())
         throw std::invalid_argument("emulator bank not packed");
       sites_[s].bank->init_workspace(ws_[s], set_.threads);
       for (int i = 0; i < n; ++i) {
