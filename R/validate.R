@@ -5,6 +5,12 @@
 #' builds the wavelet basis ([wavelet_basis()]), fits one emulator per retained
 #' coefficient ([fit_emulators()]) and calibrates ([calibrate()]).
 #'
+#' The emulators default to the `"gasp_level"` engine, whose predictive
+#' variances hold at runs away from the design (see [fit_emulators()]); give
+#' `engine = "gasp"` for the method's report's per-coefficient fit. The print
+#' of the fit states the engine and how well the emulators' variances match
+#' their leave-one-out errors.
+#'
 #' @inheritParams fit_emulators
 #' @inheritParams calibrate
 #' @param windows Optional list of `c(from, to)` event windows; when given,
@@ -26,7 +32,7 @@
 #' fit
 #' }
 validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = NULL,
-                     basis_args = list(), engine = "gasp", ...) {
+                     basis_args = list(), engine = "gasp_level", ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")

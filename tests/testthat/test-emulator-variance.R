@@ -1,5 +1,6 @@
 # A small problem whose emulators are overconfident away from the design:
-# a rough function of the inputs, few runs.
+# a rough function of the inputs, few runs, one fit per coefficient (the
+# "gasp" engine: the per-level engine is not overconfident here).
 rough_problem <- function() {
   t <- seq(0, 1, length.out = 64)
   f <- function(z) sin(2 * pi * t * (1 + 0.8 * z[1])) + 0.5 * sin(9 * z[2]) * exp(-30 * (t - 0.4)^2)
@@ -10,7 +11,7 @@ rough_problem <- function() {
     withr::with_seed(seed, data.frame(x1 = stats::runif(n), x2 = stats::runif(n)))
   }
   runs <- runs_of(design)
-  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, fraction = 1)))
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, fraction = 1), engine = "gasp"))
   list(em = em, runs_of = runs_of, held = held)
 }
 
