@@ -25,11 +25,12 @@
 #           With n_runs the emulators are fitted to a maximin design of that
 #           many runs instead of condition A's 66.
 #   Rscript studies/coverage.R [measure=inputs] [seeds=1] [field=registered] [n_check=30] [n_draws=150]
-#                              [n_inner=20] [inform_levels=NULL] [hidden=none] [n_runs=NA]
+#                              [n_inner=20] [inform_levels=NULL] [hidden=none] [n_runs=NA] [engine=gasp_level]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(measure = "inputs", seeds = "1", field = "registered", n_check = "30", n_draws = "150",
-                       n_inner = "20", inform_levels = "NULL", hidden = "none", n_runs = "NA"))
+                       n_inner = "20", inform_levels = "NULL", hidden = "none", n_runs = "NA",
+                       engine = "gasp_level"))
 measure <- arg_names(opt$measure)
 stopifnot(all(measure %in% c("inputs", "bands")), opt$field %in% c("registered", "unwarped"))
 seeds <- arg_numbers(opt$seeds)
@@ -61,7 +62,7 @@ inputs_case <- function(seed) {
   } else {
     unwarped_field(tb, seed)
   }
-  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = opt$engine))
   check <- simulate_suspension(design_maximin(tb$iu, n_check, nominal = FALSE, seed = 9))
   truth <- true_inputs(tb, em$inputs)
   near <- withr::with_seed(seed + 100, as.data.frame(t(replicate(20, pmin(pmax(
@@ -108,11 +109,11 @@ if ("bands" %in% measure) {
   runs <- tb$A$runs
   if (!is.na(n_runs)) runs <- simulate_suspension(design_maximin(tb$iu, n_runs, seed = 2))
   basis <- wavelet_basis(runs, field)
-  em <- suppressWarnings(fit_emulators(runs, basis))
+  em <- suppressWarnings(fit_emulators(runs, basis, engine = opt$engine))
   t1 <- clock()
   fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1))
-  cat(sprintf("\n== bands: seed %d, hidden = %s; %d model runs; |I| = %d; emulators %.1f s; calibration %d x %d x 2 chains %.1f s\n",
-              seeds[1], hidden, nrow(runs$design), length(basis$index), t1 - t0, n_draws, n_inner, clock() - t1))
+  cat(sprintf("\n== bands: seed %d, hidden = %s; %s emulators; %d model runs; |I| = %d; emulators %.1f s; calibration %d x %d x 2 chains %.1f s\n",
+              seeds[1], hidden, opt$engine, nrow(runs$design), length(basis$index), t1 - t0, n_draws, n_inner, clock() - t1))
   # the truth in registered time: the noise-free curve registered like the field data
   truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
   truth_reg <- register_curves(truth, tb$A$runs, w, knots_every = 2)
