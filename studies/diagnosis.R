@@ -64,7 +64,7 @@ validate_case <- function(hidden, seed) {
   field <- switch(opt$field, registered = testbed_register(tb, tb$A$runs), unwarped = unwarped_field(tb, seed),
                   mean_warp = mean_warp_field(tb, seed))
   basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
+  em <- suppressWarnings(fit_emulators(tb$A$runs, basis, engine = testbed_engine))
   if (rescale) em <- rescale_emulators(em, testbed_check_runs(tb$iu))
   fit <- testbed_calibrate(em, field, tb$iu, pool, registration_variance = rv && opt$field == "registered")
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)

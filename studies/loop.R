@@ -50,7 +50,7 @@ fit_model <- function(tb, runs, iu, mechanism) {
                             as.integer(opt$n_search))$fit)
   }
   field <- testbed_register(tb, runs, refine = TRUE)
-  testbed_calibrate(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field))), field, iu, pool)
+  testbed_calibrate(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = testbed_engine)), field, iu, pool)
 }
 
 # the share of a fit's bias energy at wavelet level 0 (an offset of the record), by site

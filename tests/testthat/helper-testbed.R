@@ -37,10 +37,21 @@ testbed_calibrate <- function(emulators, field, iu, pool_levels = NULL, n_draws 
                              n_search = n_search, quiet = TRUE))
 }
 
+# The emulators of the diagnosis protocol: the report's per-coefficient fit,
+# with which the diagnosis tests' figures and the studies' findings were
+# measured. With the package's default (engine "gasp_level") the slow
+# diagnosis tests measured, at test-bed seeds 1-3: signature versions ranked
+# the hidden mechanism first in 12 of 12 cases but a decoy reached 0.5 in 2
+# (a hidden digressive damper at seeds 1 and 3); the re-validated mechanisms
+# claimed the tire lift-off (1.00) with nothing hidden at seed 1; unpooled
+# flags missed the bump stop at site 1.
+testbed_engine <- "gasp"
+
 # The validation of the model without any mechanism on the test bed's
 # condition A, as the diagnosis tests and the studies run it: field data
 # registered to the runs (testbed_register()), the report's basis, emulators
-# and one chain; pool_levels and registration_variance are calibrate()'s.
+# (testbed_engine) and one chain; pool_levels and registration_variance are
+# calibrate()'s.
 testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool_levels = NULL,
                                registration_variance = FALSE) {
   old <- options(wavevalid.quiet = TRUE)
@@ -48,7 +59,7 @@ testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool
   tb <- testbed_suspension(seed = seed, hidden = hidden)
   field <- testbed_register(tb, tb$A$runs)
   basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
+  em <- suppressWarnings(fit_emulators(tb$A$runs, basis, engine = testbed_engine))
   fit <- testbed_calibrate(em, field, tb$iu, pool_levels, n_draws, n_inner, registration_variance)
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
 }
@@ -83,7 +94,7 @@ testbed_first_pass <- function(tb, runs, iu, check = NULL, pool_levels = 0:3, st
   start <- match.arg(start)
   field <- testbed_register(tb, if (start == "runs") runs else lapply(tb$A$field$curves, colMeans))
   basis <- wavelet_basis(runs, field)
-  em <- suppressWarnings(fit_emulators(runs, basis))
+  em <- suppressWarnings(fit_emulators(runs, basis, engine = testbed_engine))
   if (!is.null(check)) em <- rescale_emulators(em, check)
   list(field = field, basis = basis, emulators = em,
        fit = testbed_calibrate(em, field, iu, pool_levels, n_search = n_search))
@@ -104,7 +115,7 @@ testbed_revalidation <- function(tb, fit, mechanisms = testbed_mechanisms(), n_r
   fits <- lapply(mechanisms, function(m) {
     iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
     runs <- simulate_suspension(design_maximin(iu_m, n_runs, seed = 2), mechanism = m)
-    em <- suppressWarnings(fit_emulators(runs, fit$basis))
+    em <- suppressWarnings(fit_emulators(runs, fit$basis, engine = testbed_engine))
     if (n_check > 0L) em <- rescale_emulators(em, testbed_check_runs(iu_m, m, n_check))
     testbed_calibrate(em, fit$field, iu_m, fit$settings$pool_levels, n_draws, n_inner,
                       isTRUE(fit$settings$registration_variance))
