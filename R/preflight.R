@@ -28,8 +28,9 @@
 #' * **inputs**: every input of the design is in the I/U map (else an error
 #'   of class `wavevalid_error_inputs`), and each I/U range lies within the
 #'   design's range (else a warning of class `wavevalid_warning_inputs`: the
-#'   emulators would extrapolate; a range that reaches more than 5% of its
-#'   width beyond the design counts).
+#'   emulators would extrapolate; a range counts when it reaches beyond the
+#'   design by more than 5% of its width or 1.5 / K of it, K runs, about one
+#'   and a half spacings of a space-filling design).
 #' * **windows** (when given): the event windows of the registration.
 #'
 #' @inheritParams validate
@@ -202,7 +203,8 @@ preflight_inputs <- function(runs, iu) {
   width <- pmax(iu$upper[k] - iu$lower[k], .Machine$double.eps)
   out_lo <- (lo - iu$lower[k]) / width
   out_hi <- (iu$upper[k] - hi) / width
-  beyond <- pmax(out_lo, out_hi) > 0.05
+  slack <- max(0.05, 1.5 / nrow(runs$design))
+  beyond <- pmax(out_lo, out_hi) > slack
   fig <- sprintf("%d inputs (%d calibration, %d variation) in the I/U map", length(inputs),
                  sum(iu$type[k] == "calibration"), sum(iu$type[k] == "variation"))
   unused <- setdiff(iu$name, inputs)
@@ -218,7 +220,7 @@ preflight_inputs <- function(runs, iu) {
   preflight_row("ok", paste0(fig, "; every I/U range lies within the design's"), "")
 }
 
-format_range <- function(x) format(signif(x, 3), scientific = abs(x) < 1e-3 & x != 0)
+format_range <- function(x) trimws(formatC(x, digits = 3, format = "g"))
 
 #' @export
 print.wv_preflight <- function(x, ...) {
