@@ -152,11 +152,12 @@
 #' runs <- model_runs(data.frame(a = c(2.7, 3, 3.4)), rbind(bump(t, 2.7), bump(t, 3), bump(t, 3.4)), t)
 #' register_curves(runs, list(site1 = ref), windows = list(c(1, 7)))$warps
 #'
-#' # a rise with no extremum: its steepest point and the crossing of half its range
+#' # a rise with no extremum: the crossing of a fifth of its range, then its
+#' # steepest point
 #' rise <- function(t, at) 2 * stats::plogis((t - at) / 0.2)
 #' field <- field_runs(rbind(rise(t, 4.3), rise(t, 4.6)), t)
 #' reg <- register_curves(field, list(site1 = rise(t, 4.5)), windows = list(c(2, 7)),
-#'                        features = c("rise", "cross"), refine = TRUE)
+#'                        features = c("cross", "rise"), cross_fraction = 0.2, refine = TRUE)
 #' reg$warps
 register_curves <- function(field, reference, windows, ...) {
   UseMethod("register_curves")
