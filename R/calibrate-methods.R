@@ -17,8 +17,7 @@ fit_diagnostics <- function(fit) {
   list(rhat = rhat, ess = ess, flags = boundary_flags(fit, rhat))
 }
 
-# Inputs whose posterior piles at a bound (> 25% of draws within 2% of the
-# range from it while the prior puts at most half as much there), and inputs
+# Inputs whose posterior piles at a bound (see piled_at_bound()), and inputs
 # with R-hat above 1.1.
 boundary_flags <- function(fit, rhat) {
   X <- as.matrix(fit$draws)
@@ -34,12 +33,20 @@ boundary_flags <- function(fit, rhat) {
       zone <- if (side == "lower") c(lo, lo + d) else c(hi - d, hi)
       post <- mean(x >= zone[1] & x <= zone[2])
       prior <- prior_mass(pr, k, zone)
-      if (post > 0.25 && prior < post / 2) {
+      if (piled_at_bound(post, prior)) {
         out[nrow(out) + 1L, ] <- list(fit$inputs[k], side, post, prior)
       }
     }
   }
   list(boundary = out, rhat = names(rhat)[!is.na(rhat) & rhat > 1.1])
+}
+
+# The posterior of an input piles up at a bound when at least 10% of the
+# draws lie within 2% of the range from it and that share is at least four
+# times the prior's share there (a uniform prior puts 2% there, so 8% or more
+# of the draws flag it).
+piled_at_bound <- function(post, prior, share = 0.1, ratio = 4) {
+  post >= share & post >= ratio * prior
 }
 
 prior_mass <- function(pr, k, zone) {

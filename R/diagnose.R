@@ -32,7 +32,9 @@
 #'   (whether the model is above or below reality), ranked by
 #'   `integrated_abs_bias`. Attributes: `levels` (bias energy by site and
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
-#'   each bound, `flagged` when it piles up there), `bias` (the bias band),
+#'   each bound, within 2% of the range from it; `flagged` when it piles up
+#'   there: at least 10% of the draws, and at least four times the prior's
+#'   share there), `bias` (the bias band),
 #'   `tolerance` (by site) and `credible` (by site, the largest distance of the
 #'   band from zero, `credible_bias`, and the time `t` where it is reached:
 #'   the bias is credibly at least that large there, and a tolerance above it
@@ -196,7 +198,7 @@ boundary_check <- function(fit, margin = 0.02) {
       input = p, lower = lo, upper = hi,
       near_lower = near_lo, near_upper = near_hi,
       prior_near_lower = prior_lo, prior_near_upper = prior_hi,
-      flagged = (near_lo > 0.25 && near_lo > 5 * prior_lo) || (near_hi > 0.25 && near_hi > 5 * prior_hi),
+      flagged = piled_at_bound(near_lo, prior_lo) || piled_at_bound(near_hi, prior_hi),
       stringsAsFactors = FALSE
     )
   }))

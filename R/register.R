@@ -8,7 +8,26 @@
 #' maximum (or only one of them, see `features`) of the reference curve and of
 #' each replicate, ordered by time, at a grid point (as in the report) or,
 #' with `refine = TRUE`, between grid points: the vertex of the parabola
-#' through the extreme grid value and its two neighbours. Near a sharp event a
+#' through the extreme grid value and its two neighbours.
+#'
+#' An event that is a monotone change (a shock's rise, a step) has no minimum
+#' or maximum inside its window; `features` then names landmarks of its
+#' shape instead:
+#' * `"rise"` and `"fall"`: the steepest rise and the steepest fall, the grid
+#'   point of the largest (most negative) central difference
+#'   `(y[i + 1] - y[i - 1]) / (t[i + 1] - t[i - 1])`; with `refine = TRUE`, the
+#'   vertex of the parabola through that difference and its two neighbours,
+#'   as for an extremum;
+#' * `"cross"`: the first crossing, either way, of a level: `cross_level` if
+#'   given, else the level `cross_fraction` (default one half) of the way from
+#'   the curve's smallest to its largest value in the window, so that a
+#'   replicate of another amplitude than the reference is cut at the same
+#'   stage of its rise. The landmark is the first grid point past the level;
+#'   with `refine = TRUE`, the point where the straight line from the grid
+#'   point before crosses it. A curve that does not cross the level in the
+#'   window is refused.
+#'
+#' Near a sharp event a
 #' landmark off by a fraction of a grid step misaligns the steep flanks of the
 #' curves; the refinement removes most of that error (on the suspension test
 #' bed the landmark error falls from 0.006 to 0.0002 time units, a grid step
@@ -66,8 +85,13 @@
 #' @param landmark_site The site (name or position) whose curves set the
 #'   landmarks of each replicate, or `NULL` to register each site on its own
 #'   landmarks.
-#' @param features Which landmarks to use in each window: `"min"`, `"max"` or
-#'   both (default).
+#' @param features Which landmarks to use in each window: one or more of
+#'   `"min"`, `"max"` (both by default), `"rise"` (steepest rise), `"fall"`
+#'   (steepest fall) and `"cross"` (first crossing of a level); see Details.
+#' @param cross_fraction,cross_level For `"cross"`: the level crossed, as a
+#'   fraction of the way from each curve's smallest to its largest value in
+#'   the window (default 0.5), or, when `cross_level` is given, that value
+#'   for every curve.
 #' @param knots_every `NULL` (the report's landmark warp) or the spacing, in
 #'   time units, of the further warp knots fitted between the windows (see
 #'   Details).
@@ -79,7 +103,8 @@
 #' @return A registered `wv_field`: the same object with registered curves and
 #'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
 #'   window, feature) and columns `site` (the site whose curve set the
-#'   landmark), `replicate`, `window`, `feature` (`"min"` or `"max"`),
+#'   landmark), `replicate`, `window`, `feature` (`"min"`, `"max"`, `"rise"`,
+#'   `"fall"` or `"cross"`),
 #'   `t_before` (landmark time in the replicate as measured) and `t_after` (the
 #'   reference's landmark time it is moved to). The warp of a replicate is the
 #'   piecewise-linear map through `(t_1, t_1)`, the `(t_before, t_after)` pairs
@@ -126,6 +151,14 @@
 #' # model runs registered to the same reference
 #' runs <- model_runs(data.frame(a = c(2.7, 3, 3.4)), rbind(bump(t, 2.7), bump(t, 3), bump(t, 3.4)), t)
 #' register_curves(runs, list(site1 = ref), windows = list(c(1, 7)))$warps
+#'
+#' # a rise with no extremum: the crossing of a fifth of its range, then its
+#' # steepest point
+#' rise <- function(t, at) 2 * stats::plogis((t - at) / 0.2)
+#' field <- field_runs(rbind(rise(t, 4.3), rise(t, 4.6)), t)
+#' reg <- register_curves(field, list(site1 = rise(t, 4.5)), windows = list(c(2, 7)),
+#'                        features = c("cross", "rise"), cross_fraction = 0.2, refine = TRUE)
+#' reg$warps
 register_curves <- function(field, reference, windows, ...) {
   UseMethod("register_curves")
 }
@@ -151,13 +184,14 @@ register_curves.wv_runs <- function(field, reference, windows, ...) {
 #' @export
 register_curves.wv_field <- function(field, reference, windows, landmark_site = 1L,
                                      features = c("min", "max"), knots_every = NULL, refine = FALSE,
-                                     knots_to = c("reference", "replicates"), ...) {
+                                     knots_to = c("reference", "replicates"), cross_fraction = 0.5,
+                                     cross_level = NULL, ...) {
   check_dots_none(...)
   t <- field$t
   sites <- names(field$curves)
   ref <- resolve_reference(reference, t, sites)
   windows <- check_windows(windows, t)
-  features <- check_features(features)
+  features <- check_features(features, cross_fraction, cross_level)
   check_flag(refine)
   knots_to <- check_choice(knots_to)
   if (!is.null(knots_every)) {
@@ -229,17 +263,59 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
 # --- landmarks and warps ----------------------------------------------------
 
 # Landmarks of one curve: one row per (window, feature), ordered by time within
-# each window.
+# each window. `features` is check_features()'s: the names, with the level
+# crossed by "cross" as its attribute "cross".
 curve_landmarks <- function(y, t, windows, features, refine = FALSE) {
+  cross <- attr(features, "cross")
   out <- lapply(seq_along(windows), function(w) {
     idx <- which(t >= windows[[w]][1] & t <= windows[[w]][2])
     tt <- t[idx]
     yy <- y[idx]
-    at <- c(min = extremum_at(tt, -yy, refine), max = extremum_at(tt, yy, refine))[features]
-    data.frame(window = w, feature = names(at), t = unname(at), stringsAsFactors = FALSE)
+    at <- vapply(features, function(f) {
+      switch(f,
+             min = extremum_at(tt, -yy, refine),
+             max = extremum_at(tt, yy, refine),
+             rise = steepest_at(tt, yy, refine),
+             fall = steepest_at(tt, -yy, refine),
+             cross = crossing_at(tt, yy, cross, refine, w))
+    }, numeric(1))
+    data.frame(window = w, feature = as.character(features), t = unname(at), stringsAsFactors = FALSE)
   })
   out <- do.call(rbind, out)
   out[order(out$window, out$t), , drop = FALSE]
+}
+
+# Location of the steepest rise of y on the grid tt: the largest central
+# difference (y[i + 1] - y[i - 1]) / (tt[i + 1] - tt[i - 1]) at the interior
+# grid points, refined as extremum_at() refines a maximum, on the slopes.
+steepest_at <- function(tt, y, refine = FALSE) {
+  n <- length(y)
+  if (n < 3L) return(tt[which.max(diff(c(y, y[n])))])
+  i <- seq(2L, n - 1L)
+  slope <- (y[i + 1L] - y[i - 1L]) / (tt[i + 1L] - tt[i - 1L])
+  extremum_at(tt[i], slope, refine)
+}
+
+# Time of the first crossing of a level by y on the grid tt, either way: the
+# first grid point at which y - level has changed sign from its value at the
+# start of the window (or is zero); with refine, the time between that point
+# and the one before at which the straight line between them crosses the
+# level. The level is `cross$level`, or the fraction `cross$fraction` of the
+# way from the smallest to the largest value of y in the window.
+crossing_at <- function(tt, y, cross, refine = FALSE, window = NA, call = rlang::caller_env()) {
+  level <- cross$level %||% (min(y) + cross$fraction * (max(y) - min(y)))
+  d <- y - level
+  side <- sign(d[1])
+  k <- if (side == 0) 1L else which(sign(d) != side)[1]
+  if (is.na(k)) {
+    wv_abort(c(
+      "A curve does not cross the level {signif(level, 4)} in window {window}.",
+      "x" = "It stays between {signif(min(y), 4)} and {signif(max(y), 4)} there.",
+      "i" = "Widen the window around the event, or give a level it crosses with {.arg cross_level} or {.arg cross_fraction}."
+    ), call = call)
+  }
+  if (!refine || k == 1L || d[k] == 0) return(tt[k])
+  tt[k - 1L] + (tt[k] - tt[k - 1L]) * d[k - 1L] / (d[k - 1L] - d[k])
 }
 
 # Location of the maximum of y on the grid tt; with refine, refined between
@@ -368,10 +444,23 @@ check_windows <- function(windows, t, call = rlang::caller_env()) {
   lapply(windows, as.numeric)
 }
 
-check_features <- function(features, call = rlang::caller_env()) {
-  if (!is.character(features) || length(features) == 0L || !all(features %in% c("min", "max")) ||
+landmark_features <- c("min", "max", "rise", "fall", "cross")
+
+check_features <- function(features, cross_fraction = 0.5, cross_level = NULL, call = rlang::caller_env()) {
+  if (!is.character(features) || length(features) == 0L || !all(features %in% landmark_features) ||
       anyDuplicated(features)) {
-    wv_abort("{.arg features} must be {.val min}, {.val max} or both.", call = call)
+    wv_abort(c(
+      "{.arg features} must be one or more of {.val {landmark_features}}, each once.",
+      "x" = "It is {.code {deparse(features)}}."
+    ), call = call)
   }
-  intersect(c("min", "max"), features)
+  check_number(cross_fraction, "cross_fraction", min = 0, max = 1, call = call)
+  if (cross_fraction %in% c(0, 1)) {
+    wv_abort("{.arg cross_fraction} must lie strictly between 0 and 1: a curve never crosses its own extreme.",
+             call = call)
+  }
+  if (!is.null(cross_level)) check_number(cross_level, "cross_level", call = call)
+  out <- intersect(landmark_features, features)
+  if ("cross" %in% out) attr(out, "cross") <- list(fraction = cross_fraction, level = cross_level)
+  out
 }

@@ -47,6 +47,7 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   file.copy(template, rmd)
   env <- new.env(parent = globalenv())
   env$fit <- fit
+  env$iu_table <- signif_table(as.data.frame(fit$iu))
   env$runs <- runs
   env$candidates <- candidates
   env$predictions <- predictions
@@ -61,4 +62,17 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
                     intermediates_dir = dir, envir = env, quiet = quiet)
   wv_inform(c("v" = "Validation report written to {.file {out_file}}."))
   invisible(out_file)
+}
+
+# A data frame for a report table: numeric columns as text with `digits`
+# significant digits (ranges of 1e-7 and of 300 side by side keep their
+# figures, which fixed decimals would round to zero), missing values empty.
+signif_table <- function(d, digits = 4) {
+  d[] <- lapply(d, function(v) {
+    if (!is.numeric(v)) return(v)
+    out <- trimws(formatC(v, digits = digits, format = "g"))
+    out[is.na(v)] <- ""
+    out
+  })
+  d
 }

@@ -1,7 +1,10 @@
 #' Validate a computer model in one call
 #'
-#' The whole path from curves to posterior: registers the field curves on the
-#' model's event landmarks when `windows` is given ([register_curves()]),
+#' The whole path from curves to posterior: checks the problem with
+#' [preflight()] (grid, basis accuracy, field noise, inputs: an error stops
+#' here, in a second or two, before anything is fitted), registers the field
+#' curves on the model's event landmarks when `windows` is given
+#' ([register_curves()]),
 #' builds the wavelet basis ([wavelet_basis()]), fits one emulator per retained
 #' coefficient ([fit_emulators()]) and calibrates ([calibrate()]).
 #'
@@ -20,6 +23,8 @@
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]; `NULL`: landmarks only).
 #' @param basis_args A list of further arguments to [wavelet_basis()].
+#' @param sigma2 Fixed field variances, or `"finest"`; passed to
+#'   [calibrate()] (needed when a site has one field replicate).
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
 #'   ...).
 #' @return A `wv_fit` object (see [calibrate()]).
@@ -32,13 +37,14 @@
 #' fit
 #' }
 validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = NULL,
-                     basis_args = list(), engine = "gasp_level", ...) {
+                     basis_args = list(), engine = "gasp_level", sigma2 = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
   if (!is.null(windows)) field <- register_curves(field, reference %||% runs, windows, knots_every = knots_every)
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
-  calibrate(emulators, field, iu, ...)
+  calibrate(emulators, field, iu, sigma2 = sigma2, ...)
 }

@@ -1,15 +1,47 @@
 #' Wavelet basis shared by model runs and field data
 #'
 #' Decomposes every model-run and field curve of every site with
-#' [wavethresh::wd()] (periodic boundary, orthonormal) and chooses the index
-#' set `I` of retained coefficients as in Appendix B of the method's report:
-#' for each curve, the scaling coefficient and all detail coefficients of the
+#' [wavethresh::wd()] (orthonormal) and chooses the index set `I` of retained
+#' coefficients. `I` is the union over all curves and all sites, so every site
+#' uses one basis.
+#'
+#' @section Retention rules:
+#' `retain = "report"` is the rule of Appendix B of the method's report: for
+#' each curve, the scaling coefficient and all detail coefficients of the
 #' wavethresh levels in `keep_levels` (the default `0:2` is the report's
 #' "levels 0 through 3"), plus the coefficients whose magnitude is in the top
 #' `fraction` of all that curve's coefficients, i.e. at least the
 #' `1 - fraction` quantile of their absolute values (the hard threshold of
-#' [wavethresh::threshold()] with that value, ties kept). `I` is the union over
-#' all curves and all sites, so every site uses one basis.
+#' [wavethresh::threshold()] with that value, ties kept). How much of a curve
+#' this keeps depends on the curve: on a short record with a sharp rise
+#' (256 points, the flyer plate of [load_flyer()]) it keeps 10 coefficients and
+#' leaves errors of 8% of the runs' norm.
+#'
+#' `retain = "error"` (the default) starts from the report's rule and adds, for
+#' each curve in turn, the largest of its coefficients not yet kept until the
+#' curve is reconstructed to its tolerance: a model run when its relative L2
+#' error `||y - Psi Psi' y|| / ||y||` is at most `tolerance["runs"]`, a field
+#' curve when its relative L2 error is at most `tolerance["field"]` or the root
+#' mean square of what the basis leaves out is at most the curve's noise
+#' standard deviation (estimated from its finest wavelet level as
+#' `MAD / 0.6745`, as in [field_noise()]): below that, what is left out is
+#' noise. Every curve then meets its tolerance, and where the report's rule
+#' already meets it the basis is the report's. The transform is orthonormal,
+#' so a curve's relative error is the norm of its coefficients left out over
+#' the norm of all of them.
+#'
+#' @section Boundary:
+#' The periodic transform (`boundary = "periodic"`, the report's) treats the
+#' record as one period of a periodic curve: a record that ends far from where
+#' it starts has a jump at the wrap-around, which costs many fine-scale
+#' coefficients at both ends, and a basis that leaves some of them out
+#' reconstructs the start of the record with a trace of its end (on the flyer
+#' plate, a velocity of 0.013 at the first time point, where the data are 0).
+#' `boundary = "interval"` uses the wavelets on the interval of Cohen,
+#' Daubechies and Vial (1993), through [wavethresh::wd()] with
+#' `bc = "interval"` and no preconditioning: an orthonormal transform whose
+#' boundary wavelets do not wrap around, for `family = "DaubExPhase"` and
+#' `filter.number` 1 to 8. Coefficients keep the same positions and levels.
 #'
 #' Coefficients are indexed by their position in the full transform: index 1
 #' is the scaling coefficient (`accessC(w, 0)`), and the k-th coefficient of
@@ -21,16 +53,28 @@
 #'   [register_curves()]), or `NULL` to use the model runs only.
 #' @param filter.number,family The wavelet, passed to [wavethresh::wd()];
 #'   `family` is `"DaubExPhase"` or `"DaubLeAsymm"`.
-#' @param keep_levels wavethresh detail levels kept whole.
+#' @param keep_levels wavethresh detail levels kept whole (the report's rule,
+#'   and the floor of the error rule).
 #' @param fraction Share of each curve's coefficients (the largest in
 #'   magnitude) kept in addition; `1` keeps every coefficient.
+#' @param retain `"error"` (default): the report's rule, plus what each curve
+#'   needs to meet `tolerance`; `"report"`: the report's rule alone. See the
+#'   section Retention rules.
+#' @param tolerance For `retain = "error"`: the largest relative L2
+#'   reconstruction error allowed, a named vector with `runs` (each model run,
+#'   default 1%) and `field` (each field curve, default 2%, or its noise level
+#'   when that is larger).
+#' @param boundary `"periodic"` (default, the report's transform) or
+#'   `"interval"` (wavelets on the interval). See the section Boundary.
 #' @return A `wv_basis` object: a list with `index` (sorted integer positions
 #'   in the full coefficient vector), `level` (the report's level of each),
 #'   `Psi` (T x |I| matrix whose column j is the curve with coefficient
 #'   `index[j]` equal to one and all others zero; its columns are orthonormal),
 #'   `t`, `sites`, `settings` (filter.number, family, keep_levels, fraction,
-#'   n_t, n_levels), `by_site` (the index set each site would give alone) and
-#'   `n_curves` (curves used, by site and source).
+#'   retain, tolerance, boundary, n_t, n_levels), `by_site` (the index set each
+#'   site would give alone), `n_curves` (curves used, by site and source) and
+#'   `error` (the relative L2 reconstruction error of every curve used: a data
+#'   frame with `site`, `source`, `id`, `rel_l2`).
 #' @seealso [wavelet_coef()], [wavelet_reconstruct()], [reconstruction_check()],
 #'   [error_processes()].
 #' @export
@@ -43,9 +87,15 @@
 #' basis <- wavelet_basis(runs, field)
 #' basis
 #' summary(basis)
+#' # the report's rule alone, and wavelets on the interval
+#' wavelet_basis(runs, field, retain = "report")
+#' wavelet_basis(runs, field, boundary = "interval")
 wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubExPhase",
-                          keep_levels = 0:2, fraction = 0.025) {
+                          keep_levels = 0:2, fraction = 0.025, retain = c("error", "report"),
+                          tolerance = c(runs = 0.01, field = 0.02), boundary = c("periodic", "interval")) {
   check_class(runs, "wv_runs")
+  retain <- check_choice(retain)
+  boundary <- check_choice(boundary)
   sites <- names(runs$curves)
   if (!is.null(field)) {
     check_class(field, "wv_field")
@@ -59,12 +109,14 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
       ))
     }
   }
-  settings <- basis_settings(length(runs$t), filter.number, family, keep_levels, fraction)
+  settings <- basis_settings(length(runs$t), filter.number, family, keep_levels, fraction,
+                             retain = retain, tolerance = tolerance, boundary = boundary)
   n <- settings$n_t
   fixed <- c(1L, unlist(lapply(settings$keep_levels, function(l) 2L^l + seq_len(2L^l))))
 
   by_site <- list()
   n_curves <- list()
+  coefs <- list()
   for (s in sites) {
     m <- runs$curves[[s]]
     n_field <- 0L
@@ -72,25 +124,76 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
       n_field <- nrow(field$curves[[s]])
       m <- rbind(m, field$curves[[s]])
     }
+    A <- t(apply(m, 1L, full_coef, settings = settings))
+    if (nrow(m) == 1L) A <- matrix(A, nrow = 1L)
+    source <- rep(c("run", "field"), c(nrow(m) - n_field, n_field))
     keep <- logical(n)
     keep[fixed] <- TRUE
     if (settings$fraction > 0) {
       for (r in seq_len(nrow(m))) {
-        a <- abs(full_coef(m[r, ], settings))
+        a <- abs(A[r, ])
         keep <- keep | a >= stats::quantile(a, 1 - settings$fraction, names = FALSE, type = 7)
       }
     }
+    if (retain == "error") keep <- keep_to_tolerance(A, keep, source, settings)
     by_site[[s]] <- which(keep)
     n_curves[[s]] <- c(runs = nrow(runs$curves[[s]]), field = n_field)
+    coefs[[s]] <- list(A = A, source = source)
   }
   index <- sort(unique(unlist(by_site, use.names = FALSE)))
+  error <- do.call(rbind, lapply(sites, function(s) {
+    A <- coefs[[s]]$A
+    src <- coefs[[s]]$source
+    data.frame(site = s, source = src, id = stats::ave(seq_along(src), src, FUN = seq_along),
+               rel_l2 = sqrt(rowSums(A[, -index, drop = FALSE]^2) / pmax(rowSums(A^2), .Machine$double.xmin)),
+               stringsAsFactors = FALSE)
+  }))
+  error <- error[order(error$source != "run", match(error$site, sites), error$id), , drop = FALSE]
+  rownames(error) <- NULL
   basis <- new_wv_basis(index = index, coef_level = index_level(index), Psi = basis_matrix(index, settings),
                         t = runs$t, sites = sites, settings = settings, by_site = by_site,
-                        n_curves = do.call(rbind, n_curves))
+                        n_curves = do.call(rbind, n_curves), error = error)
   validate_wv_basis(basis)
 }
 
-basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, call = rlang::caller_env()) {
+# The error rule: for each curve (row of the full coefficients A) in turn,
+# adds to `keep` the curve's largest coefficients not yet kept until the
+# energy left out is within the curve's allowance. Model runs: tolerance
+# "runs" of the curve's norm; field curves: tolerance "field" of the norm, or
+# T sigma^2 (a root mean square error of the noise standard deviation sigma,
+# from the finest level) when that is larger.
+keep_to_tolerance <- function(A, keep, source, settings) {
+  n <- ncol(A)
+  finest <- seq(n %/% 2L + 1L, n)
+  for (r in seq_len(nrow(A))) {
+    a2 <- A[r, ]^2
+    total <- sum(a2)
+    if (total <= 0) next
+    allowed <- settings$tolerance[[if (source[r] == "run") "runs" else "field"]]^2 * total
+    if (source[r] == "field") {
+      sd_noise <- stats::mad(A[r, finest], center = 0)
+      allowed <- max(allowed, n * sd_noise^2)
+    }
+    lost <- sum(a2[!keep])
+    if (lost <= allowed) next
+    out <- which(!keep)
+    out <- out[order(a2[out], decreasing = TRUE)]
+    still <- lost - cumsum(a2[out])
+    k <- which(still <= allowed)[1]
+    keep[out[seq_len(k)]] <- TRUE
+  }
+  keep
+}
+
+# The noise standard deviation of a curve from its finest wavelet level.
+finest_level_sd <- function(y, settings) {
+  n <- length(y)
+  stats::mad(full_coef(y, settings)[seq(n %/% 2L + 1L, n)], center = 0)
+}
+
+basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, retain = "report",
+                           tolerance = c(runs = 0.01, field = 0.02), boundary = "periodic",
+                           call = rlang::caller_env()) {
   if (n_t < 4L || bitwAnd(n_t, n_t - 1L) != 0L) {
     wv_abort(c(
       "The grid must have a power of two of points (at least 4) for the wavelet transform.",
@@ -106,6 +209,17 @@ basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, ca
   if (family == "DaubLeAsymm" && filter.number < 4) {
     wv_abort("{.arg filter.number} must be 4 to 10 for {.val DaubLeAsymm}; it is {filter.number}.", call = call)
   }
+  if (boundary == "interval" && (family != "DaubExPhase" || filter.number > 8)) {
+    wv_abort(c(
+      "Wavelets on the interval exist for {.val DaubExPhase} with {.arg filter.number} 1 to 8.",
+      "x" = "The wavelet is {.val {family}} {filter.number}.",
+      "i" = "Use {.code family = \"DaubExPhase\"} with a smaller {.arg filter.number}, or {.code boundary = \"periodic\"}."
+    ), call = call)
+  }
+  if (boundary == "interval" && n_t < 4L * filter.number) {
+    wv_abort("Wavelets on the interval with {.arg filter.number} {filter.number} need at least {4 * filter.number} time points; the grid has {n_t}.",
+             call = call)
+  }
   if (!is.numeric(keep_levels) || any(!is.finite(keep_levels)) || any(keep_levels != round(keep_levels)) ||
       any(keep_levels < 0) || any(keep_levels > n_levels - 1L)) {
     wv_abort(c(
@@ -114,9 +228,28 @@ basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, ca
     ), call = call)
   }
   check_number(fraction, "fraction", min = 0, max = 1, call = call)
+  tolerance <- check_tolerance(tolerance, call = call)
   list(filter.number = as.integer(filter.number), family = family,
        keep_levels = sort(unique(as.integer(keep_levels))), fraction = fraction,
+       retain = retain, tolerance = tolerance, boundary = boundary,
        n_t = n_t, n_levels = n_levels)
+}
+
+# A named tolerance vector c(runs = , field = ); a missing name keeps its
+# default.
+check_tolerance <- function(tolerance, call = rlang::caller_env()) {
+  out <- c(runs = 0.01, field = 0.02)
+  nm <- names(tolerance)
+  if (!is.numeric(tolerance) || !length(tolerance) || length(tolerance) > 2L || is.null(nm) ||
+      !all(nm %in% names(out)) || anyDuplicated(nm) || any(!is.finite(tolerance)) ||
+      any(tolerance <= 0) || any(tolerance >= 1)) {
+    wv_abort(c(
+      "{.arg tolerance} must be a named vector of relative errors in (0, 1): {.code c(runs = 0.01, field = 0.02)}.",
+      "x" = "It is {.code {deparse(tolerance)}}."
+    ), call = call)
+  }
+  out[nm] <- tolerance
+  out
 }
 
 # Report level of each index: 0 for the scaling coefficient, l + 1 for
@@ -142,6 +275,7 @@ index_level <- function(index) {
 #' @keywords internal
 #' @noRd
 full_coef <- function(y, settings) {
+  if (identical(settings$boundary, "interval")) return(interval_wd(y, settings)$transformed.vector)
   w <- wavethresh::wd(y, filter.number = settings$filter.number, family = settings$family, bc = "periodic")
   n_levels <- wavethresh::nlevelsWT(w)
   c(wavethresh::accessC(w, 0), unlist(lapply(seq_len(n_levels) - 1L, function(l) wavethresh::accessD(w, l))))
@@ -150,6 +284,11 @@ full_coef <- function(y, settings) {
 # Inverse of full_coef(): the curve with the given full coefficient vector.
 full_curve <- function(coef, settings) {
   n <- length(coef)
+  if (identical(settings$boundary, "interval")) {
+    w <- interval_wd(numeric(n), settings)
+    w$transformed.vector <- as.numeric(coef)
+    return(suppressWarnings(wavethresh::wr(w)))
+  }
   w <- wavethresh::wd(numeric(n), filter.number = settings$filter.number, family = settings$family,
                       bc = "periodic")
   w <- wavethresh::putC(w, 0, coef[1])
@@ -157,12 +296,24 @@ full_curve <- function(coef, settings) {
   wavethresh::wr(w)
 }
 
+# The transform on the interval (Cohen, Daubechies and Vial), without
+# preconditioning so that it is orthonormal. Its coefficient vector holds the
+# scaling coefficient and then the detail levels 0, 1, ..., J - 1, level l at
+# positions 2^l + 1 .. 2^(l + 1): the package's index order.
+interval_wd <- function(y, settings) {
+  wavethresh::wd(y, filter.number = settings$filter.number, family = "DaubExPhase", bc = "interval",
+                 precond = FALSE)
+}
+
 # Column j: the curve whose only non-zero coefficient is index[j], equal to one.
-# In the periodic transform the k-th wavelet of detail level l is the first
+# On the interval, one inverse transform per column. In the periodic transform the k-th wavelet of detail level l is the first
 # one circularly shifted by (k - 1) T / 2^l points, so one inverse transform
 # per level suffices.
 basis_matrix <- function(index, settings) {
   n <- settings$n_t
+  if (identical(settings$boundary, "interval")) {
+    return(vapply(index, function(i) full_curve(replace(numeric(n), i, 1), settings), numeric(n)))
+  }
   zero <- wavethresh::wd(numeric(n), filter.number = settings$filter.number, family = settings$family,
                          bc = "periodic")
   psi <- matrix(0, n, length(index))
@@ -182,9 +333,10 @@ basis_matrix <- function(index, settings) {
   psi
 }
 
-new_wv_basis <- function(index, coef_level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL) {
+new_wv_basis <- function(index, coef_level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL,
+                         error = NULL) {
   structure(list(index = as.integer(index), level = as.integer(coef_level), Psi = Psi, t = t, sites = sites,
-                 settings = settings, by_site = by_site, n_curves = n_curves), class = "wv_basis")
+                 settings = settings, by_site = by_site, n_curves = n_curves, error = error), class = "wv_basis")
 }
 
 validate_wv_basis <- function(x, call = rlang::caller_env()) {
@@ -269,101 +421,4 @@ wavelet_reconstruct <- function(basis, coef) {
     ))
   }
   unname(basis_curves(basis, coef))
-}
-
-# --- print, summary, plot ----------------------------------------------------------
-
-family_label <- function(settings) {
-  sprintf("%s %d", settings$family, settings$filter.number)
-}
-
-#' @export
-print.wv_basis <- function(x, ...) {
-  st <- x$settings
-  cli::cat_line(sprintf("<wv_basis> %d of %d wavelet coefficients kept (%s, periodic)",
-                        length(x$index), st$n_t, family_label(st)))
-  alone <- vapply(x$by_site, length, integer(1))
-  cli::cat_line("  sites: ", paste(sprintf("%s (%d alone)", names(alone), alone), collapse = ", "))
-  if (!is.null(x$n_curves)) {
-    cli::cat_line(sprintf("  from %d model-run and %d field curves", sum(x$n_curves[, "runs"]),
-                          sum(x$n_curves[, "field"])))
-  }
-  lv <- if (length(st$keep_levels)) paste0(" and all of levels ", paste(range(st$keep_levels + 1L), collapse = "-"))
-        else ""
-  cli::cat_line(sprintf("  rule: scaling coefficient%s, plus each curve's top %s%% of coefficients",
-                        lv, format(100 * st$fraction)))
-  tab <- table(factor(x$level, levels = 0:st$n_levels))
-  tab <- tab[tab > 0]
-  cli::cat_line("  kept by level: ", paste(sprintf("%s:%d", names(tab), tab), collapse = " "))
-  invisible(x)
-}
-
-#' @export
-summary.wv_basis <- function(object, ...) {
-  st <- object$settings
-  lev <- 0:st$n_levels
-  total <- c(1L, 2L^(lev[-1] - 1L))
-  kept <- as.integer(table(factor(object$level, levels = lev)))
-  structure(list(
-    by_level = data.frame(level = lev, total = total, kept = kept, share = kept / total),
-    n_kept = length(object$index), n_t = st$n_t, by_site = vapply(object$by_site, length, integer(1)),
-    settings = st
-  ), class = "summary_wv_basis")
-}
-
-#' @export
-print.summary_wv_basis <- function(x, ...) {
-  cli::cat_line(sprintf("Wavelet basis: %d of %d coefficients kept (%s)", x$n_kept, x$n_t,
-                        family_label(x$settings)))
-  cli::cat_line("Sites alone: ", paste(sprintf("%s %d", names(x$by_site), x$by_site), collapse = ", "))
-  d <- x$by_level
-  d$share <- sprintf("%.1f%%", 100 * d$share)
-  print(d, row.names = FALSE)
-  invisible(x)
-}
-
-#' Plot a wavelet basis
-#'
-#' `type = "levels"` shows which coefficients are kept: one point per retained
-#' coefficient at the time its wavelet is centred on, by level.
-#' `type = "reconstruction"` draws `curve` and its reconstruction from the
-#' retained coefficients (report Figure 2; see also [reconstruction_check()]).
-#'
-#' @param object A `wv_basis` object.
-#' @param type `"levels"` or `"reconstruction"`.
-#' @param curve For `type = "reconstruction"`: a numeric vector on the basis
-#'   grid.
-#' @param ... Unused.
-#' @return A ggplot object.
-#' @export
-#' @examples
-#' t <- seq(0, 1, length.out = 128)
-#' runs <- model_runs(data.frame(a = 1:5), t(sapply(1:5, function(a) sin(2 * pi * a * t^2))), t)
-#' basis <- wavelet_basis(runs)
-#' autoplot(basis)
-#' autoplot(basis, type = "reconstruction", curve = runs$curves$site1[5, ])
-autoplot.wv_basis <- function(object, type = c("levels", "reconstruction"), curve = NULL, ...) {
-  type <- check_choice(type)
-  if (type == "reconstruction") {
-    if (!is.numeric(curve) || length(curve) != length(object$t)) {
-      wv_abort("{.arg curve} must be a numeric vector of {length(object$t)} values on the basis grid.")
-    }
-    return(plot_reconstruction(object$t, curve, basis_curves(object, basis_coef(object, curve))[1, ], NULL))
-  }
-  rg <- range(object$t)
-  pos <- ifelse(object$level == 0L, 0.5, (object$index - 2^pmax(object$level - 1L, 0) - 0.5) /
-                  2^pmax(object$level - 1L, 0))
-  d <- data.frame(t = rg[1] + pos * diff(rg), level = object$level)
-  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$level)) +
-    ggplot2::geom_point(size = 0.8) +
-    ggplot2::scale_y_reverse(breaks = 0:object$settings$n_levels) +
-    ggplot2::labs(x = "time (centre of the wavelet)", y = "level",
-                  title = sprintf("%d retained wavelet coefficients", length(object$index))) +
-    ggplot2::theme_bw()
-}
-
-#' @export
-plot.wv_basis <- function(x, ...) {
-  print(autoplot(x, ...))
-  invisible(x)
 }

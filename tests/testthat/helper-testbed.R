@@ -58,7 +58,7 @@ testbed_validation <- function(hidden, seed, n_draws = 150L, n_inner = 20L, pool
   on.exit(options(old), add = TRUE)
   tb <- testbed_suspension(seed = seed, hidden = hidden)
   field <- testbed_register(tb, tb$A$runs)
-  basis <- wavelet_basis(tb$A$runs, field)
+  basis <- wavelet_basis(tb$A$runs, field, retain = "report")
   em <- suppressWarnings(fit_emulators(tb$A$runs, basis, engine = testbed_engine))
   fit <- testbed_calibrate(em, field, tb$iu, pool_levels, n_draws, n_inner, registration_variance)
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)
@@ -93,7 +93,7 @@ testbed_first_pass <- function(tb, runs, iu, check = NULL, pool_levels = 0:3, st
                                n_search = 200L) {
   start <- match.arg(start)
   field <- testbed_register(tb, if (start == "runs") runs else lapply(tb$A$field$curves, colMeans))
-  basis <- wavelet_basis(runs, field)
+  basis <- wavelet_basis(runs, field, retain = "report")
   em <- suppressWarnings(fit_emulators(runs, basis, engine = testbed_engine))
   if (!is.null(check)) em <- rescale_emulators(em, check)
   list(field = field, basis = basis, emulators = em,

@@ -394,3 +394,25 @@ test_that("flagged_share counts the flagged points where an effect acts", {
   expect_error(flagged_share(fails, list(site1 = bump[-1])), class = "wavevalid_error_input")
   expect_error(flagged_share(d$fit, list(site1 = bump)), class = "wavevalid_error_input")
 })
+
+test_that("an input with 12% of its draws at a bound is flagged, one spread over its range is not", {
+  withr::local_seed(31)
+  n <- 1000
+  piled <- c(runif(120, 0.99, 1), runif(n - 120, 0.2, 0.8))
+  spread <- runif(n)
+  iu <- iu_map(c("u1", "u2"), "calibration", c(0, 0), c(1, 1))
+  fit <- list(draws = coda::mcmc.list(coda::mcmc(cbind(u1 = piled, u2 = spread))), inputs = c("u1", "u2"),
+              prior_iu = iu, iu = iu, emulators = list(inputs = c("u1", "u2")), x_nom = NULL)
+  flags <- boundary_flags(fit, c(u1 = 1, u2 = 1))$boundary
+  expect_identical(flags$input, "u1")
+  expect_identical(flags$bound, "upper")
+  expect_equal(flags$posterior, 0.12)
+  bc <- boundary_check(fit)
+  expect_identical(bc$flagged, c(TRUE, FALSE))
+  expect_true(piled_at_bound(0.19, 0.02))
+  expect_false(piled_at_bound(0.09, 0.02))
+  expect_false(piled_at_bound(0.3, 0.1))
+  # a warning names it
+  expect_warning(warn_fit_flags(list(flags = list(boundary = flags, rhat = character(0)))),
+                 class = "wavevalid_warning_boundary")
+})

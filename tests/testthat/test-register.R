@@ -302,3 +302,51 @@ test_that("rows of the warps keep their class, columns short of it give a data f
   expect_s3_class(cols, "data.frame")
   expect_identical(w$t_after, as.data.frame(unclass(w))$t_after)
 })
+
+test_that("a shifted logistic rise is registered by its steepest point and by a level crossing", {
+  t <- seq(0, 10, length.out = 512)
+  h <- t[2] - t[1]
+  rise <- function(at, amp = 1) amp * stats::plogis((t - at) / 0.25)
+  ref <- rise(5)
+  shifts <- c(-0.37, 0.123, 0.41)
+  field <- field_runs(t(vapply(shifts, function(d) rise(5 + d, amp = 1.2), numeric(512))), t)
+  win <- list(c(2.5, 8))
+  near <- t > 3.5 & t < 6.5
+  off <- function(m) max(abs(m[, near] / 1.2 - matrix(ref[near], nrow(m), sum(near), byrow = TRUE)))
+  for (f in c("rise", "cross")) {
+    fine <- register_curves(field, list(site1 = ref), win, features = f, refine = TRUE)
+    w <- fine$warps
+    expect_identical(w$feature, rep(f, 3))
+    # the landmark of a rise centred at 5 + d is at 5 + d: the registration recovers the shift
+    expect_lt(max(abs(w$t_before - w$t_after - shifts)), 0.02 * h)
+    expect_lt(max(abs(w$t_after - 5)), 0.02 * h)
+    # and the registered curves follow the reference around the event
+    expect_lt(off(fine$curves$site1), off(field$curves$site1) / 10)
+    grid <- register_curves(field, list(site1 = ref), win, features = f)$warps
+    expect_true(all(abs(grid$t_before - (5 + shifts)) <= h))
+    expect_true(all(grid$t_before %in% t))
+  }
+  # the level crossed: a fraction of each curve's range in the window, or a value
+  inside <- t >= win[[1]][1] & t <= win[[1]][2]
+  lv <- min(ref[inside]) + 0.25 * diff(range(ref[inside]))
+  quarter <- register_curves(field, list(site1 = ref), win, features = "cross", cross_fraction = 0.25,
+                             refine = TRUE)$warps
+  expect_lt(abs(quarter$t_after[1] - (5 + 0.25 * stats::qlogis(lv))), 1e-3)
+  expect_lt(max(abs(quarter$t_before - quarter$t_after - shifts)), 0.02 * h)
+  level <- register_curves(field, list(site1 = ref), win, features = "cross", cross_level = 0.6,
+                           refine = TRUE)$warps
+  expect_lt(abs(level$t_after[1] - (5 + 0.25 * stats::qlogis(0.6))), 1e-3)
+  expect_lt(max(abs(level$t_before - (5 + shifts))), 1e-3)
+  # a fall is the rise of the negated curves; several features are ordered by time
+  down <- field_runs(-field$curves$site1, t)
+  both <- register_curves(down, list(site1 = -ref), win, features = c("fall", "cross"), cross_fraction = 0.25,
+                          refine = TRUE)$warps
+  expect_identical(both$feature[both$replicate == 1], c("fall", "cross"))
+  expect_lt(max(abs(both$t_before[both$feature == "fall"] - 5 - shifts)), 0.02 * h)
+  # a level the curves never cross, and bad arguments
+  expect_error(register_curves(field, list(site1 = ref), win, features = "cross", cross_level = 3),
+               class = "wavevalid_error_input")
+  expect_error(register_curves(field, list(site1 = ref), win, features = "slope"), class = "wavevalid_error_input")
+  expect_error(register_curves(field, list(site1 = ref), win, features = "cross", cross_fraction = 1),
+               class = "wavevalid_error_input")
+})

@@ -71,7 +71,7 @@ test_that("Psi has orthonormal columns and matches wavethresh's inverse transfor
 test_that("I holds the whole kept levels and every curve's top coefficients, and nothing else", {
   withr::local_seed(4)
   bed <- small_bed()
-  b <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:2, fraction = 0.05)
+  b <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:2, fraction = 0.05, retain = "report")
   expect_true(all(1:8 %in% b$index))
   expected <- 1:8
   for (s in c("s1", "s2")) {
@@ -88,7 +88,7 @@ test_that("I holds the whole kept levels and every curve's top coefficients, and
   expect_equal(b$index, sort(unique(unlist(b$by_site))))
   expect_true(all(lengths(b$by_site) <= length(b$index)))
   # with no thresholded coefficients, I is exactly the kept levels
-  b0 <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:3, fraction = 0)
+  b0 <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:3, fraction = 0, retain = "report")
   expect_equal(b0$index, 1:16)
   expect_equal(b0$level, c(0L, 1L, 2L, 2L, rep(3L, 4), rep(4L, 8)))
 })
@@ -161,4 +161,100 @@ test_that("inputs are checked", {
   b <- wavelet_basis(bed$runs)
   expect_error(wavelet_coef(b, matrix(0, 2, 100)), class = cls)
   expect_error(wavelet_reconstruct(b, matrix(0, 2, length(b$index) + 1)), class = cls)
+})
+
+test_that("the error rule reconstructs every curve to its tolerance, on top of the report's rule", {
+  withr::local_seed(9)
+  bed <- small_bed()
+  report <- wavelet_basis(bed$runs, bed$field, retain = "report")
+  tol <- c(runs = 0.004, field = 0.3)
+  b <- wavelet_basis(bed$runs, bed$field, tolerance = tol)
+  expect_true(all(report$index %in% b$index))
+  expect_gt(length(b$index), length(report$index))
+  chk <- reconstruction_check(b, bed$runs, bed$field)
+  expect_true(all(chk$rel_l2[chk$source == "run"] <= tol[["runs"]] + 1e-12))
+  expect_true(all(chk$rel_l2[chk$source == "field"] <= tol[["field"]] + 1e-12))
+  # the stored errors are those of reconstruction_check()
+  expect_equal(b$error$rel_l2, chk$rel_l2, tolerance = 1e-9)
+  # what the report's rule misses on its worst run, the error rule adds from
+  # that run's largest coefficients first: the added set holds no coefficient
+  # smaller than one it leaves out, for a single run on its own
+  one <- model_runs(bed$runs$design[1, , drop = FALSE][c(1, 1), ] + c(0, 1e-3),
+                    bed$runs$curves$s1[c(1, 1), ], bed$runs$t)
+  b1 <- wavelet_basis(one, tolerance = c(runs = 0.004))
+  r1 <- wavelet_basis(one, retain = "report")
+  a <- abs(full_coef(one$curves$site1[1, ], b1$settings))
+  added <- setdiff(b1$index, r1$index)
+  left <- setdiff(seq_along(a), b1$index)
+  expect_gte(min(a[added]), max(a[left]))
+  # one coefficient fewer would not do
+  expect_gt(sqrt(sum(a[c(left, added[which.min(a[added])])]^2) / sum(a^2)), 0.004)
+  # a tolerance the report's rule meets (its errors here are 23-53%) keeps the
+  # report's basis
+  expect_lt(max(report$error$rel_l2), 0.6)
+  loose <- wavelet_basis(bed$runs, bed$field, tolerance = c(runs = 0.6, field = 0.6))
+  expect_identical(loose$index, report$index)
+})
+
+test_that("a noisy field curve is kept to its noise level, not beyond", {
+  withr::local_seed(10)
+  t <- seq(0, 1, length.out = 256)
+  design <- data.frame(a = seq(0.8, 1.2, length.out = 5))
+  runs <- model_runs(design, t(sapply(design$a, function(a) sin(2 * pi * a * t))), t)
+  field <- field_runs(rbind(sin(2 * pi * t) + rnorm(256, sd = 0.2)), t)
+  b <- wavelet_basis(runs, field, tolerance = c(runs = 0.01, field = 0.001))
+  runs_only <- wavelet_basis(runs, tolerance = c(runs = 0.01))
+  # the noise (sd 0.2, relative size about 0.27) cannot be reconstructed to
+  # 0.1%: the field adds nothing once what is left out is at the noise level
+  e <- b$error
+  expect_gt(e$rel_l2[e$source == "field"], 0.001)
+  expect_lt(length(b$index), 64)
+  lost <- sqrt(mean((field$curves$site1 - wavelet_reconstruct(b, wavelet_coef(b, field))$site1)^2))
+  expect_lte(lost, finest_level_sd(field$curves$site1[1, ], b$settings) + 1e-12)
+  expect_true(all(runs_only$index %in% b$index))
+})
+
+test_that("wavelets on the interval: orthonormal, exact with every coefficient, no wrap-around", {
+  withr::local_seed(11)
+  bed <- small_bed()
+  b <- wavelet_basis(bed$runs, bed$field, boundary = "interval", fraction = 1)
+  expect_equal(b$index, 1:256)
+  expect_equal(crossprod(b$Psi), diag(256), tolerance = 1e-9)
+  m <- bed$runs$curves$s1
+  expect_equal(basis_curves(b, basis_coef(b, m)), m, tolerance = 1e-9)
+  y <- m[1, ]
+  w <- wavethresh::wd(y, filter.number = 2, family = "DaubExPhase", bc = "interval", precond = FALSE)
+  expect_equal(as.vector(basis_coef(b, y)), w$transformed.vector, tolerance = 1e-9)
+  expect_equal(full_coef(y, b$settings), w$transformed.vector)
+  # rises that end far from where they start: the periodic transform puts a
+  # jump at the wrap-around, whose trace the reconstruction leaves at both ends
+  t <- seq(0, 1, length.out = 256)
+  rise <- model_runs(data.frame(a = 1:3), t(sapply(c(0.4, 0.5, 0.6), function(c) plogis((t - c) / 0.02))), t)
+  ends <- c(1:4, 253:256)
+  err <- vapply(c("periodic", "interval"), function(bc) {
+    report <- wavelet_basis(rise, retain = "report", boundary = bc)
+    bb <- wavelet_basis(rise, boundary = bc)
+    rec <- wavelet_reconstruct(bb, wavelet_coef(bb, rise))$site1
+    c(report = max(report$error$rel_l2), ends = max(abs(rec[, ends] - rise$curves$site1[, ends])))
+  }, numeric(2))
+  expect_lt(err["report", "interval"], err["report", "periodic"] / 3)
+  expect_lt(err["ends", "interval"], err["ends", "periodic"] / 3)
+  expect_match(paste(capture.output(print(wavelet_basis(rise, boundary = "interval"))), collapse = "\n"),
+               "interval")
+})
+
+test_that("retention and boundary arguments are checked", {
+  withr::local_seed(12)
+  bed <- small_bed()
+  cls <- "wavevalid_error_input"
+  expect_error(wavelet_basis(bed$runs, retain = "all"), class = cls)
+  expect_error(wavelet_basis(bed$runs, boundary = "symmetric"), class = cls)
+  expect_error(wavelet_basis(bed$runs, tolerance = 0.01), class = cls)
+  expect_error(wavelet_basis(bed$runs, tolerance = c(runs = 0)), class = cls)
+  expect_error(wavelet_basis(bed$runs, tolerance = c(curves = 0.01)), class = cls)
+  expect_error(wavelet_basis(bed$runs, family = "DaubLeAsymm", filter.number = 4, boundary = "interval"),
+               class = cls)
+  expect_snapshot(wavelet_basis(bed$runs, tolerance = c(runs = 2)), error = TRUE)
+  # a partial tolerance keeps the other default
+  expect_equal(wavelet_basis(bed$runs, tolerance = c(runs = 0.05))$settings$tolerance, c(runs = 0.05, field = 0.02))
 })

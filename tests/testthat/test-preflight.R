@@ -1,0 +1,120 @@
+# Counts the calls of the namespace functions `what` made while `code` runs.
+count_calls <- function(code, what = c("fit_emulators", "register_curves", "calibrate")) {
+  ns <- asNamespace("wavevalid")
+  counter <- new.env()
+  for (f in what) {
+    counter[[f]] <- 0L
+    suppressMessages(trace(f, tracer = bquote(assign(.(f), get(.(f), envir = .(counter)) + 1L, envir = .(counter))), where = ns,
+                           print = FALSE))
+  }
+  on.exit(for (f in what) suppressMessages(untrace(f, where = ns)), add = TRUE)
+  value <- tryCatch(code, error = function(e) e)
+  list(value = value, calls = unlist(mget(what, envir = counter)))
+}
+
+preflight_problem <- function() {
+  t <- seq(0, 1, length.out = 128)
+  design <- data.frame(u = seq(0, 1, length.out = 8), x = rev(seq(0, 1, length.out = 8)))
+  model <- function(u, x) plogis((t - 0.4 - 0.1 * u) / 0.02) * (1 + 0.2 * x)
+  runs <- model_runs(design, t(mapply(model, design$u, design$x)), t)
+  field <- field_runs(rbind(model(0.5, 0.5) + 0.01 * sin(40 * t)), t)
+  iu <- iu_map(c("u", "x"), c("calibration", "variation"), c(0, 0), c(1, 1))
+  list(t = t, runs = runs, field = field, iu = iu)
+}
+
+test_that("the checks and their figures on a sound problem", {
+  pp <- preflight_problem()
+  pf <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4)
+  expect_s3_class(pf, "wv_preflight")
+  expect_identical(pf$check, c("grid", "basis", "noise", "inputs"))
+  expect_identical(pf$status, rep("ok", 4))
+  expect_s3_class(attr(pf, "basis"), "wv_basis")
+  expect_match(pf$figure[2], "relative L2 error runs median")
+  expect_match(pf$figure[3], "fixed by sigma2 = 1e-04")
+  expect_output(print(pf), "4 ok")
+  pw <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, windows = list(c(0.2, 0.8)))
+  expect_identical(pw$status[pw$check == "windows"], "ok")
+  # the counter sees the fits of a validation that passes
+  ok <- count_calls(suppressWarnings(validate(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, n_draws = 10, n_inner = 2,
+                                              chains = 1, burnin = 10, seed = 1, quiet = TRUE)))
+  expect_s3_class(ok$value, "wv_fit")
+  expect_identical(unname(ok$calls), c(1L, 0L, 1L))
+})
+
+test_that("one replicate without sigma2 stops validate() before any registration or fit", {
+  pp <- preflight_problem()
+  pf <- preflight(pp$runs, pp$field, pp$iu)
+  expect_identical(pf$status[pf$check == "noise"], "error")
+  expect_match(pf$fix[pf$check == "noise"], "sigma2")
+  out <- count_calls(validate(pp$runs, pp$field, pp$iu, windows = list(c(0.2, 0.8)), quiet = TRUE))
+  expect_s3_class(out$value, "wavevalid_error_noise")
+  expect_s3_class(out$value, "wavevalid_error_input")
+  expect_identical(unname(out$calls), c(0L, 0L, 0L))
+  expect_snapshot(validate(pp$runs, pp$field, pp$iu), error = TRUE)
+  # the same problem with sigma2 passes every check
+  expect_true(all(preflight(pp$runs, pp$field, pp$iu, sigma2 = "finest")$status == "ok"))
+})
+
+test_that("a bad grid and a basis too coarse are refused before any fit", {
+  pp <- preflight_problem()
+  # a grid that is not dyadic, as an object not built by model_runs()
+  odd <- new_wv_runs(pp$runs$design, pp$t[1:100], lapply(pp$runs$curves, function(m) m[, 1:100]))
+  odd_field <- new_wv_field(pp$t[1:100], lapply(pp$field$curves, function(m) m[, 1:100, drop = FALSE]))
+  out <- count_calls(validate(odd, odd_field, pp$iu, sigma2 = 1e-4, quiet = TRUE))
+  expect_s3_class(out$value, "wavevalid_error_grid")
+  expect_identical(unname(out$calls), c(0L, 0L, 0L))
+  pf <- preflight(odd, odd_field, pp$iu, sigma2 = 1e-4)
+  expect_identical(pf$status[1:2], c("error", "skipped"))
+  expect_match(pf$fix[1], "model_runs")
+  # decreasing times and a field on another grid
+  back <- new_wv_runs(pp$runs$design, rev(pp$t), pp$runs$curves)
+  expect_identical(preflight(back, pp$field, pp$iu, sigma2 = 1)$status[1], "error")
+  other <- new_wv_field(pp$t + 0.5, pp$field$curves)
+  expect_identical(preflight(pp$runs, other, pp$iu, sigma2 = 1)$status[1], "error")
+  holed <- pp$field
+  holed$curves$site1[1, 5] <- NA
+  expect_identical(preflight(pp$runs, holed, pp$iu, sigma2 = 1)$status[1], "error")
+
+  # the report's rule on a sharp rise: 10 coefficients miss 1% many times over
+  coarse <- list(retain = "report", keep_levels = 0:1, fraction = 0.01)
+  pf <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, basis_args = coarse)
+  expect_identical(pf$status[pf$check == "basis"], "error")
+  med <- stats::median(attr(pf, "basis")$error$rel_l2[attr(pf, "basis")$error$source == "run"])
+  expect_gt(med, 0.05)
+  out <- count_calls(validate(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, basis_args = coarse, quiet = TRUE))
+  expect_s3_class(out$value, "wavevalid_error_basis")
+  expect_identical(unname(out$calls), c(0L, 0L, 0L))
+  # a basis that misses the tolerance only for some runs warns
+  mild <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, tolerance = c(runs = med / 2))
+  expect_identical(mild$status[mild$check == "basis"], "ok")
+  mild <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, tolerance = c(runs = med / 2),
+                    basis_args = list(retain = "report", keep_levels = 0:1, fraction = 0.01))
+  expect_identical(mild$status[mild$check == "basis"], "warning")
+})
+
+test_that("inputs of the design are checked against the I/U map", {
+  pp <- preflight_problem()
+  short <- iu_map("u", "calibration", 0, 1)
+  pf <- preflight(pp$runs, pp$field, short, sigma2 = 1)
+  expect_identical(pf$status[pf$check == "inputs"], "error")
+  expect_match(pf$figure[pf$check == "inputs"], "x is not in the I/U map")
+  out <- count_calls(validate(pp$runs, pp$field, short, sigma2 = 1, quiet = TRUE))
+  expect_s3_class(out$value, "wavevalid_error_inputs")
+  expect_identical(unname(out$calls), c(0L, 0L, 0L))
+  wide <- iu_map(c("u", "x"), c("calibration", "variation"), c(0, -0.5), c(1, 1))
+  pf <- preflight(pp$runs, pp$field, wide, sigma2 = 1)
+  expect_identical(pf$status[pf$check == "inputs"], "warning")
+  expect_match(pf$figure[pf$check == "inputs"], "beyond the design for x")
+  expect_warning(enforce_preflight(pf), class = "wavevalid_warning_inputs")
+  bad_windows <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1, windows = list(c(0.8, 0.2)))
+  expect_identical(bad_windows$status[bad_windows$check == "windows"], "error")
+})
+
+test_that("the flyer plate passes every check but the noise, which sigma2 settles", {
+  fl <- load_flyer()
+  pf <- preflight(fl$runs, fl$field, fl$iu)
+  expect_identical(pf$status, c("ok", "ok", "error", "ok"))
+  expect_identical(preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8)$status, rep("ok", 4))
+  rep_pf <- preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8, basis_args = list(retain = "report"))
+  expect_identical(rep_pf$status[rep_pf$check == "basis"], "error")
+})

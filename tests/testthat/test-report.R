@@ -1,0 +1,15 @@
+test_that("report tables keep significant digits of inputs on very different scales", {
+  fl <- load_flyer()
+  tab <- signif_table(as.data.frame(fl$iu))
+  expect_identical(names(tab), names(as.data.frame(fl$iu)))
+  g <- tab[tab$name == "gamma", ]
+  expect_identical(g$lower, "6.964e-08")
+  expect_identical(g$upper, "0.0006765")
+  expect_identical(tab$upper[tab$name == "vs"], "338.5")
+  expect_identical(tab$prior_sd[tab$name == "gamma"], "")
+  expect_identical(tab$prior_sd[tab$name == "vs"], "1.5")
+  # every figure reads back to the value within four significant digits
+  num <- as.numeric(tab$upper)
+  expect_equal(num, fl$iu$upper, tolerance = 1e-3)
+  expect_true(all(num != 0))
+})
