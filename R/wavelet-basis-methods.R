@@ -31,7 +31,7 @@ basis_rule_text <- function(st) {
         else ""
   rule <- sprintf("scaling coefficient%s, plus each curve's top %s%% of coefficients", lv, format(100 * st$fraction))
   if (identical(st$retain, "error")) {
-    rule <- sprintf("%s, plus what each curve needs for a relative L2 error within %s (runs) and %s or the noise level (field)",
+    rule <- sprintf("%s, plus what the curves need for relative L2 errors within %s (median of the runs) and %s or the noise level (each field curve)",
                     rule, percent_text(st$tolerance[["runs"]]), percent_text(st$tolerance[["field"]]))
   }
   rule

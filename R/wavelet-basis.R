@@ -17,16 +17,18 @@
 #' (256 points, the flyer plate of [load_flyer()]) it keeps 10 coefficients and
 #' leaves errors of 8% of the runs' norm.
 #'
-#' `retain = "error"` (the default) starts from the report's rule and adds, for
-#' each curve in turn, the largest of its coefficients not yet kept until the
-#' curve is reconstructed to its tolerance: a model run when its relative L2
-#' error `||y - Psi Psi' y|| / ||y||` is at most `tolerance["runs"]`, a field
-#' curve when its relative L2 error is at most `tolerance["field"]` or the root
-#' mean square of what the basis leaves out is at most the curve's noise
-#' standard deviation (estimated from its finest wavelet level as
-#' `MAD / 0.6745`, as in [field_noise()]): below that, what is left out is
-#' noise. Every curve then meets its tolerance, and where the report's rule
-#' already meets it the basis is the report's. The transform is orthonormal,
+#' `retain = "error"` (the default) starts from the report's rule and adds
+#' what the curves need to be reconstructed to their tolerance. Model runs:
+#' the median of their relative L2 errors `||y - Psi Psi' y|| / ||y||` at
+#' most `tolerance["runs"]` (while it is above, the run closest to its
+#' tolerance gets its largest coefficients not yet kept until it meets it);
+#' field curves, each of them: a relative L2 error at most
+#' `tolerance["field"]`, or a root mean square of what the basis leaves out
+#' at most the curve's noise standard deviation (estimated from its finest
+#' wavelet level as `MAD / 0.6745`, as in [field_noise()]): below that, what
+#' is left out is noise. Where the report's rule already meets the
+#' tolerances the basis is the report's; the print gives the largest error
+#' of the runs beside the median. The transform is orthonormal,
 #' so a curve's relative error is the norm of its coefficients left out over
 #' the norm of all of them.
 #'
@@ -61,8 +63,8 @@
 #'   needs to meet `tolerance`; `"report"`: the report's rule alone. See the
 #'   section Retention rules.
 #' @param tolerance For `retain = "error"`: the largest relative L2
-#'   reconstruction error allowed, a named vector with `runs` (each model run,
-#'   default 1%) and `field` (each field curve, default 2%, or its noise level
+#'   reconstruction error allowed, a named vector with `runs` (the median over
+#'   the model runs, default 1%) and `field` (each field curve, default 2%, or its noise level
 #'   when that is larger).
 #' @param boundary `"periodic"` (default, the report's transform) or
 #'   `"interval"` (wavelets on the interval). See the section Boundary.
@@ -156,31 +158,44 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
   validate_wv_basis(basis)
 }
 
-# The error rule: for each curve (row of the full coefficients A) in turn,
-# adds to `keep` the curve's largest coefficients not yet kept until the
-# energy left out is within the curve's allowance. Model runs: tolerance
-# "runs" of the curve's norm; field curves: tolerance "field" of the norm, or
-# T sigma^2 (a root mean square error of the noise standard deviation sigma,
-# from the finest level) when that is larger.
+# The error rule. Model runs: while the median relative error of the runs
+# exceeds tolerance "runs", the run closest to it (the smallest error above
+# it) gets its largest coefficients not yet kept until it meets it; what one
+# run gains helps the others, so their errors are computed again each time.
+# Field curves, each in turn: its largest coefficients not yet kept until the
+# energy left out is at most tolerance "field" of its norm, or T sigma^2 (a
+# root mean square error of the noise standard deviation sigma, from the
+# finest level) when that is larger.
 keep_to_tolerance <- function(A, keep, source, settings) {
   n <- ncol(A)
-  finest <- seq(n %/% 2L + 1L, n)
-  for (r in seq_len(nrow(A))) {
-    a2 <- A[r, ]^2
-    total <- sum(a2)
-    if (total <= 0) next
-    allowed <- settings$tolerance[[if (source[r] == "run") "runs" else "field"]]^2 * total
-    if (source[r] == "field") {
-      sd_noise <- stats::mad(A[r, finest], center = 0)
-      allowed <- max(allowed, n * sd_noise^2)
-    }
+  A2 <- A^2
+  total <- pmax(rowSums(A2), .Machine$double.xmin)
+  add_until <- function(keep, r, allowed) {
+    a2 <- A2[r, ]
     lost <- sum(a2[!keep])
-    if (lost <= allowed) next
+    if (lost <= allowed) return(keep)
     out <- which(!keep)
     out <- out[order(a2[out], decreasing = TRUE)]
-    still <- lost - cumsum(a2[out])
-    k <- which(still <= allowed)[1]
+    k <- which(lost - cumsum(a2[out]) <= allowed)[1]
     keep[out[seq_len(k)]] <- TRUE
+    keep
+  }
+  runs <- which(source == "run")
+  tol_runs <- settings$tolerance[["runs"]]
+  if (length(runs)) {
+    repeat {
+      err <- sqrt(rowSums(A2[runs, !keep, drop = FALSE]) / total[runs])
+      if (stats::median(err) <= tol_runs) break
+      above <- which(err > tol_runs)
+      r <- runs[above[which.min(err[above])]]
+      keep <- add_until(keep, r, tol_runs^2 * total[r])
+    }
+  }
+  finest <- seq(n %/% 2L + 1L, n)
+  for (r in which(source == "field")) {
+    if (sum(A2[r, ]) <= 0) next
+    allowed <- max(settings$tolerance[["field"]]^2 * total[r], n * stats::mad(A[r, finest], center = 0)^2)
+    keep <- add_until(keep, r, allowed)
   }
   keep
 }

@@ -163,7 +163,7 @@ test_that("inputs are checked", {
   expect_error(wavelet_reconstruct(b, matrix(0, 2, length(b$index) + 1)), class = cls)
 })
 
-test_that("the error rule reconstructs every curve to its tolerance, on top of the report's rule", {
+test_that("the error rule reconstructs the runs (median) and every field curve to their tolerance, on top of the report's rule", {
   withr::local_seed(9)
   bed <- small_bed()
   report <- wavelet_basis(bed$runs, bed$field, retain = "report")
@@ -172,8 +172,12 @@ test_that("the error rule reconstructs every curve to its tolerance, on top of t
   expect_true(all(report$index %in% b$index))
   expect_gt(length(b$index), length(report$index))
   chk <- reconstruction_check(b, bed$runs, bed$field)
-  expect_true(all(chk$rel_l2[chk$source == "run"] <= tol[["runs"]] + 1e-12))
+  run_err <- chk$rel_l2[chk$source == "run"]
+  expect_lte(stats::median(run_err), tol[["runs"]] + 1e-12)
   expect_true(all(chk$rel_l2[chk$source == "field"] <= tol[["field"]] + 1e-12))
+  # the report's rule alone leaves the median above the tolerance
+  expect_gt(stats::median(reconstruction_check(report, bed$runs, bed$field)$rel_l2[chk$source == "run"]),
+            tol[["runs"]])
   # the stored errors are those of reconstruction_check()
   expect_equal(b$error$rel_l2, chk$rel_l2, tolerance = 1e-9)
   # what the report's rule misses on its worst run, the error rule adds from
