@@ -43,9 +43,11 @@ boundary_flags <- function(fit, rhat) {
 }
 
 prior_mass <- function(pr, k, zone) {
-  if (pr$type[k] == "calibration") return(diff(zone) / (pr$upper[k] - pr$lower[k]))
-  cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
-  (cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k]))
+  if (is.null(pr$prior) && pr$type[k] == "variation") {
+    cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
+    return((cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k])))
+  }
+  iu_prior_mass(pr, k, zone[1], zone[2])
 }
 
 warn_fit_flags <- function(fit) {
@@ -107,6 +109,7 @@ print.wv_fit <- function(x, ...) {
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
+  for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
   if (!is.null(x$emulators)) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
@@ -137,6 +140,14 @@ print.wv_fit <- function(x, ...) {
   invisible(x)
 }
 
+# The prior of every input, one line each, and the correlations of joint priors.
+prior_lines <- function(prior_iu) {
+  if (is.null(prior_iu)) return(character(0))
+  lab <- prior_labels(prior_iu)
+  c("Priors:", paste0("  ", formatC(prior_iu$name, width = -max(nchar(prior_iu$name))), "  ", lab),
+    joint_prior_text(prior_iu))
+}
+
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
 input_table <- function(x) {
@@ -159,7 +170,8 @@ summary.wv_fit <- function(object, ...) {
                     q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
-  structure(list(inputs = input_table(object), tau2 = tau, acceptance = object$acceptance,
+  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), tau2 = tau,
+                 acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,
                  n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
             class = "summary_wv_fit")
@@ -173,6 +185,7 @@ print.summary_wv_fit <- function(x, ...) {
                 x$settings$n_inner, " cycles between draws")
   cli::cat_line("Inputs:")
   print(x$inputs, row.names = FALSE, digits = 3)
+  for (line in x$priors) cli::cat_line(line)
   cli::cat_line("Bias variances tau2 by site and level:")
   print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
   cli::cat_line("Acceptance rates:")

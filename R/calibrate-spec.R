@@ -29,7 +29,18 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
              call = call)
   }
+  iu <- iu_upgrade(iu)
   k <- match(inputs, iu$name)
+  for (b in attr(iu, "joint")) {
+    out <- setdiff(b$names, inputs)
+    if (length(out) && length(out) < length(b$names)) {
+      wv_abort(c(
+        "A joint prior of {.arg iu} covers inputs the emulators have and inputs they lack.",
+        "x" = "{.val {out}} {?is/are} not an input of the emulators; {.val {intersect(b$names, inputs)}} {?is/are}.",
+        "i" = "Give the joint prior over the emulators' inputs only."
+      ), class = c("prior", "input"), call = call)
+    }
+  }
   x_nom <- stats::setNames(iu$nominal[k], inputs)
   if (!is.null(field$x_nom)) {
     use <- intersect(names(field$x_nom), inputs)
@@ -37,13 +48,13 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   var <- iu$type[k] == "variation"
   shift <- ifelse(var, x_nom - iu$nominal[k], 0)
-  priors <- list(lower = iu$lower[k] + shift, upper = iu$upper[k] + shift, normal = var,
-                 mean = ifelse(var, x_nom, 0), sd = ifelse(var, iu$prior_sd[k], 1))
   prior_iu <- iu[k, , drop = FALSE]
-  prior_iu$lower <- priors$lower
-  prior_iu$upper <- priors$upper
+  prior_iu$lower <- iu$lower[k] + shift
+  prior_iu$upper <- iu$upper[k] + shift
   prior_iu$nominal <- ifelse(var, x_nom, iu$nominal[k])
+  prior_iu$prior_mean[var] <- x_nom[var]
   rownames(prior_iu) <- NULL
+  priors <- sampler_priors(prior_iu)
 
   if (identical(sigma2, "finest")) {
     sigma2 <- unclass(field_noise(field, basis))
@@ -87,7 +98,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
                            sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
     bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
-  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
+  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
        s2 = s2, n_rep = n_rep, basis = basis, extra = extra)
 }

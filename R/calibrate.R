@@ -49,7 +49,11 @@
 #' `iu` holds every input of the emulators. Variation inputs have prior
 #' `N(x_nom, prior_sd^2)` truncated to the I/U
 #' range shifted by `x_nom - nominal` (`x_nom` from `field$x_nom` when given,
-#' else the nominals of `iu`); calibration inputs are uniform on their range.
+#' else the nominals of `iu`); calibration inputs have the prior the I/U map
+#' gives them (uniform on their range unless [iu_map()] or
+#' [iu_prior_joint()] say otherwise: normal, log-normal or a joint Gaussian,
+#' truncated to the range). The sampler works on the inputs in their own
+#' units, so a prior on `log(x)` enters with its Jacobian `1 / x`.
 #' The chain starts at the nominals. Several sites share the inputs; each has
 #' its own emulators, data, `sigma2` and `tau2` groups.
 #'

@@ -16,6 +16,9 @@
 //      mean of sigma2_i / R + extra_i over the group);
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
 //
+// prior(z): per input uniform, truncated normal or truncated log-normal (with
+// the Jacobian 1 / x), times the Gaussian of each joint block (JointPrior).
+//
 // That is the report's sampler (proposal = REPORT). With a narrow posterior
 // (many coefficients, several replicates) its joint proposals are almost never
 // accepted, so the ADAPTIVE proposal replaces step 2 by
@@ -57,8 +60,9 @@ namespace wavevalid {
 class Sampler {
  public:
   Sampler(std::vector<SiteData> sites, std::vector<InputPrior> priors, int n_groups,
-          SamplerSettings settings)
-      : sites_(std::move(sites)), priors_(std::move(priors)), G_(n_groups), set_(settings) {
+          SamplerSettings settings, std::vector<JointPrior> joints = {})
+      : sites_(std::move(sites)), priors_(std::move(priors)), joints_(std::move(joints)), G_(n_groups),
+        set_(settings) {
     p_ = static_cast<int>(priors_.size());
     const std::size_t S = sites_.size();
     m_.resize(S); v_.resize(S); mp_.resize(S); vp_.resize(S); ws_.resize(S);
@@ -158,6 +162,7 @@ class Sampler {
  private:
   std::vector<SiteData> sites_;
   std::vector<InputPrior> priors_;
+  std::vector<JointPrior> joints_;
   int G_, p_ = 0;
   SamplerSettings set_;
   std::mt19937_64 rng_;
@@ -359,10 +364,21 @@ class Sampler {
     return loglik(tau2_);
   }
 
-  double log_prior_inputs(const Eigen::VectorXd& z) const {
+  // Log prior of input k at x alone (its support only with debug_break 3).
+  double prior_term(int k, double x) const {
+    return set_.debug_break == 3 ? priors_[k].log_support(x) : priors_[k].log_density(x);
+  }
+
+  // The joint Gaussian terms (0 with debug_break 3).
+  double joint_terms(const Eigen::VectorXd& z) const {
+    if (set_.debug_break == 3) return 0.0;
     double lp = 0.0;
-    for (int k = 0; k < p_; ++k) lp += priors_[k].log_density(z(k));
+    for (const JointPrior& j : joints_) lp += j.log_density(z);
     return lp;
+  }
+
+  double log_prior_inputs(const Eigen::VectorXd& z) const {
+    return log_prior(priors_, joints_, z, set_.debug_break);
   }
 
   // Adaptive Metropolis (sampler_walk.h), adapted during the burn-in.
@@ -409,6 +425,7 @@ class Sampler {
     Eigen::VectorXd cand(p_);
     for (int j = 0; j < set_.n_search; ++j) {
       for (int k = 0; k < p_; ++k) cand(k) = priors_[k].draw(rng_, norm_, unif_);
+      for (const JointPrior& jp : joints_) jp.draw(cand, priors_, rng_, norm_);
       predict_all(cand, m_, v_);
       const double sc = profile_score(cand, t2);
       if (sc > best) { best = sc; best_z = cand; }
@@ -432,10 +449,11 @@ class Sampler {
       const double x = z_(k);
       const double y = pr.mixture_draw(x, half_(k), rng_, unif_);
       zp_(k) = y;
-      lr += pr.log_density(y) - pr.log_density(x);
+      lr += prior_term(k, y) - prior_term(k, x);
       if (set_.debug_break != 1)
         lr += std::log(pr.mixture_density(y, x, half_(k))) - std::log(pr.mixture_density(x, y, half_(k)));
     }
+    if (!joints_.empty()) lr += joint_terms(zp_) - joint_terms(z_);
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
     lr += ll_prop - ll_cur;
