@@ -110,6 +110,7 @@ print.wv_fit <- function(x, ...) {
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
   for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
+  for (line in noise_lines(x)) cli::cat_line(line)
   if (!is.null(x$emulators)) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
@@ -148,6 +149,28 @@ prior_lines <- function(prior_iu) {
     joint_prior_text(prior_iu))
 }
 
+# How the field noise was set at each site, one line each, with its size.
+noise_lines <- function(fit) {
+  sites <- names(fit$wb)
+  setting <- fit$noise_setting %||%
+    stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  lines <- vapply(sites, function(s) {
+    sd_draws <- sqrt(fit$sigma2[[s]][, 1])
+    switch(setting[[s]],
+      replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
+                           s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),
+      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(fit$sigma2[[s]][1, ])))),
+      finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
+                       s, f(sqrt(fit$sigma2[[s]][1, 1]))),
+      learned = sprintf("%s: learned, one variance for all coefficients; %s prior on its sd, scale %s; posterior sd %s [%s, %s]",
+                        s, fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
+                        f(stats::quantile(sd_draws, 0.05, names = FALSE)),
+                        f(stats::quantile(sd_draws, 0.95, names = FALSE))))
+  }, character(1))
+  c("Field noise:", paste0("  ", lines))
+}
+
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
 input_table <- function(x) {
@@ -170,7 +193,8 @@ summary.wv_fit <- function(object, ...) {
                     q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
-  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), tau2 = tau,
+  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), noise = noise_lines(object),
+                 tau2 = tau,
                  acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,
                  n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
@@ -186,6 +210,7 @@ print.summary_wv_fit <- function(x, ...) {
   cli::cat_line("Inputs:")
   print(x$inputs, row.names = FALSE, digits = 3)
   for (line in x$priors) cli::cat_line(line)
+  for (line in x$noise) cli::cat_line(line)
   cli::cat_line("Bias variances tau2 by site and level:")
   print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
   cli::cat_line("Acceptance rates:")

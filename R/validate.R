@@ -31,6 +31,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  if (...length() && "sigma2" %in% ...names()) check_sigma2(list(...)[["sigma2"]], names(field$curves))
   if (!is.null(windows)) field <- register_curves(field, reference %||% runs, windows, knots_every = knots_every)
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)

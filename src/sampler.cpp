@@ -164,6 +164,8 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 }  // namespace
 
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
+//   noise (optional: list(scale, family) when sigma2 is learned: family 0
+//   half-Cauchy, 1 half-normal on its sd),
 //   group (0-based global tau2 group per coefficient), extra (optional,
 //   length n: variance of wbar added to sigma2 / R).
 // priors: list with lower, upper, normal (logical: manufacturing variation),
@@ -176,7 +178,7 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
 //   fix_tau2, n_draws, n_inner, step, seed, chain;
 //   optional: debug_break (0; 1: no mixture-density ratio, 2: no tau2 ratio,
-//   3: no prior density of the inputs,
+//   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
 //   only to show that the simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), n_search (200), threads (1), informs
@@ -204,6 +206,15 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       d.fixed_sigma2 = true;
       d.sigma2_fixed = Rcpp::as<Eigen::VectorXd>(sg);
     }
+    if (si.containsElementNamed("noise") && !Rf_isNull(si["noise"])) {
+      Rcpp::List nz = si["noise"];
+      d.learn_sigma2 = true;
+      d.noise_scale = Rcpp::as<double>(nz["scale"]);
+      d.noise_family = Rcpp::as<int>(nz["family"]);
+      if (d.fixed_sigma2) Rcpp::stop("site %d: sigma2 both given and learned", s + 1);
+      if (!(d.noise_scale > 0.0) || d.noise_family < 0 || d.noise_family > 1)
+        Rcpp::stop("site %d: bad noise prior", s + 1);
+    }
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
     const int n = banks[s].n_coef();
@@ -215,7 +226,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");
     if (banks[s].n_inputs() != z_init.size()) Rcpp::stop("z_init has the wrong length");
-    if (!d.fixed_sigma2 && d.R < 2) Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
+    if (!d.fixed_sigma2 && !d.learn_sigma2 && d.R < 2)
+      Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
   }
   for (int s = 0; s < S; ++s) data[s].bank = &banks[s];
 
@@ -253,6 +265,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_input") = out.n_input > 0 ? out.acc_input / out.n_input : NA_REAL,
       Rcpp::Named("acc_global") = out.n_global > 0 ? out.acc_global / out.n_global : NA_REAL,
       Rcpp::Named("acc_burnin") = out.n_burn > 0 ? out.acc_burn / out.n_burn : NA_REAL,
+      Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
       Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov);
 }
 

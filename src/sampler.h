@@ -2,7 +2,9 @@
 // (eq. 15-19, App. C), free of R types.
 //
 // For each saved draw h:
-//   1. sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2) (or fixed values);
+//   1. sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2) (or fixed values; or,
+//      for a site whose noise is learned, one sigma2 for all its coefficients,
+//      moved in every cycle by a random walk on log sigma2: noise_steps());
 //   2. n_inner cycles of
 //      (a) a joint tau2 step: each tau2_g proposed log-uniformly on
 //          [tau2_g e^-0.7, tau2_g e^0.7]; Hastings factor prod tau2_new / tau2_old;
@@ -82,6 +84,14 @@ class Sampler {
         group_count_[g] += 1;
       }
     }
+    eta_.assign(S, 0.0);
+    eta_step_.assign(S, 0.5);
+    for (std::size_t s = 0; s < S; ++s) {
+      if (!sites_[s].learn_sigma2) continue;
+      any_learn_ = true;
+      eta_[s] = 2.0 * std::log(sites_[s].noise_scale);
+      eta_step_[s] = std::min(1.0, 2.4 * std::sqrt(2.0 / std::max(1, sites_[s].bank->n_coef())));
+    }
     members_.assign(G_, std::vector<int>());
     for (std::size_t s = 0; s < S; ++s)
       for (int i = 0; i < sites_[s].bank->n_coef(); ++i) members_[sites_[s].group[i]].push_back(i);
@@ -139,6 +149,7 @@ class Sampler {
     }
     if (set_.adaptive) walk_.freeze();
     acc_tau_ = n_tau_ = acc_input_ = n_input_ = acc_global_ = n_global_ = 0;
+    acc_noise_ = n_noise_ = 0;
     out.acc_burn = acc_burn_; out.n_burn = n_burn_;
 
     for (int h = 0; h < H; ++h) {
@@ -155,6 +166,7 @@ class Sampler {
     out.acc_tau = acc_tau_; out.n_tau = n_tau_;
     out.acc_input = acc_input_; out.n_input = n_input_;
     out.acc_global = acc_global_; out.n_global = n_global_;
+    out.acc_noise = acc_noise_; out.n_noise = n_noise_;
     out.prop_cov = set_.adaptive ? walk_.covariance() : Eigen::MatrixXd();
     return out;
   }
@@ -180,8 +192,15 @@ class Sampler {
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
+  // Learned noise: log sigma2 of each site (used where learn_sigma2), the
+  // random-walk step on it (tuned during the burn-in), acceptance counts.
+  std::vector<double> eta_, eta_step_;
+  bool any_learn_ = false;
+  double acc_noise_ = 0, n_noise_ = 0, noise_adapt_n_ = 0;
+
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
+    if (any_learn_) ll = noise_steps(burn_it >= 0);
     if (!set_.adaptive) {
       if (!set_.fix_tau2 && G_ > 0) ll = tau_step();
       return input_step(ll);
@@ -213,6 +232,8 @@ class Sampler {
       const int n = d.bank->n_coef();
       if (d.fixed_sigma2) {
         sigma2_[s] = d.sigma2_fixed;
+      } else if (d.learn_sigma2) {
+        sigma2_[s].setConstant(std::exp(eta_[s]));
       } else {
         std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
         for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
@@ -267,6 +288,68 @@ class Sampler {
       out(g) = std::max(num(g) / c, floor);
     }
     return out;
+  }
+
+  // Log target of eta = log sigma2 of learned site s at the current inputs
+  // and tau2: the field means' likelihood (and, with R >= 2, the replicates'
+  // scatter about their mean), the tau2 priors of the site's groups (which
+  // depend on sigma2; not when tau2 is fixed) and the prior of eta.
+  double noise_target(int s, double eta) const {
+    const SiteData& d = sites_[s];
+    const int n = d.bank->n_coef();
+    const double sig2 = std::exp(eta);
+    double ll = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
+      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+      if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+    }
+    double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
+    if (!set_.fix_tau2) {
+      for (int g = 0; g < G_; ++g) {
+        if (group_site_[g] != s) continue;
+        lp -= std::log(tau2_(g) + (sig2 + d.R * group_extra_mean(g)) / d.R);
+      }
+    }
+    return lp;
+  }
+
+  double group_extra_mean(int g) const {
+    const SiteData& d = sites_[group_site_[g]];
+    double e = 0.0;
+    for (int i : members_[g]) e += d.extra(i);
+    return members_[g].empty() ? 0.0 : e / members_[g].size();
+  }
+
+  // One random-walk step on log sigma2 per learned site; the step is tuned
+  // towards acceptance 0.44 while `adapt` (the burn-in).
+  double noise_steps(bool adapt) {
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      if (!d.learn_sigma2) continue;
+      const double cur = eta_[s];
+      const double prop = cur + eta_step_[s] * norm_(rng_);
+      const double lr = noise_target(static_cast<int>(s), prop) - noise_target(static_cast<int>(s), cur);
+      const bool accept = std::log(unif_(rng_)) < lr;
+      if (adapt) {
+        noise_adapt_n_ += 1.0;
+        const double a = std::isfinite(lr) ? std::min(1.0, std::exp(std::min(lr, 0.0))) : 0.0;
+        eta_step_[s] *= std::exp(std::pow(noise_adapt_n_, -0.6) * (a - 0.44));
+        eta_step_[s] = std::max(1e-4, std::min(5.0, eta_step_[s]));
+      } else {
+        n_noise_ += 1.0;
+      }
+      if (!accept) continue;
+      if (!adapt) acc_noise_ += 1.0;
+      eta_[s] = prop;
+      const double sig2 = std::exp(prop);
+      sigma2_[s].setConstant(sig2);
+      for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sig2 + d.R * d.extra(i)) / d.R;
+      for (int g = 0; g < G_; ++g)
+        if (group_site_[g] == static_cast<int>(s)) sigbar_(g) = sig2 + d.R * group_extra_mean(g);
+      base_[s] = v_[s] + ebar_[s];
+    }
+    return loglik(tau2_);
   }
 
   double log_prior_tau(int g, double t2) const {

@@ -23,6 +23,20 @@ struct SiteData {
   Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
   Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
   std::vector<int> group;        // n, global tau2 group of each coefficient
+  // Noise learned in the posterior: one sigma2 for all coefficients, a random
+  // walk on log sigma2, prior half-Cauchy (family 0) or half-normal (1) on
+  // sigma with scale noise_scale.
+  bool learn_sigma2 = false;
+  double noise_scale = 1.0;
+  int noise_family = 0;
+
+  // Log prior of eta = log sigma2 (up to a constant): the prior of sigma times
+  // d sigma / d eta = sigma / 2 (with `jacobian`).
+  double log_prior_eta(double eta, bool jacobian = true) const {
+    const double s2 = std::exp(eta) / (noise_scale * noise_scale);
+    const double lp = noise_family == 0 ? -std::log1p(s2) : -0.5 * s2;
+    return jacobian ? lp + 0.5 * eta : lp;
+  }
 };
 
 struct InputPrior {
@@ -175,7 +189,8 @@ struct SamplerSettings {
   Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
   Eigen::VectorXd z_init;           // p
   int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio,
-                                    // 3: drop the inputs' prior density (its support kept)
+                                    // 3: drop the inputs' prior density (its support kept),
+                                    // 4: drop the Jacobian of log sigma2 in the learned-noise step
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
@@ -194,6 +209,7 @@ struct SamplerOutput {
   double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
   double acc_global = 0, n_global = 0, acc_burn = 0, n_burn = 0;
   Eigen::VectorXd z_start;   // first point of the burn-in
+  double acc_noise = 0, n_noise = 0;  // learned-noise steps after the burn-in
   Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
 };
 
