@@ -140,6 +140,34 @@ test_that("the flyer-plate Gaussian prior on seven strength parameters, one of t
                tolerance = 1e-8)
 })
 
+test_that("the sampler draws the flyer-plate prior on the inputs' own scales (1e-7 to 300)", {
+  iu <- flyer_iu()
+  fl <- as.matrix(utils::read.table(test_path("fixtures", "flyer-ranges.txt")))
+  D01 <- as.matrix(utils::read.table(test_path("fixtures", "flyer-design.txt")))
+  X <- sweep(sweep(D01, 2, fl[, 2] - fl[, 1], "*"), 2, fl[, 1], "+")
+  colnames(X) <- iu$name
+  Y <- cbind(rowSums(D01), D01[, 3] - D01[, 4], sin(3 * D01[, 2]), D01[, 5]^2)
+  basis <- make_basis(16, 1:4)
+  em <- make_emulators(list(site1 = make_bank(X, Y, beta = rep(0.5, 10), alpha = rep(0, 10))), basis, X)
+  # data that say nothing: the posterior is the prior
+  spec <- wavevalid:::calibration_spec(em, field_from_coef(basis, matrix(0, 2, 4)), iu, sigma2 = 1e8)
+  out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init), tau2_init = rep(0.05, nrow(spec$groups)),
+    fix_tau2 = TRUE, n_draws = 4000L, n_inner = 5L, step = 0.1, seed = 3, chain = 1L, adaptive = TRUE,
+    burnin = 5000L, n_search = 50L))
+  M <- out$inputs
+  colnames(M) <- spec$inputs
+  withr::local_seed(6)
+  P <- wavevalid:::iu_prior_draws(spec$prior_iu, 20000)
+  expect_equal(mean(log(M[, "gamma"])), mean(log(P[, "gamma"])), tolerance = 0.15 / 11)
+  expect_equal(sd(log(M[, "gamma"])), sd(log(P[, "gamma"])), tolerance = 0.2)
+  expect_equal(mean(M[, "kappa"]), mean(P[, "kappa"]), tolerance = 0.01 / 0.7)
+  expect_equal(cor(M[, "theta0"], M[, "yinf"]), cor(P[, "theta0"], P[, "yinf"]), tolerance = 0.1)
+  expect_equal(cor(M[, "kappa"], log(M[, "gamma"])), cor(P[, "kappa"], log(P[, "gamma"])), tolerance = 0.15)
+  # without the Jacobian 1 / gamma the draws of log(gamma) would sit about sd^2 = 0.27 higher
+  expect_lt(abs(mean(log(M[, "gamma"])) - (-11.11)), 0.15)
+})
+
 # SBC for priors of calibration inputs: truth from the prior, weak data (the
 # posterior is close to the prior, so a sampler that drops the prior term is
 # far off), ranks of the truth among the kept draws.
