@@ -37,6 +37,10 @@ calibrate_chain_cpp <- function(sites, priors, settings) {
     .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, settings)
 }
 
+input_log_prior_cpp <- function(priors, Z, debug_break = 0L) {
+    .Call(`_wavevalid_input_log_prior_cpp`, priors, Z, debug_break)
+}
+
 suspension_simulate_cpp <- function(params, strength, t, nsub) {
     .Call(`_wavevalid_suspension_simulate_cpp`, params, strength, t, nsub)
 }

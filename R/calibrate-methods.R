@@ -50,9 +50,11 @@ piled_at_bound <- function(post, prior, share = 0.1, ratio = 4) {
 }
 
 prior_mass <- function(pr, k, zone) {
-  if (pr$type[k] == "calibration") return(diff(zone) / (pr$upper[k] - pr$lower[k]))
-  cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
-  (cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k]))
+  if (is.null(pr$prior) && pr$type[k] == "variation") {
+    cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
+    return((cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k])))
+  }
+  iu_prior_mass(pr, k, zone[1], zone[2])
 }
 
 warn_fit_flags <- function(fit) {
@@ -114,6 +116,8 @@ print.wv_fit <- function(x, ...) {
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
+  for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
+  for (line in noise_lines(x)) cli::cat_line(line)
   if (!is.null(x$emulators)) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
@@ -144,6 +148,36 @@ print.wv_fit <- function(x, ...) {
   invisible(x)
 }
 
+# The prior of every input, one line each, and the correlations of joint priors.
+prior_lines <- function(prior_iu) {
+  if (is.null(prior_iu)) return(character(0))
+  lab <- prior_labels(prior_iu)
+  c("Priors:", paste0("  ", formatC(prior_iu$name, width = -max(nchar(prior_iu$name))), "  ", lab),
+    joint_prior_text(prior_iu))
+}
+
+# How the field noise was set at each site, one line each, with its size.
+noise_lines <- function(fit) {
+  sites <- names(fit$wb)
+  setting <- fit$noise_setting %||%
+    stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  lines <- vapply(sites, function(s) {
+    sd_draws <- sqrt(fit$sigma2[[s]][, 1])
+    switch(setting[[s]],
+      replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
+                           s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),
+      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(fit$sigma2[[s]][1, ])))),
+      finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
+                       s, f(sqrt(fit$sigma2[[s]][1, 1]))),
+      learned = sprintf("%s: learned, one variance for all coefficients; %s prior on its sd, scale %s; posterior sd %s [%s, %s]",
+                        s, fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
+                        f(stats::quantile(sd_draws, 0.05, names = FALSE)),
+                        f(stats::quantile(sd_draws, 0.95, names = FALSE))))
+  }, character(1))
+  c("Field noise:", paste0("  ", lines))
+}
+
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
 input_table <- function(x) {
@@ -166,7 +200,9 @@ summary.wv_fit <- function(object, ...) {
                     q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
-  structure(list(inputs = input_table(object), tau2 = tau, acceptance = object$acceptance,
+  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), noise = noise_lines(object),
+                 tau2 = tau,
+                 acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,
                  n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
             class = "summary_wv_fit")
@@ -180,6 +216,8 @@ print.summary_wv_fit <- function(x, ...) {
                 x$settings$n_inner, " cycles between draws")
   cli::cat_line("Inputs:")
   print(x$inputs, row.names = FALSE, digits = 3)
+  for (line in x$priors) cli::cat_line(line)
+  for (line in x$noise) cli::cat_line(line)
   cli::cat_line("Bias variances tau2 by site and level:")
   print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
   cli::cat_line("Acceptance rates:")

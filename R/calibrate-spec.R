@@ -29,7 +29,18 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
              call = call)
   }
+  iu <- iu_upgrade(iu)
   k <- match(inputs, iu$name)
+  for (b in attr(iu, "joint")) {
+    out <- setdiff(b$names, inputs)
+    if (length(out) && length(out) < length(b$names)) {
+      wv_abort(c(
+        "A joint prior of {.arg iu} covers inputs the emulators have and inputs they lack.",
+        "x" = "{.val {out}} {?is/are} not an input of the emulators; {.val {intersect(b$names, inputs)}} {?is/are}.",
+        "i" = "Give the joint prior over the emulators' inputs only."
+      ), class = c("prior", "input"), call = call)
+    }
+  }
   x_nom <- stats::setNames(iu$nominal[k], inputs)
   if (!is.null(field$x_nom)) {
     use <- intersect(names(field$x_nom), inputs)
@@ -37,14 +48,44 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   var <- iu$type[k] == "variation"
   shift <- ifelse(var, x_nom - iu$nominal[k], 0)
-  priors <- list(lower = iu$lower[k] + shift, upper = iu$upper[k] + shift, normal = var,
-                 mean = ifelse(var, x_nom, 0), sd = ifelse(var, iu$prior_sd[k], 1))
   prior_iu <- iu[k, , drop = FALSE]
-  prior_iu$lower <- priors$lower
-  prior_iu$upper <- priors$upper
+  prior_iu$lower <- iu$lower[k] + shift
+  prior_iu$upper <- iu$upper[k] + shift
   prior_iu$nominal <- ifelse(var, x_nom, iu$nominal[k])
+  prior_iu$prior_mean[var] <- x_nom[var]
   rownames(prior_iu) <- NULL
+  priors <- sampler_priors(prior_iu)
 
+  check_sigma2(sigma2, sites, call = call)
+  n_reps <- vapply(field$curves, nrow, integer(1))[sites]
+  noise_setting <- stats::setNames(ifelse(n_reps >= 2L, "replicates", "learned"), sites)
+  noise <- NULL
+  if (inherits(sigma2, "wv_noise_prior")) {
+    noise <- sigma2
+    noise_setting[] <- "learned"
+    sigma2 <- NULL
+  } else if (identical(sigma2, "finest")) {
+    noise_setting[] <- "finest"
+  } else if (!is.null(sigma2)) {
+    given <- if (is.list(sigma2)) names(sigma2) else sites
+    noise_setting[given] <- "given"
+  }
+  if (any(noise_setting == "learned") && is.null(noise)) {
+    noise <- noise_prior()
+    wv_inform(c("i" = "{cli::qty(sum(noise_setting == 'learned'))}Site{?s} {.val {sites[noise_setting == 'learned']}} {?has/have} one field replicate: the field noise is learned in the posterior, one variance for all coefficients (see {.fn noise_prior})."))
+  }
+  noise_scale <- NULL
+  if (!is.null(noise)) {
+    learned <- sites[noise_setting == "learned"]
+    noise_scale <- if (is.null(noise$scale)) {
+      attr(field_noise(subset_field_sites(field, learned), basis), "sd")
+    } else if (length(noise$scale) == 1L && is.null(names(noise$scale))) {
+      stats::setNames(rep(noise$scale, length(learned)), learned)
+    } else {
+      noise$scale[learned]
+    }
+    noise$scale <- noise_scale
+  }
   if (identical(sigma2, "finest")) {
     sigma2 <- unclass(field_noise(field, basis))
     wv_warn(c(
@@ -71,12 +112,6 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   for (s in sites) {
     W <- field$curves[[s]] %*% basis$Psi
     R <- nrow(W)
-    if (R < 2L && is.null(sigma2[[s]])) {
-      wv_abort(c(
-        "Site {.val {s}} has {R} field replicate{?s}; estimating the field variances needs at least 2.",
-        "i" = "Give fixed variances through {.arg sigma2}, or {.code sigma2 = \"finest\"} to estimate them from the finest wavelet level."
-      ), class = "input", call = call)
-    }
     wbar[[s]] <- colMeans(W)
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
     n_rep[[s]] <- R
@@ -85,11 +120,15 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
                            sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
+    if (noise_setting[[s]] == "learned") {
+      site_data[[s]]$noise <- list(scale = unname(noise_scale[[s]]),
+                                   family = match(noise$family, c("half-cauchy", "half-normal")) - 1L)
+    }
     bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
-  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = new_wv_iu(prior_iu),
+  list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis, extra = extra)
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise)
 }
 
 # The bias-variance groups of the coefficients of a basis: one per level, or
@@ -163,4 +202,10 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
     vals <- unname(fix_tau2[groups$name])
   }
   list(fixed = rep(TRUE, G), values = stats::setNames(vals, groups$name))
+}
+
+# The field data of some sites only.
+subset_field_sites <- function(field, sites) {
+  field$curves <- field$curves[sites]
+  field
 }

@@ -49,7 +49,11 @@
 #' `iu` holds every input of the emulators. Variation inputs have prior
 #' `N(x_nom, prior_sd^2)` truncated to the I/U
 #' range shifted by `x_nom - nominal` (`x_nom` from `field$x_nom` when given,
-#' else the nominals of `iu`); calibration inputs are uniform on their range.
+#' else the nominals of `iu`); calibration inputs have the prior the I/U map
+#' gives them (uniform on their range unless [iu_map()] or
+#' [iu_prior_joint()] say otherwise: normal, log-normal or a joint Gaussian,
+#' truncated to the range). The sampler works on the inputs in their own
+#' units, so a prior on `log(x)` enters with its Jacobian `1 / x`.
 #' The chain starts at the nominals. Several sites share the inputs; each has
 #' its own emulators, data, `sigma2` and `tau2` groups.
 #'
@@ -128,12 +132,33 @@
 #' @param seed `NULL` (a seed drawn from R's random number generator, so
 #'   that [set.seed()] applies) or a whole number: the random draws depend on
 #'   it alone, not on the state of R's generator.
-#' @param sigma2 Optional fixed field variances: a numeric vector (one value or
-#'   one per coefficient) for a single site, or a named list of such vectors by
-#'   site. Needed for sites with fewer than two replicates; `"finest"`
-#'   estimates them from the finest wavelet level of the field curves with
-#'   [field_noise()] (a departure from the method's replicate-based, modular
-#'   estimate, with a warning).
+#' @param sigma2 How the field noise variances are set (see the section
+#'   Field noise):
+#'   * `NULL` (default): from the replicates at sites with two or more (the
+#'     method's modular estimate), learned in the posterior with the default
+#'     [noise_prior()] at sites with one (with a message);
+#'   * a [noise_prior()]: learned in the posterior at every site, one variance
+#'     per site shared by all coefficients;
+#'   * fixed variances: a numeric vector (one value or one per coefficient)
+#'     for a single site, or a list of such vectors named by site (the sites
+#'     left out keep the default);
+#'   * `"finest"`: estimated once from the finest wavelet level of the field
+#'     curves with [field_noise()], with a warning. On a smoothed or
+#'     interpolated curve the finest level holds less than the noise, and
+#'     this underestimates it (the bands are then too narrow).
+#'
+#' @section Field noise:
+#' The method draws each coefficient's field variance from its replicates
+#' alone (`InvGamma((R - 1) / 2, s2_i / 2)`), which needs two or more
+#' replicates. With one measured curve, the noise is instead one variance per
+#' site for all coefficients (white noise has the same variance at every
+#' coefficient of an orthonormal wavelet basis), moved by a random walk on
+#' its logarithm in every cycle of the sampler, under the weakly informative
+#' prior of [noise_prior()] (by default a half-Cauchy on the noise standard
+#' deviation whose scale is the finest-level estimate). The fit records how
+#' the noise was set at each site in `noise_setting` (`"replicates"`,
+#' `"given"`, `"finest"` or `"learned"`); print, summary and the report state
+#' it.
 #' @param step Half-width of the local proposal as a fraction of each input's
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
 #' @param proposal `"adaptive"` (default) or `"report"`; see the section
@@ -196,7 +221,9 @@
 #'   `burnin`), `start` (the burn-in start of each chain), `proposal_cov` (the
 #'   frozen random-walk covariance of each chain), `rhat`, `ess`, `flags`,
 #'   `seed`, `settings`, `registration_var` (by site, the `r_i` added, or
-#'   `NULL`).
+#'   `NULL`), `noise_setting` (by site, how the field noise was set) and
+#'   `noise_prior` (the [noise_prior()] of the learned noise with its scale by
+#'   site, or `NULL`).
 #' @section Registration:
 #' The field curves are registered to the mean of the model runs, whose
 #' landmarks sit where the average run puts them. Near a sharp event a
@@ -241,6 +268,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(temper, min = 0, max = 1)
   check_number(n_search, min = 0, max = 1e7, integer = TRUE)
   if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
+  check_sigma2(sigma2, names(field$curves))
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
@@ -344,6 +372,7 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
                            inputs = vapply(runs, function(r) r$acc_input, numeric(1)),
                            global = vapply(runs, function(r) r$acc_global, numeric(1)),
                            burnin = vapply(runs, function(r) r$acc_burnin, numeric(1)))
+  if (any(spec$noise_setting == "learned")) acceptance$noise <- vapply(runs, function(r) r$acc_noise, numeric(1))
   start <- do.call(rbind, lapply(runs, function(r) r$z_start))
   colnames(start) <- spec$inputs
   prop_cov <- lapply(runs, function(r) {
@@ -357,7 +386,8 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
     groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
-    seed = seed, settings = settings, registration_var = spec$extra
+    seed = seed, settings = settings, registration_var = spec$extra,
+    noise_setting = spec$noise_setting, noise_prior = spec$noise_prior
   ))
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat

@@ -1,10 +1,25 @@
 #' The Input/Uncertainty map
 #'
 #' Declares the inputs of a computer model: which are calibration parameters
-#' (unknown constants of the model, uniform prior on their range) and which
-#' are physical inputs subject to manufacturing variation (`x = x_nom + delta`,
-#' `delta` normal with standard deviation `prior_sd`, truncated so that `x`
-#' stays in its range).
+#' (unknown constants of the model) and which are physical inputs subject to
+#' manufacturing variation (`x = x_nom + delta`, `delta` normal with standard
+#' deviation `prior_sd`, truncated so that `x` stays in its range).
+#'
+#' @section Priors of calibration inputs:
+#' Every prior is truncated to `[lower, upper]`:
+#' * `"uniform"` (default): uniform on `[lower, upper]`.
+#' * `"normal"`: `x ~ N(prior_mean, prior_sd^2)`; `prior_mean` defaults to the
+#'   nominal, `prior_sd` to a sixth of the range.
+#' * `"lognormal"`: `log(x) ~ N(log(prior_mean), prior_sd^2)`: `prior_mean` is
+#'   the median of the untruncated log-normal, in the input's own units
+#'   (default the nominal), and `prior_sd` the standard deviation of `log(x)`
+#'   (default a sixth of `log(upper) - log(lower)`). Its density on `x` is
+#'   `dnorm(log(x), log(prior_mean), prior_sd) / x` (that is `dlnorm()`), and
+#'   `lower` must be positive.
+#'
+#' A Gaussian with a full covariance over several calibration inputs is set
+#' afterwards with [iu_prior_joint()]. Inputs with manufacturing variation
+#' always have the normal prior about their nominal.
 #'
 #' @param name Input names; they must match the columns of the design of
 #'   [model_runs()].
@@ -12,10 +27,24 @@
 #' @param lower,upper Uncertainty range of each input.
 #' @param nominal Nominal value of each input (default the centre of its range).
 #'   For calibration inputs it is the value used for nominal runs.
-#' @param prior_sd Prior standard deviation of the manufacturing variation
-#'   (default a sixth of the range); ignored for calibration inputs.
+#' @param prior_sd Prior standard deviation: of the manufacturing variation
+#'   (default a sixth of the range), of a `"normal"` calibration input (default
+#'   a sixth of the range), or of `log(x)` for a `"lognormal"` one (default a
+#'   sixth of the range of `log(x)`). `NULL` or `NA` entries take the default;
+#'   unused for `"uniform"` inputs.
+#' @param prior Prior of each calibration input: `"uniform"`, `"normal"` or
+#'   `"lognormal"` (see the section Priors of calibration inputs). One value
+#'   applies to every calibration input; with one value per input, those of
+#'   inputs with manufacturing variation must be `"normal"`. `NULL`: uniform.
+#' @param prior_mean Mean of a `"normal"` prior, median of a `"lognormal"` one
+#'   (in the input's own units); `NULL` or `NA` entries take the nominal.
+#'   Unused for the other inputs.
 #' @return A `wv_iu` object: a data frame with one row per input and columns
-#'   `name`, `type`, `lower`, `upper`, `nominal`, `prior_sd`.
+#'   `name`, `type`, `lower`, `upper`, `nominal`, `prior_sd`, `prior` and
+#'   `prior_mean` (`NA` where unused; `prior` is `"joint"` for inputs under a
+#'   joint Gaussian of [iu_prior_joint()], whose blocks are kept in the
+#'   attribute `"joint"`).
+#' @seealso [iu_prior_joint()], [iu_add()].
 #' @export
 #' @examples
 #' iu <- iu_map(
@@ -24,8 +53,11 @@
 #'   lower = c(0.125, 0.125, 0.1667), upper = c(0.875, 0.875, 0.8333)
 #' )
 #' iu
+#' # a normal prior on u1 and a log-normal one (median 0.3, sd of log 0.4) on u2
+#' iu_map(c("u1", "u2"), "calibration", lower = c(0, 0.01), upper = c(1, 1),
+#'        prior = c("normal", "lognormal"), prior_mean = c(0.6, 0.3), prior_sd = c(0.1, 0.4))
 iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
-                   prior_sd = (upper - lower) / 6) {
+                   prior_sd = NULL, prior = NULL, prior_mean = NULL) {
   if (!is.character(name) || length(name) == 0L) {
     wv_abort("{.arg name} must be a non-empty character vector of input names.")
   }
@@ -34,9 +66,11 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
     v <- get(arg)
     if (!is.numeric(v)) wv_abort("{.arg {arg}} must be numeric, not {.obj_type_friendly {v}}.")
   }
-  for (arg in c("nominal", "prior_sd")) {
+  if (is.null(prior_sd)) prior_sd <- rep(NA_real_, n)
+  if (is.null(prior_mean)) prior_mean <- rep(NA_real_, n)
+  for (arg in c("nominal", "prior_sd", "prior_mean")) {
     v <- get(arg)
-    if (!is.numeric(v) && !(arg == "prior_sd" && all(is.na(v)))) {
+    if (!is.numeric(v) && !(arg != "nominal" && all(is.na(v)))) {
       wv_abort("{.arg {arg}} must be numeric, not {.obj_type_friendly {v}}.")
     }
   }
@@ -44,23 +78,58 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
     wv_abort("{.arg type} must be a character vector of {.val calibration} or {.val variation}.")
   }
   type <- rep_len(type, n)
+  if (is.null(prior)) prior <- "uniform"
+  if (!is.character(prior) || anyNA(prior)) {
+    wv_abort("{.arg prior} must be a character vector of {.val uniform}, {.val normal} or {.val lognormal}.")
+  }
+  if (length(prior) == 1L) prior <- rep(prior, n)
   lens <- c(type = length(type), lower = length(lower), upper = length(upper),
-            nominal = length(nominal), prior_sd = length(prior_sd))
-  bad <- lens[lens != n]
+            nominal = length(nominal), prior_sd = length(prior_sd), prior = length(prior),
+            prior_mean = length(prior_mean))
+  bad <- lens[lens != n & !(names(lens) %in% c("prior_sd", "prior_mean") & lens == 1L)]
   if (length(bad)) {
     wv_abort(c(
       "Every argument must have one value per input ({n} input{?s}).",
       "x" = "{.arg {names(bad)}} {cli::qty(length(bad))}ha{?s/ve} length{?s} {bad}."
     ))
   }
+  var <- type == "variation"
+  if (n > 1L && !all(prior == prior[1]) && any(prior[var] != "normal")) {
+    wv_abort(c(
+      "Inputs with manufacturing variation have a normal prior about their nominal.",
+      "x" = "{.arg prior} gives {.val {unique(prior[var & prior != 'normal'])}} for {.val {name[var & prior != 'normal']}}."
+    ))
+  }
+  prior[var] <- "normal"
   x <- new_wv_iu(data.frame(
     name = name, type = type,
     lower = as.numeric(lower), upper = as.numeric(upper),
-    nominal = as.numeric(nominal), prior_sd = as.numeric(prior_sd),
+    nominal = as.numeric(nominal), prior_sd = rep_len(as.numeric(prior_sd), n),
+    prior = prior, prior_mean = rep_len(as.numeric(prior_mean), n),
     stringsAsFactors = FALSE
   ))
-  x$prior_sd[x$type == "calibration"] <- NA_real_
-  validate_wv_iu(x)
+  fill_prior_defaults(x)
+}
+
+# The defaults of prior_sd and prior_mean where NA, and NA where unused.
+fill_prior_defaults <- function(x, call = rlang::caller_env()) {
+  norm <- x$prior == "normal"
+  logn <- x$prior == "lognormal"
+  if (any(logn & x$lower <= 0)) {
+    wv_abort(c(
+      "A {.val lognormal} prior needs a positive {.arg lower} bound.",
+      "x" = "Not so for {.val {x$name[logn & x$lower <= 0]}}."
+    ), call = call)
+  }
+  x$prior_sd[norm & is.na(x$prior_sd)] <- ((x$upper - x$lower) / 6)[norm & is.na(x$prior_sd)]
+  k <- which(logn & is.na(x$prior_sd))
+  x$prior_sd[k] <- (log(x$upper[k]) - log(x$lower[k])) / 6
+  x$prior_mean[x$type == "variation"] <- x$nominal[x$type == "variation"]
+  use <- (norm | logn) & is.na(x$prior_mean)
+  x$prior_mean[use] <- x$nominal[use]
+  x$prior_sd[!(norm | logn)] <- NA_real_
+  x$prior_mean[!(norm | logn)] <- NA_real_
+  validate_wv_iu(x, call = call)
 }
 
 #' Add inputs to an I/U map
@@ -85,7 +154,7 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
 #' # the strength of a bump stop, 0 for none
 #' iu_add(iu, "s_bumpstop", lower = 0, upper = 1, nominal = 0.5)
 iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lower + upper) / 2,
-                   prior_sd = (upper - lower) / 6) {
+                   prior_sd = NULL, prior = NULL, prior_mean = NULL) {
   check_class(iu, "wv_iu")
   if (!is.character(name) || length(name) == 0L) {
     wv_abort("{.arg name} must be a non-empty character vector of input names.")
@@ -100,16 +169,20 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
   }
   n <- length(name)
   lens <- c(type = length(type), lower = length(lower), upper = length(upper), nominal = length(nominal),
-            prior_sd = length(prior_sd))
-  bad <- lens[lens != n & !(names(lens) == "type" & lens == 1L)]
+            prior_sd = length(prior_sd %||% NA), prior = length(prior %||% NA), prior_mean = length(prior_mean %||% NA))
+  bad <- lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L)]
   if (length(bad)) {
     wv_abort(c(
       "Every argument must have one value per new input ({n} input{?s}).",
       "x" = "{.arg {names(bad)}} {cli::qty(length(bad))}ha{?s/ve} length{?s} {bad}."
     ))
   }
-  iu_map(c(iu$name, name), c(iu$type, rep_len(type, n)), c(iu$lower, lower), c(iu$upper, upper),
-         nominal = c(iu$nominal, nominal), prior_sd = c(iu$prior_sd, prior_sd))
+  iu <- iu_upgrade(iu)
+  new <- iu_map(name, rep_len(type, n), lower, upper, nominal = nominal, prior_sd = prior_sd, prior = prior,
+                prior_mean = prior_mean)
+  out <- new_wv_iu(rbind(as.data.frame(iu), as.data.frame(new)))
+  attr(out, "joint") <- attr(iu, "joint")
+  validate_wv_iu(out)
 }
 
 new_wv_iu <- function(x) {
@@ -158,19 +231,95 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
     wv_abort("{.arg prior_sd} must be positive for inputs with manufacturing variation; see {.val {x$name[badsd]}}.",
              call = call)
   }
+  if (is.null(x$prior)) return(x)
+  badp <- !x$prior %in% c("uniform", "normal", "lognormal", "joint") |
+    (x$type == "variation" & x$prior != "normal")
+  if (any(badp)) {
+    wv_abort(c(
+      "{.arg prior} must be {.val uniform}, {.val normal} or {.val lognormal} for calibration inputs.",
+      "x" = "Not so for {.val {x$name[badp]}}."
+    ), call = call)
+  }
+  norm <- x$prior %in% c("normal", "lognormal")
+  badsd <- norm & (!is.finite(x$prior_sd) | x$prior_sd <= 0)
+  if (any(badsd)) {
+    wv_abort("{.arg prior_sd} must be positive for inputs with a normal or log-normal prior; see {.val {x$name[badsd]}}.",
+             class = "prior", call = call)
+  }
+  badm <- norm & (!is.finite(x$prior_mean) | (x$prior == "lognormal" & x$prior_mean <= 0))
+  if (any(badm)) {
+    wv_abort(c(
+      "{.arg prior_mean} must be finite (positive for a log-normal prior: it is the median).",
+      "x" = "Not so for {.val {x$name[badm]}}."
+    ), class = "prior", call = call)
+  }
+  cal <- norm & x$type == "calibration"
+  if (any(cal)) {
+    mass <- vapply(which(cal), function(k) univariate_prior_mass(x, k, x$lower[k], x$upper[k]), numeric(1))
+    tiny <- mass < min_prior_mass
+    if (any(tiny)) {
+      wv_abort(c(
+        "The prior puts almost no mass in the range of {.val {x$name[which(cal)[tiny]]}}.",
+        "x" = "Before truncation to [lower, upper] it gives the range probability {signif(mass[tiny], 2)}.",
+        "i" = "Centre the prior in the range (or widen the range) so that the truncated prior is what you mean."
+      ), class = "prior", call = call)
+    }
+  }
+  validate_joint_blocks(x, attr(x, "joint"), call = call)
+  x
+}
+
+# Below this prior probability of its box an input's prior is refused, and
+# rejection sampling from the untruncated prior would be too slow.
+min_prior_mass <- 1e-4
+
+# Probability of [a, b] under the untruncated normal or log-normal prior of input k.
+univariate_prior_mass <- function(x, k, a, b) {
+  if (x$prior[k] == "lognormal") {
+    m <- log(x$prior_mean[k])
+    return(stats::pnorm(log(b), m, x$prior_sd[k]) - stats::pnorm(log(max(a, 0)), m, x$prior_sd[k]))
+  }
+  stats::pnorm(b, x$prior_mean[k], x$prior_sd[k]) - stats::pnorm(a, x$prior_mean[k], x$prior_sd[k])
+}
+
+# An I/U map made before priors of calibration inputs existed: uniform ones.
+iu_upgrade <- function(x) {
+  if (!is.null(x$prior)) return(x)
+  x$prior <- ifelse(x$type == "variation", "normal", "uniform")
+  x$prior_mean <- ifelse(x$type == "variation", x$nominal, NA_real_)
   x
 }
 
 #' @export
+`[.wv_iu` <- function(x, i, j, ..., drop = TRUE) {
+  out <- NextMethod()
+  if (!is.data.frame(out) || !missing(j)) return(out)
+  blocks <- attr(x, "joint")
+  if (length(blocks) && !is.null(out$name)) {
+    blocks <- lapply(blocks, function(b) {
+      keep <- b$names %in% out$name
+      if (!any(keep)) return(NULL)
+      list(names = b$names[keep], mean = b$mean[keep], cov = b$cov[keep, keep, drop = FALSE],
+           scale = b$scale[keep])
+    })
+    blocks <- Filter(Negate(is.null), blocks)
+    attr(out, "joint") <- if (length(blocks)) blocks else NULL
+  }
+  out
+}
+
+#' @export
 print.wv_iu <- function(x, ...) {
+  x <- iu_upgrade(x)
   n_cal <- sum(x$type == "calibration")
   n_var <- sum(x$type == "variation")
   cli::cat_line(sprintf("<wv_iu> %d input%s: %d calibration, %d with manufacturing variation",
                         nrow(x), if (nrow(x) == 1) "" else "s", n_cal, n_var))
-  df <- as.data.frame(unclass(x), stringsAsFactors = FALSE)
-  df[c("lower", "upper", "nominal", "prior_sd")] <- lapply(df[c("lower", "upper", "nominal", "prior_sd")],
-                                                           signif, digits = 4)
-  print(df, row.names = FALSE)
+  df <- data.frame(name = x$name, type = x$type, nominal = format(signif(x$nominal, 4), trim = TRUE),
+                   `prior on [lower, upper]` = prior_labels(x, range = FALSE), check.names = FALSE,
+                   stringsAsFactors = FALSE)
+  print(df, row.names = FALSE, right = FALSE)
+  for (line in joint_prior_text(x)) cli::cat_line(line)
   invisible(x)
 }
 
@@ -223,37 +372,4 @@ autoplot.wv_iu <- function(object, ...) {
 plot.wv_iu <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
-}
-
-# Prior density of input k at values v (in the input's own units).
-iu_prior_density <- function(iu, k, v) {
-  lo <- iu$lower[k]
-  hi <- iu$upper[k]
-  inside <- v >= lo & v <= hi
-  if (iu$type[k] == "calibration") {
-    return(ifelse(inside, 1 / (hi - lo), 0))
-  }
-  m <- iu$nominal[k]
-  s <- iu$prior_sd[k]
-  z <- stats::pnorm(hi, m, s) - stats::pnorm(lo, m, s)
-  ifelse(inside, stats::dnorm(v, m, s) / z, 0)
-}
-
-# Draws from the prior of every input (n x p matrix in the inputs' own units),
-# with nominals optionally replaced (a new vehicle under other nominals).
-iu_prior_draws <- function(iu, n, nominal = NULL) {
-  nom <- iu$nominal
-  if (!is.null(nominal)) nom[match(names(nominal), iu$name)] <- nominal
-  out <- vapply(seq_len(nrow(iu)), function(k) {
-    lo <- iu$lower[k] - iu$nominal[k] + nom[k]
-    hi <- iu$upper[k] - iu$nominal[k] + nom[k]
-    if (iu$type[k] == "calibration") {
-      return(stats::runif(n, iu$lower[k], iu$upper[k]))
-    }
-    p <- stats::runif(n, stats::pnorm(lo, nom[k], iu$prior_sd[k]), stats::pnorm(hi, nom[k], iu$prior_sd[k]))
-    stats::qnorm(p, nom[k], iu$prior_sd[k])
-  }, numeric(n))
-  if (n == 1L) out <- matrix(out, nrow = 1L)
-  colnames(out) <- iu$name
-  out
 }

@@ -23,9 +23,11 @@
 #'   tolerance.
 #' * **noise**: the field replicates by site and how the field variances will
 #'   be set: from the replicates (two or more, the method's estimate), from
-#'   `sigma2` as given, or from the finest wavelet level (`sigma2 =
-#'   "finest"`). One replicate and no `sigma2` is an error (classes
-#'   `wavevalid_error_noise` and `wavevalid_error_input`).
+#'   `sigma2` as given, from the finest wavelet level (`sigma2 =
+#'   "finest"`), or learned in the posterior ([noise_prior()], the default
+#'   with one replicate). One replicate with the noise learned is a warning
+#'   (class `wavevalid_warning_noise`): one curve tells noise from bias only
+#'   weakly.
 #' * **inputs**: every input of the design is in the I/U map (else an error
 #'   of class `wavevalid_error_inputs`), and each I/U range lies within the
 #'   design's range (else a warning of class `wavevalid_warning_inputs`: the
@@ -159,6 +161,7 @@ preflight_noise <- function(field, sigma2) {
   if (any(!setting$ok)) {
     return(preflight_row("error", fig, setting$fix, class = c("noise", "input")))
   }
+  if (any(setting$weak)) return(preflight_row("warning", fig, setting$fix, class = "noise"))
   preflight_row("ok", fig, "")
 }
 
@@ -168,11 +171,19 @@ preflight_noise <- function(field, sigma2) {
 # the noise is described here, so a new one needs only a branch here.
 describe_noise <- function(sigma2, reps) {
   sites <- names(reps)
+  prior <- if (inherits(sigma2, "wv_noise_prior")) sigma2
+  if (!is.null(prior)) sigma2 <- NULL
   given <- if (is.list(sigma2)) sites %in% names(sigma2) else rep(!is.null(sigma2), length(sites))
-  how <- ifelse(reps >= 2L, sprintf("variances estimated from the %d replicates (the method's estimate)", reps),
-                "no replicates to estimate the variances from")
+  prior_text <- function(p) {
+    sc <- if (is.null(p$scale)) "scale the finest-level estimate" else
+      paste("scale", paste(signif(p$scale, 3), collapse = ", "))
+    sprintf("one noise variance learned in the posterior (%s prior on its sd, %s)", p$family, sc)
+  }
+  learn <- !given & (reps < 2L | !is.null(prior))
+  how <- ifelse(reps >= 2L, sprintf("variances estimated from the %d replicates (the method's estimate)", reps), "")
+  how[learn] <- prior_text(prior %||% noise_prior())
   if (identical(sigma2, "finest")) {
-    how <- rep("variances from the finest wavelet level of the field curves (sigma2 = \"finest\", assumes near-white noise)",
+    how <- rep("variances from the finest wavelet level of the field curves (sigma2 = \"finest\", assumes near-white noise; on a smoothed or interpolated curve it is too small)",
                length(sites))
   } else if (is.numeric(sigma2) || is.list(sigma2)) {
     vals <- if (is.list(sigma2)) sigma2[sites] else rep(list(sigma2), length(sites))
@@ -182,10 +193,13 @@ describe_noise <- function(sigma2, reps) {
       else sprintf("variances fixed by sigma2 (%s to %s)", format(signif(min(v), 3)), format(signif(max(v), 3)))
     }, "")
   }
-  ok <- reps >= 2L | given
-  list(how = stats::setNames(how, sites), ok = stats::setNames(ok, sites),
-       fix = sprintf("Site%s %s ha%s one field replicate: give the field variances with sigma2 (one value or one per coefficient), or sigma2 = \"finest\" to estimate them from the finest wavelet level.",
-                     if (sum(!ok) == 1L) "" else "s", paste(sites[!ok], collapse = ", "), if (sum(!ok) == 1L) "s" else "ve"))
+  # one replicate and the noise learned: weakly identified against the bias
+  weak <- reps < 2L & learn
+  list(how = stats::setNames(how, sites), ok = stats::setNames(rep(TRUE, length(sites)), sites),
+       weak = stats::setNames(weak, sites),
+       fix = sprintf("Site%s %s ha%s one field replicate: its noise is learned with the bias and is weakly identified. Give sigma2 (one value or one per coefficient) if the measurement noise is known, or noise_prior(scale = ) with a scale you can defend.",
+                     if (sum(weak) == 1L) "" else "s", paste(sites[weak], collapse = ", "),
+                     if (sum(weak) == 1L) "s" else "ve"))
 }
 
 preflight_inputs <- function(runs, iu) {

@@ -47,7 +47,10 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   file.copy(template, rmd)
   env <- new.env(parent = globalenv())
   env$fit <- fit
-  env$iu_table <- signif_table(as.data.frame(fit$iu))
+  prior_iu <- fit$prior_iu %||% fit$iu
+  iu_table <- signif_table(as.data.frame(prior_iu)[c("name", "type", "lower", "upper", "nominal")])
+  iu_table$prior <- prior_labels(prior_iu)
+  env$iu_table <- iu_table
   env$runs <- runs
   env$candidates <- candidates
   env$predictions <- predictions

@@ -23,8 +23,10 @@
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]; `NULL`: landmarks only).
 #' @param basis_args A list of further arguments to [wavelet_basis()].
-#' @param sigma2 Fixed field variances, or `"finest"`; passed to
-#'   [calibrate()] (needed when a site has one field replicate).
+#' @param sigma2 How the field noise is set (passed to [calibrate()]):
+#'   `NULL` (default; from the replicates, or with one replicate learned in
+#'   the posterior under [noise_prior()]), fixed variances, `"finest"`, or a
+#'   [noise_prior()].
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
 #'   ...).
 #' @return A `wv_fit` object (see [calibrate()]).
@@ -42,6 +44,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
   if (!is.null(windows)) field <- register_curves(field, reference %||% runs, windows, knots_every = knots_every)
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))

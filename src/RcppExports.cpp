@@ -139,6 +139,19 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// input_log_prior_cpp
+Rcpp::NumericVector input_log_prior_cpp(const Rcpp::List& priors, const Eigen::Map<Eigen::MatrixXd>& Z, int debug_break);
+RcppExport SEXP _wavevalid_input_log_prior_cpp(SEXP priorsSEXP, SEXP ZSEXP, SEXP debug_breakSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type priors(priorsSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Z(ZSEXP);
+    Rcpp::traits::input_parameter< int >::type debug_break(debug_breakSEXP);
+    rcpp_result_gen = Rcpp::wrap(input_log_prior_cpp(priors, Z, debug_break));
+    return rcpp_result_gen;
+END_RCPP
+}
 // suspension_simulate_cpp
 Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub);
 RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP) {
@@ -175,6 +188,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
+    {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
     {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
     {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
     {NULL, NULL, 0}

@@ -118,17 +118,67 @@ ChainSettings read_settings(const Rcpp::List& x) {
   return out;
 }
 
+// The inputs' priors from the R list `priors` (see calibrate_chain_cpp()).
+void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& pr,
+                 std::vector<wavevalid::JointPrior>& joints) {
+  Rcpp::NumericVector lo = priors["lower"], hi = priors["upper"], mean = priors["mean"],
+                      sd = priors["sd"];
+  Rcpp::LogicalVector nrm = priors["normal"];
+  const bool has_kind = priors.containsElementNamed("kind");
+  Rcpp::IntegerVector kind;
+  if (has_kind) kind = Rcpp::as<Rcpp::IntegerVector>(priors["kind"]);
+  if (has_kind && kind.size() != lo.size()) Rcpp::stop("priors: 'kind' has the wrong length");
+  pr.assign(lo.size(), wavevalid::InputPrior());
+  for (R_xlen_t k = 0; k < lo.size(); ++k) {
+    pr[k].lower = lo[k];
+    pr[k].upper = hi[k];
+    pr[k].normal = nrm[k];
+    pr[k].kind = has_kind ? kind[k] : (nrm[k] ? 1 : 0);
+    if (pr[k].kind < 0 || pr[k].kind > 3) Rcpp::stop("priors: unknown kind %d", pr[k].kind);
+    pr[k].mean = mean[k];
+    pr[k].sd = sd[k];
+  }
+  if (priors.containsElementNamed("joint")) {
+    Rcpp::List jl = priors["joint"];
+    for (R_xlen_t j = 0; j < jl.size(); ++j) {
+      Rcpp::List b = jl[j];
+      wavevalid::JointPrior jp;
+      Rcpp::IntegerVector idx = Rcpp::as<Rcpp::IntegerVector>(b["index"]);
+      Rcpp::LogicalVector lg = Rcpp::as<Rcpp::LogicalVector>(b["log"]);
+      jp.index.assign(idx.begin(), idx.end());
+      jp.log.assign(lg.begin(), lg.end());
+      jp.mean = Rcpp::as<Eigen::VectorXd>(b["mean"]);
+      jp.L = Rcpp::as<Eigen::MatrixXd>(b["chol"]);
+      const int d = static_cast<int>(jp.index.size());
+      if (static_cast<int>(jp.log.size()) != d || jp.mean.size() != d || jp.L.rows() != d || jp.L.cols() != d)
+        Rcpp::stop("priors: joint block %d has inconsistent sizes", static_cast<int>(j) + 1);
+      for (int q = 0; q < d; ++q)
+        if (jp.index[q] < 0 || jp.index[q] >= static_cast<int>(pr.size()))
+          Rcpp::stop("priors: joint block %d names an input out of range", static_cast<int>(j) + 1);
+      joints.push_back(jp);
+    }
+  }
+
+}
+
 }  // namespace
 
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
+//   noise (optional: list(scale, family) when sigma2 is learned: family 0
+//   half-Cauchy, 1 half-normal on its sd),
 //   group (0-based global tau2 group per coefficient), extra (optional,
 //   length n: variance of wbar added to sigma2 / R).
-// priors: list with lower, upper, normal (logical), mean, sd (length p each).
+// priors: list with lower, upper, normal (logical: manufacturing variation),
+//   mean, sd (length p each); optional kind (0 uniform, 1 normal, 2 log-normal
+//   with mean and sd of log x, 3 under a joint block; default from normal) and
+//   joint (list of blocks: index (0-based), log (logical), mean, chol (lower
+//   Cholesky factor of the covariance)).
 // settings: named list with
 //   n_groups (number of tau2 groups), z_init (p starting inputs, coded),
 //   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
 //   fix_tau2, n_draws, n_inner, step, seed, chain;
 //   optional: debug_break (0; 1: no mixture-density ratio, 2: no tau2 ratio,
+//   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
 //   only to show that the simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), n_search (200), threads (1), informs
@@ -156,6 +206,15 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       d.fixed_sigma2 = true;
       d.sigma2_fixed = Rcpp::as<Eigen::VectorXd>(sg);
     }
+    if (si.containsElementNamed("noise") && !Rf_isNull(si["noise"])) {
+      Rcpp::List nz = si["noise"];
+      d.learn_sigma2 = true;
+      d.noise_scale = Rcpp::as<double>(nz["scale"]);
+      d.noise_family = Rcpp::as<int>(nz["family"]);
+      if (d.fixed_sigma2) Rcpp::stop("site %d: sigma2 both given and learned", s + 1);
+      if (!(d.noise_scale > 0.0) || d.noise_family < 0 || d.noise_family > 1)
+        Rcpp::stop("site %d: bad noise prior", s + 1);
+    }
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
     const int n = banks[s].n_coef();
@@ -167,21 +226,14 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");
     if (banks[s].n_inputs() != z_init.size()) Rcpp::stop("z_init has the wrong length");
-    if (!d.fixed_sigma2 && d.R < 2) Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
+    if (!d.fixed_sigma2 && !d.learn_sigma2 && d.R < 2)
+      Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
   }
   for (int s = 0; s < S; ++s) data[s].bank = &banks[s];
 
-  Rcpp::NumericVector lo = priors["lower"], hi = priors["upper"], mean = priors["mean"],
-                      sd = priors["sd"];
-  Rcpp::LogicalVector nrm = priors["normal"];
-  std::vector<wavevalid::InputPrior> pr(lo.size());
-  for (R_xlen_t k = 0; k < lo.size(); ++k) {
-    pr[k].lower = lo[k];
-    pr[k].upper = hi[k];
-    pr[k].normal = nrm[k];
-    pr[k].mean = mean[k];
-    pr[k].sd = sd[k];
-  }
+  std::vector<wavevalid::InputPrior> pr;
+  std::vector<wavevalid::JointPrior> joints;
+  read_priors(priors, pr, joints);
   if (static_cast<int>(pr.size()) != z_init.size()) Rcpp::stop("priors and z_init differ in length");
 
   const bool has_progress = !cs.progress.isNULL();
@@ -196,7 +248,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     if (fn) (*fn)(h);
   };
 
-  wavevalid::Sampler sampler(data, pr, n_groups, set);
+  wavevalid::Sampler sampler(data, pr, n_groups, set, joints);
   sampler.check_ = [] { Rcpp::checkUserInterrupt(); };
   wavevalid::SamplerOutput out = sampler.run(cb);
 
@@ -213,5 +265,23 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_input") = out.n_input > 0 ? out.acc_input / out.n_input : NA_REAL,
       Rcpp::Named("acc_global") = out.n_global > 0 ? out.acc_global / out.n_global : NA_REAL,
       Rcpp::Named("acc_burnin") = out.n_burn > 0 ? out.acc_burn / out.n_burn : NA_REAL,
+      Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
       Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov);
+}
+
+// Log prior density of the inputs at each row of Z (own units), as the
+// sampler evaluates it, up to a constant; priors as for calibrate_chain_cpp().
+// [[Rcpp::export]]
+Rcpp::NumericVector input_log_prior_cpp(const Rcpp::List& priors, const Eigen::Map<Eigen::MatrixXd>& Z,
+                                        int debug_break = 0) {
+  std::vector<wavevalid::InputPrior> pr;
+  std::vector<wavevalid::JointPrior> joints;
+  read_priors(priors, pr, joints);
+  if (Z.cols() != static_cast<Eigen::Index>(pr.size())) Rcpp::stop("Z must have one column per input");
+  Rcpp::NumericVector out(Z.rows());
+  for (Eigen::Index r = 0; r < Z.rows(); ++r) {
+    const Eigen::VectorXd z = Z.row(r).transpose();
+    out[r] = wavevalid::log_prior(pr, joints, z, debug_break);
+  }
+  return out;
 }

@@ -2,7 +2,9 @@
 // (eq. 15-19, App. C), free of R types.
 //
 // For each saved draw h:
-//   1. sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2) (or fixed values);
+//   1. sigma2_i ~ InvGamma((R - 1) / 2, rate = s2_i / 2) (or fixed values; or,
+//      for a site whose noise is learned, one sigma2 for all its coefficients,
+//      moved in every cycle by a random walk on log sigma2: noise_steps());
 //   2. n_inner cycles of
 //      (a) a joint tau2 step: each tau2_g proposed log-uniformly on
 //          [tau2_g e^-0.7, tau2_g e^0.7]; Hastings factor prod tau2_new / tau2_old;
@@ -15,6 +17,9 @@
 //      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R) (sigmabar2_g / R the
 //      mean of sigma2_i / R + extra_i over the group);
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
+//
+// prior(z): per input uniform, truncated normal or truncated log-normal (with
+// the Jacobian 1 / x), times the Gaussian of each joint block (JointPrior).
 //
 // That is the report's sampler (proposal = REPORT). With a narrow posterior
 // (many coefficients, several replicates) its joint proposals are almost never
@@ -57,8 +62,9 @@ namespace wavevalid {
 class Sampler {
  public:
   Sampler(std::vector<SiteData> sites, std::vector<InputPrior> priors, int n_groups,
-          SamplerSettings settings)
-      : sites_(std::move(sites)), priors_(std::move(priors)), G_(n_groups), set_(settings) {
+          SamplerSettings settings, std::vector<JointPrior> joints = {})
+      : sites_(std::move(sites)), priors_(std::move(priors)), joints_(std::move(joints)), G_(n_groups),
+        set_(settings) {
     p_ = static_cast<int>(priors_.size());
     const std::size_t S = sites_.size();
     m_.resize(S); v_.resize(S); mp_.resize(S); vp_.resize(S); ws_.resize(S);
@@ -77,6 +83,14 @@ class Sampler {
         group_site_[g] = static_cast<int>(s);
         group_count_[g] += 1;
       }
+    }
+    eta_.assign(S, 0.0);
+    eta_step_.assign(S, 0.5);
+    for (std::size_t s = 0; s < S; ++s) {
+      if (!sites_[s].learn_sigma2) continue;
+      any_learn_ = true;
+      eta_[s] = 2.0 * std::log(sites_[s].noise_scale);
+      eta_step_[s] = std::min(1.0, 2.4 * std::sqrt(2.0 / std::max(1, sites_[s].bank->n_coef())));
     }
     members_.assign(G_, std::vector<int>());
     for (std::size_t s = 0; s < S; ++s)
@@ -135,6 +149,7 @@ class Sampler {
     }
     if (set_.adaptive) walk_.freeze();
     acc_tau_ = n_tau_ = acc_input_ = n_input_ = acc_global_ = n_global_ = 0;
+    acc_noise_ = n_noise_ = 0;
     out.acc_burn = acc_burn_; out.n_burn = n_burn_;
 
     for (int h = 0; h < H; ++h) {
@@ -151,6 +166,7 @@ class Sampler {
     out.acc_tau = acc_tau_; out.n_tau = n_tau_;
     out.acc_input = acc_input_; out.n_input = n_input_;
     out.acc_global = acc_global_; out.n_global = n_global_;
+    out.acc_noise = acc_noise_; out.n_noise = n_noise_;
     out.prop_cov = set_.adaptive ? walk_.covariance() : Eigen::MatrixXd();
     return out;
   }
@@ -158,6 +174,7 @@ class Sampler {
  private:
   std::vector<SiteData> sites_;
   std::vector<InputPrior> priors_;
+  std::vector<JointPrior> joints_;
   int G_, p_ = 0;
   SamplerSettings set_;
   std::mt19937_64 rng_;
@@ -175,8 +192,15 @@ class Sampler {
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
+  // Learned noise: log sigma2 of each site (used where learn_sigma2), the
+  // random-walk step on it (tuned during the burn-in), acceptance counts.
+  std::vector<double> eta_, eta_step_;
+  bool any_learn_ = false;
+  double acc_noise_ = 0, n_noise_ = 0, noise_adapt_n_ = 0;
+
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
+    if (any_learn_) ll = noise_steps(burn_it >= 0);
     if (!set_.adaptive) {
       if (!set_.fix_tau2 && G_ > 0) ll = tau_step();
       return input_step(ll);
@@ -208,6 +232,8 @@ class Sampler {
       const int n = d.bank->n_coef();
       if (d.fixed_sigma2) {
         sigma2_[s] = d.sigma2_fixed;
+      } else if (d.learn_sigma2) {
+        sigma2_[s].setConstant(std::exp(eta_[s]));
       } else {
         std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
         for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
@@ -262,6 +288,68 @@ class Sampler {
       out(g) = std::max(num(g) / c, floor);
     }
     return out;
+  }
+
+  // Log target of eta = log sigma2 of learned site s at the current inputs
+  // and tau2: the field means' likelihood (and, with R >= 2, the replicates'
+  // scatter about their mean), the tau2 priors of the site's groups (which
+  // depend on sigma2; not when tau2 is fixed) and the prior of eta.
+  double noise_target(int s, double eta) const {
+    const SiteData& d = sites_[s];
+    const int n = d.bank->n_coef();
+    const double sig2 = std::exp(eta);
+    double ll = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
+      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+      if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+    }
+    double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
+    if (!set_.fix_tau2) {
+      for (int g = 0; g < G_; ++g) {
+        if (group_site_[g] != s) continue;
+        lp -= std::log(tau2_(g) + (sig2 + d.R * group_extra_mean(g)) / d.R);
+      }
+    }
+    return lp;
+  }
+
+  double group_extra_mean(int g) const {
+    const SiteData& d = sites_[group_site_[g]];
+    double e = 0.0;
+    for (int i : members_[g]) e += d.extra(i);
+    return members_[g].empty() ? 0.0 : e / members_[g].size();
+  }
+
+  // One random-walk step on log sigma2 per learned site; the step is tuned
+  // towards acceptance 0.44 while `adapt` (the burn-in).
+  double noise_steps(bool adapt) {
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      if (!d.learn_sigma2) continue;
+      const double cur = eta_[s];
+      const double prop = cur + eta_step_[s] * norm_(rng_);
+      const double lr = noise_target(static_cast<int>(s), prop) - noise_target(static_cast<int>(s), cur);
+      const bool accept = std::log(unif_(rng_)) < lr;
+      if (adapt) {
+        noise_adapt_n_ += 1.0;
+        const double a = std::isfinite(lr) ? std::min(1.0, std::exp(std::min(lr, 0.0))) : 0.0;
+        eta_step_[s] *= std::exp(std::pow(noise_adapt_n_, -0.6) * (a - 0.44));
+        eta_step_[s] = std::max(1e-4, std::min(5.0, eta_step_[s]));
+      } else {
+        n_noise_ += 1.0;
+      }
+      if (!accept) continue;
+      if (!adapt) acc_noise_ += 1.0;
+      eta_[s] = prop;
+      const double sig2 = std::exp(prop);
+      sigma2_[s].setConstant(sig2);
+      for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sig2 + d.R * d.extra(i)) / d.R;
+      for (int g = 0; g < G_; ++g)
+        if (group_site_[g] == static_cast<int>(s)) sigbar_(g) = sig2 + d.R * group_extra_mean(g);
+      base_[s] = v_[s] + ebar_[s];
+    }
+    return loglik(tau2_);
   }
 
   double log_prior_tau(int g, double t2) const {
@@ -359,10 +447,21 @@ class Sampler {
     return loglik(tau2_);
   }
 
-  double log_prior_inputs(const Eigen::VectorXd& z) const {
+  // Log prior of input k at x alone (its support only with debug_break 3).
+  double prior_term(int k, double x) const {
+    return set_.debug_break == 3 ? priors_[k].log_support(x) : priors_[k].log_density(x);
+  }
+
+  // The joint Gaussian terms (0 with debug_break 3).
+  double joint_terms(const Eigen::VectorXd& z) const {
+    if (set_.debug_break == 3) return 0.0;
     double lp = 0.0;
-    for (int k = 0; k < p_; ++k) lp += priors_[k].log_density(z(k));
+    for (const JointPrior& j : joints_) lp += j.log_density(z);
     return lp;
+  }
+
+  double log_prior_inputs(const Eigen::VectorXd& z) const {
+    return log_prior(priors_, joints_, z, set_.debug_break);
   }
 
   // Adaptive Metropolis (sampler_walk.h), adapted during the burn-in.
@@ -409,6 +508,7 @@ class Sampler {
     Eigen::VectorXd cand(p_);
     for (int j = 0; j < set_.n_search; ++j) {
       for (int k = 0; k < p_; ++k) cand(k) = priors_[k].draw(rng_, norm_, unif_);
+      for (const JointPrior& jp : joints_) jp.draw(cand, priors_, rng_, norm_);
       predict_all(cand, m_, v_);
       const double sc = profile_score(cand, t2);
       if (sc > best) { best = sc; best_z = cand; }
@@ -432,10 +532,11 @@ class Sampler {
       const double x = z_(k);
       const double y = pr.mixture_draw(x, half_(k), rng_, unif_);
       zp_(k) = y;
-      lr += pr.log_density(y) - pr.log_density(x);
+      lr += prior_term(k, y) - prior_term(k, x);
       if (set_.debug_break != 1)
         lr += std::log(pr.mixture_density(y, x, half_(k))) - std::log(pr.mixture_density(x, y, half_(k)));
     }
+    if (!joints_.empty()) lr += joint_terms(zp_) - joint_terms(z_);
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
     lr += ll_prop - ll_cur;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <vector>
 #include "gasp_predict.h"
 
@@ -22,22 +23,55 @@ struct SiteData {
   Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
   Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
   std::vector<int> group;        // n, global tau2 group of each coefficient
+  // Noise learned in the posterior: one sigma2 for all coefficients, a random
+  // walk on log sigma2, prior half-Cauchy (family 0) or half-normal (1) on
+  // sigma with scale noise_scale.
+  bool learn_sigma2 = false;
+  double noise_scale = 1.0;
+  int noise_family = 0;
+
+  // Log prior of eta = log sigma2 (up to a constant): the prior of sigma times
+  // d sigma / d eta = sigma / 2 (with `jacobian`).
+  double log_prior_eta(double eta, bool jacobian = true) const {
+    const double s2 = std::exp(eta) / (noise_scale * noise_scale);
+    const double lp = noise_family == 0 ? -std::log1p(s2) : -0.5 * s2;
+    return jacobian ? lp + 0.5 * eta : lp;
+  }
 };
 
 struct InputPrior {
   double lower = 0.0, upper = 1.0;  // support
-  bool normal = false;              // truncated normal (variation) or uniform
+  bool normal = false;              // manufacturing variation: truncated normal about x_nom
+  // 0 uniform, 1 normal (mean, sd), 2 log-normal (log x ~ N(mean, sd^2); density on x
+  // with the Jacobian 1 / x), 3 under a joint Gaussian (JointPrior; uniform here)
+  int kind = 0;
   double mean = 0.0, sd = 1.0;
 
   // Log density up to a constant (-inf outside the support).
   double log_density(double x) const {
     if (x < lower || x > upper) return -std::numeric_limits<double>::infinity();
-    if (!normal) return 0.0;
-    const double u = (x - mean) / sd;
-    return -0.5 * u * u;
+    if (kind == 1) {
+      const double u = (x - mean) / sd;
+      return -0.5 * u * u;
+    }
+    if (kind == 2) {
+      const double lx = std::log(x);
+      const double u = (lx - mean) / sd;
+      return -0.5 * u * u - lx;
+    }
+    return 0.0;
   }
 
-  // A draw: the truncated normal by rejection (uniform if that keeps failing).
+  // The support alone: 0 inside, -inf outside.
+  double log_support(double x) const {
+    return (x < lower || x > upper) ? -std::numeric_limits<double>::infinity() : 0.0;
+  }
+
+  // A draw. Manufacturing variation: the truncated normal by rejection
+  // (uniform if that keeps failing). Normal and log-normal calibration
+  // inputs: rejection from the untruncated prior (their box holds a prior
+  // mass of 1e-4 or more, checked in R). Under a joint prior: the lower
+  // bound, without a draw (JointPrior::draw sets it).
   template <class Rng>
   double draw(Rng& rng, std::normal_distribution<double>& norm,
               std::uniform_real_distribution<double>& unif) const {
@@ -46,6 +80,15 @@ struct InputPrior {
         const double x = mean + sd * norm(rng);
         if (x >= lower && x <= upper) return x;
       }
+    } else if (kind == 1 || kind == 2) {
+      for (long t = 0; t < 10000000L; ++t) {
+        double x = mean + sd * norm(rng);
+        if (kind == 2) x = std::exp(x);
+        if (x >= lower && x <= upper) return x;
+      }
+      throw std::runtime_error("the prior of an input puts almost no mass in its range");
+    } else if (kind == 3) {
+      return lower;
     }
     return lower + (upper - lower) * unif(rng);
   }
@@ -70,6 +113,72 @@ struct InputPrior {
   }
 };
 
+// A Gaussian over several inputs (positions `index`), each on its own scale
+// (identity, or log where `log` is set), truncated to the inputs' supports.
+struct JointPrior {
+  std::vector<int> index;
+  std::vector<char> log;
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd L;  // lower Cholesky factor of the covariance
+
+  // Log density of the inputs z (own units) up to a constant, the support
+  // aside: the quadratic form on the scales, and the Jacobian 1 / x of each
+  // log-scale input.
+  double log_density(const Eigen::VectorXd& z) const {
+    const int d = static_cast<int>(index.size());
+    Eigen::VectorXd r(d);
+    double jac = 0.0;
+    for (int q = 0; q < d; ++q) {
+      const double x = z(index[q]);
+      if (log[q]) {
+        if (!(x > 0.0)) return -std::numeric_limits<double>::infinity();
+        const double lx = std::log(x);
+        r(q) = lx - mean(q);
+        jac += lx;
+      } else {
+        r(q) = x - mean(q);
+      }
+    }
+    L.triangularView<Eigen::Lower>().solveInPlace(r);
+    return -0.5 * r.squaredNorm() - jac;
+  }
+
+  // A draw into z by rejection from the untruncated Gaussian into the supports.
+  template <class Rng>
+  void draw(Eigen::VectorXd& z, const std::vector<InputPrior>& priors, Rng& rng,
+            std::normal_distribution<double>& norm) const {
+    const int d = static_cast<int>(index.size());
+    Eigen::VectorXd e(d), y(d);
+    for (long t = 0; t < 10000000L; ++t) {
+      for (int q = 0; q < d; ++q) e(q) = norm(rng);
+      y = mean + L * e;
+      bool inside = true;
+      for (int q = 0; q < d && inside; ++q) {
+        if (log[q]) y(q) = std::exp(y(q));
+        const InputPrior& p = priors[index[q]];
+        inside = y(q) >= p.lower && y(q) <= p.upper;
+      }
+      if (inside) {
+        for (int q = 0; q < d; ++q) z(index[q]) = y(q);
+        return;
+      }
+    }
+    throw std::runtime_error("a joint prior puts almost no mass in the inputs' ranges");
+  }
+};
+
+// Log prior of the inputs z: the independent terms, then the joint Gaussians
+// (debug_break 3: the supports alone).
+inline double log_prior(const std::vector<InputPrior>& priors, const std::vector<JointPrior>& joints,
+                        const Eigen::VectorXd& z, int debug_break) {
+  double lp = 0.0;
+  for (std::size_t k = 0; k < priors.size(); ++k)
+    lp += debug_break == 3 ? priors[k].log_support(z(k)) : priors[k].log_density(z(k));
+  if (debug_break == 3 || joints.empty() || !std::isfinite(lp)) return lp;
+  for (const JointPrior& j : joints) lp += j.log_density(z);
+  return lp;
+}
+
 struct SamplerSettings {
   int n_draws = 1000;
   int n_inner = 200;
@@ -79,7 +188,9 @@ struct SamplerSettings {
   bool fix_tau2 = false;
   Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
   Eigen::VectorXd z_init;           // p
-  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio
+  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio,
+                                    // 3: drop the inputs' prior density (its support kept),
+                                    // 4: drop the Jacobian of log sigma2 in the learned-noise step
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
@@ -98,6 +209,7 @@ struct SamplerOutput {
   double acc_tau = 0, n_tau = 0, acc_input = 0, n_input = 0;
   double acc_global = 0, n_global = 0, acc_burn = 0, n_burn = 0;
   Eigen::VectorXd z_start;   // first point of the burn-in
+  double acc_noise = 0, n_noise = 0;  // learned-noise steps after the burn-in
   Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
 };
 

@@ -343,7 +343,7 @@ test_that("bad input gives classed errors", {
   bad_grid <- wavevalid:::new_wv_field(seq(0, 2, length.out = 32), f$curves)
   expect_error(calibrate(em, bad_grid, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
   one <- wavevalid:::new_wv_field(f$t, list(site1 = f$curves$site1[1, , drop = FALSE]))
-  expect_error(calibrate(em, one, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, one, ex$iu, sigma2 = c(1e-3, -1), quiet = TRUE), class = "wavevalid_error_input")
   expect_s3_class(calibrate(em, one, ex$iu, sigma2 = 1e-3, n_draws = 5, n_inner = 2, chains = 1,
                             seed = 1, quiet = TRUE), "wv_fit")
   iu_short <- iu_map("u1", "calibration", 0, 1)

@@ -31,8 +31,11 @@ test_that("a one-replicate, non-dyadic problem validates end to end with the fin
   measured <- rbind(model(zt) + 0.15 * exp(-((t - 5) / 0.3)^2) + rnorm(136, sd = 0.02))
   runs <- suppressMessages(model_runs(design, curves, t, site = "load"))
   field <- suppressMessages(field_runs(measured, t, site = "load"))
-  expect_error(validate(runs, field, iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, quiet = TRUE),
-               class = "wavevalid_error_input")
+  # a bad sigma2 is refused before the emulators are fitted: the error comes from validate() itself
+  cnd <- rlang::catch_cnd(validate(runs, field, iu, sigma2 = "median", n_draws = 20, quiet = TRUE))
+  expect_s3_class(cnd, "wavevalid_error_input")
+  expect_identical(as.character(cnd$call[[1]]), "validate")
+  expect_error(validate(runs, field, iu, sigma2 = list(other = 1), quiet = TRUE), class = "wavevalid_error_input")
   expect_warning(
     fit <- suppressMessages(validate(runs, field, iu, sigma2 = "finest", n_draws = 60, n_inner = 10, chains = 1,
                                      seed = 1, quiet = TRUE)),
@@ -42,4 +45,94 @@ test_that("a one-replicate, non-dyadic problem validates end to end with the fin
   wf <- where_fails(fit)
   expect_s3_class(wf, "wv_fails")
   expect_true(any(wf$start <= 5.3 & wf$end >= 4.7))
+})
+
+# SBC for the learned noise: u1 uniform, one noise variance for the 8
+# coefficients drawn from its prior, tau2 known; truth (u1, sigma2, w^M, w^b)
+# from the model, ranks of the truth among the kept draws.
+sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, family = "half-cauchy",
+                              n_draws = 49L, n_inner = 10L, tau2 = 0.05, burnin = 300L) {
+  pb <- small_problem(two_inputs = FALSE)
+  n <- length(pb$basis$index)
+  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)), pb$iu,
+                                       sigma2 = noise_prior(scale = scale, family = family))
+  G <- nrow(spec$groups)
+  bank <- pb$emulators$banks$site1
+  ranks <- matrix(NA_integer_, reps, 2, dimnames = list(NULL, c("u1", "sigma2")))
+  for (r in seq_len(reps)) {
+    z <- stats::runif(1)
+    sig <- if (family == "half-cauchy") abs(stats::rcauchy(1, 0, scale)) else abs(stats::rnorm(1, 0, scale))
+    pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(z, 1))
+    wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
+    wb <- stats::rnorm(n, 0, sqrt(tau2))
+    W <- matrix(wM + wb, R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, sig), R, n)
+    spec$sites$site1$wbar <- colMeans(W)
+    spec$sites$site1$s2 <- colSums(sweep(W, 2L, colMeans(W))^2)
+    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+      n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
+      n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break, adaptive = TRUE,
+      burnin = burnin, n_search = 20L))
+    ranks[r, ] <- c(sum(out$inputs[, 1] < z), sum(out$sigma2[[1]][, 1] < sig^2))
+  }
+  apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((n_draws + 1) / 10) + 1, 10))$p.value)
+}
+
+test_that("SBC of the learned noise at a small size, and not without the Jacobian of its step", {
+  withr::local_seed(4401)
+  p_ok <- sbc_noise_pvalues(400)
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  withr::local_seed(4401)
+  p_broken <- sbc_noise_pvalues(400, debug_break = 4L)
+  expect_lt(p_broken[["sigma2"]], 0.001)
+})
+
+test_that("SBC of the learned noise, full size, with one and with three replicates", {
+  skip_unless_slow()
+  # the half-Cauchy's tail puts some truths far from the start: a longer burn-in
+  withr::local_seed(4402)
+  p_one <- sbc_noise_pvalues(3000, burnin = 1500L)
+  expect_true(all(p_one > 0.01), label = paste(signif(p_one, 3), collapse = ", "))
+  withr::local_seed(4403)
+  p_three <- sbc_noise_pvalues(2000, R = 3L, family = "half-normal")
+  expect_true(all(p_three > 0.01), label = paste(signif(p_three, 3), collapse = ", "))
+  withr::local_seed(4404)
+  p_broken <- sbc_noise_pvalues(2000, R = 3L, debug_break = 4L, family = "half-normal")
+  expect_lt(p_broken[["sigma2"]], 0.001)
+})
+
+test_that("how the noise was set is stored, printed and checked", {
+  ex <- example_problem()
+  one <- ex$field
+  one$curves$site1 <- one$curves$site1[1, , drop = FALSE]
+  run <- function(field, ...) {
+    calibrate(ex$emulators, field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, burnin = 200,
+              n_search = 10, quiet = TRUE, ...)
+  }
+  expect_message(fit <- suppressWarnings(run(one)), "learned", class = "wavevalid_message")
+  expect_identical(fit$noise_setting, c(site1 = "learned"))
+  expect_identical(fit$noise_prior$family, "half-cauchy")
+  # one variance for all coefficients, moved between draws
+  expect_true(all(apply(fit$sigma2$site1, 1, function(v) length(unique(v)) == 1L)))
+  expect_gt(length(unique(fit$sigma2$site1[, 1])), 5)
+  expect_true(any(grepl("site1: learned, one variance for all coefficients; half-cauchy prior", capture.output(print(fit)))))
+  expect_true(any(grepl("site1: learned", capture.output(print(summary(fit))))))
+  fit4 <- suppressWarnings(run(ex$field))
+  expect_identical(fit4$noise_setting, c(site1 = "replicates"))
+  expect_true(any(grepl("site1: from 4 replicates", capture.output(print(fit4)))))
+  fitg <- suppressWarnings(run(one, sigma2 = 0.03^2))
+  expect_identical(fitg$noise_setting, c(site1 = "given"))
+  expect_true(any(grepl("site1: given by the user", capture.output(print(fitg)))))
+  fitf <- suppressWarnings(run(one, sigma2 = "finest"))
+  expect_identical(fitf$noise_setting, c(site1 = "finest"))
+  fitn <- suppressWarnings(run(ex$field, sigma2 = noise_prior(scale = 0.05, family = "half-normal")))
+  expect_identical(fitn$noise_setting, c(site1 = "learned"))
+  expect_identical(fitn$noise_prior$scale, c(site1 = 0.05))
+  # classed errors, before any sampling
+  expect_error(run(one, sigma2 = -1), class = "wavevalid_error_input")
+  expect_error(run(one, sigma2 = "median"), class = "wavevalid_error_input")
+  expect_error(run(one, sigma2 = list(other = 1)), class = "wavevalid_error_input")
+  expect_error(run(one, sigma2 = noise_prior(scale = c(a = 1, b = 2))), class = "wavevalid_error_input")
+  expect_error(noise_prior(scale = -1), class = "wavevalid_error_input")
+  expect_error(noise_prior(family = "cauchy"), class = "wavevalid_error_input")
+  expect_snapshot(print(noise_prior(scale = 0.1)))
 })

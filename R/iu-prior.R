@@ -1,0 +1,355 @@
+#' A joint Gaussian prior over calibration inputs
+#'
+#' Replaces the priors of several calibration inputs of an I/U map by one
+#' Gaussian with a full covariance, for instance a posterior from an earlier
+#' calibration. Each input enters on its own scale (`"identity"`: the input
+#' `x`; `"log"`: `log(x)`), and the Gaussian on those scales is truncated to
+#' the inputs' ranges `[lower, upper]`. With `y` the inputs on their scales,
+#' the prior density on the inputs in their own units is
+#' `exp(-(y - mean)' cov^-1 (y - mean) / 2) / prod(x[log scale])` inside the
+#' box, up to a constant: the factor `1 / x` of each log-scale input is the
+#' Jacobian of `log`.
+#'
+#' A Gaussian given on the scale `-log(x)` (as GPMSA's flyer-plate example
+#' does for the strength parameter `gamma`) is the Gaussian on `log(x)` with
+#' the sign of that entry of `mean` flipped, and the signs of that row and
+#' column of `cov` flipped (the diagonal entry keeps its sign).
+#'
+#' The prior must put at least a probability of 1e-4 in the box before
+#' truncation: draws of it (the sampler's start search, [testbed_suspension()]
+#' truths) are taken by rejection from the untruncated Gaussian.
+#'
+#' @param iu A `wv_iu` object ([iu_map()]).
+#' @param names Names of two or more calibration inputs of `iu` (one is
+#'   allowed too), none already under a joint prior.
+#' @param mean Mean of the Gaussian, one value per input of `names`, each on
+#'   the input's scale.
+#' @param cov Covariance matrix of the Gaussian (symmetric positive definite,
+#'   one row and column per input of `names`, in that order), on the inputs'
+#'   scales.
+#' @param scale `"identity"` or `"log"`: one value for every input, or one per
+#'   input of `names`. `"log"` needs a positive lower bound.
+#' @return `iu` with the joint prior: the inputs' column `prior` becomes
+#'   `"joint"` and the Gaussian is kept in the attribute `"joint"` (a list of
+#'   blocks with `names`, `mean`, `cov`, `scale`), which [iu_add()], printing
+#'   and saving keep.
+#' @seealso [iu_map()] for the priors of single inputs.
+#' @export
+#' @examples
+#' iu <- iu_map(c("a", "b", "x1"), c("calibration", "calibration", "variation"),
+#'              lower = c(0, 1e-6, 0), upper = c(1, 1e-3, 1))
+#' # a and log(b) jointly Gaussian, correlation 0.5
+#' iu <- iu_prior_joint(iu, c("a", "b"), mean = c(0.4, log(3e-5)),
+#'                      cov = matrix(c(0.01, 0.025, 0.025, 0.25), 2), scale = c("identity", "log"))
+#' iu
+iu_prior_joint <- function(iu, names, mean, cov, scale = "identity") {
+  check_class(iu, "wv_iu")
+  iu <- iu_upgrade(iu)
+  if (!is.character(names) || !length(names) || anyNA(names) || anyDuplicated(names)) {
+    wv_abort("{.arg names} must be distinct input names of {.arg iu}.", class = c("prior", "input"))
+  }
+  miss <- setdiff(names, iu$name)
+  if (length(miss)) {
+    wv_abort(c("{.arg names} must be inputs of {.arg iu}.",
+               "x" = "{.val {miss}} {?is/are} not in it; its inputs are {.val {iu$name}}."),
+             class = c("prior", "input"))
+  }
+  k <- match(names, iu$name)
+  notcal <- names[iu$type[k] != "calibration"]
+  if (length(notcal)) {
+    wv_abort(c("A joint prior is for calibration inputs only.",
+               "x" = "{.val {notcal}} {?has/have} manufacturing variation."),
+             class = c("prior", "input"))
+  }
+  taken <- names[iu$prior[k] == "joint"]
+  if (length(taken)) {
+    wv_abort(c("{.val {taken}} {?is/are} already under a joint prior.",
+               "i" = "Give all inputs of one Gaussian in one call."), class = c("prior", "input"))
+  }
+  d <- length(names)
+  if (!is.numeric(mean) || length(mean) != d || any(!is.finite(mean))) {
+    wv_abort(c("{.arg mean} must hold {d} finite number{?s}, one per input of {.arg names}.",
+               "x" = "It has length {length(mean)}."), class = c("prior", "input"))
+  }
+  if (is.numeric(cov) && length(cov) == 1L && d == 1L) cov <- matrix(cov, 1, 1)
+  if (!is.matrix(cov) || !is.numeric(cov) || any(dim(cov) != d)) {
+    wv_abort(c("{.arg cov} must be a {d} x {d} numeric matrix, one row and column per input of {.arg names}.",
+               "x" = "It is {if (is.matrix(cov)) paste(dim(cov), collapse = ' x ') else 'not a matrix'}."),
+             class = c("prior", "input"))
+  }
+  if (any(!is.finite(cov))) wv_abort("{.arg cov} must be finite.", class = c("prior", "input"))
+  if (!is.character(scale) || !length(scale) %in% c(1L, d) || !all(scale %in% c("identity", "log"))) {
+    wv_abort("{.arg scale} must be {.val identity} or {.val log}, one value or one per input ({d}).",
+             class = c("prior", "input"))
+  }
+  scale <- rep_len(scale, d)
+  badlog <- names[scale == "log" & iu$lower[k] <= 0]
+  if (length(badlog)) {
+    wv_abort(c("A prior on the log scale needs a positive lower bound.",
+               "x" = "{.val {badlog}} {cli::qty(length(badlog))}{?has a lower bound/have lower bounds} of zero or less.",
+               "i" = "Raise the lower bound, or use {.code scale = \"identity\"} for {cli::qty(length(badlog))}{?it/them}."),
+             class = c("prior", "input"))
+  }
+  cov <- unname(cov)
+  joint_chol(cov)
+  blocks <- c(attr(iu, "joint"), list(list(names = names, mean = unname(as.numeric(mean)), cov = cov,
+                                           scale = scale)))
+  iu$prior[k] <- "joint"
+  iu$prior_sd[k] <- NA_real_
+  iu$prior_mean[k] <- NA_real_
+  attr(iu, "joint") <- blocks
+  validate_wv_iu(iu)
+}
+
+# Lower Cholesky factor of a covariance, or a classed error when it is not
+# symmetric positive definite. The check runs on the correlation matrix, so
+# that covariances of inputs of order 1e-7 are judged as those of order 1.
+joint_chol <- function(cov, call = rlang::caller_env()) {
+  sym <- max(abs(cov - t(cov))) <= 1e-10 * max(abs(cov))
+  if (!sym) {
+    wv_abort(c("{.arg cov} must be symmetric.",
+               "x" = "Its largest asymmetry is {signif(max(abs(cov - t(cov))), 3)}."),
+             class = c("prior", "numeric"), call = call)
+  }
+  dg <- diag(cov)
+  if (any(dg <= 0)) {
+    wv_abort("{.arg cov} must be positive definite; its diagonal has entries of zero or less.",
+             class = c("prior", "numeric"), call = call)
+  }
+  s <- sqrt(dg)
+  corr <- cov / outer(s, s)
+  ev <- eigen((corr + t(corr)) / 2, symmetric = TRUE, only.values = TRUE)$values
+  if (min(ev) <= 1e-10 * max(ev)) {
+    wv_abort(c("{.arg cov} must be positive definite.",
+               "x" = "The smallest eigenvalue of its correlation matrix is {signif(min(ev), 3)}."),
+             class = c("prior", "numeric"), call = call)
+  }
+  L <- t(chol((corr + t(corr)) / 2))
+  L * s
+}
+
+validate_joint_blocks <- function(x, blocks, call = rlang::caller_env()) {
+  if (!length(blocks)) {
+    if (any(x$prior == "joint")) {
+      wv_abort("Inputs {.val {x$name[x$prior == 'joint']}} have a joint prior the I/U map does not hold.",
+               class = c("prior", "input"), call = call)
+    }
+    return(invisible(x))
+  }
+  covered <- unlist(lapply(blocks, `[[`, "names"))
+  if (!setequal(covered, x$name[x$prior == "joint"]) || anyDuplicated(covered)) {
+    wv_abort("The joint priors of the I/U map do not match its inputs with prior {.val joint}.",
+             class = c("prior", "input"), call = call)
+  }
+  for (b in blocks) {
+    mass <- joint_box_mass(x, b)
+    if (mass < min_prior_mass) {
+      wv_abort(c(
+        "The joint prior of {.val {b$names}} puts almost no mass in their ranges.",
+        "x" = "Before truncation it gives the box [lower, upper] probability {signif(mass, 2)} (estimated).",
+        "i" = "Check that {.arg mean} lies inside the ranges and on the inputs' scales (log for {.code scale = \"log\"})."
+      ), class = c("prior", "numeric"), call = call)
+    }
+  }
+  invisible(x)
+}
+
+# Probability of the box under the untruncated Gaussian of block b, estimated
+# from 20000 draws with a fixed stream (R's generator left as it was).
+joint_box_mass <- function(iu, b, n = 20000L) {
+  k <- match(b$names, iu$name)
+  lg <- b$scale == "log"
+  lo <- iu$lower[k]
+  hi <- iu$upper[k]
+  lo[lg] <- log(lo[lg])
+  hi[lg] <- log(hi[lg])
+  L <- joint_chol(b$cov)
+  Y <- with_rng_seed(1L, matrix(stats::rnorm(n * length(k)), n)) %*% t(L)
+  Y <- sweep(Y, 2L, b$mean, "+")
+  inside <- rowSums(sweep(Y, 2L, lo, ">=") & sweep(Y, 2L, hi, "<=")) == length(k)
+  mean(inside)
+}
+
+# --- densities and draws ---------------------------------------------------
+
+# Log prior density of the inputs (rows of X, columns named as inputs of iu)
+# in their own units, up to the truncation constants: the target the sampler
+# uses. -Inf outside the box.
+iu_log_prior <- function(iu, X) {
+  iu <- iu_upgrade(iu)
+  X <- as.matrix(X)
+  k <- match(colnames(X), iu$name)
+  lp <- numeric(nrow(X))
+  for (j in seq_along(k)) {
+    kk <- k[j]
+    x <- X[, j]
+    out <- x < iu$lower[kk] | x > iu$upper[kk]
+    term <- switch(iu$prior[kk],
+                   normal = -0.5 * ((x - iu$prior_mean[kk]) / iu$prior_sd[kk])^2,
+                   lognormal = -0.5 * ((log(pmax(x, 0)) - log(iu$prior_mean[kk])) / iu$prior_sd[kk])^2 - log(x),
+                   0)
+    lp <- lp + ifelse(out, -Inf, term)
+  }
+  for (b in attr(iu, "joint")) {
+    Y <- X[, b$names, drop = FALSE]
+    lg <- b$scale == "log"
+    Y[, lg] <- log(Y[, lg])
+    R <- sweep(Y, 2L, b$mean)
+    Q <- rowSums((R %*% solve(b$cov)) * R)
+    lp <- lp - 0.5 * Q - rowSums(log(X[, b$names[lg], drop = FALSE]))
+  }
+  lp
+}
+
+# Marginal prior density of input k at values v (in the input's own units).
+# For an input under a joint prior it is a kernel estimate from prior draws.
+iu_prior_density <- function(iu, k, v) {
+  iu <- iu_upgrade(iu)
+  lo <- iu$lower[k]
+  hi <- iu$upper[k]
+  inside <- v >= lo & v <= hi
+  prior <- iu$prior[k]
+  if (prior == "uniform") return(ifelse(inside, 1 / (hi - lo), 0))
+  if (prior == "joint") {
+    x <- with_rng_seed(1L, iu_prior_draws(iu, 4000L)[, k])
+    d <- stats::density(x, from = lo, to = hi, n = 512)
+    return(ifelse(inside, stats::approx(d$x, d$y, v, rule = 2)$y, 0))
+  }
+  mass <- univariate_prior_mass(iu, k, lo, hi)
+  dens <- if (prior == "lognormal") {
+    stats::dlnorm(pmax(v, lo), log(iu$prior_mean[k]), iu$prior_sd[k])
+  } else {
+    stats::dnorm(v, iu$prior_mean[k], iu$prior_sd[k])
+  }
+  ifelse(inside, dens / mass, 0)
+}
+
+# Prior probability of [a, b] for input k.
+iu_prior_mass <- function(iu, k, a, b) {
+  iu <- iu_upgrade(iu)
+  a <- max(a, iu$lower[k])
+  b <- min(b, iu$upper[k])
+  if (b <= a) return(0)
+  switch(iu$prior[k],
+         uniform = (b - a) / (iu$upper[k] - iu$lower[k]),
+         joint = {
+           x <- with_rng_seed(1L, iu_prior_draws(iu, 4000L)[, k])
+           mean(x >= a & x <= b)
+         },
+         univariate_prior_mass(iu, k, a, b) / univariate_prior_mass(iu, k, iu$lower[k], iu$upper[k]))
+}
+
+# Draws from the prior of every input (n x p matrix in the inputs' own units),
+# with nominals of the inputs with manufacturing variation optionally
+# replaced (a new vehicle under other nominals).
+iu_prior_draws <- function(iu, n, nominal = NULL) {
+  iu <- iu_upgrade(iu)
+  nom <- iu$nominal
+  if (!is.null(nominal)) nom[match(names(nominal), iu$name)] <- nominal
+  out <- vapply(seq_len(nrow(iu)), function(k) {
+    lo <- iu$lower[k] - iu$nominal[k] + nom[k]
+    hi <- iu$upper[k] - iu$nominal[k] + nom[k]
+    if (iu$type[k] == "calibration") {
+      if (iu$prior[k] == "joint") return(rep(NA_real_, n))
+      if (iu$prior[k] == "uniform") return(stats::runif(n, iu$lower[k], iu$upper[k]))
+      lg <- iu$prior[k] == "lognormal"
+      m <- if (lg) log(iu$prior_mean[k]) else iu$prior_mean[k]
+      a <- if (lg) log(iu$lower[k]) else iu$lower[k]
+      b <- if (lg) log(iu$upper[k]) else iu$upper[k]
+      y <- stats::qnorm(stats::runif(n, stats::pnorm(a, m, iu$prior_sd[k]), stats::pnorm(b, m, iu$prior_sd[k])),
+                        m, iu$prior_sd[k])
+      return(pmin(pmax(if (lg) exp(y) else y, iu$lower[k]), iu$upper[k]))
+    }
+    p <- stats::runif(n, stats::pnorm(lo, nom[k], iu$prior_sd[k]), stats::pnorm(hi, nom[k], iu$prior_sd[k]))
+    stats::qnorm(p, nom[k], iu$prior_sd[k])
+  }, numeric(n))
+  if (n == 1L) out <- matrix(out, nrow = 1L)
+  colnames(out) <- iu$name
+  for (b in attr(iu, "joint")) out[, b$names] <- joint_draws(iu, b, n)
+  out
+}
+
+# n draws of block b by rejection from the untruncated Gaussian.
+joint_draws <- function(iu, b, n) {
+  k <- match(b$names, iu$name)
+  lo <- iu$lower[k]
+  hi <- iu$upper[k]
+  L <- joint_chol(b$cov)
+  lg <- b$scale == "log"
+  out <- matrix(NA_real_, 0, length(k))
+  tries <- 0
+  while (nrow(out) < n) {
+    m <- max(100L, 2L * (n - nrow(out)))
+    Y <- sweep(matrix(stats::rnorm(m * length(k)), m) %*% t(L), 2L, b$mean, "+")
+    Y[, lg] <- exp(Y[, lg])
+    ok <- rowSums(sweep(Y, 2L, lo, ">=") & sweep(Y, 2L, hi, "<=")) == length(k)
+    out <- rbind(out, Y[ok, , drop = FALSE])
+    tries <- tries + m
+    if (tries > 1e8) {
+      wv_abort("The joint prior of {.val {b$names}} puts almost no mass in their ranges.",
+               class = c("prior", "numeric"))
+    }
+  }
+  out[seq_len(n), , drop = FALSE]
+}
+
+# --- statements --------------------------------------------------------------
+
+# One label per input stating its prior.
+prior_labels <- function(iu, range = TRUE) {
+  iu <- iu_upgrade(iu)
+  f <- function(v) format(signif(v, 4), trim = TRUE)
+  on <- function(k) sprintf(if (range) " on [%s, %s]" else " [%s, %s]", f(iu$lower[k]), f(iu$upper[k]))
+  blocks <- attr(iu, "joint")
+  vapply(seq_len(nrow(iu)), function(k) {
+    lab <- switch(iu$prior[k],
+      uniform = "uniform",
+      normal = sprintf("normal(%s, sd %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
+      lognormal = sprintf("log-normal(median %s, sd of log %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
+      joint = {
+        j <- which(vapply(blocks, function(b) iu$name[k] %in% b$names, logical(1)))
+        b <- blocks[[j]]
+        q <- match(iu$name[k], b$names)
+        sprintf("joint Gaussian %d: %s mean %s, sd %s", j, if (b$scale[q] == "log") "log x" else "x",
+                f(b$mean[q]), f(sqrt(b$cov[q, q])))
+      })
+    paste0(lab, on(k))
+  }, character(1))
+}
+
+# Lines describing the joint Gaussian priors (correlations).
+joint_prior_text <- function(iu) {
+  blocks <- attr(iu, "joint")
+  unlist(lapply(seq_along(blocks), function(j) {
+    b <- blocks[[j]]
+    s <- sqrt(diag(b$cov))
+    corr <- b$cov / outer(s, s)
+    lab <- ifelse(b$scale == "log", paste0("log(", b$names, ")"), b$names)
+    head <- sprintf("Joint Gaussian %d on %s, truncated to the ranges; correlations:", j, paste(lab, collapse = ", "))
+    rows <- vapply(seq_along(lab), function(q) {
+      paste0("  ", formatC(lab[q], width = -max(nchar(lab))), " ",
+             paste(formatC(corr[q, ], format = "f", digits = 2, width = 6), collapse = " "))
+    }, character(1))
+    c(head, rows)
+  }))
+}
+
+# The priors as the sampler reads them: per input kind (0 uniform, 1 normal,
+# 2 log-normal, 3 under a joint Gaussian), mean and sd (of log x for
+# log-normal), and the joint blocks (0-based input positions, log flags, mean,
+# lower Cholesky factor of the covariance). `prior_iu` is the I/U map of the
+# sampler's inputs, in their order, variation shifted to x_nom.
+sampler_priors <- function(prior_iu) {
+  var <- prior_iu$type == "variation"
+  kind <- match(prior_iu$prior, c("uniform", "normal", "lognormal", "joint")) - 1L
+  mean <- rep(0, nrow(prior_iu))
+  mean[kind == 1L] <- prior_iu$prior_mean[kind == 1L]
+  mean[kind == 2L] <- log(prior_iu$prior_mean[kind == 2L])
+  sd <- ifelse(kind %in% 1:2, prior_iu$prior_sd, 1)
+  joint <- lapply(attr(prior_iu, "joint"), function(b) {
+    list(index = match(b$names, prior_iu$name) - 1L, log = b$scale == "log", mean = b$mean,
+         chol = joint_chol(b$cov))
+  })
+  list(lower = prior_iu$lower, upper = prior_iu$upper, normal = var, mean = mean, sd = sd,
+       kind = as.integer(kind), joint = joint)
+}
