@@ -50,3 +50,28 @@ test_that("load_flyer() gives the runs in physical units, the measured curve on 
   k <- match(p$names, fl$iu$name)
   expect_true(all(at > fl$iu$lower[k] & at < fl$iu$upper[k]))
 })
+
+# The flyer plate with every default (one measured curve: the noise learned),
+# then under GPMSA's Gaussian prior of the strength parameters: the basis
+# meets its tolerances, the print states how the noise was set, and under the
+# prior kappa's posterior mean lies within 3 prior standard deviations of the
+# prior mean with every chain mixed (R-hat below 1.05). Under uniform priors
+# kappa lies about 5 prior standard deviations below it.
+test_that("the flyer plate validates with every default and its strength parameters follow GPMSA's prior", {
+  skip_unless_slow()
+  fl <- load_flyer()
+  withr::local_options(list(wavevalid.quiet = TRUE))
+  fit <- suppressWarnings(validate(fl$runs, fl$field, fl$iu, n_draws = 1000, n_inner = 50, chains = 2, seed = 1))
+  e <- fit$basis$error
+  expect_lte(stats::median(e$rel_l2[e$source == "run"]), 0.01)
+  expect_lte(max(e$rel_l2[e$source == "field"]), 0.02)
+  expect_output(print(fit), "velocity: learned")
+  iu <- iu_prior_joint(fl$iu, fl$prior$names, fl$prior$mean, fl$prior$cov, scale = fl$prior$scale)
+  fit_p <- suppressWarnings(calibrate(fit$emulators, fit$field, iu, n_draws = 1000, n_inner = 50, chains = 2,
+                                      seed = 1))
+  k <- which(fl$prior$names == "kappa")
+  z <- (mean(as.matrix(fit_p$draws)[, "kappa"]) - fl$prior$mean[[k]]) / sqrt(fl$prior$cov[k, k])
+  expect_lt(abs(z), 3)
+  rhat <- summary(fit_p)$inputs$rhat
+  expect_true(all(rhat < 1.05), label = paste(round(rhat, 3), collapse = ", "))
+})

@@ -41,16 +41,21 @@ test_that("the checks and their figures on a sound problem", {
   expect_identical(unname(ok$calls), c(1L, 0L, 1L))
 })
 
-test_that("one replicate without sigma2 stops validate() before any registration or fit", {
+test_that("one replicate without sigma2: the pre-flight warns, and validate() learns the noise", {
   pp <- preflight_problem()
   pf <- preflight(pp$runs, pp$field, pp$iu)
-  expect_identical(pf$status[pf$check == "noise"], "error")
+  expect_identical(pf$status[pf$check == "noise"], "warning")
+  expect_match(pf$figure[pf$check == "noise"], "learned in the posterior")
   expect_match(pf$fix[pf$check == "noise"], "sigma2")
-  out <- count_calls(validate(pp$runs, pp$field, pp$iu, windows = list(c(0.2, 0.8)), quiet = TRUE))
-  expect_s3_class(out$value, "wavevalid_error_noise")
+  expect_warning(enforce_preflight(pf), class = "wavevalid_warning_noise")
+  fit <- suppressWarnings(suppressMessages(validate(pp$runs, pp$field, pp$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                                    seed = 1, quiet = TRUE)))
+  expect_s3_class(fit, "wv_fit")
+  expect_identical(unname(fit$noise_setting), "learned")
+  # a bad sigma2 stops before anything is registered or fitted
+  out <- count_calls(validate(pp$runs, pp$field, pp$iu, windows = list(c(0.2, 0.8)), sigma2 = -1, quiet = TRUE))
   expect_s3_class(out$value, "wavevalid_error_input")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
-  expect_snapshot(validate(pp$runs, pp$field, pp$iu), error = TRUE)
   # the same problem with sigma2 passes every check
   expect_true(all(preflight(pp$runs, pp$field, pp$iu, sigma2 = "finest")$status == "ok"))
 })
@@ -110,10 +115,10 @@ test_that("inputs of the design are checked against the I/U map", {
   expect_identical(bad_windows$status[bad_windows$check == "windows"], "error")
 })
 
-test_that("the flyer plate passes every check but the noise, which sigma2 settles", {
+test_that("the flyer plate passes every check but the noise of its one curve, which sigma2 settles", {
   fl <- load_flyer()
   pf <- preflight(fl$runs, fl$field, fl$iu)
-  expect_identical(pf$status, c("ok", "ok", "error", "ok"))
+  expect_identical(pf$status, c("ok", "ok", "warning", "ok"))
   expect_identical(preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8)$status, rep("ok", 4))
   rep_pf <- preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8, basis_args = list(retain = "report"))
   expect_identical(rep_pf$status[rep_pf$check == "basis"], "error")
