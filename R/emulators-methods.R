@@ -364,7 +364,9 @@ autoplot.wv_emulators <- function(object, type = c("parameters", "loo"), site = 
   type <- check_choice(type)
   p <- object$params
   if (!is.null(site)) p <- p[p$site %in% site, , drop = FALSE]
-  p <- p[is.finite(p$loglik), , drop = FALSE]
+  # flat emulators (every beta zero, no likelihood) carry no parameters to show
+  betas <- as.matrix(p[paste0("beta_", object$inputs)])
+  p <- p[is.finite(p$loglik) | rowSums(betas) > 0, , drop = FALSE]
   if (type == "parameters") {
     long <- do.call(rbind, lapply(object$inputs, function(v) {
       data.frame(site = p$site, index = p$index, input = v, beta = p[[paste0("beta_", v)]],

@@ -13,3 +13,14 @@ test_that("report tables keep significant digits of inputs on very different sca
   expect_equal(num, fl$iu$upper, tolerance = 1e-3)
   expect_true(all(num != 0))
 })
+
+test_that("the report renders for a fit whose emulators were given their parameters", {
+  skip_if_not(rmarkdown::pandoc_available())
+  fit <- example_fit()
+  expect_true(all(is.na(fit$emulators$params$loglik)))
+  out <- withr::local_tempfile(fileext = ".html")
+  suppressWarnings(validation_report(fit, file = out, quiet = TRUE))
+  html <- readLines(out, warn = FALSE)
+  expect_true(any(grepl("Field noise", html, fixed = TRUE)))
+  expect_true(any(grepl("uniform", html, fixed = TRUE)))
+})
