@@ -64,11 +64,11 @@ load_flyer <- function() {
   dir <- system.file("extdata", "flyer", package = "wavevalid", mustWork = TRUE)
   read <- function(f) as.matrix(utils::read.table(file.path(dir, f)))
   inputs <- c("eos", "theta0", "kappa", "gamma", "y0", "yinf", "s0", "sinf", "pmin", "vs")
-  scaled <- read("design.txt")
+  scaled <- read("design.txt.xz")
   ranges <- read("fl_ranges")
   design <- as.data.frame(sweep(sweep(scaled, 2L, ranges[, 2] - ranges[, 1], `*`), 2L, ranges[, 1], `+`))
   names(design) <- inputs
-  sim <- read("sim_outputs")
+  sim <- read("sim_outputs.xz")
   runs <- withCallingHandlers(
     model_runs(design, t(sim[, -1L]), sim[, 1L], site = "velocity"),
     wavevalid_message = function(m) invokeRestart("muffleMessage")

@@ -34,7 +34,9 @@ long <- function(m) data.frame(curve = rep(seq_len(nrow(m)), times = ncol(m)), t
                                y = signif(as.vector(m), 6))
 dir <- file.path("inst", "extdata")
 write.csv(cbind(run = seq_len(nrow(design)), signif(design, 6)), file.path(dir, "byom-design.csv"), row.names = FALSE)
-write.csv(long(runs), file.path(dir, "byom-runs.csv"), row.names = FALSE)
+con <- xzfile(file.path(dir, "byom-runs.csv.xz"), "w", compression = 9)
+write.csv(long(runs), con, row.names = FALSE)
+close(con)
 write.csv(long(field), file.path(dir, "byom-field.csv"), row.names = FALSE)
 write.csv(data.frame(name = rownames(ranges), type = c("variation", "calibration", "variation"),
                      lower = ranges[, 1], upper = ranges[, 2], nominal = c(100, 5, 1)),

@@ -13,10 +13,10 @@ test_that("load_flyer() gives the runs in physical units, the measured curve on 
   # the grid is dyadic and equally spaced on the simulator's interval
   expect_true(is_dyadic_grid(fl$t))
   dir <- system.file("extdata", "flyer", package = "wavevalid")
-  sim <- as.matrix(utils::read.table(file.path(dir, "sim_outputs")))
+  sim <- as.matrix(utils::read.table(file.path(dir, "sim_outputs.xz")))
   expect_equal(range(fl$t), range(sim[, 1]))
   # the design is the scaled design mapped to the ranges
-  scaled <- unname(as.matrix(utils::read.table(file.path(dir, "design.txt"))))
+  scaled <- unname(as.matrix(utils::read.table(file.path(dir, "design.txt.xz"))))
   rg <- unname(as.matrix(utils::read.table(file.path(dir, "fl_ranges"))))
   expect_equal(unname(as.matrix(fl$runs$design)[7, ]), rg[, 1] + scaled[7, ] * (rg[, 2] - rg[, 1]))
   expect_equal(fl$iu$lower, rg[, 1])
