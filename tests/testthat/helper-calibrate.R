@@ -101,3 +101,22 @@ narrow_problem <- function() {
   pb$field <- field_from_coef(pb$basis, W)
   pb
 }
+
+# The pieces every simulation-based calibration study shares: the small
+# problem (one input unless `two_inputs`), its calibration spec for `iu`
+# (default the problem's own) with R replicates and field variances `sigma2`,
+# the number of coefficients n, of bias groups G and the site's emulator bank.
+sbc_setup <- function(R, sigma2, iu = NULL, two_inputs = FALSE) {
+  pb <- small_problem(two_inputs = two_inputs)
+  n <- length(pb$basis$index)
+  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)),
+                                       if (is.null(iu)) pb$iu else iu,
+                                       sigma2 = sigma2)
+  list(pb = pb, n = n, spec = spec, G = nrow(spec$groups), bank = pb$emulators$banks$site1)
+}
+
+# Chi-squared p-values of the uniformity of SBC ranks (one column per
+# quantity), the ranks 0..n_kept of the truth among n_kept draws in 10 bins.
+sbc_rank_pvalues <- function(ranks, n_kept) {
+  apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((n_kept + 1) / 10) + 1, 10))$p.value)
+}

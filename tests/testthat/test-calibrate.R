@@ -6,12 +6,11 @@
 sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inner = 20L,
                         sd_eps = 3, R = 2, tau2 = 0.05, proposal = "report", burnin = 300L,
                         p_global = 0.1) {
-  pb <- small_problem(two_inputs = FALSE)
-  n <- length(pb$basis$index)
-  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)), pb$iu,
-                                       sigma2 = sd_eps^2)
-  G <- nrow(spec$groups)
-  bank <- pb$emulators$banks$site1
+  s <- sbc_setup(R, sd_eps^2)
+  n <- s$n
+  spec <- s$spec
+  G <- s$G
+  bank <- s$bank
   adaptive <- proposal == "adaptive"
   burn <- if (adaptive) 1L else 12L
   L <- n_draws - burn + 1L
@@ -31,7 +30,7 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
                     sum(out$wM[[1]][keep, 2] < wM[2]))
   }
   # L = 49 kept draws give ranks 0..49: 50 values in 10 bins of 5.
-  apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((L + 1) / 10) + 1, 10))$p.value)
+  sbc_rank_pvalues(ranks, L)
 }
 
 test_that("simulation-based calibration: ranks are uniform, and not when the Hastings ratio is broken", {

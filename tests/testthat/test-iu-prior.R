@@ -173,12 +173,11 @@ test_that("the sampler draws the flyer-plate prior on the inputs' own scales (1e
 # far off), ranks of the truth among the kept draws.
 sbc_prior_pvalues <- function(reps, iu, debug_break = 0L, n_draws = 60L, n_inner = 20L, sd_eps = 3, R = 2,
                               tau2 = 0.05, proposal = "report") {
-  pb <- small_problem(two_inputs = nrow(iu) == 2L)
-  n <- length(pb$basis$index)
-  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)), iu,
-                                       sigma2 = sd_eps^2)
-  G <- nrow(spec$groups)
-  bank <- pb$emulators$banks$site1
+  s <- sbc_setup(R, sd_eps^2, iu = iu, two_inputs = nrow(iu) == 2L)
+  n <- s$n
+  spec <- s$spec
+  G <- s$G
+  bank <- s$bank
   adaptive <- proposal == "adaptive"
   burn <- if (adaptive) 1L else 12L
   L <- n_draws - burn + 1L
@@ -197,7 +196,7 @@ sbc_prior_pvalues <- function(reps, iu, debug_break = 0L, n_draws = 60L, n_inner
     keep <- burn:n_draws
     ranks[r, ] <- colSums(sweep(out$inputs[keep, , drop = FALSE], 2L, z, "<"))
   }
-  apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((L + 1) / 10) + 1, 10))$p.value)
+  sbc_rank_pvalues(ranks, L)
 }
 
 normal_prior_iu <- function() {

@@ -52,12 +52,11 @@ test_that("a one-replicate, non-dyadic problem validates end to end with the fin
 # from the model, ranks of the truth among the kept draws.
 sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, family = "half-cauchy",
                               n_draws = 49L, n_inner = 10L, tau2 = 0.05, burnin = 300L) {
-  pb <- small_problem(two_inputs = FALSE)
-  n <- length(pb$basis$index)
-  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)), pb$iu,
-                                       sigma2 = noise_prior(scale = scale, family = family))
-  G <- nrow(spec$groups)
-  bank <- pb$emulators$banks$site1
+  s <- sbc_setup(R, noise_prior(scale = scale, family = family))
+  n <- s$n
+  spec <- s$spec
+  G <- s$G
+  bank <- s$bank
   ranks <- matrix(NA_integer_, reps, 2, dimnames = list(NULL, c("u1", "sigma2")))
   for (r in seq_len(reps)) {
     z <- stats::runif(1)
@@ -74,7 +73,7 @@ sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, famil
       burnin = burnin, n_search = 20L))
     ranks[r, ] <- c(sum(out$inputs[, 1] < z), sum(out$sigma2[[1]][, 1] < sig^2))
   }
-  apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((n_draws + 1) / 10) + 1, 10))$p.value)
+  sbc_rank_pvalues(ranks, n_draws)
 }
 
 test_that("SBC of the learned noise at a small size, and not without the Jacobian of its step", {
