@@ -69,7 +69,7 @@ testbed_dosing <- function(seed = 1, hidden = "none") {
 #' * `"absorption_lag"`: each dose reaches the gut 0.75 hours later: the rise
 #'   is delayed.
 #' * `"induction"`: the drug induces its own elimination; the clearance rises
-#'   over the doses, up to 2.5 times at full induction (time constant 12 hours,
+#'   over the doses, up to 2.5 times at full induction (time constant 36 hours,
 #'   half-effect at 3 mg/L): later doses decay faster.
 #'
 #' In [simulate_dosing()] each is switched on by naming it in `mechanism`;
@@ -94,7 +94,7 @@ dosing_mechanisms <- function() {
 #' * `dAc/dt = ka Ag - e(t) - Q (C - Ap / Vp)`
 #' * `dAp/dt = Q (C - Ap / Vp)`
 #' * `dAb/dt = 0.5 s_rec e(t) - k_gb(t) Ab`
-#' * `dE/dt = (C / (C + 3) - E) / 12`
+#' * `dE/dt = (C / (C + 3) - E) / 36`
 #'
 #' with the elimination rate `e(t) = CL (1 + 1.5 s_ind E) C / (1 + s_sat C / 10)`,
 #' `D = 400` mg at the dose times `t_d` = 2, 14, 26 h, `phi` the normal

@@ -39,7 +39,7 @@ const double GB_SD = 0.3;             // h, duration of the emptying
 const double GB_RATE = 3.0;           // 1/h, peak emptying rate
 const double LAG = 0.75;              // h, absorption lag at strength 1
 const double INDUCTION_EC50 = 3.0;    // mg/L
-const double INDUCTION_TAU = 12.0;    // h, time constant of the induction
+const double INDUCTION_TAU = 36.0;    // h, time constant of the induction
 const double INDUCTION_MAX = 1.5;     // rise of the clearance at full induction
 
 // Order of the physical parameter vector passed by the R front end.

@@ -163,7 +163,9 @@ test_that("bad input stops with classed errors", {
 test_that("print, summary and autoplot describe the dosing test bed", {
   expect_snapshot(print(tb))
   expect_snapshot(print(summary(tb)))
-  expect_invisible(print(tb))
+  expect_output(res <- withVisible(print(tb)), "dosing test bed")
+  expect_false(res$visible)
+  expect_identical(res$value, tb)
   expect_s3_class(autoplot(tb, "B"), "ggplot")
   expect_s3_class(autoplot(tb, windows = NULL), "ggplot")
 })
