@@ -13,7 +13,8 @@
 #              carries the signature). One row per mechanism, at the
 #              z* of each seed (nothing hidden: the inputs do not depend on it).
 #   explain    the case validated: field registered to the runs (the maximum
-#              in each dose window, knots every 2 h), the default basis and
+#              in each dose window, knots every 2 h; with register = FALSE the
+#              replicates as measured), the default basis and
 #              emulators, one chain (n_draws, n_inner), then explain_bias()
 #              with the four signatures at the posterior mean inputs: top, the
 #              leading candidate; incl, the hidden mechanism's inclusion
@@ -23,12 +24,12 @@
 #              rms distance (coded) of the posterior mean calibration inputs
 #              from u*.
 #   Rscript studies/dosing.R [measure=simulator,explain] [seeds=1:3] [hidden=none,all]
-#                            [n_draws=150] [n_inner=20]
+#                            [n_draws=150] [n_inner=20] [register=TRUE]
 # hidden: comma-separated, "all" for every mechanism.
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/args.R")
 args <- study_args(list(measure = "simulator,explain", seeds = "1:3", hidden = "none,all",
-                        n_draws = "150", n_inner = "20"))
+                        n_draws = "150", n_inner = "20", register = "TRUE"))
 measure <- arg_names(args$measure)
 seeds <- arg_numbers(args$seeds)
 hidden <- arg_names(args$hidden)
@@ -82,7 +83,11 @@ if ("explain" %in% measure) {
   for (hd in hidden) for (seed in seeds) {
     t0 <- proc.time()[["elapsed"]]
     tb <- testbed_dosing(seed = seed, hidden = hd)
-    field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = "max", knots_every = 2)
+    field <- if (arg_flag(args$register)) {
+      register_curves(tb$A$field, tb$A$runs, tb$windows, features = "max", knots_every = 2)
+    } else {
+      tb$A$field
+    }
     basis <- wavelet_basis(tb$A$runs, field)
     em <- fit_emulators(tb$A$runs, basis, seed = 1)
     fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = as.integer(args$n_draws),
