@@ -11,6 +11,22 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// dosing_simulate_cpp
+Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, double dose_mg, const Rcpp::NumericVector& t, int nsub);
+RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type doses(dosesSEXP);
+    Rcpp::traits::input_parameter< double >::type dose_mg(dose_mgSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
+    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
+    rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_loglik_cpp
 Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget);
 RcppExport SEXP _wavevalid_gasp_loglik_cpp(SEXP XSEXP, SEXP ySEXP, SEXP thetaSEXP, SEXP nuggetSEXP) {
@@ -179,6 +195,7 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 6},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
     {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},

@@ -1,0 +1,133 @@
+// Pharmacokinetic dosing model: plasma concentration after repeated oral doses.
+//
+// Two-compartment model with first-order absorption and five states: the
+// amount in the gut Ag, in the central (plasma) compartment Ac, in the
+// peripheral compartment Ap and in the bile Ab (mg), and an enzyme-induction
+// state E (dimensionless, in [0, 1)). With C = Ac / V (mg/L):
+//
+//   dAg/dt = F D sum_d phi(t - t_d - s_lag LAG) + k_gb(t) Ab - ka Ag
+//   dAc/dt = ka Ag - e(t) - Q (C - Ap / Vp)
+//   dAp/dt = Q (C - Ap / Vp)
+//   dAb/dt = s_rec BILE_FRACTION e(t) - k_gb(t) Ab
+//   dE/dt  = (C / (C + INDUCTION_EC50) - E) / INDUCTION_TAU
+//
+// where e(t) = CL (1 + s_ind INDUCTION_MAX E) C / (1 + s_sat C / KM) is the
+// elimination rate (mg/h), phi a normal density of standard deviation
+// DOSE_SD (the dissolution of each tablet), and k_gb(t) = GB_RATE
+// sum_d exp(-(t - t_d - GB_DELAY)^2 / (2 GB_SD^2)) the emptying rate of the
+// gall bladder at the meal that follows each dose. The four mechanisms,
+// each with a strength s in [0, 1]: saturable (Michaelis-Menten) elimination,
+// enterohepatic recycling (a share of the eliminated drug goes to the bile and
+// returns to the gut when the gall bladder empties), an absorption lag, and
+// induction of the clearance by the drug itself. At s = 0 every mechanism
+// term vanishes exactly.
+#ifndef WAVEVALID_DOSING_H
+#define WAVEVALID_DOSING_H
+
+#include <cmath>
+#include <cstddef>
+
+namespace wavevalid {
+namespace dosing {
+
+const double PI = 3.14159265358979323846;
+const double DOSE_SD = 0.1;           // h, spread of a tablet's dissolution
+const double KM = 10.0;               // mg/L, Michaelis constant of saturable elimination
+const double BILE_FRACTION = 0.5;     // share of the elimination going to the bile
+const double GB_DELAY = 4.0;          // h from a dose to the gall bladder's emptying
+const double GB_SD = 0.3;             // h, duration of the emptying
+const double GB_RATE = 3.0;           // 1/h, peak emptying rate
+const double LAG = 0.75;              // h, absorption lag at strength 1
+const double INDUCTION_EC50 = 3.0;    // mg/L
+const double INDUCTION_TAU = 36.0;    // h, time constant of the induction
+const double INDUCTION_MAX = 1.5;     // rise of the clearance at full induction
+
+// Order of the physical parameter vector passed by the R front end.
+enum ParamIndex {
+  P_CL = 0,  // clearance (L/h)
+  P_KA,      // absorption rate (1/h)
+  P_V,       // central volume (L)
+  P_F,       // bioavailability
+  P_Q,       // intercompartmental clearance (L/h)
+  P_VP,      // peripheral volume (L)
+  N_PARAMS
+};
+
+struct Strength {
+  double saturable = 0.0, recycling = 0.0, lag = 0.0, induction = 0.0;
+};
+
+class Patient {
+ public:
+  static const int NSTATE = 5;
+  Patient(const double* p, const Strength& s, const double* doses, int n_doses, double dose_mg)
+      : p_(p), s_(s), doses_(doses), nd_(n_doses), dose_(dose_mg) {}
+
+  double concentration(const double* y) const { return y[1] / p_[P_V]; }
+
+  void rhs(double t, const double* y, double* dy) const {
+    double input = 0.0, kgb = 0.0;
+    const double norm = 1.0 / (DOSE_SD * std::sqrt(2.0 * PI));
+    for (int d = 0; d < nd_; ++d) {
+      const double a = (t - doses_[d] - s_.lag * LAG) / DOSE_SD;
+      input += norm * std::exp(-0.5 * a * a);
+      const double b = (t - doses_[d] - GB_DELAY) / GB_SD;
+      kgb += GB_RATE * std::exp(-0.5 * b * b);
+    }
+    input *= p_[P_F] * dose_;
+    const double c = y[1] / p_[P_V];
+    const double cl = p_[P_CL] * (1.0 + s_.induction * INDUCTION_MAX * y[4]);
+    const double elim = cl * c / (1.0 + s_.saturable * c / KM);
+    const double dist = p_[P_Q] * (c - y[2] / p_[P_VP]);
+    const double absorbed = p_[P_KA] * y[0];
+    const double emptied = kgb * y[3];
+    dy[0] = input + emptied - absorbed;
+    dy[1] = absorbed - elim - dist;
+    dy[2] = dist;
+    dy[3] = s_.recycling * BILE_FRACTION * elim - emptied;
+    dy[4] = (c / (c + INDUCTION_EC50) - y[4]) / INDUCTION_TAU;
+  }
+
+ private:
+  const double* p_;
+  Strength s_;
+  const double* doses_;
+  int nd_;
+  double dose_;
+};
+
+// Integrates from rest at t[0] with nsub RK4 steps per grid interval and
+// writes the plasma concentration (mg/L) at t[k] to conc[k * stride].
+// Returns false if the solution stops being finite.
+inline bool simulate(const double* params, const Strength& s, const double* doses, int n_doses,
+                     double dose_mg, const double* t, int nt, int nsub, double* conc,
+                     std::ptrdiff_t stride) {
+  Patient pt(params, s, doses, n_doses, dose_mg);
+  const int n = Patient::NSTATE;
+  double y[n] = {0}, k1[n], k2[n], k3[n], k4[n], tmp[n];
+  conc[0] = pt.concentration(y);
+  for (int k = 1; k < nt; ++k) {
+    const double h = (t[k] - t[k - 1]) / nsub;
+    double tc = t[k - 1];
+    for (int j = 0; j < nsub; ++j) {
+      pt.rhs(tc, y, k1);
+      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k1[i];
+      pt.rhs(tc + 0.5 * h, tmp, k2);
+      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k2[i];
+      pt.rhs(tc + 0.5 * h, tmp, k3);
+      for (int i = 0; i < n; ++i) tmp[i] = y[i] + h * k3[i];
+      pt.rhs(tc + h, tmp, k4);
+      for (int i = 0; i < n; ++i) y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+      tc += h;
+    }
+    const double c = pt.concentration(y);
+    if (!std::isfinite(c)) return false;
+    conc[k * stride] = c;
+  }
+  return true;
+}
+
+}  // namespace dosing
+}  // namespace wavevalid
+
+#endif
