@@ -6,6 +6,17 @@
 #' bound of their range (an input used as a tuning knob, like the report's
 #' `x5`).
 #'
+#' The bias is read by scale. Its record-wide part, carried by the wavelet
+#' levels whose functions each span the whole record (the scaling
+#' coefficient and the coarsest detail levels: an offset or a slow trend), is
+#' reported as one finding of its own with its credible size (attribute
+#' `record_wide`, and a line of the print): a model off by a constant is off
+#' everywhere, and flagging every time point says no more than that. The
+#' intervals come from the rest of the bias, the localised part, so that they
+#' point at where the model fails rather than at the whole record. With
+#' `scales = "whole"` the intervals come from the whole bias, as in the
+#' method's report.
+#'
 #' A model is rarely exact; the question is whether it is accurate enough for
 #' its intended use. With `tolerance`, only the intervals where the band lies
 #' wholly beyond `tolerance` (above it or below its negative) are reported:
@@ -24,6 +35,9 @@
 #' @param tolerance The bias the intended use can accept, in the units of the
 #'   curves: a non-negative number, or a named vector with one per site. `0`
 #'   (default) reports every interval where the band excludes zero.
+#' @param scales `"split"` (default): the record-wide part of the bias
+#'   reported on its own and the intervals found in the rest; `"whole"`: the
+#'   intervals found in the whole bias.
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
 #'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
@@ -38,7 +52,11 @@
 #'   `tolerance` (by site) and `credible` (by site, the largest distance of the
 #'   band from zero, `credible_bias`, and the time `t` where it is reached:
 #'   the bias is credibly at least that large there, and a tolerance above it
-#'   flags nothing).
+#'   flags nothing), `record_wide` (by site: the `levels` that span the whole
+#'   record, the time-averaged record-wide bias `offset` with its credible
+#'   interval `offset_lower`, `offset_upper`, its `credible_bias`, the largest
+#'   distance of its whole-curve band from zero, and `credible`, whether that
+#'   exceeds the tolerance) and `bias_whole` (the band of the whole bias).
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -50,14 +68,18 @@
 #' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
-                        tolerance = 0, ...) {
+                        tolerance = 0, scales = c("split", "whole"), ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
   check_level(level)
   band <- check_choice(band)
+  scales <- check_choice(scales)
   check_number(min_steps, min = 1, integer = TRUE)
   tol <- site_tolerance(tolerance, names(fit$wb))
-  b <- bias(fit, level = level)
+  b_whole <- bias(fit, level = level)
+  wide_levels <- record_wide_levels(fit$basis)
+  wide <- fit$basis$level %in% wide_levels
+  b <- if (scales == "split") bias_part(fit, !wide, level) else b_whole
   r <- reality(fit, level = level)
   dt <- diff(fit$basis$t[1:2])
   gap <- band_gap(band_limits(b, band))
@@ -94,6 +116,9 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "levels") <- bias_by_level(fit, level)
   attr(out, "boundary") <- boundary_check(fit)
   attr(out, "bias") <- b
+  attr(out, "bias_whole") <- b_whole
+  attr(out, "scales") <- scales
+  attr(out, "record_wide") <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
   attr(out, "level") <- level
   attr(out, "band") <- band
   attr(out, "tolerance") <- tol
@@ -101,6 +126,45 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "pooled_level0") <- 0 %in% fit$settings$pool_levels
   class(out) <- c("wv_fails", "data.frame")
   out
+}
+
+# The levels (the report's numbering) whose functions each span the whole
+# record: the scaling coefficient, and the detail levels whose wavelets'
+# support, (2N - 1) / 2^j of the record for Daubechies' wavelets with N
+# vanishing moments at wavethresh level j, is at least the record.
+record_wide_levels <- function(basis) {
+  N <- basis$settings$filter.number
+  j_max <- floor(log2(2 * N - 1))
+  0:(j_max + 1L)
+}
+
+# The bias band of the part of the bias carried by the coefficients `keep`.
+bias_part <- function(fit, keep, level) {
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    W <- fit$wb[[s]][, keep, drop = FALSE]
+    Psi <- fit$basis$Psi[, keep, drop = FALSE]
+    src <- curve_source(nrow(W), nrow(Psi), function(cols) W %*% t(Psi[cols, , drop = FALSE]))
+    band_frame(src, fit$basis$t, s, level)
+  }))
+}
+
+# The record-wide part of the bias by site: its time average (an offset) with
+# its credible interval, and its credible size (the largest distance of its
+# band from zero), against the tolerance.
+record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
+  a <- (1 - level) / 2
+  part <- bias_part(fit, wide, level)
+  gap <- band_gap(band_limits(part, band))
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    avg <- drop(fit$wb[[s]][, wide, drop = FALSE] %*% colMeans(fit$basis$Psi[, wide, drop = FALSE]))
+    k <- which(part$site == s)
+    at <- k[which.max(gap[k])]
+    data.frame(site = s, levels = paste(range(intersect(wide_levels, fit$basis$level)), collapse = "-"),
+               offset = mean(avg), offset_lower = stats::quantile(avg, a, names = FALSE),
+               offset_upper = stats::quantile(avg, 1 - a, names = FALSE),
+               credible_bias = gap[at], t = part$t[at], credible = gap[at] > tol[[s]],
+               stringsAsFactors = FALSE)
+  }))
 }
 
 # The bias data frame `b` with `lower`, `upper` the limits of `band` (the
@@ -215,9 +279,10 @@ print.wv_fails <- function(x, ...) {
   } else {
     sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
   }
-  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the bias %s",
+  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the %sbias %s",
                         nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev,
-                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve", what))
+                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
+                        if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
     df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
                                       "share_of_signal", "sign")], stringsAsFactors = FALSE)
@@ -225,6 +290,19 @@ print.wv_fails <- function(x, ...) {
     df[num] <- lapply(df[num], signif, digits = 3)
     print(utils::head(df, 10), row.names = FALSE)
     if (nrow(df) > 10) cli::cat_line(sprintf("... and %d more", nrow(df) - 10))
+  }
+  rw <- attr(x, "record_wide")
+  if (!is.null(rw)) {
+    txt <- vapply(seq_len(nrow(rw)), function(i) {
+      r <- rw[i, ]
+      sprintf("%s: mean %s [%s, %s], %s", r$site, format(signif(r$offset, 3)), format(signif(r$offset_lower, 3)),
+              format(signif(r$offset_upper, 3)),
+              if (r$credible) sprintf("credibly at least %s at t = %s", format(signif(r$credible_bias, 3)),
+                                      format(signif(r$t, 4)))
+              else "not credibly non-zero")
+    }, character(1))
+    cli::cat_line(sprintf("Record-wide bias (levels %s, an offset or a slow trend; the intervals above are what is left): ",
+                          rw$levels[1]), paste(txt, collapse = "; "))
   }
   levs <- attr(x, "levels")
   if (!is.null(levs)) {
@@ -303,6 +381,16 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
   }
   b <- band_limits(attr(object, "bias"), attr(object, "band") %||% "simultaneous")
   regions <- as.data.frame(unclass(object)[c("site", "start", "end")])
+  split <- identical(attr(object, "scales"), "split") && !is.null(attr(object, "bias_whole"))
+  if (split) {
+    rw <- attr(object, "record_wide")
+    b$part <- "localised"
+    whole <- band_limits(attr(object, "bias_whole"), attr(object, "band") %||% "simultaneous")
+    whole$part <- "whole bias"
+    b <- rbind(b, whole)
+    b$part <- factor(b$part, levels = c("whole bias", "localised"))
+    if (nrow(regions)) regions$part <- factor("localised", levels = levels(b$part))
+  }
   p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
   if (nrow(regions)) {
     p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
@@ -318,10 +406,13 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
   p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
     ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
     ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
-    ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
+    (if (split) ggplot2::facet_grid(part ~ site, scales = "free_y") else
+      ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y")) +
     ggplot2::labs(x = "time", y = "bias",
-                  title = paste("Where the model fails: intervals where the bias band",
-                                if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero")) +
+                  title = paste0("Where the model fails: intervals where the ", if (split) "localised ",
+                                 "bias band ", if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero"),
+                  subtitle = if (split) paste0("The whole bias above; below, what is left without the record-wide ",
+                                               "levels (", attr(object, "record_wide")$levels[1], ")")) +
     ggplot2::theme_bw()
 }
 

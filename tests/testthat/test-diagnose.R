@@ -58,22 +58,40 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
   expect_error(where_fails(d$fit, tolerance = "0.1"), class = "wavevalid_error_input")
 })
 
-test_that("where_fails points at an offset of the record and at pooling the coarse levels", {
+test_that("where_fails reports an offset of the record as one record-wide finding, not as intervals", {
   ex <- example_problem()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + 0.3
   ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
   fit <- function(...) suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 20,
                                                   chains = 1, seed = 11, quiet = TRUE, ...))
-  wf <- where_fails(fit())
+  f <- fit()
+  wf <- where_fails(f)
   lv <- attr(wf, "levels")
   expect_gt(lv$significant[lv$level == 0], 0)
+  # the offset is the record-wide finding, about 0.3 and credible; the
+  # localised part flags nothing
+  rw <- attr(wf, "record_wide")
+  expect_identical(rw$levels, "0-2")
+  expect_true(rw$credible)
+  expect_equal(rw$offset, 0.3, tolerance = 0.15)
+  expect_true(rw$offset_lower > 0)
+  expect_identical(nrow(wf), 0L)
+  expect_output(print(wf), "Record-wide bias \\(levels 0-2")
   expect_output(print(wf), "mean of the record \\(level 0\\) is credibly off at site1")
-  # the whole record is flagged, reality above the model by about the offset
-  expect_equal(sum(wf$end - wf$start), 1, tolerance = 0.05)
-  expect_equal(attr(wf, "credible")$credible_bias, 0.3, tolerance = 0.1)
+  # the record-wide part and the localised part add up to the whole bias
+  whole <- attr(wf, "bias_whole")
+  wide <- wavevalid:::bias_part(f, f$basis$level %in% 0:2, 0.9)
+  expect_equal(whole$mean, wide$mean + attr(wf, "bias")$mean, tolerance = 1e-10)
+  # read whole, the record is flagged end to end, by about the offset
+  wf_whole <- where_fails(f, scales = "whole")
+  expect_equal(sum(wf_whole$end - wf_whole$start), 1, tolerance = 0.05)
+  expect_equal(attr(wf_whole, "credible")$credible_bias, 0.3, tolerance = 0.1)
+  expect_null(attr(wf_whole, "record_wide"))
+  expect_s3_class(autoplot(wf), "ggplot")
   # pooled, the hint is not repeated
   expect_false(any(grepl("mean of the record", capture.output(print(where_fails(fit(pool_levels = 0:3)))))))
+  expect_error(where_fails(f, scales = "parts"), class = "wavevalid_error_input")
 })
 
 test_that("without a missing effect the whole-curve band flags (almost) nothing, the pointwise band flags chance intervals", {
