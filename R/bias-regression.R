@@ -46,13 +46,14 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   subsets <- sp$subsets
   n_sub <- length(subsets) + 1L
   logml <- matrix(-Inf, H, n_sub)
-  share <- matrix(0, H, m)
+  share <- of_bias <- matrix(0, H, m)
   eta <- rep(1, H)
   for (h in seq_len(H)) {
     if (!is.null(cluster)) eta[h] <- tempering_power(X, Y[h, ], Wt[h, ], cluster)
     d <- draw_subset_evidence(Y[h, ], X, Wt[h, ], eta[h], subsets, sp$log_prior, positive, lattice)
     logml[h, ] <- d$logml
     share[h, ] <- d$share
+    of_bias[h, ] <- d$of_bias
   }
   lp <- sweep(logml, 2, sp$log_prior, `+`)
   lp <- lp - apply(lp, 1, max)
@@ -63,7 +64,7 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     sum(sub_prob[-1][vapply(subsets, function(S) k %in% S, logical(1))])
   }, numeric(1))
   amp_draws <- averaged_amplitudes(Y, X, Wt, eta, post, subsets, positive)
-  out <- effect_table(amp_draws, incl, colMeans(share), group, colnames(X), level)
+  out <- effect_table(amp_draws, incl, colMeans(share), group, colnames(X), level, colMeans(of_bias))
   sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
   top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
   c(out, list(subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
@@ -89,7 +90,9 @@ regression_subsets <- function(group, max_size) {
 
 # One draw's log marginal likelihood of "(none)" (0) and of each subset
 # (tempered by eta, orthant-adjusted for the constrained amplitudes), and the
-# share of the bias energy each candidate alone explains.
+# share each candidate alone explains of the bias energy that the most
+# probable subset of candidates explains (`share`) and of the whole bias
+# energy (`of_bias`).
 draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lattice) {
   n_all <- length(y)
   logml <- c(0, rep(-Inf, length(subsets)))
@@ -99,13 +102,15 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
   G <- XtW %*% X
   b <- drop(XtW %*% y)
   yy <- sum(w * y^2)
-  if (yy <= 0) return(list(logml = logml, share = share))
+  if (yy <= 0) return(list(logml = logml, share = share, of_bias = share))
   energy <- sum(y^2)
+  alone <- numeric(ncol(X))
   for (k in seq_len(ncol(X))) {
     a <- b[k] / G[k, k]
     if (positive[k]) a <- max(a, 0)
-    share[k] <- max(0, 1 - sum((y - a * X[, k])^2) / energy)
+    alone[k] <- max(0, energy - sum((y - a * X[, k])^2))
   }
+  explained <- rep(0, length(subsets))
   shrink <- g / (1 + g)
   orthant <- vector("list", length(subsets))
   for (j in seq_along(subsets)) {
@@ -114,6 +119,7 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
     ch <- tryCatch(chol(GS), error = function(e) NULL)
     if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
     coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
+    explained[j] <- max(0, energy - sum((y - drop(X[, S, drop = FALSE] %*% coef))^2))
     r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
     logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
     pS <- which(positive[S])
@@ -123,7 +129,13 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
     }
   }
   logml[-1L] <- orthant_adjusted(logml[-1L], log_prior[-1L], log_prior[1L], orthant, n, lattice)
-  list(logml = logml, share = share)
+  # the part of the bias the candidates could explain: the energy the most
+  # probable subset of candidates (not "(none)") explains by its weighted
+  # least-squares fit
+  best <- which.max(logml[-1L] + log_prior[-1L])
+  explainable <- if (length(best) && is.finite(logml[best + 1L])) explained[best] else 0
+  share <- if (explainable > 0) pmin(1, alone / explainable) else share
+  list(logml = logml, share = share, of_bias = alone / energy)
 }
 
 # Model-averaged amplitude draws (H x m): one subset drawn per draw from its
@@ -158,11 +170,12 @@ averaged_amplitudes <- function(Y, X, Wt, eta, post, subsets, positive) {
 # events; a draw's amplitude is that of the version it includes, and the share
 # explained is that of the most probable version. Also each version's row and
 # the leading version of each effect.
-effect_table <- function(amp_draws, incl, share_mean, group, names, level) {
+effect_table <- function(amp_draws, incl, share_mean, group, names, level, of_bias = share_mean) {
   H <- nrow(amp_draws)
   alpha <- (1 - level) / 2
   versions <- data.frame(candidate = names, effect = group, inclusion_prob = incl,
-                         amplitude = colMeans(amp_draws), share_explained = share_mean, stringsAsFactors = FALSE)
+                         amplitude = colMeans(amp_draws), share_explained = share_mean, share_of_bias = of_bias,
+                         stringsAsFactors = FALSE)
   eff <- unique(group)
   amp_draws <- vapply(eff, function(e) rowSums(amp_draws[, group == e, drop = FALSE]), numeric(H))
   if (H == 1L) amp_draws <- matrix(amp_draws, nrow = 1L)
@@ -177,6 +190,7 @@ effect_table <- function(amp_draws, incl, share_mean, group, names, level) {
     amplitude_lower = apply(amp_draws, 2, stats::quantile, probs = alpha, names = FALSE),
     amplitude_upper = apply(amp_draws, 2, stats::quantile, probs = 1 - alpha, names = FALSE),
     share_explained = share_mean[lead],
+    share_of_bias = of_bias[lead],
     stringsAsFactors = FALSE
   )
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]

@@ -56,7 +56,11 @@
 #'   record, the time-averaged record-wide bias `offset` with its credible
 #'   interval `offset_lower`, `offset_upper`, its `credible_bias`, the largest
 #'   distance of its whole-curve band from zero, and `credible`, whether that
-#'   exceeds the tolerance) and `bias_whole` (the band of the whole bias).
+#'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
+#'   `start` and `end`) and `bias_whole` (the band of the whole bias).
+#'   `as.data.frame()` gives one table of the findings with a column `scale`:
+#'   `"record"` for a credible record-wide part (one row per site, spanning
+#'   the record) and `"local"` for the intervals.
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
@@ -159,12 +163,31 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
     avg <- drop(fit$wb[[s]][, wide, drop = FALSE] %*% colMeans(fit$basis$Psi[, wide, drop = FALSE]))
     k <- which(part$site == s)
     at <- k[which.max(gap[k])]
+    dt <- diff(part$t[k[1:2]])
     data.frame(site = s, levels = paste(range(intersect(wide_levels, fit$basis$level)), collapse = "-"),
                offset = mean(avg), offset_lower = stats::quantile(avg, a, names = FALSE),
                offset_upper = stats::quantile(avg, 1 - a, names = FALSE),
                credible_bias = gap[at], t = part$t[at], credible = gap[at] > tol[[s]],
-               stringsAsFactors = FALSE)
+               peak_abs_bias = max(abs(part$mean[k])), integrated_abs_bias = sum(abs(part$mean[k])) * dt,
+               start = part$t[k[1]], end = part$t[k[length(k)]] + dt, stringsAsFactors = FALSE)
   }))
+}
+
+#' @export
+as.data.frame.wv_fails <- function(x, row.names = NULL, optional = FALSE, ...) {
+  cols <- c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias", "share_of_signal", "sign")
+  out <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
+  out$scale <- rep("local", nrow(out))
+  rw <- attr(x, "record_wide")
+  if (!is.null(rw) && any(rw$credible)) {
+    rw <- rw[rw$credible, , drop = FALSE]
+    out <- rbind(data.frame(site = rw$site, start = rw$start, end = rw$end, peak_abs_bias = rw$peak_abs_bias,
+                            integrated_abs_bias = rw$integrated_abs_bias, share_of_signal = NA_real_,
+                            sign = ifelse(rw$offset > 0, "reality above model", "reality below model"),
+                            scale = "record", stringsAsFactors = FALSE), out)
+  }
+  rownames(out) <- row.names
+  out
 }
 
 # The bias data frame `b` with `lower`, `upper` the limits of `band` (the

@@ -142,8 +142,13 @@
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
 #'   the candidate curve in the bias, model-averaged; 0 in draws that leave it
 #'   out), `amplitude_lower`, `amplitude_upper` (from draws of subsets that
-#'   `seed` fixes), `share_explained` (mean share
-#'   of the residual energy that the candidate alone explains). Attributes
+#'   `seed` fixes), `share_explained` (the share of what the most
+#'   probable subset of candidates explains that the candidate alone
+#'   explains, averaged over draws: measured against the part of the bias the
+#'   candidates could explain, not an offset or a noise no candidate
+#'   resembles; at most 1) and
+#'   `share_of_bias` (the share of the whole residual energy that the
+#'   candidate alone explains). Attributes
 #'   `subsets` (top subsets with their probabilities), `eta` (the tempering
 #'   power of each draw used), `curves` (bias and scaled candidates by
 #'   site, for plotting; an effect is drawn with its most probable version),
@@ -175,9 +180,11 @@
 #' ex_v
 #' attr(ex_v, "versions")
 #' # or add the bump to the model, its strength a new calibration input, and
-#' # validate again on the same basis and field data
-#' design <- data.frame(u1 = (sample(30) - 0.5) / 30, x1 = (sample(30) - 0.5) / 30,
-#'                      s_bump = (sample(30) - 0.5) / 30)
+#' # validate again on the same basis and field data; the runs include the
+#' # model without the bump (strength 0)
+#' on <- data.frame(u1 = (sample(30) - 0.5) / 30, x1 = (sample(30) - 0.5) / 30,
+#'                  s_bump = (sample(30) - 0.5) / 30)
+#' design <- rbind(transform(on, s_bump = 0), on)
 #' model <- function(u, x, s) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) +
 #'   s * exp(-((t - 0.25) / 0.05)^2)
 #' runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")

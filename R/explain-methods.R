@@ -4,13 +4,30 @@
 #' @export
 print.wv_explain <- function(x, ...) {
   cli::cat_line("<wv_explain> candidate effects ranked by posterior inclusion probability")
-  df <- as.data.frame(unclass(x)[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower",
-                                    "amplitude_upper", "share_explained")], stringsAsFactors = FALSE)
+  cols <- intersect(c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
+                      "share_explained", "share_of_bias"), names(x))
+  df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
   num <- vapply(df, is.numeric, logical(1))
   df[num] <- lapply(df[num], signif, digits = 3)
   print(df, row.names = FALSE)
   sub <- attr(x, "subsets")
-  if (identical(attr(x, "method"), "revalidated")) {
+  revalidated <- identical(attr(x, "method"), "revalidated")
+  if ("share_of_bias" %in% cols) {
+    cli::cat_line(if (revalidated) {
+      paste0("share_explained: the fall of the bias energy with the mechanism in the model, without the ",
+             "record-wide levels (an offset or slow trend); share_of_bias: the same on the whole bias")
+    } else {
+      paste0("share_explained: of the bias the most probable subset of candidates explains, the share the ",
+             "candidate alone explains; share_of_bias: of the whole bias")
+    })
+  }
+  cli::cat_line(if (revalidated) {
+    "Evidence: the model re-validated with each mechanism added (this decides)"
+  } else {
+    paste0("Evidence: signatures regressed on the bias (a quick screen; re-validating the model with each ",
+           "mechanism added decides, see ?explain_bias)")
+  })
+  if (revalidated) {
     lbf <- attr(x, "log_bf")
     cli::cat_line("Each candidate a re-validated model, weighed against itself with the mechanism off ",
                   "(log Bayes factor: ", paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")

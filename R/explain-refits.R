@@ -14,7 +14,9 @@
 #' effect in the data, and a decoy can look more alike. The remedy is to add
 #' each suspected mechanism to the model and validate again: the model with
 #' the mechanism, its strength an extra calibration input whose lower bound
-#' switches it off, run at a design over all inputs, its emulators fitted on
+#' switches it off, run at a design over all inputs together with the
+#' model's own runs with the strength at that bound (the model without the
+#' mechanism), its emulators fitted on
 #' the basis of `fit` (`fit_emulators(runs, fit$basis)`) and calibrated on the
 #' field data of `fit` (`fit$field`). Give these fits, one per mechanism, as
 #' `candidates`.
@@ -37,7 +39,9 @@
 #' "(none)" included, and `log_bf` the log Bayes factors. `amplitude` and its
 #' interval are the strength's posterior mean and equal-tailed interval,
 #' `share_explained` is one minus the energy of the candidate model's posterior
-#' mean bias over that of `fit`, and `autoplot` overlays the bias of `fit` and
+#' mean bias over that of `fit`, both without the record-wide levels (those
+#' [where_fails()] reports apart: an offset or a slow trend), and
+#' `share_of_bias` the same on the whole bias; `autoplot` overlays the bias of `fit` and
 #' each leading mechanism's effect in its model (the emulated output at the
 #' posterior mean inputs minus the same with the strength at `s_0`). The other
 #' arguments but `n_draws` and `level` are not used: the calibration moves the
@@ -180,13 +184,32 @@ explain_refits <- function(fit, refits, n_draws, level) {
   strength <- refit_strengths(fit, refits)
   nm <- names(refits)
   a <- (1 - level) / 2
-  bias_energy <- function(f) sum(vapply(f$wb, function(w) sum(colMeans(w)^2), numeric(1)))
+  # the energy of the posterior mean bias, whole and without the levels that
+  # span the whole record (an offset or a slow trend, which a mechanism
+  # acting at events does not explain)
+  local <- !fit$basis$level %in% record_wide_levels(fit$basis)
+  bias_energy <- function(f, keep = TRUE) sum(vapply(f$wb, function(w) sum(colMeans(w)[keep]^2), numeric(1)))
   e0 <- bias_energy(fit)
+  e0_local <- bias_energy(fit, local)
   tick <- NULL
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
     total <- sum(vapply(refits, function(rf) min(n_draws, length(rf$chain)), numeric(1)))
     id <- cli::cli_progress_bar("Savage-Dickey density ratios", total = total)
     tick <- function() cli::cli_progress_update(id = id)
+  }
+  off <- vapply(nm, function(k) {
+    rf <- refits[[k]]
+    lower <- rf$prior_iu$lower[match(strength[[k]], rf$prior_iu$name)]
+    s <- rf$emulators$design[, strength[[k]]]
+    sum(abs(s - lower) <= 1e-8 * max(1, abs(lower)))
+  }, numeric(1))
+  if (any(off < 2)) {
+    wv_warn(c("The runs of {.val {nm[off < 2]}} hold no model with the mechanism switched off.",
+              "i" = paste("Its weight rests on the emulators' extrapolation to the strength's lower bound, and a",
+                          "mechanism can then win with nothing missing."),
+              "i" = paste("Fit its emulators on the model's own runs with the strength at its lower bound as",
+                          "well: {.code fit_emulators(c(runs_off, runs_on), fit$basis)}.")),
+            class = "refit_off")
   }
   rows <- lapply(nm, function(k) {
     rf <- refits[[k]]
@@ -198,7 +221,8 @@ explain_refits <- function(fit, refits, n_draws, level) {
     s <- rf$draw_matrix[, strength[[k]]]
     data.frame(candidate = k, log_bf = log_bf, amplitude = mean(s),
                amplitude_lower = unname(stats::quantile(s, a)), amplitude_upper = unname(stats::quantile(s, 1 - a)),
-               share_explained = 1 - bias_energy(rf) / e0, strength = strength[[k]], stringsAsFactors = FALSE)
+               share_explained = 1 - bias_energy(rf, local) / e0_local, share_of_bias = 1 - bias_energy(rf) / e0,
+               strength = strength[[k]], stringsAsFactors = FALSE)
   })
   tab <- do.call(rbind, rows)
   # no mechanism and each mechanism alone, equally likely a priori
@@ -207,7 +231,8 @@ explain_refits <- function(fit, refits, n_draws, level) {
   post <- post / sum(post)
   tab$inclusion_prob <- post[-1]
   tab <- tab[order(-tab$inclusion_prob, -tab$log_bf), , drop = FALSE]
-  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper", "share_explained")]
+  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper", "share_explained",
+               "share_of_bias")]
   rownames(out) <- NULL
   models <- data.frame(subset = c(tab$candidate, "(none)"), probability = c(tab$inclusion_prob, post[1]),
                        stringsAsFactors = FALSE)

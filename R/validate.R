@@ -21,7 +21,13 @@
 #' @param reference Reference curves for the registration (passed to
 #'   [register_curves()]; default: the mean of the model runs).
 #' @param knots_every Spacing of the further warp knots fitted between the
-#'   windows (passed to [register_curves()]; `NULL`: landmarks only).
+#'   windows (passed to [register_curves()]): `"auto"` (default) a knot
+#'   every 1/32 of the record, a number (in time units), or `NULL` for the
+#'   method's report's landmark warp (landmarks only).
+#' @param features The landmarks located in each window (passed to
+#'   [register_curves()]): `c("min", "max")` (default), or any of `"min"`,
+#'   `"max"`, `"rise"`, `"fall"`, `"cross"` that the physics of the events
+#'   makes sharp.
 #' @param basis_args A list of further arguments to [wavelet_basis()].
 #' @param sigma2 How the field noise is set (passed to [calibrate()]):
 #'   `NULL` (default; from the replicates, or with one replicate learned in
@@ -38,15 +44,19 @@
 #'                 n_draws = 200, n_inner = 50, seed = 1)
 #' fit
 #' }
-validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = NULL,
-                     basis_args = list(), engine = "gasp_level", sigma2 = NULL, ...) {
+validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = "auto",
+                     features = c("min", "max"), basis_args = list(), engine = "gasp_level", sigma2 = NULL,
+                     ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
   check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
-  if (!is.null(windows)) field <- register_curves(field, reference %||% runs, windows, knots_every = knots_every)
+  if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
+  if (!is.null(windows)) {
+    field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every)
+  }
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
   calibrate(emulators, field, iu, sigma2 = sigma2, ...)

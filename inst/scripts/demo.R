@@ -15,11 +15,14 @@ save_plot <- function(p, name, width = 10, height = 5) {
 
 tb <- load_testbed()
 windows <- tb$windows
-field <- register_curves(tb$A$field, tb$A$runs, windows, knots_every = 2)
-save_plot(autoplot(tb$A$runs, field = field, windows = windows), "01-runs-and-field.png")
-
-fit <- validate(tb$A$runs, field, tb$iu, n_draws = 500, n_inner = 100, chains = 2, seed = 1)
+# every default: the field registered on the events' landmarks (knots every
+# 1/32 of the record between them), the default basis and emulators
+fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = windows, n_draws = 500, n_inner = 100, chains = 2,
+                seed = 1)
 print(fit)
+field <- fit$field
+knots <- diff(range(field$t)) / 32
+save_plot(autoplot(tb$A$runs, field = field, windows = windows), "01-runs-and-field.png")
 save_plot(autoplot(fit, type = "inputs"), "02-inputs.png", height = 6)
 save_plot(autoplot(fit, type = "bias", windows = windows), "03-bias.png")
 save_plot(autoplot(fit, type = "reality", windows = windows), "04-reality.png")
@@ -33,10 +36,10 @@ expl <- explain_bias(fit, candidates, seed = 1)
 print(expl)
 save_plot(autoplot(expl), "06-missing-effect.png")
 
-field_B <- register_curves(tb$B$field, tb$A$runs, windows, knots_every = 2)
+field_B <- register_curves(tb$B$field, tb$A$runs, windows, knots_every = knots)
 pred_B <- predict(fit, type = "new_nominal", new_runs = tb$B$runs, x_nom = tb$B$x_nom, seed = 1)
 pred_mass <- predict(fit, type = "added_load", new_runs = tb$added_mass$runs, seed = 1)
-field_mass <- register_curves(tb$added_mass$field, tb$A$runs, windows, knots_every = 2)
+field_mass <- register_curves(tb$added_mass$field, tb$A$runs, windows, knots_every = knots)
 save_plot(autoplot(pred_B, field = field_B, windows = windows), "07-condition-B.png")
 save_plot(autoplot(pred_mass, field = field_mass, windows = windows), "08-added-mass.png")
 
@@ -51,8 +54,21 @@ coverage <- function(pred, field) {
 summary_lines <- c(
   sprintf("wavevalid demo on the shipped test bed (hidden mechanism: %s)", paste(tb$truth$hidden, collapse = ", ")),
   sprintf("retained wavelet coefficients: %d", length(fit$basis$index)),
-  sprintf("failure intervals: %d; largest at %s t in [%.2f, %.2f]", nrow(fails), fails$site[1], fails$start[1],
-          fails$end[1]),
+  if (nrow(fails)) {
+    sprintf("localised failure intervals: %d; the first at %s t in [%.2f, %.2f], %s", nrow(fails), fails$site[1],
+            fails$start[1], fails$end[1],
+            if (any(vapply(windows, function(w) fails$start[1] < w[2] && fails$end[1] > w[1], logical(1)))) {
+              "in an event window"
+            } else {
+              "outside the event windows"
+            })
+  } else {
+    "localised failure intervals: none"
+  },
+  sprintf("record-wide bias (levels %s): %s", attr(fails, "record_wide")$levels[1],
+          paste(with(attr(fails, "record_wide"),
+                     sprintf("%s mean %.3f [%.3f, %.3f]%s", site, offset, offset_lower, offset_upper,
+                             ifelse(credible, ", credible", ", not credible"))), collapse = "; ")),
   sprintf("leading candidate effect: %s (inclusion probability %.2f)", expl$candidate[1], expl$inclusion_prob[1]),
   sprintf("condition B held-out replicates inside the 90%% band: %s",
           paste(sprintf("%s %.1f%%", names(field_B$curves), 100 * coverage(pred_B, field_B)), collapse = ", ")),

@@ -25,6 +25,22 @@ test_that("the regression finds the candidate that makes the bias", {
   expect_equal(sum(res$subsets$probability) <= 1 + 1e-12, TRUE)
 })
 
+test_that("share_explained is measured against what the candidates could explain", {
+  withr::local_seed(11)
+  d <- synthetic_bias()
+  # a large component of the bias that no candidate resembles (an offset of
+  # the first coefficient, as a record-wide level would carry)
+  d$Y[, 1] <- d$Y[, 1] + 60
+  tab <- bias_regression(d$Y, d$X, d$W, max_size = 2)$table
+  expect_equal(tab$candidate[1], "true")
+  # of the whole bias the true candidate explains little; of what the
+  # candidates together explain, almost all
+  expect_lt(tab$share_of_bias[1], 0.5)
+  expect_gt(tab$share_explained[1], 0.9)
+  expect_true(all(tab$share_explained >= tab$share_of_bias - 1e-12))
+  expect_true(all(tab$share_explained <= 1))
+})
+
 test_that("with no bias signal no candidate reaches one half", {
   withr::local_seed(12)
   d <- synthetic_bias(amp = 0, noise = 1)

@@ -77,6 +77,12 @@ test_that("where_fails reports an offset of the record as one record-wide findin
   expect_equal(rw$offset, 0.3, tolerance = 0.15)
   expect_true(rw$offset_lower > 0)
   expect_identical(nrow(wf), 0L)
+  # one table of the findings: the record-wide part spans the record
+  df <- as.data.frame(wf)
+  expect_identical(df$scale, "record")
+  expect_identical(df$sign, "reality above model")
+  expect_equal(df$end - df$start, 1, tolerance = 0.01)
+  expect_identical(unique(as.data.frame(where_fails(f, scales = "whole"))$scale), "local")
   expect_output(print(wf), "Record-wide bias \\(levels 0-2")
   expect_output(print(wf), "mean of the record \\(level 0\\) is credibly off at site1")
   # the record-wide part and the localised part add up to the whole bias
@@ -118,7 +124,7 @@ test_that("explain_bias ranks the true mechanism first and the decoys low", {
   ex <- explain_bias(d$fit, d$candidates, seed = 1)
   expect_s3_class(ex, "wv_explain")
   expect_named(ex, c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
-                     "share_explained"))
+                     "share_explained", "share_of_bias"))
   expect_equal(ex$candidate[1], "bump")
   expect_gte(ex$inclusion_prob[1], 0.9)
   expect_true(all(ex$inclusion_prob[ex$candidate %in% c("late_bump", "wiggle")] < 0.5))
@@ -267,7 +273,15 @@ test_that("adding the missing effect makes the error fall", {
 test_that("on the test bed without a hidden mechanism, nothing is flagged or explained", {
   skip_on_cran()
   d <- testbed_diagnosis("none")
-  steps <- (d$fails$end - d$fails$start) / diff(d$fit$basis$t[1:2])
+  dt <- diff(d$fit$basis$t[1:2])
+  # the localised part: no credible record-wide offset or trend, and no
+  # interval longer than a chance excursion of a few grid steps
+  expect_false(any(attr(d$fails, "record_wide")$credible))
+  steps <- (d$fails$end - d$fails$start) / dt
+  expect_true(all(steps <= 5), label = paste(round(steps), collapse = ", "))
+  # the whole bias, read as in the method's report
+  whole <- where_fails(d$fit, scales = "whole")
+  steps <- (whole$end - whole$start) / dt
   expect_true(all(steps <= 3), label = paste(round(steps), collapse = ", "))
 })
 

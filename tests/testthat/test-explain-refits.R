@@ -45,7 +45,10 @@ test_that("the Savage-Dickey Bayes factor of a re-validated model matches quadra
                       sigma2 = cs$sigma2, fix_tau2 = cs$tau2, quiet = TRUE)
     after <- calibrate(p$em, p$ex$field, p$iu, n_draws = 400, n_inner = 5, chains = 1, seed = 2,
                        sigma2 = cs$sigma2, fix_tau2 = cs$tau2, quiet = TRUE)
-    ex <- explain_bias(base, list(bump = after), n_draws = 400)
+    # the runs hold no model with the bump off: the weight rests on the
+    # emulators' extrapolation, and the user is told
+    expect_warning(ex <- explain_bias(base, list(bump = after), n_draws = 400),
+                   class = "wavevalid_warning_refit_off")
     exact <- exact_log_bf(after, cs$sigma2, cs$tau2, cs$upper)
     lab <- sprintf("bump %g, upper %g: exact %.3f", cs$bump, cs$upper, exact)
     expect_lt(abs(attr(ex, "log_bf")[["bump"]] - exact), 0.3, label = paste(lab, "estimate", attr(ex, "log_bf")))
@@ -68,10 +71,10 @@ test_that("re-validated models: the missing bump is found, a misplaced one and n
   em_late <- suppressWarnings(fit_emulators(runs_late, p$ex$emulators$basis))
   after_late <- suppressWarnings(calibrate(em_late, p$ex$field, p$iu, n_draws = 150, n_inner = 10, chains = 1,
                                            seed = 3, quiet = TRUE))
-  ex <- explain_bias(base, list(late_bump = after_late, bump = after))
+  ex <- suppressWarnings(explain_bias(base, list(late_bump = after_late, bump = after)))
   expect_s3_class(ex, "wv_explain")
   expect_named(ex, c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
-                     "share_explained"))
+                     "share_explained", "share_of_bias"))
   expect_identical(ex$candidate, c("bump", "late_bump"))
   expect_gt(ex$inclusion_prob[1], 0.99)
   expect_lt(ex$inclusion_prob[2], 0.01)
@@ -90,10 +93,22 @@ test_that("re-validated models: the missing bump is found, a misplaced one and n
                                    quiet = TRUE))
   l0 <- suppressWarnings(calibrate(em_late, q$ex$field, q$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 3,
                                    quiet = TRUE))
-  ex0 <- explain_bias(base0, list(late_bump = l0, bump = a0))
+  ex0 <- suppressWarnings(explain_bias(base0, list(late_bump = l0, bump = a0)))
   expect_true(all(ex0$inclusion_prob < 0.5), label = paste(round(ex0$inclusion_prob, 3), collapse = ", "))
   sub <- attr(ex0, "subsets")
   expect_identical(sub$subset[1], "(none)")
+
+  # with the model's own runs (the bump switched off) among the runs, no
+  # warning, and the missing bump is still found
+  d_off <- transform(p$em$design, s_bump = 0)
+  runs_off <- model_runs(d_off, t(apply(d_off, 1, function(z) p$model(z[1], z[2], z[3]))), p$t, site = "site1")
+  runs_on <- model_runs(p$em$design, t(apply(p$em$design, 1, function(z) p$model(z[1], z[2], z[3]))), p$t,
+                        site = "site1")
+  em_both <- suppressWarnings(fit_emulators(c(runs_off, runs_on), p$ex$emulators$basis))
+  both <- suppressWarnings(calibrate(em_both, p$ex$field, p$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 2,
+                                     quiet = TRUE))
+  expect_no_warning(ex_off <- explain_bias(base, list(bump = both)))
+  expect_gt(ex_off$inclusion_prob[1], 0.99)
 })
 
 test_that("re-validated models on another basis or field, without a strength, or mixed with curves are refused", {
