@@ -90,9 +90,9 @@ regression_subsets <- function(group, max_size) {
 
 # One draw's log marginal likelihood of "(none)" (0) and of each subset
 # (tempered by eta, orthant-adjusted for the constrained amplitudes), and the
-# share each candidate alone explains of the bias energy that the most
-# probable subset of candidates explains (`share`) and of the whole bias
-# energy (`of_bias`).
+# share each candidate alone explains (in the regression's weighted metric)
+# of the bias energy that the most probable subset of candidates explains
+# (`share`) and of the whole bias energy (`of_bias`).
 draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lattice) {
   n_all <- length(y)
   logml <- c(0, rep(-Inf, length(subsets)))
@@ -103,13 +103,11 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
   b <- drop(XtW %*% y)
   yy <- sum(w * y^2)
   if (yy <= 0) return(list(logml = logml, share = share, of_bias = share))
-  energy <- sum(y^2)
-  alone <- numeric(ncol(X))
-  for (k in seq_len(ncol(X))) {
-    a <- b[k] / G[k, k]
-    if (positive[k]) a <- max(a, 0)
-    alone[k] <- max(0, energy - sum((y - a * X[, k])^2))
-  }
+  # energies in the regression's metric (each coefficient weighted by its
+  # inverse variance): what each candidate alone explains, with its sign
+  # constraint, and below what each subset explains
+  alone <- ifelse(positive & b < 0, 0, b^2 / diag(G))
+  alone[!is.finite(alone)] <- 0
   explained <- rep(0, length(subsets))
   shrink <- g / (1 + g)
   orthant <- vector("list", length(subsets))
@@ -119,7 +117,7 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
     ch <- tryCatch(chol(GS), error = function(e) NULL)
     if (is.null(ch) || min(diag(ch))^2 < 1e-10 * max(diag(GS))) next
     coef <- backsolve(ch, forwardsolve(t(ch), b[S]))
-    explained[j] <- max(0, energy - sum((y - drop(X[, S, drop = FALSE] %*% coef))^2))
+    explained[j] <- max(0, sum(b[S] * coef))
     r2 <- min(sum(b[S] * coef) / yy, 1 - 1e-12)
     logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
     pS <- which(positive[S])
@@ -135,7 +133,7 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
   best <- which.max(logml[-1L] + log_prior[-1L])
   explainable <- if (length(best) && is.finite(logml[best + 1L])) explained[best] else 0
   share <- if (explainable > 0) pmin(1, alone / explainable) else share
-  list(logml = logml, share = share, of_bias = alone / energy)
+  list(logml = logml, share = share, of_bias = pmin(1, alone / yy))
 }
 
 # Model-averaged amplitude draws (H x m): one subset drawn per draw from its

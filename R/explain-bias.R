@@ -148,7 +148,9 @@
 #'   candidates could explain, not an offset or a noise no candidate
 #'   resembles; at most 1) and
 #'   `share_of_bias` (the share of the whole residual energy that the
-#'   candidate alone explains). Attributes
+#'   candidate alone explains). Both are in the regression's metric, each
+#'   coefficient weighted by the inverse of its variance, so that a
+#'   coarse-level offset whose size the data barely fix does not swamp them. Attributes
 #'   `subsets` (top subsets with their probabilities), `eta` (the tempering
 #'   power of each draw used), `curves` (bias and scaled candidates by
 #'   site, for plotting; an effect is drawn with its most probable version),

@@ -4,9 +4,10 @@
 # hidden mechanism or "none"):
 #   fit        validate() with its defaults (registration with a knot every
 #              1/32 of the record, the default basis and emulators), the
-#              test bed's windows and landmarks (suspension: minimum and
-#              maximum; dosing: the maximum of each dose's rise), one chain of
-#              n_draws x n_inner.
+#              test bed's windows and the landmarks that mark when its events
+#              happen (testbed_beds in tests/testthat/helper-testbed.R:
+#              suspension, the load's minimum and maximum; dosing, each
+#              dose's steepest rise), one chain of n_draws x n_inner.
 #   C1         where_fails(fit) (the record-wide part reported apart):
 #              overlap, whether a localised interval overlaps where the hidden
 #              mechanism acts (its signature at the true inputs above a tenth
@@ -32,7 +33,7 @@
 # Rows are appended to `out` (CSV) as each case ends.
 #   Rscript studies/diagnosis_defaults.R [beds=dosing,suspension] [seeds=1:5] [hidden=none,all]
 #                                        [n_draws=150] [n_inner=20] [out=diagnosis_defaults.csv]
-#                                        [knots=auto] [dosing_features=max] [suspension_features=min,max]
+#                                        [knots=auto] [dosing_features=rise] [suspension_features=min,max]
 #                                        [engine=gasp_level] [off_runs=TRUE]
 # knots: "auto" (validate()'s default, 1/32 of the record), NULL (landmarks
 # only) or a spacing in time units; features: the landmarks of each test
@@ -40,7 +41,7 @@
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 args <- study_args(list(beds = "dosing,suspension", seeds = "1:5", hidden = "none,all", n_draws = "150",
-                        n_inner = "20", out = "diagnosis_defaults.csv", knots = "auto", dosing_features = "max",
+                        n_inner = "20", out = "diagnosis_defaults.csv", knots = "auto", dosing_features = "rise",
                         suspension_features = "min,max", engine = "gasp_level", off_runs = "TRUE"))
 off_runs <- arg_flag(args$off_runs)
 knots_arg <- if (args$knots == "auto") "auto" else arg_value(args$knots)
@@ -50,21 +51,16 @@ n_draws <- as.integer(args$n_draws)
 n_inner <- as.integer(args$n_inner)
 options(wavevalid.quiet = TRUE)
 
-bed <- list(
-  suspension = list(make = testbed_suspension, simulate = simulate_suspension, mechanisms = testbed_mechanisms,
-                    signatures = testbed_signatures, features = arg_names(args$suspension_features)),
-  dosing = list(make = testbed_dosing, simulate = simulate_dosing, mechanisms = dosing_mechanisms,
-                signatures = dosing_signatures, features = arg_names(args$dosing_features))
-)
+bed <- testbed_beds
+bed$suspension$features <- arg_names(args$suspension_features)
+bed$dosing$features <- arg_names(args$dosing_features)
 
 run_case <- function(b, seed, hd) {
   t0 <- clock()
   B <- bed[[b]]
   tb <- B$make(seed = seed, hidden = hd)
   knots <- if (identical(knots_arg, "auto")) diff(range(tb$A$field$t)) / 32 else knots_arg
-  fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, features = B$features,
-                                   knots_every = knots, engine = args$engine, n_draws = n_draws,
-                                   n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE))
+  fit <- testbed_default_fit(tb, B$features, n_draws, n_inner, knots_every = knots, engine = args$engine)
   # C1
   wf <- where_fails(fit)
   rw <- attr(wf, "record_wide")
@@ -80,22 +76,11 @@ run_case <- function(b, seed, hd) {
   ex <- as.data.frame(unclass(explain_bias(fit, B$signatures(coef(fit)), n_draws = 100, seed = 1)))
   exm <- ex[ex$candidate %in% mech, ]
   # C2, the re-validated models
-  refits <- lapply(mech, function(m) {
-    iu_m <- iu_add(tb$iu, paste0("s_", m), lower = 0, upper = 1, nominal = 0.5)
-    runs <- B$simulate(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
-    if (off_runs) {
-      # the model's own runs are the model with the mechanism switched off
-      d0 <- tb$A$runs$design
-      d0[[paste0("s_", m)]] <- 0
-      runs <- c(model_runs(d0, tb$A$runs$curves, tb$A$runs$t), runs)
-    }
-    em <- suppressWarnings(fit_emulators(runs, fit$basis, engine = args$engine))
-    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               quiet = TRUE))
-  })
-  names(refits) <- mech
-  rf <- as.data.frame(unclass(explain_bias(fit, refits)))
-  p_none <- with(attr(explain_bias(fit, refits), "subsets"), probability[subset == "(none)"])
+  refits <- testbed_default_refits(tb, fit, B$simulate, mech, n_draws, n_inner, engine = args$engine,
+                                   off_runs = off_runs)
+  ex_rf <- explain_bias(fit, refits)
+  rf <- as.data.frame(unclass(ex_rf))
+  p_none <- with(attr(ex_rf, "subsets"), probability[subset == "(none)"])
   verdict <- function(tab) {
     p_true <- if (hd == "none") NA else tab$inclusion_prob[tab$candidate == hd]
     other <- max(tab$inclusion_prob[tab$candidate != hd])

@@ -233,3 +233,49 @@ testbed_loop <- function(hidden, seed, fit_model = NULL, refine = FALSE, holdout
                   after = p_after)
   list(tb = tb, before = before, after = after, comparison = compare_validations(before, after, holdout = holdout))
 }
+
+# The package's default protocol on either test bed, as the slow diagnosis
+# test of the defaults and studies/diagnosis_defaults.R run it. `bed` is
+# "suspension" or "dosing": the test bed's constructor, simulator, mechanisms,
+# signatures and the landmarks that mark when its events happen (the
+# suspension's load extremes at the road events; a dose's rise).
+testbed_beds <- list(
+  suspension = list(make = testbed_suspension, simulate = simulate_suspension, mechanisms = testbed_mechanisms,
+                    signatures = testbed_signatures, features = c("min", "max")),
+  dosing = list(make = testbed_dosing, simulate = simulate_dosing, mechanisms = dosing_mechanisms,
+                signatures = dosing_signatures, features = "rise")
+)
+
+# validate() with its defaults on condition A of test bed `tb` (one chain
+# of n_draws x n_inner, seed 1).
+testbed_default_fit <- function(tb, features, n_draws = 150L, n_inner = 20L, ...) {
+  suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, features = features,
+                            n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE, ...))
+}
+
+# The model of `fit` re-validated with each mechanism: its strength s_<m> a
+# calibration input on [0, 1], 66 runs of the model with it at a maximin
+# design joined by the model's own runs with the strength at 0 (the
+# mechanism switched off), the default emulators on the fit's basis,
+# calibrated on the fit's field (`off_runs = FALSE` leaves the model's own
+# runs out). A named list of fits for explain_bias().
+testbed_default_refits <- function(tb, fit, simulate, mechanisms, n_draws = 150L, n_inner = 20L, engine = NULL,
+                                   off_runs = TRUE) {
+  old <- options(wavevalid.quiet = TRUE)
+  on.exit(options(old), add = TRUE)
+  fits <- lapply(mechanisms, function(m) {
+    s_name <- paste0("s_", m)
+    iu_m <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
+    runs <- simulate(design_maximin(iu_m, 66L, seed = 2), mechanism = m)
+    if (off_runs) {
+      off <- tb$A$runs$design
+      off[[s_name]] <- 0
+      runs <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t), runs)
+    }
+    em <- suppressWarnings(if (is.null(engine)) fit_emulators(runs, fit$basis) else
+      fit_emulators(runs, fit$basis, engine = engine))
+    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
+                               quiet = TRUE))
+  })
+  stats::setNames(fits, mechanisms)
+}
