@@ -87,8 +87,7 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   do.call(rbind, lapply(names(fit$wb), function(s) {
     y_hat <- pure_model_curve(fit, s)
     b <- site_curves(fit, s, "reality", residual = residual, fun = function(src) {
-      err <- curve_source(src$H, src$n, function(cols) src$block(cols) - rep(y_hat[cols], each = src$H))
-      band_frame(err, fit$basis$t, s, level)
+      band_frame(shift_source(src, y_hat), fit$basis$t, s, level)
     })
     data.frame(site = s, t = fit$basis$t, mean = y_hat,
                lower = y_hat + b$lower, upper = y_hat + b$upper,
@@ -109,45 +108,85 @@ band_frame <- function(x, t, site, level) {
 }
 
 # Pointwise mean and `probs` quantiles and the simultaneous band of a source's
-# curves, in three passes over blocks of time points: (1) mean, spread and
-# quantiles at each t; (2) each curve's largest standardised distance from the
-# mean, max_t |y_h(t) - mean(t)| / sd(t); (3) the envelope of the
-# ceiling(level * H) curves with the smallest distances.
+# curves: (1) mean, spread and quantiles at each t and each curve's largest
+# standardised distance from the mean, max_t |y_h(t) - mean(t)| / sd(t), in
+# one pass over blocks of time points (band_block_cpp()); (2) the envelope of
+# the ceiling(level * H) curves with the smallest distances. For (2) the pass
+# keeps, at each t, the H - ceiling(level * H) + 1 smallest and largest values
+# and their curves (one of them is a kept curve) when they are few (at most a
+# quarter of the draws), and reads the blocks a second time otherwise. A block
+# whose spread falls below the floor of sd (1e-12 of its largest value) is
+# read again for the distances.
 curve_bands <- function(src, level, probs = numeric()) {
   H <- src$H
   blocks <- col_blocks(src$n, H)
-  # three passes over the blocks; a bar when they are many (cli shows it only
-  # after two seconds)
+  n_keep <- ceiling(level * H)
+  n_cand <- H - n_keep + 1L
+  cand <- n_cand <= max(1L, H %/% 4L)
+  # a bar when the blocks are many (cli shows it only after two seconds)
   bar <- length(blocks) >= 4L && !isTRUE(getOption("wavevalid.quiet", FALSE))
   if (bar) {
-    cli::cli_progress_bar("Summarising curve draws", total = 3L * length(blocks), .envir = environment())
+    cli::cli_progress_bar("Summarising curve draws", total = (2L - cand) * length(blocks), .envir = environment())
   }
   env <- environment()
   tick <- function() if (bar) cli::cli_progress_update(.envir = env)
   centre <- ss <- numeric(src$n)
   q <- matrix(0, length(probs), src$n)
-  for (cols in blocks) {
+  zmax <- matrix(-Inf, H, length(blocks))
+  smin <- numeric(length(blocks))
+  nc <- if (cand) n_cand else 0L
+  lo_val <- hi_val <- matrix(0, nc, src$n)
+  lo_idx <- hi_idx <- matrix(0L, nc, src$n)
+  lin <- src$linear
+  if (!is.null(lin)) {
+    if (!is.double(lin$W)) storage.mode(lin$W) <- "double"
+    lin$offset <- as.numeric(lin$offset)
+    on.exit(band_block_release_cpp(), add = TRUE)
+  }
+  for (k in seq_along(blocks)) {
     tick()
-    Y <- src$block(cols)
-    centre[cols] <- colMeans(Y)
-    ss[cols] <- colSums((Y - rep(centre[cols], each = H))^2)
-    if (length(probs)) q[, cols] <- pointwise_quantiles(Y, probs)
+    cols <- blocks[[k]]
+    st <- if (is.null(lin)) {
+      band_block_cpp(src$block(cols), as.numeric(probs), nc)
+    } else {
+      band_block_linear_cpp(lin$W, lin$B, as.integer(cols), lin$offset, as.numeric(probs), nc)
+    }
+    centre[cols] <- st$mean
+    ss[cols] <- st$ss
+    q[, cols] <- st$q
+    zmax[, k] <- st$zmax
+    smin[k] <- st$smin
+    if (cand) {
+      lo_val[, cols] <- st$lo_val
+      lo_idx[, cols] <- st$lo_idx
+      hi_val[, cols] <- st$hi_val
+      hi_idx[, cols] <- st$hi_idx
+    }
   }
   s <- sqrt(ss / max(H - 1, 1))
-  s <- pmax(s, 1e-12 * max(s, 1e-300))
-  score <- rep(-Inf, H)
-  for (cols in blocks) {
-    tick()
-    Z <- abs((src$block(cols) - rep(centre[cols], each = H)) / rep(s[cols], each = H))
-    score <- pmax(score, apply(Z, 1L, max))
+  s_floor <- 1e-12 * max(s, 1e-300)
+  s <- pmax(s, s_floor)
+  # blocks with a spread below the floor: their distances again, with it
+  for (k in which(smin < s_floor)) {
+    cols <- blocks[[k]]
+    zmax[, k] <- band_score_cpp(src$block(cols), centre[cols], s[cols])
   }
-  keep <- order(score)[seq_len(ceiling(level * H))]
-  lower <- upper <- numeric(src$n)
-  for (cols in blocks) {
-    tick()
-    Y <- src$block(cols)[keep, , drop = FALSE]
-    lower[cols] <- apply(Y, 2L, min)
-    upper[cols] <- apply(Y, 2L, max)
+  score <- if (length(blocks)) do.call(pmax, lapply(seq_along(blocks), function(k) zmax[, k])) else rep(-Inf, H)
+  keep <- order(score)[seq_len(n_keep)]
+  dropped <- rep(TRUE, H)
+  dropped[keep] <- FALSE
+  if (cand) {
+    lower <- band_envelope_cpp(lo_val, lo_idx, dropped, TRUE)
+    upper <- band_envelope_cpp(hi_val, hi_idx, dropped, FALSE)
+  } else {
+    lower <- upper <- numeric(src$n)
+    none <- matrix(0L, 0L, 0L)
+    for (cols in blocks) {
+      tick()
+      Y <- src$block(cols)
+      lower[cols] <- band_envelope_cpp(Y, none, dropped, TRUE)
+      upper[cols] <- band_envelope_cpp(Y, none, dropped, FALSE)
+    }
   }
   list(mean = centre, q = q, lower = lower, upper = upper, score = score, keep = keep)
 }
@@ -155,18 +194,7 @@ curve_bands <- function(src, level, probs = numeric()) {
 # Type-7 quantiles of every column of Y (length(probs) x T), from the order
 # statistics they need (a partial sort of one column at a time).
 pointwise_quantiles <- function(Y, probs) {
-  H <- nrow(Y)
-  pos <- 1 + (H - 1) * probs
-  lo <- floor(pos)
-  hi <- ceiling(pos)
-  f <- pos - lo
-  need <- unique(c(lo, hi))
-  out <- matrix(0, length(probs), ncol(Y))
-  for (j in seq_len(ncol(Y))) {
-    s <- sort.int(Y[, j], partial = need)
-    out[, j] <- s[lo] * (1 - f) + s[hi] * f
-  }
-  out
+  band_block_cpp(Y, as.numeric(probs), 0L)$q
 }
 
 # Band holding the ceiling(level * H) curves of Y closest to the pointwise

@@ -120,7 +120,7 @@ measure <- function(label, expr) {
               if (hwm_ok) sprintf("%7.1f MiB (%4.2f x)", peak_rss, peak_rss / one_site) else "   n/a",
               el))
   rm(res)
-  invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA))
+  invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA, sec = el))
 }
 
 # the peer: bias() in plain R, the curves of each site built whole
@@ -141,5 +141,9 @@ out <- rbind(
   `where_fails()` = measure("where_fails()", where_fails(fit))
 )
 cat(sprintf("\nbias() against the plain-R peer: R peak ratio %.2f\n", out["bias()", "r"] / plain[["r"]]))
+cat(sprintf("bias() against the plain-R peer: time ratio %.2f (%.1f s against %.1f s)\n",
+            out["bias()", "sec"] / plain[["sec"]], out["bias()", "sec"], plain[["sec"]]))
+cat(sprintf("Slowest summary: %s, %.1f s (target: at most 5 s each)\n", rownames(out)[which.max(out[, "sec"])],
+            max(out[, "sec"])))
 cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all four sites' curves)\n",
             max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))

@@ -11,6 +11,84 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// basis_block_cpp
+Rcpp::NumericMatrix basis_block_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi, const Rcpp::IntegerVector& cols);
+RcppExport SEXP _wavevalid_basis_block_cpp(SEXP WSEXP, SEXP PsiSEXP, SEXP colsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W(WSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Psi(PsiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type cols(colsSEXP);
+    rcpp_result_gen = Rcpp::wrap(basis_block_cpp(W, Psi, cols));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_cpp
+Rcpp::List band_block_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& probs, int n_cand);
+RcppExport SEXP _wavevalid_band_block_cpp(SEXP YSEXP, SEXP probsSEXP, SEXP n_candSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_cpp(Y, probs, n_cand));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_linear_cpp
+Rcpp::List band_block_linear_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand);
+RcppExport SEXP _wavevalid_band_block_linear_cpp(SEXP WSEXP, SEXP BSEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W(WSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type B(BSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type cols(colsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type offset(offsetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_linear_cpp(W, B, cols, offset, probs, n_cand));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_release_cpp
+void band_block_release_cpp();
+RcppExport SEXP _wavevalid_band_block_release_cpp() {
+BEGIN_RCPP
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    band_block_release_cpp();
+    return R_NilValue;
+END_RCPP
+}
+// band_score_cpp
+Rcpp::NumericVector band_score_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& centre, const Rcpp::NumericVector& s);
+RcppExport SEXP _wavevalid_band_score_cpp(SEXP YSEXP, SEXP centreSEXP, SEXP sSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type centre(centreSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type s(sSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_score_cpp(Y, centre, s));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_envelope_cpp
+Rcpp::NumericVector band_envelope_cpp(const Rcpp::NumericMatrix& val, const Rcpp::IntegerMatrix& idx, const Rcpp::LogicalVector& dropped, bool lower);
+RcppExport SEXP _wavevalid_band_envelope_cpp(SEXP valSEXP, SEXP idxSEXP, SEXP droppedSEXP, SEXP lowerSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type val(valSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerMatrix& >::type idx(idxSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::LogicalVector& >::type dropped(droppedSEXP);
+    Rcpp::traits::input_parameter< bool >::type lower(lowerSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_envelope_cpp(val, idx, dropped, lower));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_loglik_cpp
 Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget);
 RcppExport SEXP _wavevalid_gasp_loglik_cpp(SEXP XSEXP, SEXP ySEXP, SEXP thetaSEXP, SEXP nuggetSEXP) {
@@ -179,6 +257,12 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
+    {"_wavevalid_band_block_cpp", (DL_FUNC) &_wavevalid_band_block_cpp, 3},
+    {"_wavevalid_band_block_linear_cpp", (DL_FUNC) &_wavevalid_band_block_linear_cpp, 6},
+    {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
+    {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
+    {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
     {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
