@@ -162,6 +162,24 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     if (residual) y <- y + detail(cols)
     y
   })
+  # additive: the draws are linear in coefficient draws (the new setting's
+  # model coefficients plus the bias, the measurement error, the weights of
+  # the field detail when it has two or more replicates), rebuilt in C++
+  det_lin <- if (residual) attr(detail, "linear")
+  if (additive && (!residual || !is.null(det_lin))) {
+    Wt <- switch(type,
+      reality = , field_run = wM,
+      added_load = if (is.null(dW)) wM else wM + dW,
+      new_vehicle = , new_nominal = wNew
+    ) + wb
+    if (noise) Wt <- Wt + eps
+    lin <- list(W = Wt, B = Psi, offset = if (type == "added_load" && is.null(dW)) shift else numeric())
+    if (residual) {
+      lin <- list(W = cbind(Wt, det_lin$W), B = cbind(Psi, det_lin$B),
+                  offset = if (length(lin$offset)) lin$offset + det_lin$offset else det_lin$offset)
+    }
+    src <- curve_source(H, n_t, NULL, lin)
+  }
   draws <- if (keep_draws) source_matrix(src)
   band <- band_frame(draws %||% src, fit$basis$t, s, level)
   band$model <- pure
