@@ -97,6 +97,36 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   }))
 }
 
+# Pointwise mean of reality's curve draws at every site, the `mean` of
+# reality() without its bands (one pass over the blocks of each site): a data
+# frame with `site`, `t`, `mean`.
+reality_mean <- function(fit, residual = TRUE) {
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    site_curves(fit, s, "reality", residual = residual, fun = function(src) {
+      data.frame(site = s, t = fit$basis$t, mean = curve_means(src), stringsAsFactors = FALSE)
+    })
+  }))
+}
+
+# Pointwise mean of a source's curves, as curve_bands() computes it.
+curve_means <- function(src) {
+  centre <- numeric(src$n)
+  lin <- src$linear
+  if (!is.null(lin)) {
+    if (!is.double(lin$W)) storage.mode(lin$W) <- "double"
+    lin$offset <- as.numeric(lin$offset)
+    on.exit(band_block_release_cpp(), add = TRUE)
+  }
+  for (cols in col_blocks(src$n, src$H)) {
+    centre[cols] <- if (is.null(lin)) {
+      band_block_cpp(src$block(cols), numeric(), 0L)$mean
+    } else {
+      band_block_linear_cpp(lin$W, lin$B, as.integer(cols), lin$offset, numeric(), 0L)$mean
+    }
+  }
+  centre
+}
+
 # --- bands ----------------------------------------------------------------------
 
 # x: an H x T matrix of curve draws or a curve source.

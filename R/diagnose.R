@@ -58,7 +58,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   check_number(min_steps, min = 1, integer = TRUE)
   tol <- site_tolerance(tolerance, names(fit$wb))
   b <- bias(fit, level = level)
-  r <- reality(fit, level = level)
+  r <- reality_mean(fit)  # only reality's pointwise mean is used (share_of_signal)
   dt <- diff(fit$basis$t[1:2])
   gap <- band_gap(band_limits(b, band))
   rows <- lapply(unique(b$site), function(s) {
