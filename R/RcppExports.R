@@ -53,6 +53,14 @@ gasp_bank_predict_cpp <- function(bank, Z) {
     .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
 }
 
+cycle_limit_cpp <- function(n_exp, n_log, K, n_factors, n_dot, len, reps) {
+    .Call(`_wavevalid_cycle_limit_cpp`, n_exp, n_log, K, n_factors, n_dot, len, reps)
+}
+
+bank_stage_times_cpp <- function(bank, Z, reps) {
+    .Call(`_wavevalid_bank_stage_times_cpp`, bank, Z, reps)
+}
+
 gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
     .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
 }
