@@ -29,8 +29,8 @@ gasp_loglik_cpp <- function(X, y, theta, nugget) {
     .Call(`_wavevalid_gasp_loglik_cpp`, X, y, theta, nugget)
 }
 
-gasp_fit_cpp <- function(X, Y, group, control, n_warm = 2L) {
-    .Call(`_wavevalid_gasp_fit_cpp`, X, Y, group, control, n_warm)
+gasp_fit_cpp <- function(X, Y, group, control, n_warm = 2L, warm_only = FALSE) {
+    .Call(`_wavevalid_gasp_fit_cpp`, X, Y, group, control, n_warm, warm_only)
 }
 
 gasp_finalize_cpp <- function(X, Y, beta, alpha, nugget) {

@@ -104,8 +104,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // gasp_fit_cpp
-Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::IntegerVector group, Rcpp::List control, int n_warm);
-RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP groupSEXP, SEXP controlSEXP, SEXP n_warmSEXP) {
+Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::IntegerVector group, Rcpp::List control, int n_warm, bool warm_only);
+RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP groupSEXP, SEXP controlSEXP, SEXP n_warmSEXP, SEXP warm_onlySEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -114,7 +114,8 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< Rcpp::IntegerVector >::type group(groupSEXP);
     Rcpp::traits::input_parameter< Rcpp::List >::type control(controlSEXP);
     Rcpp::traits::input_parameter< int >::type n_warm(n_warmSEXP);
-    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, group, control, n_warm));
+    Rcpp::traits::input_parameter< bool >::type warm_only(warm_onlySEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, group, control, n_warm, warm_only));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -294,7 +295,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
     {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
-    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
+    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 6},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
     {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
     {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
