@@ -110,21 +110,46 @@ reality_mean <- function(fit, residual = TRUE) {
 
 # Pointwise mean of a source's curves, as curve_bands() computes it.
 curve_means <- function(src) {
-  centre <- numeric(src$n)
+  src <- prepare_source(src)
+  if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
+  out <- block_outputs(src$n, 0L, 0L)
+  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out)
+  out$mean
+}
+
+# A source ready for block_stats_into(): its linear form in doubles.
+prepare_source <- function(src) {
   lin <- src$linear
   if (!is.null(lin)) {
     if (!is.double(lin$W)) storage.mode(lin$W) <- "double"
+    if (!is.null(lin$W2) && !is.double(lin$W2)) storage.mode(lin$W2) <- "double"
     lin$offset <- as.numeric(lin$offset)
-    on.exit(band_block_release_cpp(), add = TRUE)
+    src$linear <- lin
   }
-  for (cols in col_blocks(src$n, src$H)) {
-    centre[cols] <- if (is.null(lin)) {
-      band_block_cpp(src$block(cols), numeric(), 0L)$mean
-    } else {
-      band_block_linear_cpp(lin$W, lin$B, as.integer(cols), lin$offset, numeric(), 0L)$mean
-    }
+  src
+}
+
+# The outputs of the block statistics for n time points, np quantiles and nc
+# candidates at each end (see band_block_into_cpp(), which writes them in
+# place: each is made here and for this alone).
+block_outputs <- function(n, np, nc) {
+  list(mean = numeric(n), ss = numeric(n), q = matrix(0, np, n), lo_val = matrix(0, nc, n),
+       lo_idx = matrix(0L, nc, n), hi_val = matrix(0, nc, n), hi_idx = matrix(0L, nc, n))
+}
+
+# The statistics of the block `cols` of a source, written into `out` at its
+# columns; returns each curve's largest distance over the block (`zmax`) and
+# the smallest spread (`smin`).
+block_stats_into <- function(src, cols, probs, nc, out) {
+  lin <- src$linear
+  none <- matrix(0, 0L, 0L)
+  if (is.null(lin)) {
+    band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(), as.numeric(probs), nc,
+                        out)
+  } else {
+    band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols), lin$offset,
+                        as.numeric(probs), nc, out)
   }
-  centre
 }
 
 # --- bands ----------------------------------------------------------------------
@@ -140,7 +165,7 @@ band_frame <- function(x, t, site, level) {
 # Pointwise mean and `probs` quantiles and the simultaneous band of a source's
 # curves: (1) mean, spread and quantiles at each t and each curve's largest
 # standardised distance from the mean, max_t |y_h(t) - mean(t)| / sd(t), in
-# one pass over blocks of time points (band_block_cpp()); (2) the envelope of
+# one pass over blocks of time points (band_block_into_cpp()); (2) the envelope of
 # the ceiling(level * H) curves with the smallest distances. For (2) the pass
 # keeps, at each t, the H - ceiling(level * H) + 1 smallest and largest values
 # and their curves (one of them is a kept curve) when they are few (at most a
@@ -160,39 +185,21 @@ curve_bands <- function(src, level, probs = numeric()) {
   }
   env <- environment()
   tick <- function() if (bar) cli::cli_progress_update(.envir = env)
-  centre <- ss <- numeric(src$n)
-  q <- matrix(0, length(probs), src$n)
   zmax <- matrix(-Inf, H, length(blocks))
   smin <- numeric(length(blocks))
   nc <- if (cand) n_cand else 0L
-  lo_val <- hi_val <- matrix(0, nc, src$n)
-  lo_idx <- hi_idx <- matrix(0L, nc, src$n)
-  lin <- src$linear
-  if (!is.null(lin)) {
-    if (!is.double(lin$W)) storage.mode(lin$W) <- "double"
-    lin$offset <- as.numeric(lin$offset)
-    on.exit(band_block_release_cpp(), add = TRUE)
-  }
+  src <- prepare_source(src)
+  if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
+  out <- block_outputs(src$n, length(probs), nc)
   for (k in seq_along(blocks)) {
     tick()
-    cols <- blocks[[k]]
-    st <- if (is.null(lin)) {
-      band_block_cpp(src$block(cols), as.numeric(probs), nc)
-    } else {
-      band_block_linear_cpp(lin$W, lin$B, as.integer(cols), lin$offset, as.numeric(probs), nc)
-    }
-    centre[cols] <- st$mean
-    ss[cols] <- st$ss
-    q[, cols] <- st$q
+    st <- block_stats_into(src, blocks[[k]], probs, nc, out)
     zmax[, k] <- st$zmax
     smin[k] <- st$smin
-    if (cand) {
-      lo_val[, cols] <- st$lo_val
-      lo_idx[, cols] <- st$lo_idx
-      hi_val[, cols] <- st$hi_val
-      hi_idx[, cols] <- st$hi_idx
-    }
   }
+  centre <- out$mean
+  ss <- out$ss
+  q <- out$q
   s <- sqrt(ss / max(H - 1, 1))
   s_floor <- 1e-12 * max(s, 1e-300)
   s <- pmax(s, s_floor)
@@ -206,8 +213,8 @@ curve_bands <- function(src, level, probs = numeric()) {
   dropped <- rep(TRUE, H)
   dropped[keep] <- FALSE
   if (cand) {
-    lower <- band_envelope_cpp(lo_val, lo_idx, dropped, TRUE)
-    upper <- band_envelope_cpp(hi_val, hi_idx, dropped, FALSE)
+    lower <- band_envelope_cpp(out$lo_val, out$lo_idx, dropped, TRUE)
+    upper <- band_envelope_cpp(out$hi_val, out$hi_idx, dropped, FALSE)
   } else {
     lower <- upper <- numeric(src$n)
     none <- matrix(0L, 0L, 0L)

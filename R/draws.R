@@ -17,13 +17,14 @@ pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
 # of a site are never held whole; source_matrix() builds them when they are
 # wanted.
 #
-# A source whose curves are W %*% t(B) + offset (each curve) also carries
-# `linear` = list(W, B, offset): the summaries then rebuild its blocks in C++
-# (band_block_linear_cpp()), and block(cols) gives the same values.
+# A source whose curves are W %*% t(B) (+ W2 %*% t(B2)) + offset (each curve)
+# also carries `linear` = list(W, B, W2, B2, offset) (W2, B2 optional): the
+# summaries then rebuild its blocks in C++ (band_block_into_cpp()), and
+# block(cols) gives the same values.
 curve_source <- function(H, n, block, linear = NULL) {
   if (!is.null(linear)) {
     block <- function(cols) {
-      Y <- basis_curves_block(linear$W, linear$B, cols)
+      Y <- linear_block(linear, cols)
       if (length(linear$offset)) Y + rep(linear$offset[cols], each = H) else Y
     }
   }
@@ -53,6 +54,14 @@ source_matrix <- function(src) {
 basis_curves_block <- function(W, Psi, cols) {
   if (!is.double(W)) storage.mode(W) <- "double"
   basis_block_cpp(W, Psi, as.integer(cols))
+}
+
+# W %*% t(B[cols, ]) (+ W2 %*% t(B2[cols, ])) of a linear source, as
+# band_block_into_cpp() computes it.
+linear_block <- function(linear, cols) {
+  Y <- basis_curves_block(linear$W, linear$B, cols)
+  if (is.null(linear$W2)) return(Y)
+  Y + basis_curves_block(linear$W2, linear$B2, cols)
 }
 
 # Consecutive blocks of column indices, each of about `cells` matrix cells for
@@ -91,7 +100,7 @@ draw_source <- function(fit, site, what = c("bias", "reality", "model", "field_r
   if (is.null(extra)) return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, offset = numeric())))
   lin <- attr(extra, "linear")
   if (!is.null(lin)) {
-    return(curve_source(nrow(W), nrow(Psi), NULL, list(W = cbind(W, lin$W), B = cbind(Psi, lin$B),
+    return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, W2 = lin$W, B2 = lin$B,
                                                        offset = lin$offset)))
   }
   curve_source(nrow(W), nrow(Psi), function(cols) basis_curves_block(W, Psi, cols) + extra(cols))

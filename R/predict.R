@@ -175,7 +175,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     if (noise) Wt <- Wt + eps
     lin <- list(W = Wt, B = Psi, offset = if (type == "added_load" && is.null(dW)) shift else numeric())
     if (residual) {
-      lin <- list(W = cbind(Wt, det_lin$W), B = cbind(Psi, det_lin$B),
+      lin <- list(W = Wt, B = Psi, W2 = det_lin$W, B2 = det_lin$B,
                   offset = if (length(lin$offset)) lin$offset + det_lin$offset else det_lin$offset)
     }
     src <- curve_source(H, n_t, NULL, lin)

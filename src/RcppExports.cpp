@@ -37,19 +37,23 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// band_block_linear_cpp
-Rcpp::List band_block_linear_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand);
-RcppExport SEXP _wavevalid_band_block_linear_cpp(SEXP WSEXP, SEXP BSEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP) {
+// band_block_into_cpp
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out);
+RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
     Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W(WSEXP);
     Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type B(BSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W2(W2SEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type B2(B2SEXP);
     Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type cols(colsSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type offset(offsetSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
     Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
-    rcpp_result_gen = Rcpp::wrap(band_block_linear_cpp(W, B, cols, offset, probs, n_cand));
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type out(outSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -290,7 +294,7 @@ END_RCPP
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
     {"_wavevalid_band_block_cpp", (DL_FUNC) &_wavevalid_band_block_cpp, 3},
-    {"_wavevalid_band_block_linear_cpp", (DL_FUNC) &_wavevalid_band_block_linear_cpp, 6},
+    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 10},
     {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
     {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},

@@ -15,8 +15,9 @@ namespace {
 
 // Y (H x m) = W %*% t(Psi[cols, ]) (cols 1-based), from the columns of Psi
 // that are not zero on these time points.
+// With `add`, Y += W %*% t(Psi[cols, ]).
 void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
-                   const Rcpp::IntegerVector& cols, Eigen::Map<Eigen::MatrixXd>& Y) {
+                   const Rcpp::IntegerVector& cols, Eigen::Map<Eigen::MatrixXd>& Y, bool add = false) {
   const int H = W.rows(), K = W.cols(), m = cols.size(), T = Psi.rows();
   if (Psi.cols() != K) Rcpp::stop("W and Psi need the same number of coefficients");
   for (int i = 0; i < m; ++i) {
@@ -35,7 +36,7 @@ void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen:
   }
   const int a = active.size();
   if (a == 0 || H == 0 || m == 0) {
-    Y.setZero();
+    if (!add) Y.setZero();
     return;
   }
   Eigen::MatrixXd Pt(a, m);
@@ -43,11 +44,11 @@ void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen:
     for (int j = 0; j < a; ++j) Pt(j, i) = Psi(cols[i] - 1, active[j]);
   }
   if (a == K) {
-    Y.noalias() = W * Pt;
+    if (add) Y.noalias() += W * Pt; else Y.noalias() = W * Pt;
   } else {
     Eigen::MatrixXd Wa(H, a);
     for (int j = 0; j < a; ++j) Wa.col(j) = W.col(active[j]);
-    Y.noalias() = Wa * Pt;
+    if (add) Y.noalias() += Wa * Pt; else Y.noalias() = Wa * Pt;
   }
 }
 
@@ -142,14 +143,29 @@ void select_first(const double* y, int H, int k, Before before, std::vector<Valu
 
 // Statistics of one block of curve draws (see band_block_cpp()), Y column-major
 // H x m.
-Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand) {
+// Where block_stats() writes: the outputs of all time points (mean, ss:
+// length n; q: np x n; lo_val, lo_idx, hi_val, hi_idx: n_cand x n, column
+// major), the block's first time point at column `off`.
+struct BlockOut {
+  double *mean, *ss, *q, *lo_val, *hi_val;
+  int *lo_idx, *hi_idx;
+  int off;
+};
+
+Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand,
+                       const BlockOut& o) {
   if (H < 1) Rcpp::stop("no curve draws");
   n_cand = std::max(0, std::min(n_cand, H));
   const int np = probs.size();
   const ProbPositions pp(probs, H);
-  Rcpp::NumericVector mean(m), ss(m), zmax(H, R_NegInf);
-  Rcpp::NumericMatrix q(np, m), lo_val(n_cand, m), hi_val(n_cand, m);
-  Rcpp::IntegerMatrix lo_idx(n_cand, m), hi_idx(n_cand, m);
+  Rcpp::NumericVector zmax(H, R_NegInf);
+  auto mean = [&](int j) -> double& { return o.mean[o.off + j]; };
+  auto ss = [&](int j) -> double& { return o.ss[o.off + j]; };
+  auto q = [&](int p, int j) -> double& { return o.q[static_cast<std::ptrdiff_t>(o.off + j) * np + p]; };
+  auto lo_val = [&](int k, int j) -> double& { return o.lo_val[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto hi_val = [&](int k, int j) -> double& { return o.hi_val[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto lo_idx = [&](int k, int j) -> int& { return o.lo_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto hi_idx = [&](int k, int j) -> int& { return o.hi_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
   double smin = R_PosInf;
   std::vector<double> v(H), sample;
   std::vector<ValueDraw> pv(n_cand > 0 ? H : 0), sel_lo, sel_hi;
@@ -180,9 +196,9 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
       const double d = y[h] - c;
       sq += d * d;
     }
-    mean[j] = c;
-    ss[j] = static_cast<double>(sq);
-    const double s = std::sqrt(ss[j] / denom);
+    mean(j) = c;
+    ss(j) = static_cast<double>(sq);
+    const double s = std::sqrt(ss(j) / denom);
     smin = std::min(smin, s);
     if (s > 0) {
       double* zm = zmax.begin();
@@ -268,13 +284,10 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
     }
     if (j % 256 == 255) Rcpp::checkUserInterrupt();
   }
-  return Rcpp::List::create(Rcpp::Named("mean") = mean, Rcpp::Named("ss") = ss, Rcpp::Named("q") = q,
-                            Rcpp::Named("zmax") = zmax, Rcpp::Named("smin") = smin,
-                            Rcpp::Named("lo_val") = lo_val, Rcpp::Named("lo_idx") = lo_idx,
-                            Rcpp::Named("hi_val") = hi_val, Rcpp::Named("hi_idx") = hi_idx);
+  return Rcpp::List::create(Rcpp::Named("zmax") = zmax, Rcpp::Named("smin") = smin);
 }
 
-// The buffer of the blocks rebuilt by band_block_linear_cpp(), kept between
+// The buffer of the blocks rebuilt by band_block_into_cpp(), kept between
 // calls.
 std::vector<double>& block_buffer() {
   static std::vector<double> buf;
@@ -294,28 +307,82 @@ std::vector<double>& block_buffer() {
 // n_cand - 1 of them.
 // [[Rcpp::export]]
 Rcpp::List band_block_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& probs, int n_cand) {
-  return block_stats(Y.begin(), Y.nrow(), Y.ncol(), probs, n_cand);
+  const int H = Y.nrow(), m = Y.ncol();
+  n_cand = std::max(0, std::min(n_cand, H));
+  Rcpp::NumericVector mean(m), ss(m);
+  Rcpp::NumericMatrix q(probs.size(), m), lo_val(n_cand, m), hi_val(n_cand, m);
+  Rcpp::IntegerMatrix lo_idx(n_cand, m), hi_idx(n_cand, m);
+  const BlockOut o{mean.begin(), ss.begin(), q.begin(), lo_val.begin(), hi_val.begin(), lo_idx.begin(), hi_idx.begin(), 0};
+  Rcpp::List st = block_stats(Y.begin(), H, m, probs, n_cand, o);
+  return Rcpp::List::create(Rcpp::Named("mean") = mean, Rcpp::Named("ss") = ss, Rcpp::Named("q") = q,
+                            Rcpp::Named("zmax") = st["zmax"], Rcpp::Named("smin") = st["smin"],
+                            Rcpp::Named("lo_val") = lo_val, Rcpp::Named("lo_idx") = lo_idx,
+                            Rcpp::Named("hi_val") = hi_val, Rcpp::Named("hi_idx") = hi_idx);
 }
 
-// As band_block_cpp() for the block W %*% t(B[cols, ]) + offset[cols] (each
-// draw), rebuilt in a buffer kept between calls (see basis_block_cpp()).
+namespace {
+
+// The outputs `out` (a list made by curve_bands(): mean, ss, q, lo_val,
+// lo_idx, hi_val, hi_idx for all n time points) as a BlockOut at column
+// `off`, after checking their sizes.
+BlockOut block_out(const Rcpp::List& out, int off, int m, int np, int n_cand) {
+  Rcpp::NumericVector mean = out["mean"], ss = out["ss"];
+  Rcpp::NumericMatrix q = out["q"], lo_val = out["lo_val"], hi_val = out["hi_val"];
+  Rcpp::IntegerMatrix lo_idx = out["lo_idx"], hi_idx = out["hi_idx"];
+  const int n = mean.size();
+  if (off < 0 || off + m > n || ss.size() != n || q.nrow() != np || q.ncol() != n || lo_val.nrow() != n_cand ||
+      lo_val.ncol() != n || hi_val.nrow() != n_cand || hi_val.ncol() != n || lo_idx.nrow() != n_cand ||
+      lo_idx.ncol() != n || hi_idx.nrow() != n_cand || hi_idx.ncol() != n) {
+    Rcpp::stop("the outputs of the block statistics have the wrong sizes");
+  }
+  return BlockOut{mean.begin(), ss.begin(), q.begin(), lo_val.begin(), hi_val.begin(), lo_idx.begin(),
+                  hi_idx.begin(), off};
+}
+
+}  // namespace
+
+// As band_block_cpp(), written into `out` (see block_out()) at the columns
+// of the block, which starts at time point off + 1; returns zmax and smin.
+// The block is Y, or, when Y has no rows, W %*% t(B[cols, ]) (plus
+// W2 %*% t(B2[cols, ]) when W2 has rows) + offset[cols] (each draw), rebuilt
+// in a buffer kept between calls (see basis_block_cpp()). `out`'s vectors are written in place: curve_bands()
+// makes them for this alone.
 // [[Rcpp::export]]
-Rcpp::List band_block_linear_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B,
-                                 const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset,
-                                 const Rcpp::NumericVector& probs, int n_cand) {
-  const int H = W.rows(), m = cols.size();
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W,
+                               const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2,
+                               const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols,
+                               const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand,
+                               const Rcpp::List& out) {
+  const int m = cols.size();
+  if (m < 1) Rcpp::stop("an empty block");
+  for (int i = 1; i < m; ++i) {
+    if (cols[i] != cols[0] + i) Rcpp::stop("the time points of a block must be consecutive");
+  }
+  const int off = cols[0] - 1;
+  if (Y.nrow() > 0) {
+    if (Y.ncol() != m) Rcpp::stop("one column of Y per time point");
+    const int nc = std::max(0, std::min(n_cand, static_cast<int>(Y.nrow())));
+    return block_stats(Y.begin(), Y.nrow(), m, probs, nc, block_out(out, off, m, probs.size(), nc));
+  }
+  const int H = W.rows();
+  const int nc = std::max(0, std::min(n_cand, H));
+  const BlockOut o = block_out(out, off, m, probs.size(), nc);
   std::vector<double>& buf = block_buffer();
   buf.resize(static_cast<std::size_t>(H) * m);
-  Eigen::Map<Eigen::MatrixXd> Y(buf.data(), H, m);
-  block_product(W, B, cols, Y);
+  Eigen::Map<Eigen::MatrixXd> Yb(buf.data(), H, m);
+  block_product(W, B, cols, Yb);
+  if (W2.rows() > 0) {
+    if (W2.rows() != H || B2.rows() != B.rows()) Rcpp::stop("the second term has the wrong sizes");
+    block_product(W2, B2, cols, Yb, true);
+  }
   if (offset.size() > 0) {
     if (offset.size() != B.rows()) Rcpp::stop("one offset per time point");
-    for (int i = 0; i < m; ++i) Y.col(i).array() += offset[cols[i] - 1];
+    for (int i = 0; i < m; ++i) Yb.col(i).array() += offset[cols[i] - 1];
   }
-  return block_stats(buf.data(), H, m, probs, n_cand);
+  return block_stats(buf.data(), H, m, probs, nc, o);
 }
 
-// Frees the buffer of band_block_linear_cpp().
+// Frees the buffer of band_block_into_cpp().
 // [[Rcpp::export]]
 void band_block_release_cpp() {
   std::vector<double>().swap(block_buffer());
