@@ -31,6 +31,13 @@
 #     at most 1.07 x one site's curves (0.27 x all four). Most of it is
 #     garbage from the blocks not yet collected; the curves held at any time
 #     are one block of about 2^20 values (8 MiB).
+#   (later, on a busier machine, the same version measured 330-366 MiB and
+#   35-105 s per call: three passes over the blocks, each rebuilding them);
+#   one pass over the blocks in C++ (the product from the basis functions not
+#   zero on the block, the statistics written in place): bias() 190 MiB,
+#   reality() 220 MiB, model_prediction() 227 MiB, predict() 246-329 MiB,
+#   where_fails() 331 MiB, in 2.1-4.8 s each (bias() 0.08-0.16 x the time of
+#   the plain-R peer).
 #
 # Run: Rscript bench/bench_memory.R [n_draws]
 library(wavevalid)
