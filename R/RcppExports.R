@@ -9,8 +9,12 @@ band_block_cpp <- function(Y, probs, n_cand) {
     .Call(`_wavevalid_band_block_cpp`, Y, probs, n_cand)
 }
 
-band_block_into_cpp <- function(Y, W, B, W2, B2, cols, offset, probs, n_cand, out) {
-    .Call(`_wavevalid_band_block_into_cpp`, Y, W, B, W2, B2, cols, offset, probs, n_cand, out)
+band_block_into_cpp <- function(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores = TRUE) {
+    .Call(`_wavevalid_band_block_into_cpp`, Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores)
+}
+
+band_outputs_cpp <- function(n, np, nc) {
+    .Call(`_wavevalid_band_outputs_cpp`, n, np, nc)
 }
 
 band_block_release_cpp <- function() {

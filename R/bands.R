@@ -113,7 +113,7 @@ curve_means <- function(src) {
   src <- prepare_source(src)
   if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
   out <- block_outputs(src$n, 0L, 0L)
-  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out)
+  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out, scores = FALSE)
   out$mean
 }
 
@@ -131,24 +131,21 @@ prepare_source <- function(src) {
 
 # The outputs of the block statistics for n time points, np quantiles and nc
 # candidates at each end (see band_block_into_cpp(), which writes them in
-# place: each is made here and for this alone).
-block_outputs <- function(n, np, nc) {
-  list(mean = numeric(n), ss = numeric(n), q = matrix(0, np, n), lo_val = matrix(0, nc, n),
-       lo_idx = matrix(0L, nc, n), hi_val = matrix(0, nc, n), hi_idx = matrix(0L, nc, n))
-}
+# place: each is made here and for this alone, not initialised).
+block_outputs <- function(n, np, nc) band_outputs_cpp(as.integer(n), as.integer(np), as.integer(nc))
 
 # The statistics of the block `cols` of a source, written into `out` at its
-# columns; returns each curve's largest distance over the block (`zmax`) and
-# the smallest spread (`smin`).
-block_stats_into <- function(src, cols, probs, nc, out) {
+# columns; returns each curve's largest distance over the block (`zmax`;
+# -Inf without `scores`) and the smallest spread (`smin`).
+block_stats_into <- function(src, cols, probs, nc, out, scores = TRUE) {
   lin <- src$linear
   none <- matrix(0, 0L, 0L)
   if (is.null(lin)) {
     band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(), as.numeric(probs), nc,
-                        out)
+                        out, scores)
   } else {
     band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols), lin$offset,
-                        as.numeric(probs), nc, out)
+                        as.numeric(probs), nc, out, scores)
   }
 }
 

@@ -38,8 +38,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // band_block_into_cpp
-Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out);
-RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP) {
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out, bool scores);
+RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP, SEXP scoresSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -53,7 +53,21 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
     Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
     Rcpp::traits::input_parameter< const Rcpp::List& >::type out(outSEXP);
-    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out));
+    Rcpp::traits::input_parameter< bool >::type scores(scoresSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_outputs_cpp
+Rcpp::List band_outputs_cpp(int n, int np, int nc);
+RcppExport SEXP _wavevalid_band_outputs_cpp(SEXP nSEXP, SEXP npSEXP, SEXP ncSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< int >::type n(nSEXP);
+    Rcpp::traits::input_parameter< int >::type np(npSEXP);
+    Rcpp::traits::input_parameter< int >::type nc(ncSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_outputs_cpp(n, np, nc));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -294,7 +308,8 @@ END_RCPP
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
     {"_wavevalid_band_block_cpp", (DL_FUNC) &_wavevalid_band_block_cpp, 3},
-    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 10},
+    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 11},
+    {"_wavevalid_band_outputs_cpp", (DL_FUNC) &_wavevalid_band_outputs_cpp, 3},
     {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
     {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},

@@ -153,7 +153,7 @@ struct BlockOut {
 };
 
 Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand,
-                       const BlockOut& o) {
+                       const BlockOut& o, bool scores = true) {
   if (H < 1) Rcpp::stop("no curve draws");
   n_cand = std::max(0, std::min(n_cand, H));
   const int np = probs.size();
@@ -200,7 +200,7 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
     ss(j) = static_cast<double>(sq);
     const double s = std::sqrt(ss(j) / denom);
     smin = std::min(smin, s);
-    if (s > 0) {
+    if (scores && s > 0) {
       double* zm = zmax.begin();
       for (int h = 0; h < H; ++h) {
         const double z = std::fabs((y[h] - c) / s);
@@ -352,7 +352,7 @@ Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Ei
                                const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2,
                                const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols,
                                const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand,
-                               const Rcpp::List& out) {
+                               const Rcpp::List& out, bool scores = true) {
   const int m = cols.size();
   if (m < 1) Rcpp::stop("an empty block");
   for (int i = 1; i < m; ++i) {
@@ -362,7 +362,7 @@ Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Ei
   if (Y.nrow() > 0) {
     if (Y.ncol() != m) Rcpp::stop("one column of Y per time point");
     const int nc = std::max(0, std::min(n_cand, static_cast<int>(Y.nrow())));
-    return block_stats(Y.begin(), Y.nrow(), m, probs, nc, block_out(out, off, m, probs.size(), nc));
+    return block_stats(Y.begin(), Y.nrow(), m, probs, nc, block_out(out, off, m, probs.size(), nc), scores);
   }
   const int H = W.rows();
   const int nc = std::max(0, std::min(n_cand, H));
@@ -379,7 +379,21 @@ Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Ei
     if (offset.size() != B.rows()) Rcpp::stop("one offset per time point");
     for (int i = 0; i < m; ++i) Yb.col(i).array() += offset[cols[i] - 1];
   }
-  return block_stats(buf.data(), H, m, probs, nc, o);
+  return block_stats(buf.data(), H, m, probs, nc, o, scores);
+}
+
+// The outputs of band_block_into_cpp() for n time points, np quantiles and
+// nc candidates at each end, not initialised (the blocks fill every column).
+// [[Rcpp::export]]
+Rcpp::List band_outputs_cpp(int n, int np, int nc) {
+  return Rcpp::List::create(
+      Rcpp::Named("mean") = Rcpp::NumericVector(Rcpp::no_init(n)),
+      Rcpp::Named("ss") = Rcpp::NumericVector(Rcpp::no_init(n)),
+      Rcpp::Named("q") = Rcpp::NumericMatrix(Rcpp::no_init(np, n)),
+      Rcpp::Named("lo_val") = Rcpp::NumericMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("lo_idx") = Rcpp::IntegerMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("hi_val") = Rcpp::NumericMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("hi_idx") = Rcpp::IntegerMatrix(Rcpp::no_init(nc, n)));
 }
 
 // Frees the buffer of band_block_into_cpp().
