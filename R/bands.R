@@ -87,8 +87,7 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   do.call(rbind, lapply(names(fit$wb), function(s) {
     y_hat <- pure_model_curve(fit, s)
     b <- site_curves(fit, s, "reality", residual = residual, fun = function(src) {
-      err <- curve_source(src$H, src$n, function(cols) src$block(cols) - rep(y_hat[cols], each = src$H))
-      band_frame(err, fit$basis$t, s, level)
+      band_frame(shift_source(src, y_hat), fit$basis$t, s, level)
     })
     data.frame(site = s, t = fit$basis$t, mean = y_hat,
                lower = y_hat + b$lower, upper = y_hat + b$upper,
@@ -96,6 +95,58 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
                error_mean = b$mean, error_lower = b$lower, error_upper = b$upper,
                stringsAsFactors = FALSE)
   }))
+}
+
+# Pointwise mean of reality's curve draws at every site, the `mean` of
+# reality() without its bands (one pass over the blocks of each site): a data
+# frame with `site`, `t`, `mean`.
+reality_mean <- function(fit, residual = TRUE) {
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    site_curves(fit, s, "reality", residual = residual, fun = function(src) {
+      data.frame(site = s, t = fit$basis$t, mean = curve_means(src), stringsAsFactors = FALSE)
+    })
+  }))
+}
+
+# Pointwise mean of a source's curves, as curve_bands() computes it.
+curve_means <- function(src) {
+  src <- prepare_source(src)
+  if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
+  out <- block_outputs(src$n, 0L, 0L)
+  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out, scores = FALSE)
+  out$mean
+}
+
+# A source ready for block_stats_into(): its linear form in doubles.
+prepare_source <- function(src) {
+  lin <- src$linear
+  if (!is.null(lin)) {
+    if (!is.double(lin$W)) storage.mode(lin$W) <- "double"
+    if (!is.null(lin$W2) && !is.double(lin$W2)) storage.mode(lin$W2) <- "double"
+    lin$offset <- as.numeric(lin$offset)
+    src$linear <- lin
+  }
+  src
+}
+
+# The outputs of the block statistics for n time points, np quantiles and nc
+# candidates at each end (see band_block_into_cpp(), which writes them in
+# place: each is made here and for this alone, not initialised).
+block_outputs <- function(n, np, nc) band_outputs_cpp(as.integer(n), as.integer(np), as.integer(nc))
+
+# The statistics of the block `cols` of a source, written into `out` at its
+# columns; returns each curve's largest distance over the block (`zmax`;
+# -Inf without `scores`) and the smallest spread (`smin`).
+block_stats_into <- function(src, cols, probs, nc, out, scores = TRUE) {
+  lin <- src$linear
+  none <- matrix(0, 0L, 0L)
+  if (is.null(lin)) {
+    band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(), as.numeric(probs), nc,
+                        out, scores)
+  } else {
+    band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols), lin$offset,
+                        as.numeric(probs), nc, out, scores)
+  }
 }
 
 # --- bands ----------------------------------------------------------------------
@@ -109,45 +160,67 @@ band_frame <- function(x, t, site, level) {
 }
 
 # Pointwise mean and `probs` quantiles and the simultaneous band of a source's
-# curves, in three passes over blocks of time points: (1) mean, spread and
-# quantiles at each t; (2) each curve's largest standardised distance from the
-# mean, max_t |y_h(t) - mean(t)| / sd(t); (3) the envelope of the
-# ceiling(level * H) curves with the smallest distances.
+# curves: (1) mean, spread and quantiles at each t and each curve's largest
+# standardised distance from the mean, max_t |y_h(t) - mean(t)| / sd(t), in
+# one pass over blocks of time points (band_block_into_cpp()); (2) the envelope of
+# the ceiling(level * H) curves with the smallest distances. For (2) the pass
+# keeps, at each t, the H - ceiling(level * H) + 1 smallest and largest values
+# and their curves (one of them is a kept curve) when they are few (at most a
+# quarter of the draws), and reads the blocks a second time otherwise. A block
+# whose spread falls below the floor of sd (1e-12 of its largest value) is
+# read again for the distances.
 curve_bands <- function(src, level, probs = numeric()) {
   H <- src$H
   blocks <- col_blocks(src$n, H)
-  # three passes over the blocks; a bar when they are many (cli shows it only
-  # after two seconds)
+  n_keep <- ceiling(level * H)
+  n_cand <- H - n_keep + 1L
+  cand <- n_cand <= max(1L, H %/% 4L)
+  # a bar when the blocks are many (cli shows it only after two seconds)
   bar <- length(blocks) >= 4L && !isTRUE(getOption("wavevalid.quiet", FALSE))
   if (bar) {
-    cli::cli_progress_bar("Summarising curve draws", total = 3L * length(blocks), .envir = environment())
+    cli::cli_progress_bar("Summarising curve draws", total = (2L - cand) * length(blocks), .envir = environment())
   }
   env <- environment()
   tick <- function() if (bar) cli::cli_progress_update(.envir = env)
-  centre <- ss <- numeric(src$n)
-  q <- matrix(0, length(probs), src$n)
-  for (cols in blocks) {
+  zmax <- matrix(-Inf, H, length(blocks))
+  smin <- numeric(length(blocks))
+  nc <- if (cand) n_cand else 0L
+  src <- prepare_source(src)
+  if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
+  out <- block_outputs(src$n, length(probs), nc)
+  for (k in seq_along(blocks)) {
     tick()
-    Y <- src$block(cols)
-    centre[cols] <- colMeans(Y)
-    ss[cols] <- colSums((Y - rep(centre[cols], each = H))^2)
-    if (length(probs)) q[, cols] <- pointwise_quantiles(Y, probs)
+    st <- block_stats_into(src, blocks[[k]], probs, nc, out)
+    zmax[, k] <- st$zmax
+    smin[k] <- st$smin
   }
+  centre <- out$mean
+  ss <- out$ss
+  q <- out$q
   s <- sqrt(ss / max(H - 1, 1))
-  s <- pmax(s, 1e-12 * max(s, 1e-300))
-  score <- rep(-Inf, H)
-  for (cols in blocks) {
-    tick()
-    Z <- abs((src$block(cols) - rep(centre[cols], each = H)) / rep(s[cols], each = H))
-    score <- pmax(score, apply(Z, 1L, max))
+  s_floor <- 1e-12 * max(s, 1e-300)
+  s <- pmax(s, s_floor)
+  # blocks with a spread below the floor: their distances again, with it
+  for (k in which(smin < s_floor)) {
+    cols <- blocks[[k]]
+    zmax[, k] <- band_score_cpp(src$block(cols), centre[cols], s[cols])
   }
-  keep <- order(score)[seq_len(ceiling(level * H))]
-  lower <- upper <- numeric(src$n)
-  for (cols in blocks) {
-    tick()
-    Y <- src$block(cols)[keep, , drop = FALSE]
-    lower[cols] <- apply(Y, 2L, min)
-    upper[cols] <- apply(Y, 2L, max)
+  score <- if (length(blocks)) do.call(pmax, lapply(seq_along(blocks), function(k) zmax[, k])) else rep(-Inf, H)
+  keep <- order(score)[seq_len(n_keep)]
+  dropped <- rep(TRUE, H)
+  dropped[keep] <- FALSE
+  if (cand) {
+    lower <- band_envelope_cpp(out$lo_val, out$lo_idx, dropped, TRUE)
+    upper <- band_envelope_cpp(out$hi_val, out$hi_idx, dropped, FALSE)
+  } else {
+    lower <- upper <- numeric(src$n)
+    none <- matrix(0L, 0L, 0L)
+    for (cols in blocks) {
+      tick()
+      Y <- src$block(cols)
+      lower[cols] <- band_envelope_cpp(Y, none, dropped, TRUE)
+      upper[cols] <- band_envelope_cpp(Y, none, dropped, FALSE)
+    }
   }
   list(mean = centre, q = q, lower = lower, upper = upper, score = score, keep = keep)
 }
@@ -155,18 +228,7 @@ curve_bands <- function(src, level, probs = numeric()) {
 # Type-7 quantiles of every column of Y (length(probs) x T), from the order
 # statistics they need (a partial sort of one column at a time).
 pointwise_quantiles <- function(Y, probs) {
-  H <- nrow(Y)
-  pos <- 1 + (H - 1) * probs
-  lo <- floor(pos)
-  hi <- ceiling(pos)
-  f <- pos - lo
-  need <- unique(c(lo, hi))
-  out <- matrix(0, length(probs), ncol(Y))
-  for (j in seq_len(ncol(Y))) {
-    s <- sort.int(Y[, j], partial = need)
-    out[, j] <- s[lo] * (1 - f) + s[hi] * f
-  }
-  out
+  band_block_cpp(Y, as.numeric(probs), 0L)$q
 }
 
 # Band holding the ceiling(level * H) curves of Y closest to the pointwise

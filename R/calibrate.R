@@ -206,7 +206,10 @@
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
 #'   than one when the chains run one after another (the default sequential
-#'   [future::plan()]); with one worker per core, keep 1.
+#'   [future::plan()]); with one worker per core, keep 1. No more threads are
+#'   used than there are free cores (the cores less the other processes the
+#'   load average counts, on Linux; or `getOption("wavevalid.free_cores")`
+#'   when set); a message says when `threads` is cut.
 #' @param quiet Suppress the progress bar (default
 #'   `getOption("wavevalid.quiet", FALSE)`).
 #' @param ... Must be empty: an unknown argument is an error.
@@ -263,6 +266,11 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   }
   check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
   check_number(threads, min = 1, max = 1024, integer = TRUE)
+  free <- free_cores()
+  if (threads > free) {
+    if (!quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {threads}.")
+    threads <- free
+  }
   seed <- resolve_seed(seed)
   check_flag(registration_variance)
   check_number(temper, min = 0, max = 1)
@@ -323,6 +331,20 @@ informing_groups <- function(inform_levels, coef_level, bias_group, groups, call
     wv_abort("{.arg inform_levels} leaves no coefficient to inform the inputs.", call = call)
   }
   unname(out)
+}
+
+# Cores free for this process: the option wavevalid.free_cores when set, else
+# the cores R sees less the other processes the 1-minute load average counts
+# (this one counted once; Linux, elsewhere every core), at least 1.
+free_cores <- function() {
+  set <- getOption("wavevalid.free_cores")
+  if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
+  n <- suppressWarnings(parallel::detectCores())
+  if (is.na(n) || n < 1L) return(1L)
+  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE), " ")[[1L]][1L]),
+                   error = function(e) NA_real_, warning = function(w) NA_real_)
+  busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
+  as.integer(max(1, n - busy))
 }
 
 # One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2

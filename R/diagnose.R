@@ -84,7 +84,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   wide_levels <- record_wide_levels(fit$basis)
   wide <- fit$basis$level %in% wide_levels
   b <- if (scales == "split") bias_part(fit, !wide, level) else b_whole
-  r <- reality(fit, level = level)
+  r <- reality_mean(fit)  # only reality's pointwise mean is used (share_of_signal)
   dt <- diff(fit$basis$t[1:2])
   gap <- band_gap(band_limits(b, band))
   rows <- lapply(unique(b$site), function(s) {
@@ -147,7 +147,7 @@ bias_part <- function(fit, keep, level) {
   do.call(rbind, lapply(names(fit$wb), function(s) {
     W <- fit$wb[[s]][, keep, drop = FALSE]
     Psi <- fit$basis$Psi[, keep, drop = FALSE]
-    src <- curve_source(nrow(W), nrow(Psi), function(cols) W %*% t(Psi[cols, , drop = FALSE]))
+    src <- curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, offset = numeric()))
     band_frame(src, fit$basis$t, s, level)
   }))
 }

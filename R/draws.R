@@ -16,7 +16,30 @@ pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
 # values. Summaries read the curves in a few passes, so that the H x n curves
 # of a site are never held whole; source_matrix() builds them when they are
 # wanted.
-curve_source <- function(H, n, block) list(H = H, n = n, block = block)
+#
+# A source whose curves are W %*% t(B) (+ W2 %*% t(B2)) + offset (each curve)
+# also carries `linear` = list(W, B, W2, B2, offset) (W2, B2 optional): the
+# summaries then rebuild its blocks in C++ (band_block_into_cpp()), and
+# block(cols) gives the same values.
+curve_source <- function(H, n, block, linear = NULL) {
+  if (!is.null(linear)) {
+    block <- function(cols) {
+      Y <- linear_block(linear, cols)
+      if (length(linear$offset)) Y + rep(linear$offset[cols], each = H) else Y
+    }
+  }
+  list(H = H, n = n, block = block, linear = linear)
+}
+
+# The curves of a source minus `shift` (a curve) from each.
+shift_source <- function(src, shift) {
+  lin <- src$linear
+  if (!is.null(lin)) {
+    lin$offset <- if (length(lin$offset)) lin$offset - shift else -shift
+    return(curve_source(src$H, src$n, NULL, lin))
+  }
+  curve_source(src$H, src$n, function(cols) src$block(cols) - rep(shift[cols], each = src$H))
+}
 
 matrix_source <- function(Y) curve_source(nrow(Y), ncol(Y), function(cols) Y[, cols, drop = FALSE])
 
@@ -24,6 +47,21 @@ source_matrix <- function(src) {
   Y <- matrix(0, src$H, src$n)
   for (cols in col_blocks(src$n, src$H)) Y[, cols] <- src$block(cols)
   Y
+}
+
+# Curve draws W %*% t(Psi[cols, ]) at the time points `cols`, from the basis
+# functions that are not zero there (basis_block_cpp()).
+basis_curves_block <- function(W, Psi, cols) {
+  if (!is.double(W)) storage.mode(W) <- "double"
+  basis_block_cpp(W, Psi, as.integer(cols))
+}
+
+# W %*% t(B[cols, ]) (+ W2 %*% t(B2[cols, ])) of a linear source, as
+# band_block_into_cpp() computes it.
+linear_block <- function(linear, cols) {
+  Y <- basis_curves_block(linear$W, linear$B, cols)
+  if (is.null(linear$W2)) return(Y)
+  Y + basis_curves_block(linear$W2, linear$B2, cols)
 }
 
 # Consecutive blocks of column indices, each of about `cells` matrix cells for
@@ -59,10 +97,13 @@ draw_source <- function(fit, site, what = c("bias", "reality", "model", "field_r
   )
   Psi <- fit$basis$Psi
   extra <- if (residual && what == "reality") residual_source(fit, site, nrow(W))
-  curve_source(nrow(W), nrow(Psi), function(cols) {
-    Y <- W %*% t(Psi[cols, , drop = FALSE])
-    if (is.null(extra)) Y else Y + extra(cols)
-  })
+  if (is.null(extra)) return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, offset = numeric())))
+  lin <- attr(extra, "linear")
+  if (!is.null(lin)) {
+    return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, W2 = lin$W, B2 = lin$B,
+                                                       offset = lin$offset)))
+  }
+  curve_source(nrow(W), nrow(Psi), function(cols) basis_curves_block(W, Psi, cols) + extra(cols))
 }
 
 # fun(source) for the curve draws of one site (see draw_source()); the draws of
@@ -113,7 +154,9 @@ residual_source <- function(fit, site, H, new_run = FALSE) {
     G <- matrix(stats::rnorm(H * R, sd = sqrt(scale / (R - 1))), H)
     # the replicates' variance is itself estimated on R - 1 degrees of freedom
     chi <- sqrt((R - 1) / stats::rchisq(H, R - 1))
-    function(cols) (G %*% D[, cols, drop = FALSE]) * chi + rep(detail[cols], each = H)
+    # linear in the weights: (chi G) D + detail (see curve_source())
+    structure(function(cols) (G %*% D[, cols, drop = FALSE]) * chi + rep(detail[cols], each = H),
+              linear = list(W = G * chi, B = t(D), offset = detail))
   } else {
     S <- fit$sigma2[[site]]
     idx <- rep_len(seq_len(nrow(S)), H)

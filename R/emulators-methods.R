@@ -322,16 +322,16 @@ loo_residuals <- function(emulators, ...) {
     p <- emulators$params[emulators$params$site == s, , drop = FALSE]
     k <- nrow(b$X)
     n <- length(b$mu)
-    res <- lapply(seq_len(n), function(i) {
-      Ri_diag <- colSums(forwardsolve(b$chol[, , i], diag(k))^2)
-      e <- b$weights[, i] / Ri_diag
-      sd <- sqrt(1 / (b$lambda[i] * Ri_diag))
-      flat <- !is.finite(p$loglik[i])
-      data.frame(site = s, index = p$index[i], level = p$level[i], run = seq_len(k),
-                 observed = b$y[, i], predicted = b$y[, i] - e, sd = sd,
-                 residual = if (flat) NA_real_ else e / sd, stringsAsFactors = FALSE)
-    })
-    do.call(rbind, res)
+    if (n == 0L) return(NULL)
+    # diag(R^-1) of each coefficient; one data frame per site
+    Ri_diag <- vapply(seq_len(n), function(i) colSums(forwardsolve(b$chol[, , i], diag(k))^2), numeric(k))
+    e <- as.vector(b$weights / Ri_diag)
+    sd <- as.vector(sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
+    observed <- as.vector(b$y)
+    flat <- rep(!is.finite(p$loglik), each = k)
+    data.frame(site = s, index = rep(p$index, each = k), level = rep(p$level, each = k), run = rep(seq_len(k), n),
+               observed = observed, predicted = observed - e, sd = sd,
+               residual = ifelse(flat, NA_real_, e / sd), stringsAsFactors = FALSE)
   })
   out <- do.call(rbind, out)
   rownames(out) <- NULL

@@ -13,8 +13,9 @@
 #' `alpha`, preconditioned for the near-collinearity of `log(beta)` and
 #' `alpha`). Each coefficient's fit first screens the likelihood, without
 #' gradient, at cheap starting points: the fitted parameters of the previous
-#' two coefficients of the same level (fits run level by level), isotropic
-#' Gaussian points on a grid of `log(beta)` and a fixed Latin hypercube; the
+#' four coefficients of the same level (fits run level by level), isotropic
+#' Gaussian points on a grid of `log(beta)` and, for the first coefficient of
+#' a chunk (which has no previous fit), a fixed Latin hypercube; the
 #' optimiser then starts from the best `starts` of them. The pairwise
 #' distances of the design are computed once per chunk of coefficients. The `"dicekriging"` engine
 #' calls [DiceKriging::km()] with the power-exponential covariance
@@ -290,7 +291,9 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
   function(task) {
     Y <- W[[task$site]][, task$cols, drop = FALSE]
     if (engine == "gasp") {
-      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range))
+      # warm starts from the last four fits of the level; the space-filling
+      # points only for the first coefficient of a chunk, which has none
+      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range), n_warm = 4L, warm_only = TRUE)
       f$cols <- task$cols
       return(f)
     }

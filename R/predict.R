@@ -134,7 +134,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
   eps <- if (noise) sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
   detail <- if (residual) residual_source(fit, s, H, new_run = noise)
   additive <- bias == "additive" || type %in% c("reality", "field_run")
-  model_block <- function(cols) wM %*% t(Psi[cols, , drop = FALSE])
+  model_block <- function(cols) basis_curves_block(wM, Psi, cols)
   n_guarded <- 0
   if (!additive) {
     # largest absolute model output of each draw, and the guarded points
@@ -143,13 +143,13 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     for (cols in col_blocks(n_t, H)) n_guarded <- n_guarded + sum(abs(model_block(cols)) < guard * peak)
   }
   src <- curve_source(H, n_t, function(cols) {
-    tP <- t(Psi[cols, , drop = FALSE])
-    yM <- wM %*% tP
-    yR <- yM + wb %*% tP
+    curves <- function(X) basis_curves_block(X, Psi, cols)
+    yM <- curves(wM)
+    yR <- yM + curves(wb)
     yNew <- switch(type,
       reality = , field_run = yM,
-      added_load = if (is.null(dW)) yM + rep(shift[cols], each = H) else yM + dW %*% tP,
-      new_vehicle = , new_nominal = wNew %*% tP
+      added_load = if (is.null(dW)) yM + rep(shift[cols], each = H) else yM + curves(dW),
+      new_vehicle = , new_nominal = curves(wNew)
     )
     if (additive) {
       y <- yNew + (yR - yM)
@@ -158,10 +158,28 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
       y <- yNew * (yR / yM)
       y[small] <- (yNew + (yR - yM))[small]
     }
-    if (noise) y <- y + eps %*% tP
+    if (noise) y <- y + curves(eps)
     if (residual) y <- y + detail(cols)
     y
   })
+  # additive: the draws are linear in coefficient draws (the new setting's
+  # model coefficients plus the bias, the measurement error, the weights of
+  # the field detail when it has two or more replicates), rebuilt in C++
+  det_lin <- if (residual) attr(detail, "linear")
+  if (additive && (!residual || !is.null(det_lin))) {
+    Wt <- switch(type,
+      reality = , field_run = wM,
+      added_load = if (is.null(dW)) wM else wM + dW,
+      new_vehicle = , new_nominal = wNew
+    ) + wb
+    if (noise) Wt <- Wt + eps
+    lin <- list(W = Wt, B = Psi, offset = if (type == "added_load" && is.null(dW)) shift else numeric())
+    if (residual) {
+      lin <- list(W = Wt, B = Psi, W2 = det_lin$W, B2 = det_lin$B,
+                  offset = if (length(lin$offset)) lin$offset + det_lin$offset else det_lin$offset)
+    }
+    src <- curve_source(H, n_t, NULL, lin)
+  }
   draws <- if (keep_draws) source_matrix(src)
   band <- band_frame(draws %||% src, fit$basis$t, s, level)
   band$model <- pure

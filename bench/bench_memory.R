@@ -31,6 +31,13 @@
 #     at most 1.07 x one site's curves (0.27 x all four). Most of it is
 #     garbage from the blocks not yet collected; the curves held at any time
 #     are one block of about 2^20 values (8 MiB).
+#   (later, on a busier machine, the same version measured 330-366 MiB and
+#   35-105 s per call: three passes over the blocks, each rebuilding them);
+#   one pass over the blocks in C++ (the product from the basis functions not
+#   zero on the block, the statistics written in place): bias() 190 MiB,
+#   reality() 220 MiB, model_prediction() 227 MiB, predict() 246-329 MiB,
+#   where_fails() 331 MiB, in 2.1-4.8 s each (bias() 0.08-0.16 x the time of
+#   the plain-R peer).
 #
 # Run: Rscript bench/bench_memory.R [n_draws]
 library(wavevalid)
@@ -120,7 +127,7 @@ measure <- function(label, expr) {
               if (hwm_ok) sprintf("%7.1f MiB (%4.2f x)", peak_rss, peak_rss / one_site) else "   n/a",
               el))
   rm(res)
-  invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA))
+  invisible(c(r = peak_r, rss = if (hwm_ok) peak_rss else NA, sec = el))
 }
 
 # the peer: bias() in plain R, the curves of each site built whole
@@ -141,5 +148,9 @@ out <- rbind(
   `where_fails()` = measure("where_fails()", where_fails(fit))
 )
 cat(sprintf("\nbias() against the plain-R peer: R peak ratio %.2f\n", out["bias()", "r"] / plain[["r"]]))
+cat(sprintf("bias() against the plain-R peer: time ratio %.2f (%.1f s against %.1f s)\n",
+            out["bias()", "sec"] / plain[["sec"]], out["bias()", "sec"], plain[["sec"]]))
+cat(sprintf("Slowest summary: %s, %.1f s (target: at most 5 s each)\n", rownames(out)[which.max(out[, "sec"])],
+            max(out[, "sec"])))
 cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all four sites' curves)\n",
             max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))

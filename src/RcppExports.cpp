@@ -11,6 +11,102 @@ Rcpp::Rostream<true>&  Rcpp::Rcout = Rcpp::Rcpp_cout_get();
 Rcpp::Rostream<false>& Rcpp::Rcerr = Rcpp::Rcpp_cerr_get();
 #endif
 
+// basis_block_cpp
+Rcpp::NumericMatrix basis_block_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi, const Rcpp::IntegerVector& cols);
+RcppExport SEXP _wavevalid_basis_block_cpp(SEXP WSEXP, SEXP PsiSEXP, SEXP colsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W(WSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Psi(PsiSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type cols(colsSEXP);
+    rcpp_result_gen = Rcpp::wrap(basis_block_cpp(W, Psi, cols));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_cpp
+Rcpp::List band_block_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& probs, int n_cand);
+RcppExport SEXP _wavevalid_band_block_cpp(SEXP YSEXP, SEXP probsSEXP, SEXP n_candSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_cpp(Y, probs, n_cand));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_into_cpp
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out, bool scores);
+RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP, SEXP scoresSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W(WSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type B(BSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type W2(W2SEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type B2(B2SEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerVector& >::type cols(colsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type offset(offsetSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type probs(probsSEXP);
+    Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type out(outSEXP);
+    Rcpp::traits::input_parameter< bool >::type scores(scoresSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_outputs_cpp
+Rcpp::List band_outputs_cpp(int n, int np, int nc);
+RcppExport SEXP _wavevalid_band_outputs_cpp(SEXP nSEXP, SEXP npSEXP, SEXP ncSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< int >::type n(nSEXP);
+    Rcpp::traits::input_parameter< int >::type np(npSEXP);
+    Rcpp::traits::input_parameter< int >::type nc(ncSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_outputs_cpp(n, np, nc));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_block_release_cpp
+void band_block_release_cpp();
+RcppExport SEXP _wavevalid_band_block_release_cpp() {
+BEGIN_RCPP
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    band_block_release_cpp();
+    return R_NilValue;
+END_RCPP
+}
+// band_score_cpp
+Rcpp::NumericVector band_score_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& centre, const Rcpp::NumericVector& s);
+RcppExport SEXP _wavevalid_band_score_cpp(SEXP YSEXP, SEXP centreSEXP, SEXP sSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Y(YSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type centre(centreSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type s(sSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_score_cpp(Y, centre, s));
+    return rcpp_result_gen;
+END_RCPP
+}
+// band_envelope_cpp
+Rcpp::NumericVector band_envelope_cpp(const Rcpp::NumericMatrix& val, const Rcpp::IntegerMatrix& idx, const Rcpp::LogicalVector& dropped, bool lower);
+RcppExport SEXP _wavevalid_band_envelope_cpp(SEXP valSEXP, SEXP idxSEXP, SEXP droppedSEXP, SEXP lowerSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type val(valSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::IntegerMatrix& >::type idx(idxSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::LogicalVector& >::type dropped(droppedSEXP);
+    Rcpp::traits::input_parameter< bool >::type lower(lowerSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_envelope_cpp(val, idx, dropped, lower));
+    return rcpp_result_gen;
+END_RCPP
+}
 // dosing_simulate_cpp
 Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, double dose_mg, const Rcpp::NumericVector& t, int nsub);
 RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
@@ -42,8 +138,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // gasp_fit_cpp
-Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::IntegerVector group, Rcpp::List control, int n_warm);
-RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP groupSEXP, SEXP controlSEXP, SEXP n_warmSEXP) {
+Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y, Rcpp::IntegerVector group, Rcpp::List control, int n_warm, bool warm_only);
+RcppExport SEXP _wavevalid_gasp_fit_cpp(SEXP XSEXP, SEXP YSEXP, SEXP groupSEXP, SEXP controlSEXP, SEXP n_warmSEXP, SEXP warm_onlySEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -52,7 +148,8 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< Rcpp::IntegerVector >::type group(groupSEXP);
     Rcpp::traits::input_parameter< Rcpp::List >::type control(controlSEXP);
     Rcpp::traits::input_parameter< int >::type n_warm(n_warmSEXP);
-    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, group, control, n_warm));
+    Rcpp::traits::input_parameter< bool >::type warm_only(warm_onlySEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_fit_cpp(X, Y, group, control, n_warm, warm_only));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -128,6 +225,36 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// cycle_limit_cpp
+Rcpp::NumericVector cycle_limit_cpp(double n_exp, double n_log, int K, int n_factors, double n_dot, int len, int reps);
+RcppExport SEXP _wavevalid_cycle_limit_cpp(SEXP n_expSEXP, SEXP n_logSEXP, SEXP KSEXP, SEXP n_factorsSEXP, SEXP n_dotSEXP, SEXP lenSEXP, SEXP repsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< double >::type n_exp(n_expSEXP);
+    Rcpp::traits::input_parameter< double >::type n_log(n_logSEXP);
+    Rcpp::traits::input_parameter< int >::type K(KSEXP);
+    Rcpp::traits::input_parameter< int >::type n_factors(n_factorsSEXP);
+    Rcpp::traits::input_parameter< double >::type n_dot(n_dotSEXP);
+    Rcpp::traits::input_parameter< int >::type len(lenSEXP);
+    Rcpp::traits::input_parameter< int >::type reps(repsSEXP);
+    rcpp_result_gen = Rcpp::wrap(cycle_limit_cpp(n_exp, n_log, K, n_factors, n_dot, len, reps));
+    return rcpp_result_gen;
+END_RCPP
+}
+// bank_stage_times_cpp
+Rcpp::NumericVector bank_stage_times_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Z, int reps);
+RcppExport SEXP _wavevalid_bank_stage_times_cpp(SEXP bankSEXP, SEXP ZSEXP, SEXP repsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Z(ZSEXP);
+    Rcpp::traits::input_parameter< int >::type reps(repsSEXP);
+    rcpp_result_gen = Rcpp::wrap(bank_stage_times_cpp(bank, Z, reps));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_bank_predict_augmented_cpp
 Rcpp::List gasp_bank_predict_augmented_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Zstar, const Eigen::Map<Eigen::MatrixXd>& Wstar, const Eigen::Map<Eigen::MatrixXd>& Znew);
 RcppExport SEXP _wavevalid_gasp_bank_predict_augmented_cpp(SEXP bankSEXP, SEXP ZstarSEXP, SEXP WstarSEXP, SEXP ZnewSEXP) {
@@ -195,14 +322,23 @@ END_RCPP
 }
 
 static const R_CallMethodDef CallEntries[] = {
+    {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
+    {"_wavevalid_band_block_cpp", (DL_FUNC) &_wavevalid_band_block_cpp, 3},
+    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 11},
+    {"_wavevalid_band_outputs_cpp", (DL_FUNC) &_wavevalid_band_outputs_cpp, 3},
+    {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
+    {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
+    {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},
     {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 6},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
-    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 5},
+    {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 6},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
     {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
     {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
+    {"_wavevalid_cycle_limit_cpp", (DL_FUNC) &_wavevalid_cycle_limit_cpp, 7},
+    {"_wavevalid_bank_stage_times_cpp", (DL_FUNC) &_wavevalid_bank_stage_times_cpp, 3},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},

@@ -61,18 +61,20 @@ Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Ma
 
 // Maximum-likelihood fit of every column of Y (K x n) on the scaled design X.
 // Columns are fitted in order; the fitted parameters of the last `n_warm`
-// columns with the same `group` value are warm starts of the next one.
+// columns with the same `group` value are warm starts of the next one. With
+// `warm_only`, a column with warm starts skips the space-filling screening
+// points.
 // `control`: named list of GaspSettings fields (lb_lo, lb_hi, maxit, n_local,
 // n_screen, ftol, memory); absent fields keep their defaults.
 // [[Rcpp::export]]
 Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::MatrixXd>& Y,
-                        Rcpp::IntegerVector group, Rcpp::List control, int n_warm = 2) {
+                        Rcpp::IntegerVector group, Rcpp::List control, int n_warm = 2, bool warm_only = false) {
   const int K = X.rows(), p = X.cols(), n = Y.cols();
   if (Y.rows() != K) Rcpp::stop("Y must have one row per design row");
   if (group.size() != n) Rcpp::stop("group must have one value per column of Y");
   const wavevalid::GaspSettings set = gasp_settings(control);
   const wavevalid::GaspDist D(X);
-  const Eigen::MatrixXd pts = wavevalid::gasp_screen_points(p, set);
+  const Eigen::MatrixXd pts = wavevalid::gasp_screen_points(p, set), no_pts(2 * p, 0);
   Eigen::MatrixXd beta(n, p), alpha(n, p);
   Rcpp::NumericVector nugget(n), loglik(n);
   Rcpp::IntegerVector n_eval(n), n_grad(n);
@@ -85,7 +87,9 @@ Rcpp::List gasp_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<E
       if (group[j] == group[i] && fitted[j].size() > 0) warm.push_back(fitted[j]);
     }
     const Eigen::VectorXd y = Y.col(i);
-    wavevalid::GaspFit f = wavevalid::gasp_fit(D, y, warm, pts, set);
+    // the space-filling points are screened only for a coefficient without
+    // warm starts (the first of its group)
+    wavevalid::GaspFit f = wavevalid::gasp_fit(D, y, warm, warm.empty() || !warm_only ? pts : no_pts, set);
     if (!std::isfinite(f.loglik)) {
       Rcpp::stop("the likelihood of coefficient %d is numerically singular at every start and nugget", i + 1);
     }

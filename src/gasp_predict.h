@@ -11,6 +11,9 @@
 #include <Eigen/Dense>
 #include <vector>
 #include <cmath>
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -291,7 +294,26 @@ struct GaspBank {
     double* x = xv.data();
     const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(u);
     double q = 0.0;
-    for (int j = 0; j < K; ++j) {
+    // Four columns at a time: the rows below them are read and written once
+    // for the four updates, which each row receives in the same order as
+    // column by column (x_k - a_0 P_k0 - a_1 P_k1 - ..., left to right), so
+    // the result is the same to the bit.
+    int j = 0;
+    for (; j + 4 <= K; j += 4) {
+      const double* Pc[4];
+      double a[4];
+      for (int c = 0; c < 4; ++c) {
+        // column j + c: 1 / L(j+c, j+c), then rows j + c + 1 .. K - 1
+        Pc[c] = P;
+        P += K - (j + c);
+        a[c] = x[j + c] * Pc[c][0];
+        q += a[c] * a[c];
+        for (int r = j + c + 1; r < j + 4; ++r) x[r] -= a[c] * Pc[c][r - j - c];
+      }
+      // rows k >= j + 4: entry of column j + c at Pc[c][k - j - c]
+      forward_rows(x + j + 4, K - j - 4, a, Pc[0] + 4, Pc[1] + 3, Pc[2] + 2, Pc[3] + 1);
+    }
+    for (; j < K; ++j) {
       const double xj = x[j] * (*P++);
       q += xj * xj;
       const int len = K - j - 1;
@@ -302,6 +324,31 @@ struct GaspBank {
     }
     const double w = 1.0 - q;
     return w > 0.0 ? w : 0.0;
+  }
+
+  // x[k] = (((x[k] - a0 p0[k]) - a1 p1[k]) - a2 p2[k]) - a3 p3[k], k < len.
+  static void forward_rows(double* x, int len, const double* a, const double* p0, const double* p1,
+                           const double* p2, const double* p3) {
+    int k = 0;
+#ifdef __SSE2__
+    const __m128d a0 = _mm_set1_pd(a[0]), a1 = _mm_set1_pd(a[1]), a2 = _mm_set1_pd(a[2]), a3 = _mm_set1_pd(a[3]);
+    for (; k + 2 <= len; k += 2) {
+      __m128d v = _mm_loadu_pd(x + k);
+      v = _mm_sub_pd(v, _mm_mul_pd(a0, _mm_loadu_pd(p0 + k)));
+      v = _mm_sub_pd(v, _mm_mul_pd(a1, _mm_loadu_pd(p1 + k)));
+      v = _mm_sub_pd(v, _mm_mul_pd(a2, _mm_loadu_pd(p2 + k)));
+      v = _mm_sub_pd(v, _mm_mul_pd(a3, _mm_loadu_pd(p3 + k)));
+      _mm_storeu_pd(x + k, v);
+    }
+#endif
+    for (; k < len; ++k) {
+      double v = x[k];
+      v -= a[0] * p0[k];
+      v -= a[1] * p1[k];
+      v -= a[2] * p2[k];
+      v -= a[3] * p3[k];
+      x[k] = v;
+    }
   }
 
  public:

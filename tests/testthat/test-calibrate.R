@@ -313,7 +313,9 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
   expect_identical(f1$wb, f2$wb)
   expect_false(identical(as.matrix(f1$draws), as.matrix(f3$draws)))
   expect_false(identical(f1$draws[[1]][, "u1"], f1$draws[[2]][, "u1"]))
-  # the emulator predictions shared among threads give the same chains
+  # the emulator predictions shared among threads give the same chains (two
+  # threads even when the machine has no second core free)
+  withr::local_options(wavevalid.free_cores = 2L)
   f5 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE,
                   threads = 2)
   expect_identical(as.matrix(f1$draws), as.matrix(f5$draws))
@@ -351,6 +353,10 @@ test_that("bad input gives classed errors", {
   expect_error(calibrate(em, f, ex$iu, n_draws = -5, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, chains = 1.5, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, threads = 0, quiet = TRUE), class = "wavevalid_error_input")
+  # never more threads than free cores
+  free <- wavevalid:::free_cores()
+  expect_true(is.integer(free) && free >= 1L && free <= max(1L, parallel::detectCores(), na.rm = TRUE))
+  expect_identical(withr::with_options(list(wavevalid.free_cores = 3), wavevalid:::free_cores()), 3L)
   expect_error(calibrate(em, f, ex$iu, fix_tau2 = -1, quiet = TRUE), class = "wavevalid_error_input")
   expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")
   other_site <- wavevalid:::new_wv_field(f$t, list(rear = f$curves$site1))

@@ -1,0 +1,447 @@
+// Curve summaries of the bands (R/bands.R, R/draws.R): curve draws rebuilt
+// from coefficient draws block by block of time points, and the statistics of
+// one block (pointwise mean and spread, quantiles, each curve's largest
+// standardised distance from the mean, and the candidates for the envelope of
+// the simultaneous band).
+#include <RcppEigen.h>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <vector>
+
+// [[Rcpp::depends(RcppEigen)]]
+
+namespace {
+
+// Y (H x m) = W %*% t(Psi[cols, ]) (cols 1-based), from the columns of Psi
+// that are not zero on these time points.
+// With `add`, Y += W %*% t(Psi[cols, ]).
+void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
+                   const Rcpp::IntegerVector& cols, Eigen::Map<Eigen::MatrixXd>& Y, bool add = false) {
+  const int H = W.rows(), K = W.cols(), m = cols.size(), T = Psi.rows();
+  if (Psi.cols() != K) Rcpp::stop("W and Psi need the same number of coefficients");
+  for (int i = 0; i < m; ++i) {
+    if (cols[i] < 1 || cols[i] > T) Rcpp::stop("time point out of range");
+  }
+  std::vector<int> active;
+  active.reserve(K);
+  for (int k = 0; k < K; ++k) {
+    const double* p = Psi.data() + static_cast<std::ptrdiff_t>(k) * T;
+    for (int i = 0; i < m; ++i) {
+      if (p[cols[i] - 1] != 0.0) {
+        active.push_back(k);
+        break;
+      }
+    }
+  }
+  const int a = active.size();
+  if (a == 0 || H == 0 || m == 0) {
+    if (!add) Y.setZero();
+    return;
+  }
+  Eigen::MatrixXd Pt(a, m);
+  for (int i = 0; i < m; ++i) {
+    for (int j = 0; j < a; ++j) Pt(j, i) = Psi(cols[i] - 1, active[j]);
+  }
+  if (a == K) {
+    if (add) Y.noalias() += W * Pt; else Y.noalias() = W * Pt;
+  } else {
+    Eigen::MatrixXd Wa(H, a);
+    for (int j = 0; j < a; ++j) Wa.col(j) = W.col(active[j]);
+    if (add) Y.noalias() += Wa * Pt; else Y.noalias() = Wa * Pt;
+  }
+}
+
+}  // namespace
+
+// W %*% t(Psi[cols, ]): the curve draws (rows of W are coefficient draws) at
+// the time points `cols` (1-based). Only the columns of Psi that are not zero
+// on these time points enter the product: a wavelet of a fine level is zero
+// outside a short stretch of the record, so a block of time points meets a
+// small share of them.
+// [[Rcpp::export]]
+Rcpp::NumericMatrix basis_block_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
+                                    const Rcpp::IntegerVector& cols) {
+  Rcpp::NumericMatrix out = Rcpp::no_init_matrix(W.rows(), cols.size());
+  Eigen::Map<Eigen::MatrixXd> Y(out.begin(), W.rows(), cols.size());
+  block_product(W, Psi, cols, Y);
+  return out;
+}
+
+namespace {
+
+struct ProbPositions {
+  std::vector<int> lo, hi, need;  // 1-based order statistics; need: both, ascending, unique
+  std::vector<double> f;
+  ProbPositions(const Rcpp::NumericVector& probs, int H) : lo(probs.size()), hi(probs.size()), f(probs.size()) {
+    for (int j = 0; j < probs.size(); ++j) {
+      const double pos = 1 + (H - 1) * probs[j];
+      lo[j] = static_cast<int>(std::floor(pos));
+      hi[j] = static_cast<int>(std::ceil(pos));
+      f[j] = pos - lo[j];
+    }
+    need = lo;
+    need.insert(need.end(), hi.begin(), hi.end());
+    std::sort(need.begin(), need.end());
+    need.erase(std::unique(need.begin(), need.end()), need.end());
+  }
+};
+
+typedef std::pair<double, int> ValueDraw;
+
+bool value_less(const ValueDraw& a, const ValueDraw& b) { return a.first < b.first; }
+
+bool value_greater(const ValueDraw& a, const ValueDraw& b) { return a.first > b.first; }
+
+// The k draws of y (length H) that come first by `before` (value_less: the
+// smallest; value_greater: the largest) into sel[0 .. k), in no particular
+// order (sel[k - 1] the k-th). A threshold from a strided sample of the
+// values keeps the draws that may be among them (one pass without branches),
+// and the selection is made among those; when the threshold keeps fewer than
+// k (it is set with a wide margin), among all draws.
+template <class Before>
+void select_first(const double* y, int H, int k, Before before, std::vector<ValueDraw>& sel,
+                  std::vector<double>& sample) {
+  sel.resize(H);
+  const bool low = before(ValueDraw(0.0, 0), ValueDraw(1.0, 0));
+  int n = H;
+  const int S = std::min(H, 256);
+  const double p = static_cast<double>(k) / H;
+  const int r = static_cast<int>(std::ceil(S * p + 4.0 * std::sqrt(S * p * (1 - p)) + 4.0));
+  if (H >= 1024 && r < S - 1) {
+    sample.resize(S);
+    for (int i = 0; i < S; ++i) sample[i] = y[static_cast<std::ptrdiff_t>(i) * H / S];
+    double thr;
+    if (low) {
+      std::nth_element(sample.begin(), sample.begin() + r, sample.end());
+      thr = sample[r];
+    } else {
+      std::nth_element(sample.begin(), sample.begin() + r, sample.end(), std::greater<double>());
+      thr = sample[r];
+    }
+    int c = 0;
+    if (low) {
+      for (int h = 0; h < H; ++h) {
+        sel[c] = ValueDraw(y[h], h);
+        c += y[h] <= thr;
+      }
+    } else {
+      for (int h = 0; h < H; ++h) {
+        sel[c] = ValueDraw(y[h], h);
+        c += y[h] >= thr;
+      }
+    }
+    n = c >= k ? c : H;
+    if (c < k) {
+      for (int h = 0; h < H; ++h) sel[h] = ValueDraw(y[h], h);
+    }
+  } else {
+    for (int h = 0; h < H; ++h) sel[h] = ValueDraw(y[h], h);
+  }
+  if (k < n) std::nth_element(sel.begin(), sel.begin() + (k - 1), sel.begin() + n, before);
+}
+
+// Statistics of one block of curve draws (see band_block_cpp()), Y column-major
+// H x m.
+// Where block_stats() writes: the outputs of all time points (mean, ss:
+// length n; q: np x n; lo_val, lo_idx, hi_val, hi_idx: n_cand x n, column
+// major), the block's first time point at column `off`.
+struct BlockOut {
+  double *mean, *ss, *q, *lo_val, *hi_val;
+  int *lo_idx, *hi_idx;
+  int off;
+};
+
+Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand,
+                       const BlockOut& o, bool scores = true) {
+  if (H < 1) Rcpp::stop("no curve draws");
+  n_cand = std::max(0, std::min(n_cand, H));
+  const int np = probs.size();
+  const ProbPositions pp(probs, H);
+  Rcpp::NumericVector zmax(H, R_NegInf);
+  auto mean = [&](int j) -> double& { return o.mean[o.off + j]; };
+  auto ss = [&](int j) -> double& { return o.ss[o.off + j]; };
+  auto q = [&](int p, int j) -> double& { return o.q[static_cast<std::ptrdiff_t>(o.off + j) * np + p]; };
+  auto lo_val = [&](int k, int j) -> double& { return o.lo_val[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto hi_val = [&](int k, int j) -> double& { return o.hi_val[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto lo_idx = [&](int k, int j) -> int& { return o.lo_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  auto hi_idx = [&](int k, int j) -> int& { return o.hi_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
+  double smin = R_PosInf;
+  std::vector<double> v(H), sample;
+  std::vector<ValueDraw> pv(n_cand > 0 ? H : 0), sel_lo, sel_hi;
+  // The order statistics at the low and high ends (quantiles and, with
+  // candidates, the n_cand smallest and largest) are selected among the
+  // k_lo smallest and the k_hi largest draws when these are few; otherwise
+  // among all draws.
+  int k_lo = n_cand, k_hi = n_cand;
+  for (int k : pp.need) {
+    if (2 * k <= H) k_lo = std::max(k_lo, k);
+    else k_hi = std::max(k_hi, H - k + 1);
+  }
+  const bool ends = 4 * (k_lo + k_hi) <= H;
+  const bool split = !ends && n_cand > 0 && 2 * n_cand <= H;
+  const double denom = std::max(H - 1, 1);
+  for (int j = 0; j < m; ++j) {
+    const double* y = Y + static_cast<std::ptrdiff_t>(j) * H;
+    // as colMeans() and colSums(): sums in long double
+    long double sum = 0;
+    for (int h = 0; h < H; ++h) {
+      if (std::isnan(y[h])) Rcpp::stop("the curve draws hold NaN");
+      sum += y[h];
+    }
+    sum /= H;
+    const double c = static_cast<double>(sum);
+    long double sq = 0;
+    for (int h = 0; h < H; ++h) {
+      const double d = y[h] - c;
+      sq += d * d;
+    }
+    mean(j) = c;
+    ss(j) = static_cast<double>(sq);
+    const double s = std::sqrt(ss(j) / denom);
+    smin = std::min(smin, s);
+    if (scores && s > 0) {
+      double* zm = zmax.begin();
+      for (int h = 0; h < H; ++h) {
+        const double z = std::fabs((y[h] - c) / s);
+        if (z > zm[h]) zm[h] = z;
+      }
+    }
+    if (ends) {
+      if (k_lo > 0) select_first(y, H, k_lo, value_less, sel_lo, sample);
+      if (k_hi > 0) select_first(y, H, k_hi, value_greater, sel_hi, sample);
+      std::vector<double> os(pp.need.size());
+      for (std::size_t i = 0; i < pp.need.size(); ++i) {
+        const int k = pp.need[i];
+        if (2 * k <= H) {
+          std::nth_element(sel_lo.begin(), sel_lo.begin() + (k - 1), sel_lo.begin() + k_lo, value_less);
+          os[i] = sel_lo[k - 1].first;
+        } else {
+          const int r = H - k;  // rank from the top, 0-based
+          std::nth_element(sel_hi.begin(), sel_hi.begin() + r, sel_hi.begin() + k_hi, value_greater);
+          os[i] = sel_hi[r].first;
+        }
+      }
+      auto stat = [&](int k) {
+        return os[std::lower_bound(pp.need.begin(), pp.need.end(), k) - pp.need.begin()];
+      };
+      for (int p = 0; p < np; ++p) q(p, j) = stat(pp.lo[p]) * (1 - pp.f[p]) + stat(pp.hi[p]) * pp.f[p];
+      if (n_cand > 0) {
+        if (n_cand < k_lo) std::nth_element(sel_lo.begin(), sel_lo.begin() + (n_cand - 1), sel_lo.begin() + k_lo, value_less);
+        if (n_cand < k_hi) std::nth_element(sel_hi.begin(), sel_hi.begin() + (n_cand - 1), sel_hi.begin() + k_hi, value_greater);
+        for (int k = 0; k < n_cand; ++k) {
+          lo_val(k, j) = sel_lo[k].first;
+          lo_idx(k, j) = sel_lo[k].second + 1;
+          hi_val(k, j) = sel_hi[k].first;
+          hi_idx(k, j) = sel_hi[k].second + 1;
+        }
+      }
+    } else if (split) {
+      for (int h = 0; h < H; ++h) pv[h] = ValueDraw(y[h], h);
+      std::nth_element(pv.begin(), pv.begin() + (n_cand - 1), pv.end(), value_less);
+      if (H - n_cand > n_cand) std::nth_element(pv.begin() + n_cand, pv.begin() + (H - n_cand), pv.end(), value_less);
+      // bounds of the range of ranks holding order statistic k (0-based)
+      int start = 0;
+      for (int k1 : pp.need) {
+        const int k = k1 - 1;
+        const int lo_r = k < n_cand ? 0 : (k < H - n_cand ? n_cand : H - n_cand);
+        const int hi_r = k < n_cand ? n_cand : (k < H - n_cand ? H - n_cand : H);
+        const int from = std::max(start, lo_r);
+        if (from <= k) std::nth_element(pv.begin() + from, pv.begin() + k, pv.begin() + hi_r, value_less);
+        start = k + 1;
+      }
+      for (int p = 0; p < np; ++p)
+        q(p, j) = pv[pp.lo[p] - 1].first * (1 - pp.f[p]) + pv[pp.hi[p] - 1].first * pp.f[p];
+      for (int k = 0; k < n_cand; ++k) {
+        lo_val(k, j) = pv[k].first;
+        lo_idx(k, j) = pv[k].second + 1;
+        hi_val(k, j) = pv[H - n_cand + k].first;
+        hi_idx(k, j) = pv[H - n_cand + k].second + 1;
+      }
+    } else {
+      if (np > 0) {
+        std::copy(y, y + H, v.begin());
+        auto start = v.begin();
+        for (int k : pp.need) {
+          std::nth_element(start, v.begin() + (k - 1), v.end());
+          start = v.begin() + k;
+        }
+        for (int p = 0; p < np; ++p) q(p, j) = v[pp.lo[p] - 1] * (1 - pp.f[p]) + v[pp.hi[p] - 1] * pp.f[p];
+      }
+      if (n_cand > 0) {
+        for (int h = 0; h < H; ++h) pv[h] = ValueDraw(y[h], h);
+        if (n_cand < H) std::nth_element(pv.begin(), pv.begin() + (n_cand - 1), pv.end(), value_less);
+        for (int k = 0; k < n_cand; ++k) {
+          lo_val(k, j) = pv[k].first;
+          lo_idx(k, j) = pv[k].second + 1;
+        }
+        if (n_cand < H) std::nth_element(pv.begin(), pv.begin() + (H - n_cand), pv.end(), value_less);
+        for (int k = 0; k < n_cand; ++k) {
+          hi_val(k, j) = pv[H - n_cand + k].first;
+          hi_idx(k, j) = pv[H - n_cand + k].second + 1;
+        }
+      }
+    }
+    if (j % 256 == 255) Rcpp::checkUserInterrupt();
+  }
+  return Rcpp::List::create(Rcpp::Named("zmax") = zmax, Rcpp::Named("smin") = smin);
+}
+
+// The buffer of the blocks rebuilt by band_block_into_cpp(), kept between
+// calls.
+std::vector<double>& block_buffer() {
+  static std::vector<double> buf;
+  return buf;
+}
+
+}  // namespace
+
+// Statistics of one block of curve draws Y (H draws x m time points):
+// `mean` and `ss` (sum of squared deviations from it) at each time point,
+// as colMeans() and colSums() compute them; the type-7 quantiles `q` at
+// `probs`; `zmax`, each draw's largest |Y - mean| / sd over the block's time
+// points whose sd is not zero (sd = sqrt(ss / (H - 1))), and `smin`, the
+// smallest sd; with n_cand > 0, the n_cand smallest and largest values at
+// each time point and their draws (1-based): `lo_val`, `lo_idx`, `hi_val`,
+// `hi_idx` (n_cand x m), enough for the envelope of all draws but at most
+// n_cand - 1 of them.
+// [[Rcpp::export]]
+Rcpp::List band_block_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& probs, int n_cand) {
+  const int H = Y.nrow(), m = Y.ncol();
+  n_cand = std::max(0, std::min(n_cand, H));
+  Rcpp::NumericVector mean(m), ss(m);
+  Rcpp::NumericMatrix q(probs.size(), m), lo_val(n_cand, m), hi_val(n_cand, m);
+  Rcpp::IntegerMatrix lo_idx(n_cand, m), hi_idx(n_cand, m);
+  const BlockOut o{mean.begin(), ss.begin(), q.begin(), lo_val.begin(), hi_val.begin(), lo_idx.begin(), hi_idx.begin(), 0};
+  Rcpp::List st = block_stats(Y.begin(), H, m, probs, n_cand, o);
+  return Rcpp::List::create(Rcpp::Named("mean") = mean, Rcpp::Named("ss") = ss, Rcpp::Named("q") = q,
+                            Rcpp::Named("zmax") = st["zmax"], Rcpp::Named("smin") = st["smin"],
+                            Rcpp::Named("lo_val") = lo_val, Rcpp::Named("lo_idx") = lo_idx,
+                            Rcpp::Named("hi_val") = hi_val, Rcpp::Named("hi_idx") = hi_idx);
+}
+
+namespace {
+
+// The outputs `out` (a list made by curve_bands(): mean, ss, q, lo_val,
+// lo_idx, hi_val, hi_idx for all n time points) as a BlockOut at column
+// `off`, after checking their sizes.
+BlockOut block_out(const Rcpp::List& out, int off, int m, int np, int n_cand) {
+  Rcpp::NumericVector mean = out["mean"], ss = out["ss"];
+  Rcpp::NumericMatrix q = out["q"], lo_val = out["lo_val"], hi_val = out["hi_val"];
+  Rcpp::IntegerMatrix lo_idx = out["lo_idx"], hi_idx = out["hi_idx"];
+  const int n = mean.size();
+  if (off < 0 || off + m > n || ss.size() != n || q.nrow() != np || q.ncol() != n || lo_val.nrow() != n_cand ||
+      lo_val.ncol() != n || hi_val.nrow() != n_cand || hi_val.ncol() != n || lo_idx.nrow() != n_cand ||
+      lo_idx.ncol() != n || hi_idx.nrow() != n_cand || hi_idx.ncol() != n) {
+    Rcpp::stop("the outputs of the block statistics have the wrong sizes");
+  }
+  return BlockOut{mean.begin(), ss.begin(), q.begin(), lo_val.begin(), hi_val.begin(), lo_idx.begin(),
+                  hi_idx.begin(), off};
+}
+
+}  // namespace
+
+// As band_block_cpp(), written into `out` (see block_out()) at the columns
+// of the block, which starts at time point off + 1; returns zmax and smin.
+// The block is Y, or, when Y has no rows, W %*% t(B[cols, ]) (plus
+// W2 %*% t(B2[cols, ]) when W2 has rows) + offset[cols] (each draw), rebuilt
+// in a buffer kept between calls (see basis_block_cpp()). `out`'s vectors are written in place: curve_bands()
+// makes them for this alone.
+// [[Rcpp::export]]
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W,
+                               const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2,
+                               const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols,
+                               const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand,
+                               const Rcpp::List& out, bool scores = true) {
+  const int m = cols.size();
+  if (m < 1) Rcpp::stop("an empty block");
+  for (int i = 1; i < m; ++i) {
+    if (cols[i] != cols[0] + i) Rcpp::stop("the time points of a block must be consecutive");
+  }
+  const int off = cols[0] - 1;
+  if (Y.nrow() > 0) {
+    if (Y.ncol() != m) Rcpp::stop("one column of Y per time point");
+    const int nc = std::max(0, std::min(n_cand, static_cast<int>(Y.nrow())));
+    return block_stats(Y.begin(), Y.nrow(), m, probs, nc, block_out(out, off, m, probs.size(), nc), scores);
+  }
+  const int H = W.rows();
+  const int nc = std::max(0, std::min(n_cand, H));
+  const BlockOut o = block_out(out, off, m, probs.size(), nc);
+  std::vector<double>& buf = block_buffer();
+  buf.resize(static_cast<std::size_t>(H) * m);
+  Eigen::Map<Eigen::MatrixXd> Yb(buf.data(), H, m);
+  block_product(W, B, cols, Yb);
+  if (W2.rows() > 0) {
+    if (W2.rows() != H || B2.rows() != B.rows()) Rcpp::stop("the second term has the wrong sizes");
+    block_product(W2, B2, cols, Yb, true);
+  }
+  if (offset.size() > 0) {
+    if (offset.size() != B.rows()) Rcpp::stop("one offset per time point");
+    for (int i = 0; i < m; ++i) Yb.col(i).array() += offset[cols[i] - 1];
+  }
+  return block_stats(buf.data(), H, m, probs, nc, o, scores);
+}
+
+// The outputs of band_block_into_cpp() for n time points, np quantiles and
+// nc candidates at each end, not initialised (the blocks fill every column).
+// [[Rcpp::export]]
+Rcpp::List band_outputs_cpp(int n, int np, int nc) {
+  return Rcpp::List::create(
+      Rcpp::Named("mean") = Rcpp::NumericVector(Rcpp::no_init(n)),
+      Rcpp::Named("ss") = Rcpp::NumericVector(Rcpp::no_init(n)),
+      Rcpp::Named("q") = Rcpp::NumericMatrix(Rcpp::no_init(np, n)),
+      Rcpp::Named("lo_val") = Rcpp::NumericMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("lo_idx") = Rcpp::IntegerMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("hi_val") = Rcpp::NumericMatrix(Rcpp::no_init(nc, n)),
+      Rcpp::Named("hi_idx") = Rcpp::IntegerMatrix(Rcpp::no_init(nc, n)));
+}
+
+// Frees the buffer of band_block_into_cpp().
+// [[Rcpp::export]]
+void band_block_release_cpp() {
+  std::vector<double>().swap(block_buffer());
+}
+
+// Each draw's largest |Y - centre| / s over the block's time points (s > 0).
+// [[Rcpp::export]]
+Rcpp::NumericVector band_score_cpp(const Rcpp::NumericMatrix& Y, const Rcpp::NumericVector& centre,
+                                   const Rcpp::NumericVector& s) {
+  const int H = Y.nrow(), m = Y.ncol();
+  if (centre.size() != m || s.size() != m) Rcpp::stop("one centre and spread per time point");
+  Rcpp::NumericVector out(H, R_NegInf);
+  for (int j = 0; j < m; ++j) {
+    const double* y = &Y(0, j);
+    for (int h = 0; h < H; ++h) {
+      const double z = std::fabs((y[h] - centre[j]) / s[j]);
+      if (z > out[h]) out[h] = z;
+    }
+  }
+  return out;
+}
+
+// Envelope (lower: the minimum, else the maximum) at each time point of the
+// draws not `dropped`, from candidate values and their draws (as
+// band_block_cpp() gives them) or, with idx empty, from a block of all draws.
+// [[Rcpp::export]]
+Rcpp::NumericVector band_envelope_cpp(const Rcpp::NumericMatrix& val, const Rcpp::IntegerMatrix& idx,
+                                      const Rcpp::LogicalVector& dropped, bool lower) {
+  const int n = val.nrow(), m = val.ncol();
+  const bool all = idx.nrow() == 0;
+  if (!all && (idx.nrow() != n || idx.ncol() != m)) Rcpp::stop("one draw per candidate value");
+  if (all && dropped.size() != n) Rcpp::stop("one flag per draw");
+  Rcpp::NumericVector out(m, NA_REAL);
+  for (int j = 0; j < m; ++j) {
+    bool found = false;
+    double e = 0;
+    for (int k = 0; k < n; ++k) {
+      const int h = all ? k : idx(k, j) - 1;
+      if (h < 0 || h >= dropped.size()) Rcpp::stop("draw out of range");
+      if (dropped[h]) continue;
+      const double x = val(k, j);
+      if (!found || (lower ? x < e : x > e)) e = x;
+      found = true;
+    }
+    if (found) out[j] = e;
+  }
+  return out;
+}
