@@ -49,9 +49,19 @@
 #' model, the weighing of a mechanism against itself switched off rests on
 #' the emulators' extrapolation to the strength's lower bound, and on the
 #' dosing test bed a mechanism was then claimed with nothing hidden at 1 of
-#' 3 seeds (0.63), against none with them. What the protocol finds on both
-#' test beds, mechanism by mechanism, is in the package's source repository
-#' (`studies/README.md`, "diagnosis_defaults.R").
+#' 3 seeds (0.63), against none with them.
+#'
+#' With these defaults on the dosing test bed (seeds 1-5), the re-validated
+#' models named a hidden saturable elimination, enterohepatic recycling or
+#' induction at 0.94 or more in all 15 cases and claimed nothing with nothing
+#' hidden; a hidden absorption lag was aligned away by the registration.
+#' Adding the named mechanism cut the bias by 52-95\%, and the error on the
+#' held-out patient group fell in 10 of the 15 cases. On the suspension test
+#' bed with nothing hidden (seeds 1, 2 and 4) no mechanism was claimed, but
+#' `where_fails()` left localised intervals of 6 to 15 grid steps and, at
+#' one seed, a credible record-wide bias. The figures by mechanism are in the
+#' package's source repository (`studies/README.md`,
+#' "diagnosis_defaults.R").
 #'
 #' @inheritParams fit_emulators
 #' @inheritParams calibrate
