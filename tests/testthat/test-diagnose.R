@@ -357,10 +357,9 @@ test_that("on three test beds, versions of each mechanism's signature find the h
 # Whether the flags cover where the mechanism acts, and whether they lie
 # there. With the method's prior (one bias variance per level) the calibration
 # of seed 1 trades the events against the mean of the record when a bump stop
-# or a tire lift-off is hidden: most of the bias energy is at level 0, the
-# whole record is flagged, and the flags cover where the mechanism acts only
-# by covering everything (the share of the flags where it acts is below the
-# share of the grid where it acts). With levels 0 to 3 pooled
+# or a tire lift-off is hidden; where_fails() reports that offset as the
+# record-wide part, and its localised intervals cover more than a fifth of
+# where the mechanism acts at both sites. With levels 0 to 3 pooled
 # (calibrate(pool_levels = 0:3)) the offset goes and the flags lie where the
 # mechanism acts: at 4 to 15 times the rate of flags thrown at random for the
 # bump stop and the lift-off. The strut friction acts over more than half the
@@ -386,10 +385,6 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts, and o
       expect_true(all(on > attr(on, "acting")), label = lab)
     } else {
       expect_true(all(on > 3 * attr(on, "acting")), label = lab)
-      lv <- attr(d$fails, "levels")
-      expect_true(all(lv$share[lv$level == 0] > 0.5), label = h)
-      unpooled <- flagged_share(d$fails, effect, of = "flags")
-      expect_true(all(unpooled < attr(unpooled, "acting")), label = h)
     }
   }
 })
