@@ -1,0 +1,157 @@
+# print, summary, autoplot and plot methods of the wv_fails table of
+# where_fails() (autoplot() is documented with where_fails()).
+
+#' @export
+print.wv_fails <- function(x, ...) {
+  lev <- attr(x, "level")
+  tol <- attr(x, "tolerance")
+  what <- if (is.null(tol) || all(tol == 0)) {
+    "excludes zero"
+  } else if (length(unique(tol)) == 1L) {
+    sprintf("lies beyond the tolerance %s", format(signif(tol[[1]], 3)))
+  } else {
+    sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
+  }
+  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the %sbias %s",
+                        nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev,
+                        if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
+                        if (identical(attr(x, "scales"), "split")) "localised " else "", what))
+  if (nrow(x)) {
+    df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
+                                      "share_of_signal", "sign")], stringsAsFactors = FALSE)
+    num <- vapply(df, is.numeric, logical(1))
+    df[num] <- lapply(df[num], signif, digits = 3)
+    print(utils::head(df, 10), row.names = FALSE)
+    if (nrow(df) > 10) cli::cat_line(sprintf("... and %d more", nrow(df) - 10))
+  }
+  rw <- attr(x, "record_wide")
+  if (!is.null(rw)) {
+    txt <- vapply(seq_len(nrow(rw)), function(i) {
+      r <- rw[i, ]
+      sprintf("%s: mean %s [%s, %s], %s", r$site, format(signif(r$offset, 3)), format(signif(r$offset_lower, 3)),
+              format(signif(r$offset_upper, 3)),
+              if (r$credible) sprintf("credibly at least %s at t = %s", format(signif(r$credible_bias, 3)),
+                                      format(signif(r$t, 4)))
+              else "not credibly non-zero")
+    }, character(1))
+    cli::cat_line(sprintf("Record-wide bias (levels %s, an offset or a slow trend; the intervals above are what is left): ",
+                          rw$levels[1]), paste(txt, collapse = "; "))
+  }
+  levs <- attr(x, "levels")
+  if (!is.null(levs)) {
+    top <- levs[order(-levs$energy), ][seq_len(min(3, nrow(levs))), ]
+    cli::cat_line("Bias energy is highest at wavelet level",
+                  if (nrow(top) > 1) "s " else " ",
+                  paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share), collapse = ", "))
+    off <- levs$site[levs$level == 0 & levs$significant > 0]
+    if (length(off) && !isTRUE(attr(x, "pooled_level0"))) {
+      cli::cat_line("The mean of the record (level 0) is credibly off at ", paste(off, collapse = ", "),
+                    ". One coefficient barely informs its bias variance, so the calibrated inputs may trade",
+                    " that offset against the events; compare with calibrate(pool_levels = 0:3)")
+    }
+  }
+  cr <- attr(x, "credible")
+  if (!is.null(cr) && any(cr$credible_bias > 0)) {
+    k <- which.max(cr$credible_bias)
+    cli::cat_line(sprintf("The bias is credibly at least %s (%s, t = %s); a tolerance above that flags nothing",
+                          format(signif(cr$credible_bias[k], 3)), cr$site[k], format(signif(cr$t[k], 4))))
+  }
+  bd <- attr(x, "boundary")
+  if (!is.null(bd) && any(bd$flagged)) {
+    cli::cat_line("Posterior piled up at a bound of its range: ", paste(bd$input[bd$flagged], collapse = ", "),
+                  " (an input acting as a tuning knob?)")
+  }
+  invisible(x)
+}
+
+#' @export
+summary.wv_fails <- function(object, ...) {
+  structure(list(
+    n = nrow(object),
+    by_site = if (nrow(object)) tapply(object$integrated_abs_bias, object$site, sum) else numeric(),
+    total_length = sum(object$end - object$start),
+    levels = attr(object, "levels"),
+    boundary = attr(object, "boundary"),
+    credible = attr(object, "credible")
+  ), class = "summary_wv_fails")
+}
+
+#' @export
+print.summary_wv_fails <- function(x, ...) {
+  cli::cat_line(sprintf("%d failure intervals covering %.3g time units", x$n, x$total_length))
+  if (length(x$by_site)) {
+    cli::cat_line("Integrated absolute bias by site: ",
+                  paste(sprintf("%s %.3g", names(x$by_site), x$by_site), collapse = ", "))
+  }
+  if (!is.null(x$credible)) {
+    cli::cat_line("Largest credible bias by site: ",
+                  paste(sprintf("%s %.3g (t = %.4g)", x$credible$site, x$credible$credible_bias, x$credible$t),
+                        collapse = ", "))
+  }
+  cli::cat_line("Bias energy by wavelet level:")
+  lv <- x$levels
+  lv$share <- round(lv$share, 3)
+  lv$energy <- signif(lv$energy, 3)
+  print(lv, row.names = FALSE)
+  invisible(x)
+}
+
+#' @rdname where_fails
+#' @param object A `wv_fails` result.
+#' @param type `"bias"` (the bias band with the failure intervals shaded) or
+#'   `"levels"` (bias energy by wavelet level).
+#' @export
+autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
+  type <- check_choice(type)
+  if (type == "levels") {
+    lv <- attr(object, "levels")
+    return(ggplot2::ggplot(lv, ggplot2::aes(factor(.data$level), .data$share)) +
+      ggplot2::geom_col(fill = "grey40") +
+      ggplot2::facet_wrap(~site) +
+      ggplot2::labs(x = "wavelet level (coarse to fine)", y = "share of bias energy",
+                    title = "Which time scales carry the bias") +
+      ggplot2::theme_bw())
+  }
+  b <- band_limits(attr(object, "bias"), attr(object, "band") %||% "simultaneous")
+  regions <- as.data.frame(unclass(object)[c("site", "start", "end")])
+  split <- identical(attr(object, "scales"), "split") && !is.null(attr(object, "bias_whole"))
+  if (split) {
+    rw <- attr(object, "record_wide")
+    b$part <- "localised"
+    whole <- band_limits(attr(object, "bias_whole"), attr(object, "band") %||% "simultaneous")
+    whole$part <- "whole bias"
+    b <- rbind(b, whole)
+    b$part <- factor(b$part, levels = c("whole bias", "localised"))
+    if (nrow(regions)) regions$part <- factor("localised", levels = levels(b$part))
+  }
+  p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
+  if (nrow(regions)) {
+    p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                fill = "#D55E00", alpha = 0.25)
+  }
+  tol <- attr(object, "tolerance")
+  if (!is.null(tol) && any(tol > 0)) {
+    lines <- data.frame(site = rep(names(tol), 2), y = c(tol, -tol))
+    p <- p + ggplot2::geom_hline(data = lines, ggplot2::aes(yintercept = .data$y), colour = "#D55E00",
+                                 linetype = 3)
+  }
+  p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
+    (if (split) ggplot2::facet_grid(part ~ site, scales = "free_y") else
+      ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y")) +
+    ggplot2::labs(x = "time", y = "bias",
+                  title = paste0("Where the model fails: intervals where the ", if (split) "localised ",
+                                 "bias band ", if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero"),
+                  subtitle = if (split) paste0("The whole bias above; below, what is left without the record-wide ",
+                                               "levels (", attr(object, "record_wide")$levels[1], ")")) +
+    ggplot2::theme_bw()
+}
+
+#' @export
+plot.wv_fails <- function(x, ...) {
+  print(autoplot(x, ...))
+  invisible(x)
+}
+
