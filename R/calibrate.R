@@ -202,6 +202,15 @@
 #'   suspension test bed with ten inputs, chains started from 2000 draws found
 #'   the mode near the true inputs that 200 draws missed). Each draw costs
 #'   one emulator prediction. See the section Proposals.
+#' @param experiments `NULL` (one experiment: `field`) or a named list of
+#'   further experiments of the same unit, each made with [experiment()]: its
+#'   field data and either the known change of some inputs (the base
+#'   emulators then serve at the changed inputs) or its own emulators. See the
+#'   section Several experiments.
+#' @param level_variances With `experiments`: `"shared"` (default) gives a
+#'   resolution level one bias variance across the experiments (each
+#'   experiment keeps its own bias coefficients); `"per_experiment"` gives
+#'   each experiment its own.
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
@@ -227,6 +236,17 @@
 #'   `NULL`), `noise_setting` (by site, how the field noise was set) and
 #'   `noise_prior` (the [noise_prior()] of the learned noise with its scale by
 #'   site, or `NULL`).
+#' @section Several experiments:
+#' Experiments of one unit (a test course, the same course with an added
+#' mass) share the calibration inputs and the manufacturing variations; the
+#' likelihood is the product of the experiments' likelihoods. Site `s` of
+#' experiment `e` becomes site `"e/s"` of the fit, with its own field noise
+#' and its own bias coefficients, its emulators evaluated at the inputs plus
+#' the experiment's change. The bias, reality and model bands, [where_fails()]
+#' and [predict()] then report every experiment's sites. The bias is one
+#' function per experiment; one bias shared by the experiments is not
+#' offered. With one experiment the fit is the same as without `experiments`
+#' (same seed, same draws).
 #' @section Registration:
 #' The field curves are registered to the mean of the model runs, whose
 #' landmarks sit where the average run puts them. Near a sharp event a
@@ -250,7 +270,8 @@
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
                       burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
-                      inform_levels = NULL, temper = 1, n_search = 200,
+                      inform_levels = NULL, temper = 1, n_search = 200, experiments = NULL,
+                      level_variances = c("shared", "per_experiment"),
                       threads = getOption("wavevalid.threads", 1L), quiet = getOption("wavevalid.quiet", FALSE), ...) {
   check_dots_none(...)
   check_class(emulators, "wv_emulators")
@@ -277,8 +298,16 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(n_search, min = 0, max = 1e7, integer = TRUE)
   if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
   check_sigma2(sigma2, names(field$curves))
+  level_variances <- check_choice(level_variances)
+  experiments <- check_experiments(experiments, emulators, field, iu)
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
+  if (!is.null(experiments)) {
+    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, level_variances)
+    parts <- experiment_fit_parts(spec, emulators, field, experiments)
+    emulators <- parts$emulators
+    field <- parts$field
+  }
   tau <- resolve_fix_tau2(fix_tau2, spec$groups)
   spec$informs <- informing_groups(inform_levels, spec$basis$level, spec$bias_group, spec$groups)
   spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
@@ -293,7 +322,9 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                                       inform_levels = spec$inform_levels, temper = temper,
                                       n_search = n_search),
                       seed = seed)
+  if (!is.null(experiments)) fit$settings$level_variances <- level_variances
   warn_fit_flags(fit)
+  warn_experiment_extrapolation(fit)
   fit
 }
 
@@ -411,6 +442,10 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     seed = seed, settings = settings, registration_var = spec$extra,
     noise_setting = spec$noise_setting, noise_prior = spec$noise_prior
   ))
+  if (!is.null(spec$experiments)) {
+    fit$experiments <- spec$experiments
+    fit$shift <- spec$shift
+  }
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat
   fit$ess <- diag$ess

@@ -5,7 +5,8 @@
 # Pure-model curve of eq. (24) at one site: Psi m(z_hat).
 pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
   bank <- fit$emulators$banks[[site]]
-  m <- gasp_bank_predict_cpp(bank, matrix(z[fit$inputs], nrow = 1L))$mean
+  m <- gasp_bank_predict_cpp(bank, shift_inputs(fit, site, matrix(z[fit$inputs], nrow = 1L,
+                                                                    dimnames = list(NULL, fit$inputs))))$mean
   drop(fit$basis$Psi %*% t(m))
 }
 

@@ -332,7 +332,7 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
     zm[p] <- zm[p] - h
     Z <- rbind(zp, zm)
     unlist(lapply(sites, function(s) {
-      pr <- gasp_bank_predict_cpp(em$banks[[s]], Z)$mean
+      pr <- gasp_bank_predict_cpp(em$banks[[s]], shift_inputs(fit, s, Z))$mean
       (pr[1, ] - pr[2, ]) / (2 * h) * width[p]
     }))
   }, numeric(sum(vapply(fit$wb, ncol, 1L))))
@@ -387,7 +387,7 @@ coefficient_segments <- function(fit, segments) {
 residual_regression_data <- function(fit, draws, keep) {
   Z <- draws[, fit$inputs, drop = FALSE]
   parts <- lapply(names(fit$wb), function(s) {
-    pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
+    pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], shift_inputs(fit, s, Z))
     list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
          v = pr$var + field_mean_variance(fit, s, keep))
   })

@@ -129,7 +129,7 @@ refit_loglik <- function(rf, Z, h, informing) {
   for (s in names(rf$wb)) {
     g <- rf$bias_group[[s]]
     use <- g %in% informing
-    pr <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], Z)
+    pr <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], shift_inputs(rf, s, Z))
     e <- drop(field_mean_variance(rf, s, h)) + D[h, tau2_columns(rf, s)]
     tot <- sweep(pr$var, 2L, e, `+`)[, use, drop = FALSE]
     r2 <- sweep(pr$mean, 2L, rf$wbar[[s]])[, use, drop = FALSE]^2
@@ -268,7 +268,7 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
       k <- lead[i]
       rf <- refits[[k]]
       z <- at[[i]][1, ]
-      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], at[[i]])$mean
+      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], shift_inputs(rf, s, at[[i]]))$mean
       v <- drop(fit$basis$Psi %*% (m[1, ] - m[2, ]))
       out <- rbind(out, data.frame(site = s, t = fit$basis$t,
                                    curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),

@@ -78,7 +78,9 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   noise <- noise %||% (type != "reality")
   seed <- resolve_seed(seed)
   em <- object$emulators
-  sites <- names(object$wb)
+  # the other experiments' sites for the fit's own conditions only; a new
+  # load, vehicle or nominal changes the base experiment
+  sites <- if (type %in% c("reality", "field_run")) names(object$wb) else base_sites(object)
   # the draws of the set-up (prior draws of the variations, emulators of new
   # runs) come from their own stream, fixed by the seed
   setup_seed <- if (seed < .Machine$integer.max) seed + 1L else 1L
@@ -209,7 +211,7 @@ check_new_runs <- function(fit, new_runs, call = rlang::caller_env()) {
       "x" = if (length(miss)) "Missing input{?s}: {.val {miss}}."
     ), call = call)
   }
-  miss_site <- setdiff(names(fit$wb), names(new_runs$curves))
+  miss_site <- setdiff(base_sites(fit), names(new_runs$curves))
   if (length(miss_site)) {
     wv_abort("{.arg new_runs} has no curves for site{?s} {.val {miss_site}}.", call = call)
   }
@@ -224,7 +226,7 @@ added_load_difference <- function(fit, new_runs, call = rlang::caller_env()) {
   }
   delta <- unlist(new_runs$design[2, ]) - unlist(new_runs$design[1, ])
   list(
-    D = lapply(new_runs$curves[names(fit$wb)], function(m) m[2, ] - m[1, ]),
+    D = lapply(new_runs$curves[base_sites(fit)], function(m) m[2, ] - m[1, ]),
     delta = delta[delta != 0]
   )
 }
@@ -242,11 +244,12 @@ added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
   post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
   moved <- post
   for (p in names(delta)) moved[, p] <- moved[, p] + delta[[p]]
-  Dw <- lapply(names(fit$wb), function(s) {
+  Dw <- lapply(base_sites(fit), function(s) {
     bank <- fit$emulators$banks[[s]]
-    gasp_bank_predict_cpp(bank, moved)$mean - gasp_bank_predict_cpp(bank, post)$mean
+    gasp_bank_predict_cpp(bank, shift_inputs(fit, s, moved))$mean -
+      gasp_bank_predict_cpp(bank, shift_inputs(fit, s, post))$mean
   })
-  list(Dw = stats::setNames(Dw, names(fit$wb)), delta = delta)
+  list(Dw = stats::setNames(Dw, base_sites(fit)), delta = delta)
 }
 
 new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_env()) {
@@ -297,16 +300,16 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   given <- intersect(names(nominal), var_inputs)
   nom_full[given] <- nominal[given]
   zpure[var_inputs] <- if (is.null(x_new)) nom_full else replace(nom_full, names(x_new), x_new)
-  res <- lapply(names(fit$wb), function(s) {
+  res <- lapply(base_sites(fit), function(s) {
     pr <- if (augmented) {
-      gasp_bank_predict_augmented_cpp(banks[[s]], post, fit$wM[[s]], Znew)
+      gasp_bank_predict_augmented_cpp(banks[[s]], shift_inputs(fit, s, post), fit$wM[[s]], shift_inputs(fit, s, Znew))
     } else {
-      gasp_bank_predict_cpp(banks[[s]], Znew)
+      gasp_bank_predict_cpp(banks[[s]], shift_inputs(fit, s, Znew))
     }
-    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], matrix(zpure, 1))$mean)
+    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], shift_inputs(fit, s, matrix(zpure, 1, dimnames = list(NULL, names(zpure)))))$mean)
     pr
   })
-  names(res) <- names(fit$wb)
+  names(res) <- base_sites(fit)
   list(
     mean = lapply(res, `[[`, "mean"), var = lapply(res, `[[`, "var"), pure = lapply(res, `[[`, "pure"),
     x_nom = nominal

@@ -30,7 +30,8 @@
 #'   `u*` and hidden mechanisms; `B$x_nom`.
 #' * `added_mass$runs`: the nominal run and the run with `x1` raised by
 #'   `added_mass$delta` (calibration inputs at their centre);
-#'   `added_mass$field`: one replicate of the real vehicle with the added mass.
+#'   `added_mass$field`: `n_added_mass` replicates (one by default, as in the
+#'   method's report) of the real vehicle with the added mass.
 #' * `truth`: `u`, `delta`, `delta_B` (named vectors), `x_nom_B`, `reality`,
 #'   `reality_B`, `reality_added_mass` (named lists by site of noise-free
 #'   curves), `warps` (the knots of every replicate's time warp: condition,
@@ -44,6 +45,9 @@
 #'   and the noise.
 #' @param hidden `"none"` or one or several of `testbed_mechanisms()`: what
 #'   reality has and the model lacks.
+#' @param n_added_mass Number of field replicates with the added mass. More
+#'   than one makes the added mass a second experiment worth calibrating on
+#'   ([experiment()]); the other parts of the test bed do not change with it.
 #' @return A `wv_testbed` object (a list, layout above).
 #' @seealso [load_testbed()] for the instance shipped with the package,
 #'   [simulate_suspension()] to run the model at other inputs.
@@ -52,10 +56,11 @@
 #' tb <- testbed_suspension(seed = 1, hidden = "progressive_bumpstop")
 #' tb
 #' autoplot(tb)
-testbed_suspension <- function(seed = 1, hidden = "none") {
+testbed_suspension <- function(seed = 1, hidden = "none", n_added_mass = 1) {
   check_number(seed, "seed", integer = TRUE)
+  check_number(n_added_mass, "n_added_mass", min = 1, max = 100, integer = TRUE)
   hidden <- check_hidden(hidden)
-  with_rng_seed(seed, build_testbed(seed, hidden))
+  with_rng_seed(seed, build_testbed(seed, hidden, as.integer(n_added_mass)))
 }
 
 #' Names of the mechanisms reality can have and the model lacks
@@ -339,7 +344,7 @@ reality_curves <- function(coded, hidden) {
   lapply(sim, as.numeric)
 }
 
-build_testbed <- function(seed, hidden) {
+build_testbed <- function(seed, hidden, n_added_mass = 1L) {
   iu <- testbed_iu()
   t <- testbed_grid()
   inputs <- iu$name
@@ -377,7 +382,7 @@ build_testbed <- function(seed, hidden) {
   reality_m <- reality_curves(x_star_m, hidden)
   x_nom_m <- nom_A[xn]
   x_nom_m[names(dm)] <- x_nom_m[names(dm)] + dm
-  field_m <- make_field(reality_m, 1L, x_nom_m, "added_mass")
+  field_m <- make_field(reality_m, n_added_mass, x_nom_m, "added_mass")
 
   as_runs <- function(d) {
     rownames(d) <- NULL

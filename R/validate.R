@@ -82,6 +82,10 @@
 #'   `NULL` (default; from the replicates, or with one replicate learned in
 #'   the posterior under [noise_prior()]), fixed variances, `"finest"`, or a
 #'   [noise_prior()].
+#' @param experiments `NULL` or a named list of further experiments of the
+#'   same unit ([experiment()]); their field data are registered like `field`
+#'   (to the experiment's `reference` runs when it has them, else to the
+#'   reference of `field`) and calibrated jointly with it (see [calibrate()]).
 #' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
 #'   ...).
 #' @return A `wv_fit` object (see [calibrate()]).
@@ -95,7 +99,7 @@
 #' }
 validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = "auto",
                      features = c("min", "max"), basis_args = list(), engine = "gasp_level", sigma2 = NULL,
-                     ...) {
+                     experiments = NULL, ...) {
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
@@ -103,10 +107,19 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
   if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
+  if (!is.null(experiments) && (!is.list(experiments) || inherits(experiments, "wv_experiment"))) {
+    wv_abort("{.arg experiments} must be a named list of {.fn experiment}s.", class = "experiment")
+  }
   if (!is.null(windows)) {
     field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every)
+    for (e in names(experiments)) {
+      x <- experiments[[e]]
+      x$field <- register_curves(x$field, x$reference %||% reference %||% runs, windows, features = features,
+                                 knots_every = knots_every)
+      experiments[[e]] <- x
+    }
   }
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
-  calibrate(emulators, field, iu, sigma2 = sigma2, ...)
+  calibrate(emulators, field, iu, sigma2 = sigma2, experiments = experiments, ...)
 }

@@ -166,8 +166,10 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
 //   noise (optional: list(scale, family) when sigma2 is learned: family 0
 //   half-Cauchy, 1 half-normal on its sd),
-//   group (0-based global tau2 group per coefficient), extra (optional,
-//   length n: variance of wbar added to sigma2 / R).
+//   group (0-based global tau2 group per coefficient; a group may span
+//   sites), shift (optional, length p: the change of the inputs at which the
+//   site's emulators are evaluated), extra (optional, length n: variance of
+//   wbar added to sigma2 / R).
 // priors: list with lower, upper, normal (logical: manufacturing variation),
 //   mean, sd (length p each); optional kind (0 uniform, 1 normal, 2 log-normal
 //   with mean and sd of log x, 3 under a joint block; default from normal) and
@@ -179,7 +181,8 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   fix_tau2, n_draws, n_inner, step, seed, chain;
 //   optional: debug_break (0; 1: no mixture-density ratio, 2: no tau2 ratio,
 //   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
-//   only to show that the simulation-based checks detect errors), progress
+//   5: no likelihood of the sites with a shift, only to show that the
+//   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), n_search (200), threads (1), informs
 //   (one 0/1 per group, or empty: all inform), temper (1).
@@ -215,6 +218,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       if (!(d.noise_scale > 0.0) || d.noise_family < 0 || d.noise_family > 1)
         Rcpp::stop("site %d: bad noise prior", s + 1);
     }
+    if (si.containsElementNamed("shift") && !Rf_isNull(si["shift"]))
+      d.shift = Rcpp::as<Eigen::VectorXd>(si["shift"]);
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
     const int n = banks[s].n_coef();
@@ -226,6 +231,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");
     if (banks[s].n_inputs() != z_init.size()) Rcpp::stop("z_init has the wrong length");
+    if (d.shift.size() != 0 && d.shift.size() != z_init.size()) Rcpp::stop("site %d: shift has the wrong length", s + 1);
     if (!d.fixed_sigma2 && !d.learn_sigma2 && d.R < 2)
       Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
   }

@@ -71,6 +71,7 @@ class Sampler {
     sigma2_.resize(S); ebar_.resize(S); base_.resize(S); resid2_.resize(S);
     group_site_.assign(G_, -1);
     group_count_.assign(G_, 0);
+    spans_.assign(G_, 0);
     for (std::size_t s = 0; s < S; ++s) {
       const int n = sites_[s].bank->n_coef();
       m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
@@ -80,10 +81,14 @@ class Sampler {
       sites_[s].bank->init_workspace(ws_[s], set_.threads);
       for (int i = 0; i < n; ++i) {
         const int g = sites_[s].group[i];
+        if (group_site_[g] >= 0 && group_site_[g] != static_cast<int>(s)) spans_[g] = 1;
         group_site_[g] = static_cast<int>(s);
         group_count_[g] += 1;
       }
+      if (sites_[s].shift.size() > 0 && sites_[s].shift.size() != static_cast<Eigen::Index>(priors_.size()))
+        throw std::invalid_argument("a site's input shift has the wrong length");
     }
+    zs_.resize(S);
     eta_.assign(S, 0.0);
     eta_step_.assign(S, 0.5);
     for (std::size_t s = 0; s < S; ++s) {
@@ -93,8 +98,12 @@ class Sampler {
       eta_step_[s] = std::min(1.0, 2.4 * std::sqrt(2.0 / std::max(1, sites_[s].bank->n_coef())));
     }
     members_.assign(G_, std::vector<int>());
+    msite_.assign(G_, std::vector<int>());
     for (std::size_t s = 0; s < S; ++s)
-      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) members_[sites_[s].group[i]].push_back(i);
+      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) {
+        members_[sites_[s].group[i]].push_back(i);
+        msite_[sites_[s].group[i]].push_back(static_cast<int>(s));
+      }
     informs_.assign(G_, 1);
     if (!set_.informs.empty()) {
       if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
@@ -188,7 +197,10 @@ class Sampler {
   std::vector<char> informs_;  // per tau2 group: do its coefficients enter the inputs' target?
   double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
   double acc_global_ = 0, n_global_ = 0, acc_burn_ = 0, n_burn_ = 0;
-  std::vector<std::vector<int>> members_;  // coefficients of each tau2 group (in its site)
+  std::vector<std::vector<int>> members_;  // coefficients of each tau2 group
+  std::vector<std::vector<int>> msite_;    // their sites
+  std::vector<char> spans_;                // 1: the group's coefficients are in several sites
+  std::vector<Eigen::VectorXd> zs_;        // inputs shifted by a site's change
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
@@ -221,8 +233,14 @@ class Sampler {
 
   void predict_all(const Eigen::VectorXd& z, std::vector<Eigen::VectorXd>& m,
                    std::vector<Eigen::VectorXd>& v) {
-    for (std::size_t s = 0; s < sites_.size(); ++s)
-      sites_[s].bank->predict_into(z, m[s], v[s], ws_[s], true);
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      if (sites_[s].shift.size() == 0) {
+        sites_[s].bank->predict_into(z, m[s], v[s], ws_[s], true);
+      } else {
+        zs_[s] = z + sites_[s].shift;
+        sites_[s].bank->predict_into(zs_[s], m[s], v[s], ws_[s], true);
+      }
+    }
   }
 
   void draw_sigma2() {
@@ -244,7 +262,8 @@ class Sampler {
       for (int i = 0; i < n; ++i) {
         const double e = sigma2_[s](i) + d.R * d.extra(i);
         ebar_[s](i) = e / d.R;
-        sigbar_(d.group[i]) += e;
+        const int g = d.group[i];
+        sigbar_(g) += spans_[g] ? ebar_[s](i) * sites_[group_site_[g]].R : e;
       }
     }
     for (int g = 0; g < G_; ++g) {
@@ -307,11 +326,31 @@ class Sampler {
     double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
     if (!set_.fix_tau2) {
       for (int g = 0; g < G_; ++g) {
+        if (spans_[g]) {
+          if (group_has_site(g, s)) lp -= std::log(tau2_(g) + spanning_sigbar(g, s, sig2));
+          continue;
+        }
         if (group_site_[g] != s) continue;
         lp -= std::log(tau2_(g) + (sig2 + d.R * group_extra_mean(g)) / d.R);
       }
     }
     return lp;
+  }
+
+  bool group_has_site(int g, int s) const {
+    return std::find(msite_[g].begin(), msite_[g].end(), s) != msite_[g].end();
+  }
+
+  // A group over several sites: the mean over its coefficients of
+  // sigma2 / R + extra, site s's sigma2 set to sig2 (s < 0: none replaced).
+  double spanning_sigbar(int g, int s, double sig2) const {
+    double e = 0.0;
+    for (std::size_t k = 0; k < members_[g].size(); ++k) {
+      const int q = msite_[g][k], i = members_[g][k];
+      const SiteData& d = sites_[q];
+      e += (q == s ? sig2 : sigma2_[q](i)) / d.R + d.extra(i);
+    }
+    return members_[g].empty() ? 0.0 : e / members_[g].size();
   }
 
   double group_extra_mean(int g) const {
@@ -345,12 +384,21 @@ class Sampler {
       const double sig2 = std::exp(prop);
       sigma2_[s].setConstant(sig2);
       for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sig2 + d.R * d.extra(i)) / d.R;
-      for (int g = 0; g < G_; ++g)
-        if (group_site_[g] == static_cast<int>(s)) sigbar_(g) = sig2 + d.R * group_extra_mean(g);
+      for (int g = 0; g < G_; ++g) {
+        if (spans_[g]) {
+          if (group_has_site(g, static_cast<int>(s))) sigbar_(g) = spanning_sigbar(g, -1, 0.0) * sites_[group_site_[g]].R;
+        } else if (group_site_[g] == static_cast<int>(s)) {
+          sigbar_(g) = sig2 + d.R * group_extra_mean(g);
+        }
+      }
       base_[s] = v_[s] + ebar_[s];
     }
     return loglik(tau2_);
   }
+
+  // debug_break 5: the sites of an experiment with a change of the inputs
+  // leave the inputs' target (to show that the checks see it).
+  bool dropped(const SiteData& d) const { return set_.debug_break == 5 && d.shift.size() > 0; }
 
   double log_prior_tau(int g, double t2) const {
     return -std::log(t2 + sigbar_(g) / sites_[group_site_[g]].R);
@@ -364,6 +412,7 @@ class Sampler {
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
+      if (dropped(d)) continue;
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
         if (!informs_[d.group[i]]) continue;
@@ -381,6 +430,7 @@ class Sampler {
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
+      if (dropped(d)) continue;
       const int n = d.bank->n_coef();
       for (int i = 0; i < n; ++i) {
         if (!all && !informs_[d.group[i]]) continue;
@@ -420,9 +470,9 @@ class Sampler {
   }
 
   double group_loglik(int g, double t2) const {
-    const int s = group_site_[g];
     double ll = 0.0;
-    for (int i : members_[g]) {
+    for (std::size_t k = 0; k < members_[g].size(); ++k) {
+      const int s = msite_[g][k], i = members_[g][k];
       const double tot = base_[s](i) + t2;
       ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
     }

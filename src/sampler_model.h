@@ -22,7 +22,10 @@ struct SiteData {
   bool fixed_sigma2 = false;
   Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
   Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
-  std::vector<int> group;        // n, global tau2 group of each coefficient
+  std::vector<int> group;        // n, global tau2 group of each coefficient (a group may span
+                                 // sites: the same level in several experiments)
+  Eigen::VectorXd shift;         // p, change of the inputs at which this site's emulators are
+                                 // evaluated (an experiment's known change); empty: none
   // Noise learned in the posterior: one sigma2 for all coefficients, a random
   // walk on log sigma2, prior half-Cauchy (family 0) or half-normal (1) on
   // sigma with scale noise_scale.
@@ -190,7 +193,8 @@ struct SamplerSettings {
   Eigen::VectorXd z_init;           // p
   int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio,
                                     // 3: drop the inputs' prior density (its support kept),
-                                    // 4: drop the Jacobian of log sigma2 in the learned-noise step
+                                    // 4: drop the Jacobian of log sigma2 in the learned-noise step,
+                                    // 5: drop the likelihood of the sites with an input shift
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)

@@ -1,0 +1,276 @@
+#' One more experiment of the same unit
+#'
+#' Engineers test one unit in several conditions: a test course, the same
+#' course with an added mass, another load. The experiments share the
+#' calibration inputs `u` and the unit's manufacturing variations `delta`, so
+#' calibrating on all of them at once uses all the evidence: a missing
+#' mechanism that moving an input mimics under one load is rarely mimicked by
+#' the same input value under another.
+#'
+#' An experiment holds its field data and says how the model predicts it:
+#' * `change`: the known change of some inputs from the base experiment (the
+#'   added mass: `c(x1 = 0.15)`, in the inputs' own units). The base
+#'   experiment's emulators then serve, evaluated at the inputs plus `change`;
+#'   keep the changed inputs inside the emulators' design ranges.
+#' * `emulators`: the experiment's own emulators (from its own model runs), on
+#'   the basis of the base experiment and with the same inputs.
+#'
+#' Give the experiments to [calibrate()] or [validate()] through their
+#' argument `experiments`, a named list. Each experiment has its own bias
+#' (one bias function per experiment and site) and its own field noise; with
+#' `level_variances = "shared"` (the default) the bias variances of a
+#' resolution level are shared by the experiments, so that an experiment
+#' with few replicates borrows strength from the others.
+#'
+#' @param field A `wv_field` ([field_runs()], registered like the base
+#'   experiment's) on the grid of the base experiment's basis, its sites a
+#'   subset of the base experiment's sites (with `change`) or of the sites of
+#'   `emulators`. One replicate is enough: the noise is then learned.
+#' @param change A named numeric vector: the change of the inputs named from
+#'   the base experiment, or `NULL` with `emulators`.
+#' @param emulators A `wv_emulators` object of this experiment's own runs, or
+#'   `NULL` with `change`.
+#' @param reference Optional `wv_runs` of the model in this experiment's
+#'   condition (the nominal run with the change, say): [validate()] registers
+#'   the experiment's field data to their mean, as it registers the base
+#'   experiment's to its runs. `NULL`: to the base experiment's reference.
+#' @return A `wv_experiment` object.
+#' @seealso [calibrate()], [where_fails()] (which reports each experiment's
+#'   sites).
+#' @export
+#' @examples
+#' tb <- load_testbed()
+#' experiment(tb$added_mass$field, change = tb$added_mass$delta)
+experiment <- function(field, change = NULL, emulators = NULL, reference = NULL) {
+  call <- rlang::current_env()
+  check_class(field, "wv_field", call = call)
+  if (is.null(change) == is.null(emulators)) {
+    wv_abort(c("An experiment needs either {.arg change} or {.arg emulators}, not both or neither.",
+               "i" = "Give {.arg change} (e.g. {.code c(x1 = 0.15)}) when the base experiment's emulators serve at the changed inputs."),
+             class = "experiment", call = call)
+  }
+  if (!is.null(change)) {
+    if (!is.numeric(change) || !length(change) || is.null(names(change)) || any(names(change) == "") ||
+        anyNA(change) || any(!is.finite(change)) || anyDuplicated(names(change))) {
+      wv_abort(c("{.arg change} must be a named numeric vector of finite changes, one per input named.",
+                 "x" = "It is {.code {deparse(change)}}."), class = "experiment", call = call)
+    }
+  }
+  if (!is.null(emulators)) check_class(emulators, "wv_emulators", call = call)
+  if (!is.null(reference)) check_class(reference, "wv_runs", call = call)
+  structure(list(field = field, change = change, emulators = emulators, reference = reference),
+            class = "wv_experiment")
+}
+
+#' @export
+print.wv_experiment <- function(x, ...) {
+  reps <- vapply(x$field$curves, nrow, integer(1))
+  how <- if (!is.null(x$change)) {
+    paste0("the base emulators at the inputs changed by ",
+           paste(sprintf("%s %+g", names(x$change), x$change), collapse = ", "))
+  } else {
+    paste0("its own emulators (", nrow(x$emulators$design), " runs)")
+  }
+  cli::cat_line(sprintf("<wv_experiment> %d site%s (%s), %s", length(reps), if (length(reps) == 1) "" else "s",
+                        paste(sprintf("%s: %d replicate%s", names(reps), reps, ifelse(reps == 1, "", "s")),
+                              collapse = ", "), how))
+  invisible(x)
+}
+
+# The experiments as a named list of wv_experiment objects (plain lists with
+# `field` and `change` or `emulators` are taken too), checked against the base
+# experiment before any sampling.
+check_experiments <- function(experiments, emulators, field, iu, call = rlang::caller_env()) {
+  if (is.null(experiments)) return(NULL)
+  if (!is.list(experiments) || inherits(experiments, "wv_experiment") || !length(experiments) ||
+      is.null(names(experiments)) || any(names(experiments) == "") || anyDuplicated(names(experiments))) {
+    wv_abort(c("{.arg experiments} must be a named list of {.fn experiment}s.",
+               "i" = "For example {.code list(added_mass = experiment(field_m, change = c(x1 = 0.15)))}."),
+             class = "experiment", call = call)
+  }
+  bad <- grepl("/", names(experiments), fixed = TRUE) | names(experiments) %in% names(field$curves)
+  if (any(bad)) {
+    wv_abort(c("Experiment names must not contain {.val /} nor repeat a site's name.",
+               "x" = "{.val {names(experiments)[bad]}}."), class = "experiment", call = call)
+  }
+  out <- lapply(names(experiments), function(e) {
+    x <- experiments[[e]]
+    if (!inherits(x, "wv_experiment")) {
+      if (!is.list(x) || is.null(x$field)) {
+        wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment", call = call)
+      }
+      x <- experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference)
+    }
+    em <- x$emulators %||% emulators
+    if (!identical(em$inputs, emulators$inputs)) {
+      wv_abort(c("The emulators of experiment {.val {e}} must have the base emulators' inputs.",
+                 "x" = "They have {.val {em$inputs}}; the base has {.val {emulators$inputs}}."),
+               class = "experiment", call = call)
+    }
+    if (!identical(em$basis$index, emulators$basis$index) || !identical(em$basis$level, emulators$basis$level) ||
+        length(em$basis$t) != length(emulators$basis$t)) {
+      wv_abort(c("The emulators of experiment {.val {e}} must be on the base experiment's basis.",
+                 "i" = "Fit them with {.code fit_emulators(runs, base_emulators$basis)}."),
+               class = "experiment", call = call)
+    }
+    miss <- setdiff(names(x$field$curves), names(em$banks))
+    if (length(miss)) {
+      wv_abort(c("Experiment {.val {e}} has field data at site{?s} {.val {miss}} without emulators.",
+                 "i" = "Emulated sites: {.val {names(em$banks)}}."), class = "experiment", call = call)
+    }
+    if (!is.null(x$change)) {
+      unknown <- setdiff(names(x$change), emulators$inputs)
+      if (length(unknown)) {
+        wv_abort(c("The change of experiment {.val {e}} names input{?s} the emulators lack: {.val {unknown}}.",
+                   "i" = "Inputs: {.val {emulators$inputs}}."), class = "experiment", call = call)
+      }
+      rng <- apply(emulators$design[, names(x$change), drop = FALSE], 2L, range)
+      nom <- stats::setNames(iu$nominal[match(names(x$change), iu$name)], names(x$change))
+      if (!is.null(field$x_nom)) {
+        use <- intersect(names(field$x_nom), names(nom))
+        nom[use] <- field$x_nom[use]
+      }
+      at <- nom + x$change
+      out_rng <- at < rng[1L, ] | at > rng[2L, ]
+      if (any(out_rng)) {
+        wv_abort(c("The change of experiment {.val {e}} takes the nominal inputs outside the emulators' design.",
+                   "x" = "{.val {names(at)[out_rng]}} at {signif(at[out_rng], 4)}; the runs span {signif(rng[1L, out_rng], 4)} to {signif(rng[2L, out_rng], 4)}.",
+                   "i" = "Run the model for this experiment and give its emulators: {.code experiment(field, emulators = )}."),
+                 class = "experiment", call = call)
+      }
+    }
+    x
+  })
+  stats::setNames(out, names(experiments))
+}
+
+# Adds the experiments' sites to the base experiment's sampler spec. Site `s`
+# of experiment `e` becomes site "e/s"; its coefficients' bias variances are
+# the base site's groups (level_variances "shared", needs the base experiment
+# to hold the site) or its own ("per_experiment").
+add_experiments <- function(spec, experiments, emulators, iu, pool_levels, registration_variance,
+                            level_variances, call = rlang::caller_env()) {
+  base_sites <- names(spec$sites)
+  p <- length(spec$inputs)
+  site_experiment <- stats::setNames(rep("base", length(base_sites)), base_sites)
+  base_site <- stats::setNames(base_sites, base_sites)
+  shift <- list()
+  banks <- list()
+  for (e in names(experiments)) {
+    x <- experiments[[e]]
+    em <- x$emulators %||% emulators
+    sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
+                            registration_variance = registration_variance, call = call)
+    sh <- stats::setNames(numeric(p), spec$inputs)
+    if (!is.null(x$change)) sh[names(x$change)] <- x$change
+    for (s in names(sub$sites)) {
+      name <- paste0(e, "/", s)
+      d <- sub$sites[[s]]
+      lab <- sub$bias_group[[s]]
+      if (level_variances == "shared") {
+        if (!s %in% base_sites) {
+          wv_abort(c("With {.code level_variances = \"shared\"} every experiment's site must be a site of the base experiment.",
+                     "x" = "Experiment {.val {e}} has site {.val {s}}; the base has {.val {base_sites}}.",
+                     "i" = "Use {.code level_variances = \"per_experiment\"}."), class = "experiment", call = call)
+        }
+        d$group <- match(lab, spec$groups$name) - 1L
+      } else {
+        own <- sub$groups[sub$groups$site == s, , drop = FALSE]
+        own$name <- paste0(e, "/", own$name)
+        own$site <- name
+        spec$groups <- rbind(spec$groups, own)
+        lab <- paste0(e, "/", lab)
+        d$group <- match(lab, spec$groups$name) - 1L
+      }
+      if (any(sh != 0)) d$shift <- unname(sh)
+      spec$sites[[name]] <- d
+      spec$bias_group[[name]] <- lab
+      spec$wbar[[name]] <- sub$wbar[[s]]
+      spec$s2[[name]] <- sub$s2[[s]]
+      spec$n_rep[[name]] <- sub$n_rep[[s]]
+      if (!is.null(sub$extra)) spec$extra[[name]] <- sub$extra[[s]]
+      spec$noise_setting[[name]] <- sub$noise_setting[[s]]
+      if (!is.null(sub$noise_prior) && !is.null(sub$noise_prior$scale[s]) && !is.na(sub$noise_prior$scale[s])) {
+        if (is.null(spec$noise_prior)) {
+          spec$noise_prior <- sub$noise_prior
+          spec$noise_prior$scale <- numeric(0)
+        }
+        spec$noise_prior$scale <- c(spec$noise_prior$scale, stats::setNames(unname(sub$noise_prior$scale[s]), name))
+      }
+      site_experiment[[name]] <- e
+      base_site[[name]] <- s
+      shift[[name]] <- sh
+      banks[[name]] <- em$banks[[s]]
+    }
+  }
+  spec$experiments <- data.frame(site = names(site_experiment), experiment = unname(site_experiment),
+                                 field_site = unname(base_site), stringsAsFactors = FALSE)
+  spec$shift <- shift
+  spec$experiment_banks <- banks
+  spec
+}
+
+# The fit's emulators with a bank for every experiment's site, and its field
+# with every site's curves.
+experiment_fit_parts <- function(spec, emulators, field, experiments) {
+  if (is.null(spec$experiments)) return(list(emulators = emulators, field = field))
+  for (s in names(spec$experiment_banks)) {
+    emulators$banks[[s]] <- spec$experiment_banks[[s]]
+    e <- spec$experiments$experiment[spec$experiments$site == s]
+    fs <- spec$experiments$field_site[spec$experiments$site == s]
+    em <- experiments[[e]]$emulators %||% emulators
+    rows <- em$params[em$params$site == fs, , drop = FALSE]
+    rows$site <- s
+    emulators$params <- rbind(emulators$params, rows[, names(emulators$params), drop = FALSE])
+    field$curves[[s]] <- experiments[[e]]$field$curves[[fs]]
+  }
+  list(emulators = emulators, field = field)
+}
+
+# The change of the inputs at which site s's emulators are evaluated (zeros
+# for the base experiment's sites), named by input.
+site_shift <- function(fit, s) {
+  sh <- fit$shift[[s]]
+  if (is.null(sh)) sh <- stats::setNames(numeric(length(fit$inputs)), fit$inputs)
+  sh
+}
+
+# The inputs Z (rows, own units) moved to site s's experiment.
+shift_inputs <- function(fit, s, Z) {
+  sh <- fit$shift[[s]]
+  if (is.null(sh) || all(sh == 0)) return(Z)
+  sweep(Z, 2L, sh[colnames(Z) %||% fit$inputs], `+`)
+}
+
+# The experiment of each site of a fit ("base" for all with one experiment).
+fit_experiments <- function(fit) {
+  sites <- names(fit$wb)
+  fit$experiments %||% data.frame(site = sites, experiment = "base", field_site = sites, stringsAsFactors = FALSE)
+}
+
+# Share of draws whose inputs, moved by an experiment's change, leave the
+# range of the emulators' runs: a classed warning when above 1%.
+warn_experiment_extrapolation <- function(fit) {
+  if (is.null(fit$shift)) return(invisible())
+  X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
+  for (s in names(fit$shift)) {
+    sh <- fit$shift[[s]]
+    if (all(sh == 0)) next
+    moved <- names(sh)[sh != 0]
+    rng <- apply(fit$emulators$design[, moved, drop = FALSE], 2L, range)
+    Z <- sweep(X[, moved, drop = FALSE], 2L, sh[moved], `+`)
+    out <- rowSums(sweep(Z, 2L, rng[1L, ] - 1e-12, `<`) | sweep(Z, 2L, rng[2L, ] + 1e-12, `>`)) > 0
+    if (mean(out) > 0.01) {
+      wv_warn(c("At site {.val {s}}, {round(100 * mean(out))}% of the draws' changed inputs leave the range of the model runs.",
+                "i" = "The emulators extrapolate there; give the experiment its own runs ({.code experiment(field, emulators = )})."),
+              class = "extrapolation")
+    }
+  }
+  invisible()
+}
+
+# The sites of the base experiment (every site with one experiment).
+base_sites <- function(fit) {
+  ex <- fit_experiments(fit)
+  ex$site[ex$experiment == "base"]
+}

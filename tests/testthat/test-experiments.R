@@ -1,0 +1,137 @@
+# Several experiments of one unit, calibrated jointly.
+
+# The small two-input problem (u1 calibration, x1 variation) with a second
+# experiment whose x1 is raised by `change`: the sampler's spec with R
+# replicates per experiment, field variances sigma2, bias variances shared by
+# level across the experiments.
+sbc_two_experiments <- function(R = 2, sigma2 = 4, change = 0.2) {
+  pb <- small_problem(two_inputs = TRUE)
+  n <- length(pb$basis$index)
+  blank <- field_from_coef(pb$basis, matrix(0, R, n))
+  ex <- list(second = experiment(blank, change = c(x1 = change)))
+  ex <- wavevalid:::check_experiments(ex, pb$emulators, blank, pb$iu)
+  spec <- wavevalid:::calibration_spec(pb$emulators, blank, pb$iu, sigma2 = sigma2)
+  spec <- wavevalid:::add_experiments(spec, ex, pb$emulators, pb$iu, NULL, FALSE, "shared")
+  spec$sites[["second/site1"]]$sigma2 <- rep(sigma2, n)
+  list(pb = pb, n = n, spec = spec, G = nrow(spec$groups), bank = pb$emulators$banks$site1)
+}
+
+# SBC: inputs from their prior, model and bias coefficients of both
+# experiments from the model, field means from the truth; ranks of u1, x1, a
+# bias coefficient of each experiment, a model coefficient of the second, and
+# of a test quantity that depends on the data (Modrak et al., 2023): the log
+# likelihood of the second experiment's field means at the inputs. tau2 and
+# sigma2 known. debug_break 5 drops the second experiment's likelihood from
+# the inputs' target: the draws are then the posterior given the first
+# experiment alone, whose ranks of the inputs stay uniform, but at which the
+# second experiment's data are less likely than at the truth.
+sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inner = 10L, tau2 = 0.05,
+                                   sd_eps = 1, R = 2) {
+  s <- sbc_two_experiments(R, sd_eps^2)
+  n <- s$n
+  spec <- s$spec
+  sh <- spec$sites[["second/site1"]]$shift
+  L <- n_draws
+  ranks <- matrix(NA_integer_, reps, 6,
+                  dimnames = list(NULL, c("u1", "x1", "wb1", "wb1_second", "wM2_second", "loglik_second")))
+  e <- tau2 + sd_eps^2 / R
+  loglik2 <- function(Z, wbar) {
+    pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, sweep(Z, 2L, sh, `+`))
+    tot <- pr$var + e
+    -0.5 * rowSums(log(tot) + sweep(pr$mean, 2L, wbar)^2 / tot)
+  }
+  for (r in seq_len(reps)) {
+    z <- wavevalid:::iu_prior_draws(s$pb$iu, 1L)[1, ]
+    wbar <- list()
+    truth <- list()
+    for (k in 1:2) {
+      pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, matrix(z + if (k == 2) sh else 0, 1))
+      wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
+      wb <- stats::rnorm(n, 0, sqrt(tau2))
+      wbar[[k]] <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
+      truth[[k]] <- list(wM = wM, wb = wb)
+    }
+    spec$sites$site1$wbar <- wbar[[1]]
+    spec$sites[["second/site1"]]$wbar <- wbar[[2]]
+    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+      n_groups = s$G, z_init = c(0.5, 0.5), tau2_init = rep(tau2, s$G), fix_tau2 = TRUE, n_draws = n_draws,
+      n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break,
+      adaptive = TRUE, burnin = 300L, p_global = 0.1, n_search = 20L))
+    ranks[r, ] <- c(sum(out$inputs[, 1] < z[1]), sum(out$inputs[, 2] < z[2]),
+                    sum(out$wb[[1]][, 1] < truth[[1]]$wb[1]), sum(out$wb[[2]][, 1] < truth[[2]]$wb[1]),
+                    sum(out$wM[[2]][, 2] < truth[[2]]$wM[2]),
+                    sum(loglik2(out$inputs, wbar[[2]]) < loglik2(matrix(z, 1), wbar[[2]])))
+  }
+  sbc_rank_pvalues(ranks, L)
+}
+
+test_that("SBC with two experiments: ranks are uniform, and not when one experiment's likelihood is dropped", {
+  withr::local_seed(20261127)
+  p_ok <- sbc_experiment_pvalues(600)
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  withr::local_seed(20261127)
+  p_broken <- sbc_experiment_pvalues(600, debug_break = 5L)
+  expect_lt(p_broken[["loglik_second"]], 0.01)
+})
+
+test_that("SBC with two experiments at full size", {
+  skip_unless_slow()
+  withr::local_seed(20261128)
+  p_ok <- sbc_experiment_pvalues(3000)
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+})
+
+test_that("a second experiment: sites, shared level variances, bands and where_fails by experiment", {
+  ex <- example_problem(1)
+  field2 <- ex$field
+  field2$curves$site1 <- field2$curves$site1[1:2, , drop = FALSE]
+  exps <- list(loaded = experiment(field2, change = c(x1 = 0.1)))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 10, chains = 1,
+                                    seed = 3, burnin = 300, n_search = 20, quiet = TRUE, experiments = exps))
+  expect_identical(names(fit$wb), c("site1", "loaded/site1"))
+  expect_identical(fit$experiments$experiment, c("base", "loaded"))
+  expect_identical(unname(fit$shift[["loaded/site1"]]), c(0, 0.1))
+  # one tau2 per level, shared: the second experiment adds no group
+  base <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 10, chains = 1,
+                                     seed = 3, burnin = 300, n_search = 20, quiet = TRUE))
+  expect_identical(fit$groups, base$groups)
+  expect_identical(fit$bias_group[["loaded/site1"]], fit$bias_group$site1)
+  own <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                    seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps,
+                                    level_variances = "per_experiment"))
+  expect_equal(nrow(own$groups), 2 * nrow(base$groups))
+  expect_true(all(startsWith(own$bias_group[["loaded/site1"]], "loaded/")))
+  # the second experiment's model coefficients follow the emulators at the changed inputs
+  z <- colMeans(as.matrix(fit$draws)[, fit$inputs])
+  m2 <- wavevalid:::gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
+  m1 <- wavevalid:::gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z, 1))$mean
+  expect_equal(wavevalid:::pure_model_curve(fit, "loaded/site1", z), drop(fit$basis$Psi %*% t(m2)))
+  expect_equal(wavevalid:::pure_model_curve(fit, "site1", z), drop(fit$basis$Psi %*% t(m1)))
+  b <- bias(fit)
+  expect_setequal(unique(b$site), c("site1", "loaded/site1"))
+  wf <- where_fails(fit)
+  expect_true(all(as.data.frame(wf)$site %in% c("site1", "loaded/site1")))
+  expect_output(print(fit), "loaded/site1")
+})
+
+test_that("experiments: classed errors before any sampling", {
+  ex <- example_problem(1)
+  expect_error(experiment(ex$field), class = "wavevalid_error_experiment")
+  expect_error(experiment(ex$field, change = c(x1 = 0.1), emulators = ex$emulators),
+               class = "wavevalid_error_experiment")
+  expect_error(experiment(ex$field, change = 0.1), class = "wavevalid_error_experiment")
+  expect_error(experiment(ex$field, change = c(x1 = NA)), class = "wavevalid_error_experiment")
+  run <- function(exps, ...) calibrate(ex$emulators, ex$field, ex$iu, n_draws = 5, n_inner = 2, chains = 1,
+                                       seed = 1, quiet = TRUE, experiments = exps, ...)
+  expect_error(run(experiment(ex$field, change = c(x1 = 0.1))), class = "wavevalid_error_experiment")
+  expect_error(run(list(experiment(ex$field, change = c(x1 = 0.1)))), class = "wavevalid_error_experiment")
+  expect_error(run(list(a = experiment(ex$field, change = c(x9 = 0.1)))), class = "wavevalid_error_experiment")
+  expect_error(run(list(a = experiment(ex$field, change = c(x1 = 2)))), class = "wavevalid_error_experiment")
+  expect_error(run(list(site1 = experiment(ex$field, change = c(x1 = 0.1)))), class = "wavevalid_error_experiment")
+  other <- ex$field
+  names(other$curves) <- "site9"
+  expect_error(run(list(a = experiment(other, change = c(x1 = 0.1)))), class = "wavevalid_error_experiment")
+  expect_error(run(list(a = experiment(ex$field, change = c(x1 = 0.1))), level_variances = "both"),
+               class = "wavevalid_error")
+  expect_output(print(experiment(ex$field, change = c(x1 = 0.1))), "changed by x1 \\+0.1")
+})
