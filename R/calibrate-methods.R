@@ -118,6 +118,7 @@ print.wv_fit <- function(x, ...) {
   print(input_table(x), row.names = FALSE, digits = 3)
   for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
   for (line in noise_lines(x)) cli::cat_line(line)
+  for (line in experiment_lines(x)) cli::cat_line(line)
   if (!is.null(x$emulators)) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
@@ -201,7 +202,7 @@ summary.wv_fit <- function(object, ...) {
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
   structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), noise = noise_lines(object),
-                 tau2 = tau,
+                 experiments = experiment_lines(object), tau2 = tau,
                  acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,
                  n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
@@ -218,6 +219,7 @@ print.summary_wv_fit <- function(x, ...) {
   print(x$inputs, row.names = FALSE, digits = 3)
   for (line in x$priors) cli::cat_line(line)
   for (line in x$noise) cli::cat_line(line)
+  for (line in x$experiments) cli::cat_line(line)
   cli::cat_line("Bias variances tau2 by site and level:")
   print(x$tau2[c("group", "mean", "q2.5", "q97.5")], row.names = FALSE, digits = 3)
   cli::cat_line("Acceptance rates:")

@@ -57,7 +57,9 @@
 #'   interval `offset_lower`, `offset_upper`, its `credible_bias`, the largest
 #'   distance of its whole-curve band from zero, and `credible`, whether that
 #'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
-#'   `start` and `end`) and `bias_whole` (the band of the whole bias).
+#'   `start` and `end`), `bias_whole` (the band of the whole bias) and, for a
+#'   fit of several experiments, `experiments` (the experiment of each site;
+#'   `as.data.frame()` then adds a column `experiment`).
 #'   `as.data.frame()` gives one table of the findings with a column `scale`:
 #'   `"record"` for a credible record-wide part (one row per site, spanning
 #'   the record) and `"local"` for the intervals.
@@ -128,6 +130,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "tolerance") <- tol
   attr(out, "credible") <- credible_bias(b, gap)
   attr(out, "pooled_level0") <- 0 %in% fit$settings$pool_levels
+  attr(out, "experiments") <- fit$experiments
   class(out) <- c("wv_fails", "data.frame")
   out
 }
@@ -186,6 +189,8 @@ as.data.frame.wv_fails <- function(x, row.names = NULL, optional = FALSE, ...) {
                             sign = ifelse(rw$offset > 0, "reality above model", "reality below model"),
                             scale = "record", stringsAsFactors = FALSE), out)
   }
+  ex <- attr(x, "experiments")
+  if (!is.null(ex)) out$experiment <- ex$experiment[match(out$site, ex$site)]
   rownames(out) <- row.names
   out
 }

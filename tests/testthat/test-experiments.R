@@ -111,7 +111,22 @@ test_that("a second experiment: sites, shared level variances, bands and where_f
   expect_setequal(unique(b$site), c("site1", "loaded/site1"))
   wf <- where_fails(fit)
   expect_true(all(as.data.frame(wf)$site %in% c("site1", "loaded/site1")))
-  expect_output(print(fit), "loaded/site1")
+  expect_true(all(as.data.frame(wf)$experiment %in% c("base", "loaded")))
+  expect_output(print(fit), "loaded: inputs changed by x1 \\+0.1; loaded/site1 2 replicates")
+  expect_output(print(summary(fit)), "level variances shared")
+  for (type in c("bias", "reality")) expect_silent(ggplot2::ggplot_build(autoplot(fit, type = type)))
+  pr <- predict(fit, type = "reality")
+  expect_setequal(unique(pr$summary$site), c("site1", "loaded/site1"))
+  nv <- predict(fit, type = "new_vehicle")
+  expect_identical(unique(nv$summary$site), "site1")
+  cmp <- compare_validations(own, fit)
+  expect_s3_class(cmp, "wv_comparison")
+  # a signature per site of every experiment: the mechanism acts differently under another load
+  sig <- sin(seq_along(ex$field$t) / 3)
+  expect_error(explain_bias(fit, list(bump = list(site1 = sig)), n_draws = 50, seed = 1), class = "wavevalid_error")
+  cand <- list(bump = list(site1 = sig, "loaded/site1" = 1.2 * sig))
+  ex_b <- explain_bias(fit, cand, n_draws = 50, seed = 1)
+  expect_true("bump" %in% as.data.frame(unclass(ex_b))$candidate)
 })
 
 test_that("experiments: classed errors before any sampling", {
