@@ -211,6 +211,10 @@
 #'   resolution level one bias variance across the experiments (each
 #'   experiment keeps its own bias coefficients); `"per_experiment"` gives
 #'   each experiment its own.
+#' @param experiment_bias With `experiments`: `"own"` (default), one bias
+#'   function per experiment and site; `"shared"`, one bias function per site
+#'   common to every experiment (the same discrepancy under every load; needs
+#'   `level_variances = "shared"`).
 #' @param threads Threads (OpenMP) sharing the emulator predictions of each
 #'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
 #'   predicted on its own, so the draws do not depend on `threads`. Use more
@@ -244,8 +248,10 @@
 #' and its own bias coefficients, its emulators evaluated at the inputs plus
 #' the experiment's change. The bias, reality and model bands, [where_fails()]
 #' and [predict()] then report every experiment's sites. The bias is one
-#' function per experiment; one bias shared by the experiments is not
-#' offered. With one experiment the fit is the same as without `experiments`
+#' function per experiment by default; with `experiment_bias = "shared"` the
+#' experiments' field means at a site share one bias, integrated out jointly
+#' (their covariance is the field and emulator variances plus `tau2` times
+#' a matrix of ones). With one experiment the fit is the same as without `experiments`
 #' (same seed, same draws).
 #' @section Registration:
 #' The field curves are registered to the mean of the model runs, whose
@@ -271,7 +277,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
                       burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
                       inform_levels = NULL, temper = 1, n_search = 200, experiments = NULL,
-                      level_variances = c("shared", "per_experiment"),
+                      level_variances = c("shared", "per_experiment"), experiment_bias = c("own", "shared"),
                       threads = getOption("wavevalid.threads", 1L), quiet = getOption("wavevalid.quiet", FALSE), ...) {
   check_dots_none(...)
   check_class(emulators, "wv_emulators")
@@ -299,11 +305,18 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
   check_sigma2(sigma2, names(field$curves))
   level_variances <- check_choice(level_variances)
+  experiment_bias <- check_choice(experiment_bias)
+  if (experiment_bias == "shared" && level_variances == "per_experiment") {
+    wv_abort(c("A bias shared by the experiments has one variance per level.",
+               "i" = "Use {.code level_variances = \"shared\"} with {.code experiment_bias = \"shared\"}."),
+             class = "experiment")
+  }
   experiments <- check_experiments(experiments, emulators, field, iu)
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
   if (!is.null(experiments)) {
-    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, level_variances)
+    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, level_variances,
+                            experiment_bias)
     parts <- experiment_fit_parts(spec, emulators, field, experiments)
     emulators <- parts$emulators
     field <- parts$field
@@ -322,7 +335,10 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                                       inform_levels = spec$inform_levels, temper = temper,
                                       n_search = n_search),
                       seed = seed)
-  if (!is.null(experiments)) fit$settings$level_variances <- level_variances
+  if (!is.null(experiments)) {
+    fit$settings$level_variances <- level_variances
+    fit$settings$experiment_bias <- experiment_bias
+  }
   warn_fit_flags(fit)
   warn_experiment_extrapolation(fit)
   fit

@@ -149,7 +149,7 @@ check_experiments <- function(experiments, emulators, field, iu, call = rlang::c
 # the base site's groups (level_variances "shared", needs the base experiment
 # to hold the site) or its own ("per_experiment").
 add_experiments <- function(spec, experiments, emulators, iu, pool_levels, registration_variance,
-                            level_variances, call = rlang::caller_env()) {
+                            level_variances, experiment_bias = "own", call = rlang::caller_env()) {
   base_sites <- names(spec$sites)
   p <- length(spec$inputs)
   site_experiment <- stats::setNames(rep("base", length(base_sites)), base_sites)
@@ -183,6 +183,7 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
         d$group <- match(lab, spec$groups$name) - 1L
       }
       if (any(sh != 0)) d$shift <- unname(sh)
+      if (experiment_bias == "shared") d$bias_of <- match(s, base_sites) - 1L
       spec$sites[[name]] <- d
       spec$bias_group[[name]] <- lab
       spec$wbar[[name]] <- sub$wbar[[s]]
@@ -290,7 +291,9 @@ experiment_lines <- function(fit) {
     sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps, ifelse(reps == 1, "", "s")),
                                           collapse = ", "))
   }, character(1))
-  c(sprintf("Experiments, calibrated jointly (one bias per experiment; level variances %s):",
-            if (identical(fit$settings$level_variances, "per_experiment")) "per experiment" else "shared"),
+  c(sprintf("Experiments, calibrated jointly (%s):",
+            if (identical(fit$settings$experiment_bias, "shared")) "one bias shared by the experiments" else
+              sprintf("one bias per experiment; level variances %s",
+                      if (identical(fit$settings$level_variances, "per_experiment")) "per experiment" else "shared")),
     lines)
 }

@@ -167,7 +167,9 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   noise (optional: list(scale, family) when sigma2 is learned: family 0
 //   half-Cauchy, 1 half-normal on its sd),
 //   group (0-based global tau2 group per coefficient; a group may span
-//   sites), shift (optional, length p: the change of the inputs at which the
+//   sites), bias_of (optional, 0-based: the site whose bias coefficients this
+//   site shares; its groups must be that site's), shift (optional, length p:
+//   the change of the inputs at which the
 //   site's emulators are evaluated), extra (optional, length n: variance of
 //   wbar added to sigma2 / R).
 // priors: list with lower, upper, normal (logical: manufacturing variation),
@@ -218,6 +220,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       if (!(d.noise_scale > 0.0) || d.noise_family < 0 || d.noise_family > 1)
         Rcpp::stop("site %d: bad noise prior", s + 1);
     }
+    if (si.containsElementNamed("bias_of") && !Rf_isNull(si["bias_of"]))
+      d.bias_of = Rcpp::as<int>(si["bias_of"]);
     if (si.containsElementNamed("shift") && !Rf_isNull(si["shift"]))
       d.shift = Rcpp::as<Eigen::VectorXd>(si["shift"]);
     Rcpp::IntegerVector grp = si["group"];

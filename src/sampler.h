@@ -89,6 +89,19 @@ class Sampler {
         throw std::invalid_argument("a site's input shift has the wrong length");
     }
     zs_.resize(S);
+    resid_.resize(S);
+    dependents_.assign(S, std::vector<int>());
+    for (std::size_t s = 0; s < S; ++s) {
+      const int r = sites_[s].bias_of;
+      if (r < 0) continue;
+      if (r >= static_cast<int>(S) || sites_[r].bias_of >= 0 || sites_[r].bank->n_coef() != sites_[s].bank->n_coef())
+        throw std::invalid_argument("a site shares the bias of a site it cannot");
+      for (int i = 0; i < sites_[s].bank->n_coef(); ++i)
+        if (sites_[s].group[i] != sites_[r].group[i])
+          throw std::invalid_argument("sites sharing a bias must share its variances");
+      dependents_[r].push_back(static_cast<int>(s));
+      shared_ = true;
+    }
     eta_.assign(S, 0.0);
     eta_step_.assign(S, 0.5);
     for (std::size_t s = 0; s < S; ++s) {
@@ -201,6 +214,9 @@ class Sampler {
   std::vector<std::vector<int>> msite_;    // their sites
   std::vector<char> spans_;                // 1: the group's coefficients are in several sites
   std::vector<Eigen::VectorXd> zs_;        // inputs shifted by a site's change
+  std::vector<Eigen::VectorXd> resid_;     // wbar - m at the current inputs (with a shared bias)
+  std::vector<std::vector<int>> dependents_;  // the sites sharing each site's bias
+  bool shared_ = false;                     // some sites share a bias
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
@@ -277,6 +293,7 @@ class Sampler {
       const SiteData& d = sites_[s];
       base_[s] = v_[s] + ebar_[s];
       resid2_[s] = (d.wbar - m_[s]).array().square().matrix();
+      if (shared_) resid_[s] = d.wbar - m_[s];
     }
   }
 
@@ -318,7 +335,18 @@ class Sampler {
     const int n = d.bank->n_coef();
     const double sig2 = std::exp(eta);
     double ll = 0.0;
-    for (int i = 0; i < n; ++i) {
+    if (shared_) {
+      const int root = d.bias_of >= 0 ? d.bias_of : s;
+      for (int i = 0; i < n; ++i) {
+        ll += shared_term(root, tau2_(d.group[i]),
+                          [&](int q) {
+                            return q == s ? v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R : base_[q](i);
+                          },
+                          [&](int q) { return resid_[q](i); });
+        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+      }
+    }
+    for (int i = 0; i < n && !shared_; ++i) {
       const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
       ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
       if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
@@ -396,6 +424,26 @@ class Sampler {
     return loglik(tau2_);
   }
 
+  // One coefficient's log likelihood over site s and the sites sharing its
+  // bias: the field means y_k = wbar_k - m_k, of variance d_k (emulator and
+  // field) each, share one bias of variance t2, so they are jointly normal
+  // with covariance diag(d) + t2 1 1'. dk(q) and yk(q) give d and y at site q.
+  template <class D, class Y>
+  double shared_term(int s, double t2, D dk, Y yk) const {
+    double A = 0.0, B = 0.0, C = 0.0, L = 0.0;
+    auto add = [&](int q) {
+      const double d = dk(q), y = yk(q);
+      A += 1.0 / d;
+      B += y / d;
+      C += y * y / d;
+      L += std::log(d);
+    };
+    add(s);
+    for (int q : dependents_[s]) add(q);
+    const double a = 1.0 + t2 * A;
+    return -0.5 * (L + std::log(a) + C - t2 * B * B / a);
+  }
+
   // debug_break 5: the sites of an experiment with a change of the inputs
   // leave the inputs' target (to show that the checks see it).
   bool dropped(const SiteData& d) const { return set_.debug_break == 5 && d.shift.size() > 0; }
@@ -409,6 +457,20 @@ class Sampler {
   // acceptance ratio takes them as they are.
   double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
                      const Eigen::VectorXd& tau2) const {
+    if (shared_) {
+      double ll = 0.0;
+      for (std::size_t s = 0; s < sites_.size(); ++s) {
+        const SiteData& d = sites_[s];
+        if (d.bias_of >= 0) continue;
+        for (int i = 0; i < d.bank->n_coef(); ++i) {
+          if (!informs_[d.group[i]]) continue;
+          ll += shared_term(static_cast<int>(s), tau2(d.group[i]),
+                            [&](int q) { return v[q](i) + ebar_[q](i); },
+                            [&](int q) { return sites_[q].wbar(i) - m[q](i); });
+        }
+      }
+      return set_.temper * ll;
+    }
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
@@ -427,6 +489,19 @@ class Sampler {
   // The log likelihood of the coefficients that inform the inputs (all of
   // them with `all`), at the cached m, V.
   double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
+    if (shared_) {
+      double ll = 0.0;
+      for (std::size_t s = 0; s < sites_.size(); ++s) {
+        const SiteData& d = sites_[s];
+        if (d.bias_of >= 0) continue;
+        for (int i = 0; i < d.bank->n_coef(); ++i) {
+          if (!all && !informs_[d.group[i]]) continue;
+          ll += shared_term(static_cast<int>(s), tau2(d.group[i]), [&](int q) { return base_[q](i); },
+                            [&](int q) { return resid_[q](i); });
+        }
+      }
+      return set_.temper * ll;
+    }
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
@@ -470,6 +545,15 @@ class Sampler {
   }
 
   double group_loglik(int g, double t2) const {
+    if (shared_) {
+      double ll = 0.0;
+      for (std::size_t k = 0; k < members_[g].size(); ++k) {
+        const int s = msite_[g][k], i = members_[g][k];
+        if (sites_[s].bias_of >= 0) continue;
+        ll += shared_term(s, t2, [&](int q) { return base_[q](i); }, [&](int q) { return resid_[q](i); });
+      }
+      return set_.temper * ll;
+    }
     double ll = 0.0;
     for (std::size_t k = 0; k < members_[g].size(); ++k) {
       const int s = msite_[g][k], i = members_[g][k];
@@ -603,6 +687,10 @@ class Sampler {
   }
 
   void draw_coefficients(int h, SamplerOutput& out) {
+    if (shared_) {
+      draw_shared_coefficients(h, out);
+      return;
+    }
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
       const int n = d.bank->n_coef();
@@ -613,6 +701,41 @@ class Sampler {
         out.sigma2[s](h, i) = sigma2_[s](i);
         out.wb[s](h, i) = wb;
         out.wM[s](h, i) = wM;
+      }
+    }
+  }
+
+  // With a shared bias: the bias coefficient of site s and the sites sharing
+  // it from its conditional given all their field means (normal, variance
+  // t2 / (1 + t2 A), mean t2 B / (1 + t2 A) with A = sum 1 / d_k and
+  // B = sum y_k / d_k), then each site's model coefficient from eq. (16)
+  // given wbar_k - b.
+  void draw_shared_coefficients(int h, SamplerOutput& out) {
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      if (d.bias_of >= 0) continue;
+      const int n = d.bank->n_coef();
+      for (int i = 0; i < n; ++i) {
+        const double t2 = tau2_(d.group[i]);
+        double A = 0.0, B = 0.0;
+        auto add = [&](int q) {
+          const double dd = v_[q](i) + ebar_[q](i);
+          A += 1.0 / dd;
+          B += (sites_[q].wbar(i) - m_[q](i)) / dd;
+        };
+        add(static_cast<int>(s));
+        for (int q : dependents_[s]) add(q);
+        const double a = 1.0 + t2 * A;
+        const double b = t2 * B / a + std::sqrt(t2 / a) * norm_(rng_);
+        auto model = [&](int q) {
+          const double V = v_[q](i), e = ebar_[q](i), S = V + e;
+          const double w = sites_[q].wbar(i) - b;
+          out.wb[q](h, i) = b;
+          out.wM[q](h, i) = S > 0.0 ? V / S * w + e / S * m_[q](i) + std::sqrt(V * e / S) * norm_(rng_) : m_[q](i);
+          out.sigma2[q](h, i) = sigma2_[q](i);
+        };
+        model(static_cast<int>(s));
+        for (int q : dependents_[s]) model(q);
       }
     }
   }

@@ -24,6 +24,8 @@ struct SiteData {
   Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
   std::vector<int> group;        // n, global tau2 group of each coefficient (a group may span
                                  // sites: the same level in several experiments)
+  int bias_of = -1;              // >= 0: this site's bias coefficients are those of that site
+                                 // (one bias shared by experiments); -1: its own
   Eigen::VectorXd shift;         // p, change of the inputs at which this site's emulators are
                                  // evaluated (an experiment's known change); empty: none
   // Noise learned in the posterior: one sigma2 for all coefficients, a random

@@ -4,14 +4,14 @@
 # experiment whose x1 is raised by `change`: the sampler's spec with R
 # replicates per experiment, field variances sigma2, bias variances shared by
 # level across the experiments.
-sbc_two_experiments <- function(R = 2, sigma2 = 4, change = 0.2) {
+sbc_two_experiments <- function(R = 2, sigma2 = 4, change = 0.2, bias = "own") {
   pb <- small_problem(two_inputs = TRUE)
   n <- length(pb$basis$index)
   blank <- field_from_coef(pb$basis, matrix(0, R, n))
   ex <- list(second = experiment(blank, change = c(x1 = change)))
   ex <- wavevalid:::check_experiments(ex, pb$emulators, blank, pb$iu)
   spec <- wavevalid:::calibration_spec(pb$emulators, blank, pb$iu, sigma2 = sigma2)
-  spec <- wavevalid:::add_experiments(spec, ex, pb$emulators, pb$iu, NULL, FALSE, "shared")
+  spec <- wavevalid:::add_experiments(spec, ex, pb$emulators, pb$iu, NULL, FALSE, "shared", bias)
   spec$sites[["second/site1"]]$sigma2 <- rep(sigma2, n)
   list(pb = pb, n = n, spec = spec, G = nrow(spec$groups), bank = pb$emulators$banks$site1)
 }
@@ -21,13 +21,14 @@ sbc_two_experiments <- function(R = 2, sigma2 = 4, change = 0.2) {
 # bias coefficient of each experiment, a model coefficient of the second, and
 # of a test quantity that depends on the data (Modrak et al., 2023): the log
 # likelihood of the second experiment's field means at the inputs. tau2 and
-# sigma2 known. debug_break 5 drops the second experiment's likelihood from
+# sigma2 known. `bias` is the sampler's ("own": one per experiment, "shared"),
+# `data_bias` the truth's (by default the same). debug_break 5 drops the second experiment's likelihood from
 # the inputs' target: the draws are then the posterior given the first
 # experiment alone, whose ranks of the inputs stay uniform, but at which the
 # second experiment's data are less likely than at the truth.
 sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inner = 10L, tau2 = 0.05,
-                                   sd_eps = 1, R = 2) {
-  s <- sbc_two_experiments(R, sd_eps^2)
+                                   sd_eps = 1, R = 2, bias = "own", data_bias = bias) {
+  s <- sbc_two_experiments(R, sd_eps^2, bias = bias)
   n <- s$n
   spec <- s$spec
   sh <- spec$sites[["second/site1"]]$shift
@@ -35,6 +36,10 @@ sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inne
   ranks <- matrix(NA_integer_, reps, 6,
                   dimnames = list(NULL, c("u1", "x1", "wb1", "wb1_second", "wM2_second", "loglik_second")))
   e <- tau2 + sd_eps^2 / R
+  # (with a shared bias, of the second experiment's field means given the
+  # first's bias draw is not a function of the inputs alone: the test
+  # quantity then takes the marginal of each experiment on its own, which is
+  # still a fixed function of the inputs and the data)
   loglik2 <- function(Z, wbar) {
     pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, sweep(Z, 2L, sh, `+`))
     tot <- pr$var + e
@@ -47,7 +52,7 @@ sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inne
     for (k in 1:2) {
       pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, matrix(z + if (k == 2) sh else 0, 1))
       wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
-      wb <- stats::rnorm(n, 0, sqrt(tau2))
+      wb <- if (k == 2 && data_bias == "shared") truth[[1]]$wb else stats::rnorm(n, 0, sqrt(tau2))
       wbar[[k]] <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
       truth[[k]] <- list(wM = wM, wb = wb)
     }
@@ -74,11 +79,23 @@ test_that("SBC with two experiments: ranks are uniform, and not when one experim
   expect_lt(p_broken[["loglik_second"]], 0.01)
 })
 
+test_that("SBC with two experiments sharing one bias: uniform, and not when the data have one bias each", {
+  # a bias large against the noise, so that sharing it matters
+  withr::local_seed(20261129)
+  p_ok <- sbc_experiment_pvalues(600, bias = "shared", tau2 = 1, sd_eps = 0.3, n_inner = 30L)
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  withr::local_seed(20261129)
+  p_wrong <- sbc_experiment_pvalues(600, bias = "shared", tau2 = 1, sd_eps = 0.3, n_inner = 30L, data_bias = "own")
+  expect_lt(min(p_wrong), 0.01)
+})
+
 test_that("SBC with two experiments at full size", {
   skip_unless_slow()
   withr::local_seed(20261128)
   p_ok <- sbc_experiment_pvalues(3000)
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  p_shared <- sbc_experiment_pvalues(3000, bias = "shared", tau2 = 1, sd_eps = 0.3, n_inner = 30L)
+  expect_true(all(p_shared > 0.01), label = paste(signif(p_shared, 3), collapse = ", "))
 })
 
 test_that("a second experiment: sites, shared level variances, bands and where_fails by experiment", {
@@ -101,6 +118,13 @@ test_that("a second experiment: sites, shared level variances, bands and where_f
                                     level_variances = "per_experiment"))
   expect_equal(nrow(own$groups), 2 * nrow(base$groups))
   expect_true(all(startsWith(own$bias_group[["loaded/site1"]], "loaded/")))
+  # one bias shared by the experiments: the same bias draws at both sites
+  shared <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                       seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps,
+                                       experiment_bias = "shared"))
+  expect_identical(shared$wb[["loaded/site1"]], shared$wb$site1)
+  expect_false(identical(shared$wM[["loaded/site1"]], shared$wM$site1))
+  expect_output(print(shared), "one bias shared by the experiments")
   # the second experiment's model coefficients follow the emulators at the changed inputs
   z <- colMeans(as.matrix(fit$draws)[, fit$inputs])
   m2 <- wavevalid:::gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
@@ -148,5 +172,7 @@ test_that("experiments: classed errors before any sampling", {
   expect_error(run(list(a = experiment(other, change = c(x1 = 0.1)))), class = "wavevalid_error_experiment")
   expect_error(run(list(a = experiment(ex$field, change = c(x1 = 0.1))), level_variances = "both"),
                class = "wavevalid_error")
+  expect_error(run(list(a = experiment(ex$field, change = c(x1 = 0.1))), level_variances = "per_experiment",
+                   experiment_bias = "shared"), class = "wavevalid_error_experiment")
   expect_output(print(experiment(ex$field, change = c(x1 = 0.1))), "changed by x1 \\+0.1")
 })
