@@ -176,3 +176,30 @@ test_that("experiments: classed errors before any sampling", {
                    experiment_bias = "shared"), class = "wavevalid_error_experiment")
   expect_output(print(experiment(ex$field, change = c(x1 = 0.1))), "changed by x1 \\+0.1")
 })
+
+test_that("the test bed's added mass takes replicates without changing the rest", {
+  tb1 <- testbed_suspension(3)
+  tb4 <- testbed_suspension(3, n_added_mass = 4)
+  expect_identical(tb1$A, tb4$A)
+  expect_identical(tb1$B, tb4$B)
+  expect_identical(tb1$truth$u, tb4$truth$u)
+  expect_identical(dim(tb4$added_mass$field$curves$site1), c(4L, length(tb4$A$field$t)))
+  expect_identical(nrow(tb1$added_mass$field$curves$site1), 1L)
+  expect_error(testbed_suspension(3, n_added_mass = 0), class = "wavevalid_error")
+})
+
+test_that("validate() registers each experiment's field data like the base experiment's", {
+  tb <- testbed_suspension(1, "none", n_added_mass = 2)
+  d <- tb$A$runs$design
+  d$x1 <- d$x1 + tb$added_mass$delta[["x1"]]
+  exps <- list(added_mass = experiment(tb$added_mass$field, change = tb$added_mass$delta,
+                                       reference = simulate_suspension(d)))
+  fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, n_draws = 20, n_inner = 5,
+                                   chains = 1, seed = 1, burnin = 200, n_search = 10, quiet = TRUE,
+                                   experiments = exps))
+  expect_identical(names(fit$wb), c("site1", "site2", "added_mass/site1", "added_mass/site2"))
+  reg <- fit$field$curves[["added_mass/site1"]]
+  expect_identical(dim(reg), c(2L, length(tb$A$field$t)))
+  expect_false(isTRUE(all.equal(reg, tb$added_mass$field$curves$site1)))
+  expect_equal(unname(fit$shift[["added_mass/site2"]][["x1"]]), 0.15)
+})
