@@ -55,80 +55,16 @@
 #include <stdexcept>
 #include "gasp_predict.h"
 #include "sampler_model.h"
+#include "sampler_state.h"
 #include "sampler_walk.h"
 
 namespace wavevalid {
 
-class Sampler {
+class Sampler : public SamplerState {
  public:
   Sampler(std::vector<SiteData> sites, std::vector<InputPrior> priors, int n_groups,
           SamplerSettings settings, std::vector<JointPrior> joints = {})
-      : sites_(std::move(sites)), priors_(std::move(priors)), joints_(std::move(joints)), G_(n_groups),
-        set_(settings) {
-    p_ = static_cast<int>(priors_.size());
-    const std::size_t S = sites_.size();
-    m_.resize(S); v_.resize(S); mp_.resize(S); vp_.resize(S); ws_.resize(S);
-    sigma2_.resize(S); ebar_.resize(S); base_.resize(S); resid2_.resize(S);
-    group_site_.assign(G_, -1);
-    group_count_.assign(G_, 0);
-    spans_.assign(G_, 0);
-    for (std::size_t s = 0; s < S; ++s) {
-      const int n = sites_[s].bank->n_coef();
-      m_[s].resize(n); v_[s].resize(n); mp_[s].resize(n); vp_[s].resize(n);
-      sigma2_[s].resize(n); ebar_[s].resize(n); base_[s].resize(n); resid2_[s].resize(n);
-      if (!sites_[s].bank->is_packed())
-        throw std::invalid_argument("emulator bank not packed");
-      sites_[s].bank->init_workspace(ws_[s], set_.threads);
-      for (int i = 0; i < n; ++i) {
-        const int g = sites_[s].group[i];
-        if (group_site_[g] >= 0 && group_site_[g] != static_cast<int>(s)) spans_[g] = 1;
-        group_site_[g] = static_cast<int>(s);
-        group_count_[g] += 1;
-      }
-      if (sites_[s].shift.size() > 0 && sites_[s].shift.size() != static_cast<Eigen::Index>(priors_.size()))
-        throw std::invalid_argument("a site's input shift has the wrong length");
-    }
-    zs_.resize(S);
-    resid_.resize(S);
-    dependents_.assign(S, std::vector<int>());
-    for (std::size_t s = 0; s < S; ++s) {
-      const int r = sites_[s].bias_of;
-      if (r < 0) continue;
-      if (r >= static_cast<int>(S) || sites_[r].bias_of >= 0 || sites_[r].bank->n_coef() != sites_[s].bank->n_coef())
-        throw std::invalid_argument("a site shares the bias of a site it cannot");
-      for (int i = 0; i < sites_[s].bank->n_coef(); ++i)
-        if (sites_[s].group[i] != sites_[r].group[i])
-          throw std::invalid_argument("sites sharing a bias must share its variances");
-      dependents_[r].push_back(static_cast<int>(s));
-      shared_ = true;
-    }
-    eta_.assign(S, 0.0);
-    eta_step_.assign(S, 0.5);
-    for (std::size_t s = 0; s < S; ++s) {
-      if (!sites_[s].learn_sigma2) continue;
-      any_learn_ = true;
-      eta_[s] = 2.0 * std::log(sites_[s].noise_scale);
-      eta_step_[s] = std::min(1.0, 2.4 * std::sqrt(2.0 / std::max(1, sites_[s].bank->n_coef())));
-    }
-    members_.assign(G_, std::vector<int>());
-    msite_.assign(G_, std::vector<int>());
-    for (std::size_t s = 0; s < S; ++s)
-      for (int i = 0; i < sites_[s].bank->n_coef(); ++i) {
-        members_[sites_[s].group[i]].push_back(i);
-        msite_[sites_[s].group[i]].push_back(static_cast<int>(s));
-      }
-    informs_.assign(G_, 1);
-    if (!set_.informs.empty()) {
-      if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
-      for (int g = 0; g < G_; ++g) informs_[g] = set_.informs[g] != 0;
-    }
-    half_.resize(p_);
-    for (int k = 0; k < p_; ++k) half_(k) = set_.step * (priors_[k].upper - priors_[k].lower);
-    std::seed_seq sq{static_cast<std::uint32_t>(set_.seed & 0xffffffffu),
-                     static_cast<std::uint32_t>(set_.seed >> 32),
-                     static_cast<std::uint32_t>(set_.chain), 0x9e3779b9u};
-    rng_.seed(sq);
-  }
+      : SamplerState(std::move(sites), std::move(priors), n_groups, std::move(settings), std::move(joints)) {}
 
   // progress(h) is called every report_every draws (and may throw to interrupt).
   SamplerOutput run(const std::function<void(int)>& progress) {
@@ -194,38 +130,6 @@ class Sampler {
   }
 
  private:
-  std::vector<SiteData> sites_;
-  std::vector<InputPrior> priors_;
-  std::vector<JointPrior> joints_;
-  int G_, p_ = 0;
-  SamplerSettings set_;
-  std::mt19937_64 rng_;
-  std::uniform_real_distribution<double> unif_{0.0, 1.0};
-  std::normal_distribution<double> norm_{0.0, 1.0};
-
-  Eigen::VectorXd z_, zp_, half_, tau2_, sigbar_;
-  std::vector<Eigen::VectorXd> m_, v_, mp_, vp_, sigma2_, ebar_, base_, resid2_;
-  std::vector<GaspBank::Workspace> ws_;
-  std::vector<int> group_site_, group_count_;
-  std::vector<char> informs_;  // per tau2 group: do its coefficients enter the inputs' target?
-  double acc_tau_ = 0, n_tau_ = 0, acc_input_ = 0, n_input_ = 0;
-  double acc_global_ = 0, n_global_ = 0, acc_burn_ = 0, n_burn_ = 0;
-  std::vector<std::vector<int>> members_;  // coefficients of each tau2 group
-  std::vector<std::vector<int>> msite_;    // their sites
-  std::vector<char> spans_;                // 1: the group's coefficients are in several sites
-  std::vector<Eigen::VectorXd> zs_;        // inputs shifted by a site's change
-  std::vector<Eigen::VectorXd> resid_;     // wbar - m at the current inputs (with a shared bias)
-  std::vector<std::vector<int>> dependents_;  // the sites sharing each site's bias
-  bool shared_ = false;                     // some sites share a bias
-
-  AdaptiveWalk walk_;  // the random walk of the adaptive input step
-
-  // Learned noise: log sigma2 of each site (used where learn_sigma2), the
-  // random-walk step on it (tuned during the burn-in), acceptance counts.
-  std::vector<double> eta_, eta_step_;
-  bool any_learn_ = false;
-  double acc_noise_ = 0, n_noise_ = 0, noise_adapt_n_ = 0;
-
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
     if (any_learn_) ll = noise_steps(burn_it >= 0);
@@ -247,145 +151,12 @@ class Sampler {
     return walk_step(ll, burn_it);
   }
 
-  void predict_all(const Eigen::VectorXd& z, std::vector<Eigen::VectorXd>& m,
-                   std::vector<Eigen::VectorXd>& v) {
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      if (sites_[s].shift.size() == 0) {
-        sites_[s].bank->predict_into(z, m[s], v[s], ws_[s], true);
-      } else {
-        zs_[s] = z + sites_[s].shift;
-        sites_[s].bank->predict_into(zs_[s], m[s], v[s], ws_[s], true);
-      }
-    }
-  }
-
-  void draw_sigma2() {
-    sigbar_.setZero();
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      const int n = d.bank->n_coef();
-      if (d.fixed_sigma2) {
-        sigma2_[s] = d.sigma2_fixed;
-      } else if (d.learn_sigma2) {
-        sigma2_[s].setConstant(std::exp(eta_[s]));
-      } else {
-        std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
-        for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
-      }
-      // the variance of wbar, sigma2 / R + extra, computed as (sigma2 + R extra) / R
-      // so that extra = r gives the same numbers as sigma2 + R r; the
-      // prior's scale is its mean
-      for (int i = 0; i < n; ++i) {
-        const double e = sigma2_[s](i) + d.R * d.extra(i);
-        ebar_[s](i) = e / d.R;
-        const int g = d.group[i];
-        sigbar_(g) += spans_[g] ? ebar_[s](i) * sites_[group_site_[g]].R : e;
-      }
-    }
-    for (int g = 0; g < G_; ++g) {
-      if (group_count_[g] > 0) sigbar_(g) /= group_count_[g];
-    }
-  }
-
-  // base = V + sigma2 / R + extra, resid2 = (wbar - m)^2 at the current inputs.
-  void refresh_cache() {
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      base_[s] = v_[s] + ebar_[s];
-      resid2_[s] = (d.wbar - m_[s]).array().square().matrix();
-      if (shared_) resid_[s] = d.wbar - m_[s];
-    }
-  }
-
   void init_tau2() {
     if (set_.fix_tau2 || set_.tau2_init.size() == G_) {
       tau2_ = set_.tau2_init;
       return;
     }
     tau2_ = moment_tau2(m_, v_);
-  }
-
-  Eigen::VectorXd moment_tau2(const std::vector<Eigen::VectorXd>& m,
-                              const std::vector<Eigen::VectorXd>& v) const {
-    Eigen::VectorXd out(G_);
-    Eigen::VectorXd num = Eigen::VectorXd::Zero(G_), scale = Eigen::VectorXd::Zero(G_);
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      for (int i = 0; i < d.bank->n_coef(); ++i) {
-        const double b = v[s](i) + ebar_[s](i);
-        const double r = d.wbar(i) - m[s](i);
-        num(d.group[i]) += r * r - b;
-        scale(d.group[i]) += b + r * r;
-      }
-    }
-    for (int g = 0; g < G_; ++g) {
-      const double c = group_count_[g] > 0 ? group_count_[g] : 1.0;
-      const double floor = std::max(1e-3 * scale(g) / c, 1e-12);
-      out(g) = std::max(num(g) / c, floor);
-    }
-    return out;
-  }
-
-  // Log target of eta = log sigma2 of learned site s at the current inputs
-  // and tau2: the field means' likelihood (and, with R >= 2, the replicates'
-  // scatter about their mean), the tau2 priors of the site's groups (which
-  // depend on sigma2; not when tau2 is fixed) and the prior of eta.
-  double noise_target(int s, double eta) const {
-    const SiteData& d = sites_[s];
-    const int n = d.bank->n_coef();
-    const double sig2 = std::exp(eta);
-    double ll = 0.0;
-    if (shared_) {
-      const int root = d.bias_of >= 0 ? d.bias_of : s;
-      for (int i = 0; i < n; ++i) {
-        ll += shared_term(root, tau2_(d.group[i]),
-                          [&](int q) {
-                            return q == s ? v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R : base_[q](i);
-                          },
-                          [&](int q) { return resid_[q](i); });
-        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
-      }
-    }
-    for (int i = 0; i < n && !shared_; ++i) {
-      const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
-      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
-      if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
-    }
-    double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
-    if (!set_.fix_tau2) {
-      for (int g = 0; g < G_; ++g) {
-        if (spans_[g]) {
-          if (group_has_site(g, s)) lp -= std::log(tau2_(g) + spanning_sigbar(g, s, sig2));
-          continue;
-        }
-        if (group_site_[g] != s) continue;
-        lp -= std::log(tau2_(g) + (sig2 + d.R * group_extra_mean(g)) / d.R);
-      }
-    }
-    return lp;
-  }
-
-  bool group_has_site(int g, int s) const {
-    return std::find(msite_[g].begin(), msite_[g].end(), s) != msite_[g].end();
-  }
-
-  // A group over several sites: the mean over its coefficients of
-  // sigma2 / R + extra, site s's sigma2 set to sig2 (s < 0: none replaced).
-  double spanning_sigbar(int g, int s, double sig2) const {
-    double e = 0.0;
-    for (std::size_t k = 0; k < members_[g].size(); ++k) {
-      const int q = msite_[g][k], i = members_[g][k];
-      const SiteData& d = sites_[q];
-      e += (q == s ? sig2 : sigma2_[q](i)) / d.R + d.extra(i);
-    }
-    return members_[g].empty() ? 0.0 : e / members_[g].size();
-  }
-
-  double group_extra_mean(int g) const {
-    const SiteData& d = sites_[group_site_[g]];
-    double e = 0.0;
-    for (int i : members_[g]) e += d.extra(i);
-    return members_[g].empty() ? 0.0 : e / members_[g].size();
   }
 
   // One random-walk step on log sigma2 per learned site; the step is tuned
@@ -424,98 +195,6 @@ class Sampler {
     return loglik(tau2_);
   }
 
-  // One coefficient's log likelihood over site s and the sites sharing its
-  // bias: the field means y_k = wbar_k - m_k, of variance d_k (emulator and
-  // field) each, share one bias of variance t2, so they are jointly normal
-  // with covariance diag(d) + t2 1 1'. dk(q) and yk(q) give d and y at site q.
-  template <class D, class Y>
-  double shared_term(int s, double t2, D dk, Y yk) const {
-    double A = 0.0, B = 0.0, C = 0.0, L = 0.0;
-    auto add = [&](int q) {
-      const double d = dk(q), y = yk(q);
-      A += 1.0 / d;
-      B += y / d;
-      C += y * y / d;
-      L += std::log(d);
-    };
-    add(s);
-    for (int q : dependents_[s]) add(q);
-    const double a = 1.0 + t2 * A;
-    return -0.5 * (L + std::log(a) + C - t2 * B * B / a);
-  }
-
-  // debug_break 5: the sites of an experiment with a change of the inputs
-  // leave the inputs' target (to show that the checks see it).
-  bool dropped(const SiteData& d) const { return set_.debug_break == 5 && d.shift.size() > 0; }
-
-  double log_prior_tau(int g, double t2) const {
-    return -std::log(t2 + sigbar_(g) / sites_[group_site_[g]].R);
-  }
-
-  // The log likelihoods below are the target's: raised to the power
-  // settings.temper (multiplied by it on the log scale), so that every
-  // acceptance ratio takes them as they are.
-  double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
-                     const Eigen::VectorXd& tau2) const {
-    if (shared_) {
-      double ll = 0.0;
-      for (std::size_t s = 0; s < sites_.size(); ++s) {
-        const SiteData& d = sites_[s];
-        if (d.bias_of >= 0) continue;
-        for (int i = 0; i < d.bank->n_coef(); ++i) {
-          if (!informs_[d.group[i]]) continue;
-          ll += shared_term(static_cast<int>(s), tau2(d.group[i]),
-                            [&](int q) { return v[q](i) + ebar_[q](i); },
-                            [&](int q) { return sites_[q].wbar(i) - m[q](i); });
-        }
-      }
-      return set_.temper * ll;
-    }
-    double ll = 0.0;
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      if (dropped(d)) continue;
-      const int n = d.bank->n_coef();
-      for (int i = 0; i < n; ++i) {
-        if (!informs_[d.group[i]]) continue;
-        const double tot = v[s](i) + ebar_[s](i) + tau2(d.group[i]);
-        const double r = d.wbar(i) - m[s](i);
-        ll -= 0.5 * (std::log(tot) + r * r / tot);
-      }
-    }
-    return set_.temper * ll;
-  }
-
-  // The log likelihood of the coefficients that inform the inputs (all of
-  // them with `all`), at the cached m, V.
-  double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
-    if (shared_) {
-      double ll = 0.0;
-      for (std::size_t s = 0; s < sites_.size(); ++s) {
-        const SiteData& d = sites_[s];
-        if (d.bias_of >= 0) continue;
-        for (int i = 0; i < d.bank->n_coef(); ++i) {
-          if (!all && !informs_[d.group[i]]) continue;
-          ll += shared_term(static_cast<int>(s), tau2(d.group[i]), [&](int q) { return base_[q](i); },
-                            [&](int q) { return resid_[q](i); });
-        }
-      }
-      return set_.temper * ll;
-    }
-    double ll = 0.0;
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      if (dropped(d)) continue;
-      const int n = d.bank->n_coef();
-      for (int i = 0; i < n; ++i) {
-        if (!all && !informs_[d.group[i]]) continue;
-        const double tot = base_[s](i) + tau2(d.group[i]);
-        ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
-      }
-    }
-    return set_.temper * ll;
-  }
-
   // The report's joint tau2 step. With a cut, the groups that inform the
   // inputs and those that do not are accepted or rejected each on their own
   // coefficients, so that the latter never reach the inputs.
@@ -542,25 +221,6 @@ class Sampler {
       }
     }
     return loglik(tau2_);
-  }
-
-  double group_loglik(int g, double t2) const {
-    if (shared_) {
-      double ll = 0.0;
-      for (std::size_t k = 0; k < members_[g].size(); ++k) {
-        const int s = msite_[g][k], i = members_[g][k];
-        if (sites_[s].bias_of >= 0) continue;
-        ll += shared_term(s, t2, [&](int q) { return base_[q](i); }, [&](int q) { return resid_[q](i); });
-      }
-      return set_.temper * ll;
-    }
-    double ll = 0.0;
-    for (std::size_t k = 0; k < members_[g].size(); ++k) {
-      const int s = msite_[g][k], i = members_[g][k];
-      const double tot = base_[s](i) + t2;
-      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
-    }
-    return set_.temper * ll;
   }
 
   // One log-uniform step per group; only the group's coefficients enter.
@@ -684,60 +344,6 @@ class Sampler {
       return ll_prop;
     }
     return ll_cur;
-  }
-
-  void draw_coefficients(int h, SamplerOutput& out) {
-    if (shared_) {
-      draw_shared_coefficients(h, out);
-      return;
-    }
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      const int n = d.bank->n_coef();
-      for (int i = 0; i < n; ++i) {
-        double wb, wM;
-        draw_bias_and_model(d.wbar(i), m_[s](i), v_[s](i), ebar_[s](i), tau2_(d.group[i]), rng_,
-                            norm_, wb, wM);
-        out.sigma2[s](h, i) = sigma2_[s](i);
-        out.wb[s](h, i) = wb;
-        out.wM[s](h, i) = wM;
-      }
-    }
-  }
-
-  // With a shared bias: the bias coefficient of site s and the sites sharing
-  // it from its conditional given all their field means (normal, variance
-  // t2 / (1 + t2 A), mean t2 B / (1 + t2 A) with A = sum 1 / d_k and
-  // B = sum y_k / d_k), then each site's model coefficient from eq. (16)
-  // given wbar_k - b.
-  void draw_shared_coefficients(int h, SamplerOutput& out) {
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      if (d.bias_of >= 0) continue;
-      const int n = d.bank->n_coef();
-      for (int i = 0; i < n; ++i) {
-        const double t2 = tau2_(d.group[i]);
-        double A = 0.0, B = 0.0;
-        auto add = [&](int q) {
-          const double dd = v_[q](i) + ebar_[q](i);
-          A += 1.0 / dd;
-          B += (sites_[q].wbar(i) - m_[q](i)) / dd;
-        };
-        add(static_cast<int>(s));
-        for (int q : dependents_[s]) add(q);
-        const double a = 1.0 + t2 * A;
-        const double b = t2 * B / a + std::sqrt(t2 / a) * norm_(rng_);
-        auto model = [&](int q) {
-          const double V = v_[q](i), e = ebar_[q](i), S = V + e;
-          const double w = sites_[q].wbar(i) - b;
-          out.wb[q](h, i) = b;
-          out.wM[q](h, i) = S > 0.0 ? V / S * w + e / S * m_[q](i) + std::sqrt(V * e / S) * norm_(rng_) : m_[q](i);
-          out.sigma2[q](h, i) = sigma2_[q](i);
-        };
-        model(static_cast<int>(s));
-        for (int q : dependents_[s]) model(q);
-      }
-    }
   }
 };
 

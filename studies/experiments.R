@@ -8,11 +8,15 @@
 #   dist       rms distance (coded) of the posterior mean inputs from the truth
 #   in95       true inputs inside their 95% posterior intervals (of 9)
 #   absorbed_A share of the mechanism's effect in condition A that the move of
-#              the inputs from the truth to the posterior mean takes up, in the
-#              simulator: 1 - |reality - model(z_hat)|^2 / |reality - model(z*)|^2
-#              over both sites (1: all of it; 0: none; below 0: the inputs
-#              moved away from what the mechanism needs)
+#              the inputs from the truth to the posterior mean reproduces, in
+#              the simulator: the projection <d, e> / |e|^2 of that move's
+#              effect d = model(z_hat) - model(z*) on the mechanism's effect
+#              e = reality - model(z*), over both sites (1: the inputs mimic
+#              the mechanism fully; 0: not at all)
 #   absorbed_M the same in the added-mass condition (inputs plus the change)
+#   fit_A      1 - |reality - model(z_hat)|^2 / |e|^2 in condition A: how much
+#              closer to reality the model is at the posterior mean than at the
+#              truth (negative: farther)
 #   p_hidden, top, other, p_none
 #              explain_bias() with the model re-validated with each mechanism
 #              (explain=TRUE): the hidden mechanism's probability, the leading
@@ -84,7 +88,8 @@ one_case <- function(hd, seed) {
     r_M <- flat(tb$truth$reality_added_mass) - model_at(zhat_M)
     row <- data.frame(hidden = hd, seed = seed, condition = cond, n_mass = if (cond == "A") 0L else n_mass,
                       dist = sqrt(mean((zhat - zs)^2)), in95 = sum(zs >= q[1, ] & zs <= q[2, ]),
-                      absorbed_A = 1 - sum(r_A^2) / sum(e_A^2), absorbed_M = 1 - sum(r_M^2) / sum(e_M^2),
+                      absorbed_A = sum((e_A - r_A) * e_A) / sum(e_A^2),
+                      absorbed_M = sum((e_M - r_M) * e_M) / sum(e_M^2), fit_A = 1 - sum(r_A^2) / sum(e_A^2),
                       p_hidden = NA_real_, top = NA_character_, other = NA_real_, p_none = NA_real_)
     if (with_explain) {
       refits <- lapply(refit_em, function(r) {
