@@ -17,19 +17,28 @@
 #   fit_A      1 - |reality - model(z_hat)|^2 / |e|^2 in condition A: how much
 #              closer to reality the model is at the posterior mean than at the
 #              truth (negative: farther)
+#   c1_A       a localised interval of where_fails() at a site of condition A
+#              overlaps where the mechanism acts there (flagged_share() of its
+#              effect at the true inputs)
 #   p_hidden, top, other, p_none
 #              explain_bias() with the model re-validated with each mechanism
 #              (explain=TRUE): the hidden mechanism's probability, the leading
 #              mechanism, the largest other probability, P(no mechanism). The
 #              re-validated models are calibrated on the same experiments as
 #              the fit.
+# conditions: A (condition A alone), A+added_mass (one bias per experiment,
+# level variances shared: the default), A+added_mass_shared (one bias shared
+# by the two experiments).
 #   Rscript studies/experiments.R [hidden=digressive_damper,progressive_bumpstop] [seeds=1:5]
 #                                 [n_mass=4] [explain=TRUE] [n_draws=150] [n_inner=20]
-#                                 [out=studies/experiments.csv]
+#                                 [conditions=A,A+added_mass] [out=studies/experiments.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(hidden = "digressive_damper,progressive_bumpstop", seeds = "1:5", n_mass = "4",
-                       explain = "TRUE", n_draws = "150", n_inner = "20", out = "studies/experiments.csv"))
+                       explain = "TRUE", n_draws = "150", n_inner = "20", conditions = "A,A+added_mass",
+                       out = "studies/experiments.csv"))
+conditions <- arg_names(opt$conditions)
+stopifnot(all(conditions %in% c("A", "A+added_mass", "A+added_mass_shared")))
 hidden <- arg_names(opt$hidden)
 seeds <- arg_numbers(opt$seeds)
 n_mass <- as.integer(opt$n_mass)
@@ -73,11 +82,12 @@ one_case <- function(hd, seed) {
     names(refit_em) <- mech
   }
   rows <- list()
-  for (cond in c("A", "A+added_mass")) {
+  for (cond in conditions) {
     t0 <- clock()
     exps <- if (cond == "A") NULL else list(added_mass = experiment(field_M, change = dm))
+    eb <- if (cond == "A+added_mass_shared") "shared" else "own"
     fit <- suppressWarnings(calibrate(em, field_A, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                      seed = 1, quiet = TRUE, experiments = exps))
+                                      seed = 1, quiet = TRUE, experiments = exps, experiment_bias = eb))
     X <- as.matrix(fit$draws)[, fit$inputs]
     zhat <- colMeans(X)
     q <- apply(X, 2, stats::quantile, c(0.025, 0.975))
@@ -94,7 +104,7 @@ one_case <- function(hd, seed) {
     if (with_explain) {
       refits <- lapply(refit_em, function(r) {
         suppressWarnings(calibrate(r$em, field_A, r$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                   seed = 1, quiet = TRUE, experiments = exps))
+                                   seed = 1, quiet = TRUE, experiments = exps, experiment_bias = eb))
       })
       ex <- explain_bias(fit, refits)
       tab <- as.data.frame(unclass(ex))
@@ -103,6 +113,8 @@ one_case <- function(hd, seed) {
       row$other <- max(tab$inclusion_prob[tab$candidate != hd])
       row$p_none <- with(attr(ex, "subsets"), probability[subset == "(none)"])
     }
+    eff <- testbed_signatures(z_star, hd)[[1]]
+    row$c1_A <- any(flagged_share(where_fails(fit), eff) > 0, na.rm = TRUE)
     row$seconds <- round(clock() - t0)
     print(row, row.names = FALSE)
     rows[[cond]] <- row
