@@ -203,3 +203,16 @@ test_that("validate() registers each experiment's field data like the base exper
   expect_false(isTRUE(all.equal(reg, tb$added_mass$field$curves$site1)))
   expect_equal(unname(fit$shift[["added_mass/site2"]][["x1"]]), 0.15)
 })
+
+test_that("the report shows each experiment", {
+  skip_if_not(rmarkdown::pandoc_available())
+  ex <- example_problem(1)
+  exps <- list(loaded = experiment(ex$field, change = c(x1 = 0.1)))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
+                                    seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps))
+  out <- withr::local_tempfile(fileext = ".html")
+  suppressWarnings(suppressMessages(validation_report(fit, file = out, quiet = TRUE)))
+  html <- paste(readLines(out, warn = FALSE), collapse = "\n")
+  expect_match(html, "Experiments</h2>", fixed = TRUE)
+  expect_match(html, "loaded: inputs changed by x1 +0.1", fixed = TRUE)
+})
