@@ -286,7 +286,8 @@ candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) 
     if (!is.list(cur) || !all(sites %in% names(cur))) {
       wv_abort(c(
         "Candidate {.val {k}} must be a numeric vector on the fit's grid or a list with one curve per site.",
-        "i" = "The fit's sites are {.val {sites}}."
+        "i" = "The fit's sites are {.val {sites}}.",
+        "i" = if (any(grepl("/", sites, fixed = TRUE))) "A site {.val e/s} is site {.val s} of experiment {.val e}: give the candidate's curve in that experiment's condition."
       ), call = call)
     }
     unlist(lapply(sites, function(s) {
