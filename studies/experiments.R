@@ -122,8 +122,15 @@ one_case <- function(hd, seed) {
   do.call(rbind, rows)
 }
 
+# A case whose registration or fit fails is recorded with the error's first line.
 for (hd in hidden) for (seed in seeds) {
-  res <- one_case(hd, seed)
+  res <- tryCatch(one_case(hd, seed), error = function(e) {
+    message(hd, " seed ", seed, ": ", conditionMessage(e))
+    data.frame(hidden = hd, seed = seed, condition = "error", n_mass = n_mass, dist = NA, in95 = NA,
+               absorbed_A = NA, absorbed_M = NA, fit_A = NA, p_hidden = NA, top = NA, other = NA, p_none = NA,
+               c1_A = NA, seconds = NA, error = strsplit(conditionMessage(e), "\n")[[1]][1])
+  })
+  if (is.null(res$error)) res$error <- NA_character_
   utils::write.table(res, opt$out, sep = ",", row.names = FALSE, append = file.exists(opt$out),
                      col.names = !file.exists(opt$out))
 }
