@@ -311,9 +311,9 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
                "i" = "Use {.code level_variances = \"shared\"} with {.code experiment_bias = \"shared\"}."),
              class = "experiment")
   }
-  experiments <- check_experiments(experiments, emulators, field, iu)
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
+  experiments <- check_experiments(experiments, emulators, field, spec$x_nom)
   if (!is.null(experiments)) {
     spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, level_variances,
                             experiment_bias)
@@ -338,6 +338,8 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   if (!is.null(experiments)) {
     fit$settings$level_variances <- level_variances
     fit$settings$experiment_bias <- experiment_bias
+    fit$experiments <- spec$experiments
+    fit$shift <- spec$shift
   }
   warn_fit_flags(fit)
   warn_experiment_extrapolation(fit)
@@ -458,10 +460,6 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     seed = seed, settings = settings, registration_var = spec$extra,
     noise_setting = spec$noise_setting, noise_prior = spec$noise_prior
   ))
-  if (!is.null(spec$experiments)) {
-    fit$experiments <- spec$experiments
-    fit$shift <- spec$shift
-  }
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat
   fit$ess <- diag$ess

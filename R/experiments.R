@@ -77,17 +77,25 @@ print.wv_experiment <- function(x, ...) {
   invisible(x)
 }
 
-# The experiments as a named list of wv_experiment objects (plain lists with
-# `field` and `change` or `emulators` are taken too), checked against the base
-# experiment before any sampling.
-check_experiments <- function(experiments, emulators, field, iu, call = rlang::caller_env()) {
-  if (is.null(experiments)) return(NULL)
+# `experiments` a non-empty list with unique names (validate() checks this
+# before it registers their field data).
+check_experiment_list <- function(experiments, call = rlang::caller_env()) {
   if (!is.list(experiments) || inherits(experiments, "wv_experiment") || !length(experiments) ||
       is.null(names(experiments)) || any(names(experiments) == "") || anyDuplicated(names(experiments))) {
     wv_abort(c("{.arg experiments} must be a named list of {.fn experiment}s.",
                "i" = "For example {.code list(added_mass = experiment(field_m, change = c(x1 = 0.15)))}."),
              class = "experiment", call = call)
   }
+  invisible(experiments)
+}
+
+# The experiments as a named list of wv_experiment objects (plain lists with
+# `field` and `change` or `emulators` are taken too), checked against the base
+# experiment (its nominal inputs `x_nom`, from calibration_spec()) before any
+# sampling.
+check_experiments <- function(experiments, emulators, field, x_nom, call = rlang::caller_env()) {
+  if (is.null(experiments)) return(NULL)
+  check_experiment_list(experiments, call = call)
   bad <- grepl("/", names(experiments), fixed = TRUE) | names(experiments) %in% names(field$curves)
   if (any(bad)) {
     wv_abort(c("Experiment names must not contain {.val /} nor repeat a site's name.",
@@ -125,12 +133,7 @@ check_experiments <- function(experiments, emulators, field, iu, call = rlang::c
                    "i" = "Inputs: {.val {emulators$inputs}}."), class = "experiment", call = call)
       }
       rng <- apply(emulators$design[, names(x$change), drop = FALSE], 2L, range)
-      nom <- stats::setNames(iu$nominal[match(names(x$change), iu$name)], names(x$change))
-      if (!is.null(field$x_nom)) {
-        use <- intersect(names(field$x_nom), names(nom))
-        nom[use] <- field$x_nom[use]
-      }
-      at <- nom + x$change
+      at <- x_nom[names(x$change)] + x$change
       out_rng <- at < rng[1L, ] | at > rng[2L, ]
       if (any(out_rng)) {
         wv_abort(c("The change of experiment {.val {e}} takes the nominal inputs outside the emulators' design.",

@@ -246,8 +246,7 @@ added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
   for (p in names(delta)) moved[, p] <- moved[, p] + delta[[p]]
   Dw <- lapply(base_sites(fit), function(s) {
     bank <- fit$emulators$banks[[s]]
-    gasp_bank_predict_cpp(bank, shift_inputs(fit, s, moved))$mean -
-      gasp_bank_predict_cpp(bank, shift_inputs(fit, s, post))$mean
+    gasp_bank_predict_cpp(bank, moved)$mean - gasp_bank_predict_cpp(bank, post)$mean
   })
   list(Dw = stats::setNames(Dw, base_sites(fit)), delta = delta)
 }
@@ -302,11 +301,11 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   zpure[var_inputs] <- if (is.null(x_new)) nom_full else replace(nom_full, names(x_new), x_new)
   res <- lapply(base_sites(fit), function(s) {
     pr <- if (augmented) {
-      gasp_bank_predict_augmented_cpp(banks[[s]], shift_inputs(fit, s, post), fit$wM[[s]], shift_inputs(fit, s, Znew))
+      gasp_bank_predict_augmented_cpp(banks[[s]], post, fit$wM[[s]], Znew)
     } else {
-      gasp_bank_predict_cpp(banks[[s]], shift_inputs(fit, s, Znew))
+      gasp_bank_predict_cpp(banks[[s]], Znew)
     }
-    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], shift_inputs(fit, s, matrix(zpure, 1, dimnames = list(NULL, names(zpure)))))$mean)
+    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], matrix(zpure, 1))$mean)
     pr
   })
   names(res) <- base_sites(fit)

@@ -107,9 +107,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
   if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
-  if (!is.null(experiments) && (!is.list(experiments) || inherits(experiments, "wv_experiment"))) {
-    wv_abort("{.arg experiments} must be a named list of {.fn experiment}s.", class = "experiment")
-  }
+  if (!is.null(experiments)) check_experiment_list(experiments)
   if (!is.null(windows)) {
     field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every)
     for (e in names(experiments)) {

@@ -215,11 +215,12 @@ class SamplerState {
                           [&](int q) { return resid_[q](i); });
         if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
       }
-    }
-    for (int i = 0; i < n && !shared_; ++i) {
-      const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
-      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
-      if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+    } else {
+      for (int i = 0; i < n; ++i) {
+        const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
+        ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+      }
     }
     double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
     if (!set_.fix_tau2) {
@@ -278,6 +279,24 @@ class SamplerState {
     return -0.5 * (L + std::log(a) + C - t2 * B * B / a);
   }
 
+  // The log likelihood, with a shared bias, of the coefficients that inform
+  // the inputs (all of them with `all`): shared_term() of every site that
+  // owns its bias, d and y of coefficient i at site q from dk(q, i), yk(q, i).
+  template <class D, class Y>
+  double shared_loglik(const Eigen::VectorXd& tau2, bool all, D dk, Y yk) const {
+    double ll = 0.0;
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      if (d.bias_of >= 0) continue;
+      for (int i = 0; i < d.bank->n_coef(); ++i) {
+        if (!all && !informs_[d.group[i]]) continue;
+        ll += shared_term(static_cast<int>(s), tau2(d.group[i]), [&](int q) { return dk(q, i); },
+                          [&](int q) { return yk(q, i); });
+      }
+    }
+    return set_.temper * ll;
+  }
+
   // debug_break 5: the sites of an experiment with a change of the inputs
   // leave the inputs' target (to show that the checks see it).
   bool dropped(const SiteData& d) const { return set_.debug_break == 5 && d.shift.size() > 0; }
@@ -292,18 +311,8 @@ class SamplerState {
   double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
                      const Eigen::VectorXd& tau2) const {
     if (shared_) {
-      double ll = 0.0;
-      for (std::size_t s = 0; s < sites_.size(); ++s) {
-        const SiteData& d = sites_[s];
-        if (d.bias_of >= 0) continue;
-        for (int i = 0; i < d.bank->n_coef(); ++i) {
-          if (!informs_[d.group[i]]) continue;
-          ll += shared_term(static_cast<int>(s), tau2(d.group[i]),
-                            [&](int q) { return v[q](i) + ebar_[q](i); },
-                            [&](int q) { return sites_[q].wbar(i) - m[q](i); });
-        }
-      }
-      return set_.temper * ll;
+      return shared_loglik(tau2, false, [&](int q, int i) { return v[q](i) + ebar_[q](i); },
+                           [&](int q, int i) { return sites_[q].wbar(i) - m[q](i); });
     }
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
@@ -324,17 +333,8 @@ class SamplerState {
   // them with `all`), at the cached m, V.
   double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
     if (shared_) {
-      double ll = 0.0;
-      for (std::size_t s = 0; s < sites_.size(); ++s) {
-        const SiteData& d = sites_[s];
-        if (d.bias_of >= 0) continue;
-        for (int i = 0; i < d.bank->n_coef(); ++i) {
-          if (!all && !informs_[d.group[i]]) continue;
-          ll += shared_term(static_cast<int>(s), tau2(d.group[i]), [&](int q) { return base_[q](i); },
-                            [&](int q) { return resid_[q](i); });
-        }
-      }
-      return set_.temper * ll;
+      return shared_loglik(tau2, all, [&](int q, int i) { return base_[q](i); },
+                           [&](int q, int i) { return resid_[q](i); });
     }
     double ll = 0.0;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
