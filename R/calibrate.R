@@ -43,8 +43,21 @@
 #'   moment estimate), of the nominal point and `n_search` (default 200) draws
 #'   from the prior of the inputs, and is not saved. At its end the proposal (covariance and scale)
 #'   is frozen, so the saved chain is a time-homogeneous Metropolis-Hastings
-#'   chain; with probability 0.1 a cycle uses the report's mixture step instead
-#'   of the random walk, for global moves.
+#'   chain;
+#' * with probability `global_moves` (default 0.5) a cycle makes a global move
+#'   instead of a step of the random walk: an independence proposal, a
+#'   multivariate t with 4 degrees of freedom whose location and scale matrix
+#'   are the mean and covariance of the second half of the burn-in, accepted
+#'   with its Hastings ratio. It jumps across the whole posterior in one step
+#'   where the random walk needs tens of steps; where the posterior is far from
+#'   that t (several modes, a curved ridge) it is rarely accepted and the
+#'   random walk does the work, at a cost of at most `1 / (1 - global_moves)`
+#'   in effective samples per cycle. The print and `fit$acceptance$global`
+#'   give its acceptance rate. (A burn-in of fewer than `40 d` cycles gives
+#'   too few points for the proposal; the global move is then the report's
+#'   mixture step.) On the suspension test bed (9 inputs) the slowest input
+#'   needs 18 cycles per effective sample with the default against 105 with
+#'   the random walk alone, on the dosing test bed 14 against 35.
 #'
 #' `iu` holds every input of the emulators. Variation inputs have prior
 #' `N(x_nom, prior_sd^2)` truncated to the I/U
@@ -163,6 +176,9 @@
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
 #' @param proposal `"adaptive"` (default) or `"report"`; see the section
 #'   Proposals.
+#' @param global_moves Probability, in `[0, 1)`, that a cycle of the
+#'   `"adaptive"` sampler makes a global move instead of a step of the random
+#'   walk (see the section Proposals); 0 gives the random walk alone.
 #' @param burnin Metropolis-Hastings cycles run before the first saved draw
 #'   and discarded (`sigma2` is drawn anew every `n_inner` of them). `NULL`
 #'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
@@ -275,7 +291,7 @@
 #' fit
 calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
                       seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
-                      burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
+                      global_moves = 0.5, burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
                       inform_levels = NULL, temper = 1, n_search = 200, experiments = NULL,
                       level_variances = c("shared", "per_experiment"), experiment_bias = c("own", "shared"),
                       threads = getOption("wavevalid.threads", 1L), quiet = getOption("wavevalid.quiet", FALSE), ...) {
@@ -288,6 +304,7 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   check_number(chains, min = 1, integer = TRUE)
   check_number(step, min = 1e-6, max = 1)
   proposal <- check_choice(proposal)
+  check_number(global_moves, min = 0, max = 0.99)
   if (is.null(burnin)) {
     burnin <- if (proposal == "adaptive") max(5000, floor(n_draws * n_inner / 4)) else 0
   }
@@ -326,10 +343,12 @@ calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chain
   spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
   spec$temper <- temper
   runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
-                     proposal = proposal, burnin = burnin, n_search = n_search, threads = threads)
+                     proposal = proposal, burnin = burnin, p_global = global_moves, n_search = n_search,
+                     threads = threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
-                                      step = step, proposal = proposal, burnin = burnin,
+                                      step = step, proposal = proposal, global_moves = global_moves,
+                                      burnin = burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
                                       registration_variance = registration_variance,
                                       inform_levels = spec$inform_levels, temper = temper,
@@ -396,10 +415,11 @@ free_cores <- function() {
   as.integer(max(1, n - busy))
 }
 
-# One future per chain; debug_break (1: no mixture-density ratio, 2: no tau2
-# ratio) exists only to show that the simulation-based checks detect errors.
+# One future per chain; debug_break (1: no proposal-density ratio of the
+# global moves, 2: no tau2 ratio, ...) exists only to show that the
+# simulation-based checks detect errors.
 run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
-                       quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1,
+                       quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.5,
                        n_search = 200L, threads = 1L) {
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)

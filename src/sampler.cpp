@@ -93,7 +93,7 @@ ChainSettings read_settings(const Rcpp::List& x) {
   set.report_every = std::max(1, std::min(10, set.n_draws / 100));
   set.adaptive = optional_scalar<bool>(x, "adaptive", false);
   set.burnin = optional_scalar<int>(x, "burnin", 0);
-  set.p_global = optional_scalar<double>(x, "p_global", 0.1);
+  set.p_global = optional_scalar<double>(x, "p_global", 0.5);
   set.n_search = optional_scalar<int>(x, "n_search", 200);
   set.threads = optional_scalar<int>(x, "threads", 1);
   if (has_entry(x, "informs")) {
@@ -181,12 +181,12 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   n_groups (number of tau2 groups), z_init (p starting inputs, coded),
 //   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
 //   fix_tau2, n_draws, n_inner, step, seed, chain;
-//   optional: debug_break (0; 1: no mixture-density ratio, 2: no tau2 ratio,
+//   optional: debug_break (0; 1: no proposal-density ratio of the global moves, 2: no tau2 ratio,
 //   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
 //   5: no likelihood of the sites with a shift, only to show that the
 //   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
-//   (FALSE), burnin (0), p_global (0.1), n_search (200), threads (1), informs
+//   (FALSE), burnin (0), p_global (0.5), n_search (200), threads (1), informs
 //   (one 0/1 per group, or empty: all inform), temper (1).
 // [[Rcpp::export]]
 Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,

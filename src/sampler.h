@@ -28,8 +28,12 @@
 //          factor), using cached m, V at the current inputs;
 //      (b) a Gaussian random walk on all inputs (proposals outside the support
 //          have zero target density and are rejected, so the kernel stays
-//          symmetric), with probability 1 - p_global, else the report's mixture
-//          step with its Hastings ratio.
+//          symmetric), with probability 1 - p_global, else a global move: an
+//          independence proposal, the mixture of a multivariate t (4 degrees
+//          of freedom) with the mean and covariance of the second half of the
+//          burn-in and of the uniform on the supports' box (sampler_walk.h),
+//          with its Hastings ratio (the report's mixture step when the burn-in
+//          held fewer than 20 p cycles).
 // Before the first saved draw, `burnin` cycles (not saved) adapt the random
 // walk as in Haario et al. (2001): covariance (2.38^2 / d)(Sigma_hat + eps)
 // times a scale tuned by Robbins-Monro towards acceptance 0.234, starting from
@@ -141,7 +145,7 @@ class Sampler : public SamplerState {
     if (p_ == 0) return ll;
     if (burn_it < 0 && set_.p_global > 0.0 && unif_(rng_) < set_.p_global) {
       const double a0 = acc_input_, n0 = n_input_;
-      ll = input_step(ll);
+      ll = walk_.has_independence() ? independence_step(ll) : input_step(ll);
       acc_global_ += acc_input_ - a0;
       n_global_ += 1;
       acc_input_ = a0;
@@ -283,6 +287,31 @@ class Sampler : public SamplerState {
     }
     if (adapt) walk_.adapt(lr, z_);
     return accept ? ll_prop : ll_cur;
+  }
+
+  // Global move: the walk's independence proposal, accepted with the ratio
+  // target(z') q(z) / (target(z) q(z')) (debug_break 1 drops q(z) / q(z')).
+  double independence_step(double ll_cur) {
+    walk_.propose_independent(zp_, rng_, norm_, unif_);
+    double lr = -std::numeric_limits<double>::infinity();
+    double ll_prop = ll_cur;
+    const double lp = log_prior_inputs(zp_);
+    if (std::isfinite(lp)) {
+      predict_all(zp_, mp_, vp_);
+      ll_prop = loglik_with(mp_, vp_, tau2_);
+      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
+      if (set_.debug_break != 1) lr += walk_.log_independent(z_) - walk_.log_independent(zp_);
+    }
+    n_input_ += 1;
+    if (std::log(unif_(rng_)) < lr) {
+      z_.swap(zp_);
+      m_.swap(mp_);
+      v_.swap(vp_);
+      refresh_cache();
+      acc_input_ += 1;
+      return ll_prop;
+    }
+    return ll_cur;
   }
 
   // Moment estimates of tau2 at m, v (as init_tau2) and the log posterior

@@ -193,14 +193,14 @@ struct SamplerSettings {
   bool fix_tau2 = false;
   Eigen::VectorXd tau2_init;        // G; used as fixed values when fix_tau2, ignored if empty otherwise
   Eigen::VectorXd z_init;           // p
-  int debug_break = 0;              // 1: drop the mixture-density ratio, 2: drop the tau2 ratio,
+  int debug_break = 0;              // 1: drop the mixture-density or proposal ratio of global moves, 2: drop the tau2 ratio,
                                     // 3: drop the inputs' prior density (its support kept),
                                     // 4: drop the Jacobian of log sigma2 in the learned-noise step,
                                     // 5: drop the likelihood of the sites with an input shift
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
-  double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
+  double p_global = 0.5;            // ADAPTIVE: probability of a global move
   int n_search = 200;               // ADAPTIVE: prior draws scored for the start
   int threads = 1;                  // OpenMP threads of the emulator predictions
   std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs

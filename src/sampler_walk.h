@@ -1,6 +1,14 @@
 // The adaptive random walk of the sampler's input step (sampler.h), free of
 // R types: proposal z + scale * L e, e ~ N(0, I), adapted during the burn-in
 // as in Haario et al. (2001) with a Robbins-Monro scale, then frozen.
+// At the freeze, the mean m and covariance S of the second half of the
+// burn-in also define an independence proposal for the global moves: a
+// defensive mixture (Hesterberg 1995) of a multivariate t with 4 degrees of
+// freedom, location m and scale matrix S (covariance 2 S), whose tails are
+// heavier than a Gaussian posterior's, with weight 1 - eps, and the uniform
+// on the box of the supports with weight eps = 0.2. The uniform part lets a
+// chain reach regions that the burn-in did not visit (another mode) and
+// bounds target / proposal.
 #ifndef WAVEVALID_SAMPLER_WALK_H
 #define WAVEVALID_SAMPLER_WALK_H
 
@@ -19,7 +27,11 @@ class AdaptiveWalk {
   void init(const std::vector<InputPrior>& priors) {
     p_ = static_cast<int>(priors.size());
     range_.resize(p_);
-    for (int k = 0; k < p_; ++k) range_(k) = priors[k].upper - priors[k].lower;
+    lower_.resize(p_);
+    for (int k = 0; k < p_; ++k) {
+      range_(k) = priors[k].upper - priors[k].lower;
+      lower_(k) = priors[k].lower;
+    }
     Eigen::MatrixXd start = Eigen::MatrixXd::Zero(p_, p_);
     for (int k = 0; k < p_; ++k) start(k, k) = std::pow(0.02 * range_(k), 2);
     chol_ = start.llt().matrixL();
@@ -29,6 +41,7 @@ class AdaptiveWalk {
     log_scale_ = 0.0;
     adapt_n_ = 0;
     use_acc_ = false;
+    has_indep_ = false;
   }
 
   // zp = z + scale * L e, drawing the p normals e in order.
@@ -64,11 +77,59 @@ class AdaptiveWalk {
     }
   }
 
-  // At the end of the burn-in: scale folded into the covariance, no more changes.
+  // At the end of the burn-in: scale folded into the covariance, no more
+  // changes; the independence proposal from the accumulated moments when
+  // they hold at least 20 p points.
   void freeze() {
     const double sc = std::exp(log_scale_);
     chol_ *= sc;
     log_scale_ = 0.0;
+    has_indep_ = false;
+    if (acc_n_ >= 20.0 * p_ && p_ > 0) {
+      Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
+      for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
+      Eigen::LLT<Eigen::MatrixXd> llt(C);
+      if (llt.info() == Eigen::Success) {
+        ind_chol_ = llt.matrixL();
+        ind_mean_ = acc_mean_;
+        // log normalising constants of the t density and of the uniform on the box
+        double logdet = 0.0;
+        for (int k = 0; k < p_; ++k) logdet += std::log(ind_chol_(k, k));
+        log_t_const_ = std::lgamma(0.5 * (kNu + p_)) - std::lgamma(0.5 * kNu) -
+                       0.5 * p_ * std::log(kNu * M_PI) - logdet;
+        log_box_ = -range_.array().log().sum();
+        has_indep_ = true;
+      }
+    }
+  }
+
+  bool has_independence() const { return has_indep_; }
+
+  // A draw of the independence proposal: with probability eps a uniform
+  // point of the box (p uniforms), else m + L e sqrt(nu / w), e ~ N(0, I),
+  // w ~ chi-square(nu) as a sum of nu squared normals (p + nu normals in order).
+  template <class Rng>
+  void propose_independent(Eigen::VectorXd& zp, Rng& rng, std::normal_distribution<double>& norm,
+                           std::uniform_real_distribution<double>& unif) const {
+    zp.resize(p_);
+    if (unif(rng) < kEps) {
+      for (int k = 0; k < p_; ++k) zp(k) = lower_(k) + range_(k) * unif(rng);
+      return;
+    }
+    Eigen::VectorXd e(p_);
+    for (int k = 0; k < p_; ++k) e(k) = norm(rng);
+    double w = 0.0;
+    for (int k = 0; k < kNu; ++k) { const double g = norm(rng); w += g * g; }
+    zp = ind_mean_ + std::sqrt(kNu / w) * (ind_chol_ * e);
+  }
+
+  // Log density of the independence proposal at z (a point of the box).
+  double log_independent(const Eigen::VectorXd& z) const {
+    const Eigen::VectorXd u = ind_chol_.triangularView<Eigen::Lower>().solve(z - ind_mean_);
+    const double lt = std::log1p(-kEps) + log_t_const_ - 0.5 * (kNu + p_) * std::log1p(u.squaredNorm() / kNu);
+    const double lu = std::log(kEps) + log_box_;
+    const double hi = std::max(lt, lu);
+    return hi + std::log(std::exp(lt - hi) + std::exp(lu - hi));
   }
 
   Eigen::MatrixXd covariance() const { return chol_ * chol_.transpose(); }
@@ -80,6 +141,13 @@ class AdaptiveWalk {
   double log_scale_ = 0.0, acc_n_ = 0.0;
   int adapt_n_ = 0;
   bool use_acc_ = false;
+  static constexpr int kNu = 4;
+  static constexpr double kEps = 0.2;
+  Eigen::VectorXd lower_;
+  double log_t_const_ = 0.0, log_box_ = 0.0;
+  Eigen::MatrixXd ind_chol_;
+  Eigen::VectorXd ind_mean_;
+  bool has_indep_ = false;
 
   void accumulate(const Eigen::VectorXd& z) {
     acc_n_ += 1.0;

@@ -5,7 +5,7 @@
 # cycles (not saved).
 sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inner = 20L,
                         sd_eps = 3, R = 2, tau2 = 0.05, proposal = "report", burnin = 300L,
-                        p_global = 0.1) {
+                        p_global = 0.5) {
   s <- sbc_setup(R, sd_eps^2)
   n <- s$n
   spec <- s$spec
@@ -48,9 +48,7 @@ test_that("simulation-based calibration of the adaptive sampler", {
   withr::local_seed(20240612)
   p_ok <- sbc_pvalues(4000, n_draws = 49L, n_inner = 10L, proposal = "adaptive")
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
-  # its global moves (the report's mixture step) without the mixture-density
-  # ratio; at the default rate of global moves (0.1) the error is too small to
-  # see in a few thousand replications, so they are made frequent here
+  # its global moves (the independence proposal) without the proposal-density ratio
   withr::local_seed(20240612)
   p_broken <- sbc_pvalues(10000, debug_break = 1L, n_draws = 49L, n_inner = 10L, proposal = "adaptive",
                           p_global = 0.5)
