@@ -393,9 +393,11 @@ run_chunks <- function(tasks, worker, n_fit, engine) {
                           total = n_fit, .envir = environment())
   }
   out <- vector("list", length(tasks))
+  # the worker closure carries its data; no search for globals in each batch
+  no_globals <- stats::setNames(list(), character(0))
   for (g in groups) {
     out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = TRUE,
-                                          future.packages = "wavevalid")
+                                          future.packages = "wavevalid", future.globals = no_globals)
     if (!quiet) {
       cli::cli_progress_update(inc = sum(vapply(tasks[g], function(x) length(x$cols), integer(1))),
                                .envir = environment())

@@ -119,13 +119,13 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
       beta.cols() != X.cols() || alpha.cols() != X.cols()) {
     Rcpp::stop("gasp_finalize_cpp: inconsistent dimensions");
   }
-  const Eigen::MatrixXd Xc = X;
+  const wavevalid::GaspDist D(X);
   Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
   Eigen::MatrixXd weights(K, n);
   Rcpp::NumericVector ch(static_cast<R_xlen_t>(K) * K * n);
   for (int i = 0; i < n; ++i) {
     if (i % 16 == 0) Rcpp::checkUserInterrupt();
-    wavevalid::GaspFinal f = wavevalid::gasp_finalize(Xc, Y.col(i), beta.row(i).transpose(),
+    wavevalid::GaspFinal f = wavevalid::gasp_finalize(D, Y.col(i), beta.row(i).transpose(),
                                                       alpha.row(i).transpose(), nugget(i));
     if (!f.ok) Rcpp::stop("the correlation matrix of coefficient %d is not positive definite", i + 1);
     mu[i] = f.mu;

@@ -100,8 +100,10 @@ test_that("the optimiser settings, warm starts and control checks behave", {
   alone <- gasp_fit_cpp(X, Y, 1:6, list())  # no warm starts
   plain <- gasp_fit_cpp(X, Y, rep(1L, 6), list(precondition = 0L))
   many <- gasp_fit_cpp(X, Y, rep(1L, 6), list(n_local = 4L))
-  # more local searches from the same screened points never lose
-  expect_true(all(many$loglik >= one$loglik - 1e-10))
+  # more local searches from the same screened points never lose, beyond the
+  # optimiser's stopping rule (a change of the objective below ftol = 1e-8
+  # times |loglik|): the later coefficients' warm starts differ between the two
+  expect_true(all(many$loglik >= one$loglik - 1e-8 * abs(one$loglik)))
   for (f in list(one, alone, plain)) {
     expect_true(all(f$converged))
     expect_true(all(f$nugget == 0))
