@@ -55,9 +55,10 @@
 #'   in effective samples per cycle. The print and `fit$acceptance$global`
 #'   give its acceptance rate. (A burn-in of fewer than `40 d` cycles gives
 #'   too few points for the proposal; the global move is then the report's
-#'   mixture step.) On the suspension test bed (9 inputs) the slowest input
-#'   needs 18 cycles per effective sample with the default against 105 with
-#'   the random walk alone, on the dosing test bed 14 against 35.
+#'   mixture step.) On the suspension test bed (Site 1, 9 inputs) the
+#'   slowest input needs 25 cycles per effective sample with the default
+#'   against 58 with the random walk alone; on the dosing test bed (6 inputs,
+#'   seeds 1-2, with and without a hidden mechanism) 12-26 against 26-36.
 #'
 #' `iu` holds every input of the emulators. Variation inputs have prior
 #' `N(x_nom, prior_sd^2)` truncated to the I/U

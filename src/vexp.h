@@ -3,9 +3,9 @@
 // against the C library) with the scaling by 2^n built in the exponent bits.
 // The loops are written so that the compiler vectorises them (OpenMP simd:
 // no branch inside a loop), and on x86-64 Linux with GCC each kernel is also
-// compiled for AVX2, chosen at run time. The clones do the same IEEE
-// operations in the same order (no fused multiply-add), so the results do not
-// depend on the machine. exp(x) is 0 for x < -708 (where the double result
+// compiled for AVX-512 and AVX2, chosen at run time. The clones do the same
+// IEEE operations in the same order (contraction into fused multiply-adds is
+// turned off), so the results do not depend on the machine, to the bit. exp(x) is 0 for x < -708 (where the double result
 // would be subnormal); arguments must be below 709.
 // Free of R types.
 #ifndef WAVEVALID_VEXP_H
@@ -15,15 +15,17 @@
 #include <cstring>
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define WAVEVALID_CLONES __attribute__((target_clones("avx2", "default")))
+#define WAVEVALID_CLONES __attribute__((target_clones("avx512f", "avx2", "default"), optimize("fp-contract=off")))
+#define WAVEVALID_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
 #else
 #define WAVEVALID_CLONES
+#define WAVEVALID_NO_CONTRACT
 #endif
 
 namespace wavevalid {
 
 // exp(x) for x in [-708, 709].
-inline double exp_kernel(double x) {
+WAVEVALID_NO_CONTRACT inline double exp_kernel(double x) {
   const double shift = 6755399441055744.0;  // 1.5 * 2^52: adding it rounds to an integer
   const double fx = (x * 1.4426950408889634 + shift) - shift;
   const double r = (x - fx * 0.693145751953125) - fx * 1.42860682030941723212e-6;
