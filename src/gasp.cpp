@@ -189,3 +189,11 @@ Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen:
                             Rcpp::Named("n_eval") = f.n_eval, Rcpp::Named("n_grad") = f.n_grad,
                             Rcpp::Named("converged") = f.converged);
 }
+
+// exp(x) by the vectorised kernel of the likelihood (vexp.h), for its tests.
+// [[Rcpp::export]]
+Rcpp::NumericVector vexp_cpp(const Rcpp::NumericVector& x) {
+  Rcpp::NumericVector out(x.size());
+  wavevalid::vexp_affine(x.begin(), 1.0, 0.0, out.begin(), static_cast<int>(x.size()));
+  return out;
+}
