@@ -22,6 +22,12 @@
 #define WAVEVALID_NO_CONTRACT
 #endif
 
+#if defined(_OPENMP)
+#define WAVEVALID_SIMD _Pragma("omp simd")
+#else
+#define WAVEVALID_SIMD
+#endif
+
 namespace wavevalid {
 
 // exp(x) for x in [-708, 709].
@@ -47,14 +53,14 @@ WAVEVALID_NO_CONTRACT inline double exp_kernel(double x) {
 
 // out[i] = exp(a * x[i] + b); out must not overlap x.
 WAVEVALID_CLONES inline void vexp_affine(const double* x, double a, double b, double* out, int n) {
-#pragma omp simd
+WAVEVALID_SIMD
   for (int i = 0; i < n; ++i) {
     const double v = a * x[i] + b;
     out[i] = v < -708.0 ? -708.0 : v;
   }
-#pragma omp simd
+WAVEVALID_SIMD
   for (int i = 0; i < n; ++i) out[i] = exp_kernel(out[i]);
-#pragma omp simd
+WAVEVALID_SIMD
   for (int i = 0; i < n; ++i) out[i] = a * x[i] + b < -708.0 ? 0.0 : out[i];
 }
 
