@@ -23,7 +23,7 @@ struct ChainSettings {
 
 const char* const kRequired[] = {"n_groups", "z_init", "tau2_init", "fix_tau2", "n_draws",
                                  "n_inner", "step", "seed", "chain"};
-const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global",
+const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global", "p_indep",
                                  "n_search", "threads", "informs", "temper"};
 
 bool has_entry(const Rcpp::List& x, const char* name) {
@@ -93,7 +93,8 @@ ChainSettings read_settings(const Rcpp::List& x) {
   set.report_every = std::max(1, std::min(10, set.n_draws / 100));
   set.adaptive = optional_scalar<bool>(x, "adaptive", false);
   set.burnin = optional_scalar<int>(x, "burnin", 0);
-  set.p_global = optional_scalar<double>(x, "p_global", 0.5);
+  set.p_global = optional_scalar<double>(x, "p_global", 0.1);
+  set.p_indep = optional_scalar<double>(x, "p_indep", 0.0);
   set.n_search = optional_scalar<int>(x, "n_search", 200);
   set.threads = optional_scalar<int>(x, "threads", 1);
   if (has_entry(x, "informs")) {
@@ -186,7 +187,7 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   5: no likelihood of the sites with a shift, only to show that the
 //   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
-//   (FALSE), burnin (0), p_global (0.5), n_search (200), threads (1), informs
+//   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs
 //   (one 0/1 per group, or empty: all inform), temper (1).
 // [[Rcpp::export]]
 Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,

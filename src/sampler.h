@@ -28,12 +28,14 @@
 //          factor), using cached m, V at the current inputs;
 //      (b) a Gaussian random walk on all inputs (proposals outside the support
 //          have zero target density and are rejected, so the kernel stays
-//          symmetric), with probability 1 - p_global, else a global move: an
-//          independence proposal, the mixture of a multivariate t (4 degrees
-//          of freedom) with the mean and covariance of the second half of the
-//          burn-in and of the uniform on the supports' box (sampler_walk.h),
-//          with its Hastings ratio (the report's mixture step when the burn-in
-//          held fewer than 20 p cycles).
+//          symmetric), with probability 1 - p_global, else the report's mixture
+//          step with its Hastings ratio; or, when p_indep > 0, with
+//          probability p_indep an independence proposal instead of the mixture
+//          step: the mixture of a multivariate t (4 degrees of freedom) with
+//          the mean and covariance of the second half of the burn-in and of
+//          the uniform on the supports' box (sampler_walk.h), with its
+//          Hastings ratio (the mixture step at p_global when the burn-in held
+//          fewer than 20 p cycles).
 // Before the first saved draw, `burnin` cycles (not saved) adapt the random
 // walk as in Haario et al. (2001): covariance (2.38^2 / d)(Sigma_hat + eps)
 // times a scale tuned by Robbins-Monro towards acceptance 0.234, starting from
@@ -143,9 +145,11 @@ class Sampler : public SamplerState {
     }
     if (!set_.fix_tau2 && G_ > 0) ll = tau_steps_by_group();
     if (p_ == 0) return ll;
-    if (burn_it < 0 && set_.p_global > 0.0 && unif_(rng_) < set_.p_global) {
+    const bool indep = set_.p_indep > 0.0 && walk_.has_independence();
+    const double pg = indep ? set_.p_indep : set_.p_global;
+    if (burn_it < 0 && pg > 0.0 && unif_(rng_) < pg) {
       const double a0 = acc_input_, n0 = n_input_;
-      ll = walk_.has_independence() ? independence_step(ll) : input_step(ll);
+      ll = indep ? independence_step(ll) : input_step(ll);
       acc_global_ += acc_input_ - a0;
       n_global_ += 1;
       acc_input_ = a0;

@@ -200,7 +200,8 @@ struct SamplerSettings {
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
-  double p_global = 0.5;            // ADAPTIVE: probability of a global move
+  double p_global = 0.1;            // ADAPTIVE: probability of the report's mixture step
+  double p_indep = 0.0;             // ADAPTIVE: probability of an independence move instead (0: none)
   int n_search = 200;               // ADAPTIVE: prior draws scored for the start
   int threads = 1;                  // OpenMP threads of the emulator predictions
   std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs

@@ -5,7 +5,7 @@
 # cycles (not saved).
 sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inner = 20L,
                         sd_eps = 3, R = 2, tau2 = 0.05, proposal = "report", burnin = 300L,
-                        p_global = 0.5) {
+                        p_global = 0.1, p_indep = 0.5) {
   s <- sbc_setup(R, sd_eps^2)
   n <- s$n
   spec <- s$spec
@@ -24,7 +24,8 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
     out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = step, seed = r, chain = 1L, debug_break = debug_break,
-      adaptive = adaptive, burnin = if (adaptive) burnin else 0L, p_global = p_global, n_search = 20L))
+      adaptive = adaptive, burnin = if (adaptive) burnin else 0L, p_global = p_global, p_indep = p_indep,
+      n_search = 20L))
     keep <- burn:n_draws
     ranks[r, ] <- c(sum(out$inputs[keep, 1] < z), sum(out$wb[[1]][keep, 1] < wb[1]),
                     sum(out$wM[[1]][keep, 2] < wM[2]))
@@ -48,10 +49,17 @@ test_that("simulation-based calibration of the adaptive sampler", {
   withr::local_seed(20240612)
   p_ok <- sbc_pvalues(4000, n_draws = 49L, n_inner = 10L, proposal = "adaptive")
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
-  # its global moves (the independence proposal) without the proposal-density ratio
+  # its independence moves without the proposal-density ratio
   withr::local_seed(20240612)
   p_broken <- sbc_pvalues(10000, debug_break = 1L, n_draws = 49L, n_inner = 10L, proposal = "adaptive",
                           p_global = 0.5)
+  expect_lt(p_broken[["u1"]], 0.01)
+  # the report's mixture step as the global move (no independence moves)
+  # without the mixture-density ratio; at its default rate (0.1) the error is
+  # too small to see in a few thousand replications, so it is made frequent
+  withr::local_seed(20240612)
+  p_broken <- sbc_pvalues(10000, debug_break = 1L, n_draws = 49L, n_inner = 10L, proposal = "adaptive",
+                          p_global = 0.5, p_indep = 0)
   expect_lt(p_broken[["u1"]], 0.01)
 })
 

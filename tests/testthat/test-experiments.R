@@ -61,7 +61,7 @@ sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inne
     out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = s$G, z_init = c(0.5, 0.5), tau2_init = rep(tau2, s$G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break,
-      adaptive = TRUE, burnin = 300L, p_global = 0.5, n_search = 20L))
+      adaptive = TRUE, burnin = 300L, p_indep = 0.5, n_search = 20L))
     ranks[r, ] <- c(sum(out$inputs[, 1] < z[1]), sum(out$inputs[, 2] < z[2]),
                     sum(out$wb[[1]][, 1] < truth[[1]]$wb[1]), sum(out$wb[[2]][, 1] < truth[[2]]$wb[1]),
                     sum(out$wM[[2]][, 2] < truth[[2]]$wM[2]),
