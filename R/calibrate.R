@@ -184,7 +184,7 @@
 #' @param global_moves Probability, in `[0, 1)`, that a cycle of the
 #'   `"adaptive"` sampler makes an independence move (see the section
 #'   Proposals); 0 (default) keeps the report's mixture step as the global
-#'   move, in 10\% of cycles.
+#'   move, in a tenth of the cycles.
 #' @param burnin Metropolis-Hastings cycles run before the first saved draw
 #'   and discarded (`sigma2` is drawn anew every `n_inner` of them). `NULL`
 #'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
