@@ -53,10 +53,6 @@ gasp_level_fit_cpp <- function(X, Y, control, prior, restricted, warm) {
     .Call(`_wavevalid_gasp_level_fit_cpp`, X, Y, control, prior, restricted, warm)
 }
 
-vexp_cpp <- function(x) {
-    .Call(`_wavevalid_vexp_cpp`, x)
-}
-
 gasp_bank_augment_cpp <- function(bank, z, w) {
     .Call(`_wavevalid_gasp_bank_augment_cpp`, bank, z, w)
 }

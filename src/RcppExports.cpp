@@ -200,17 +200,6 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// vexp_cpp
-Rcpp::NumericVector vexp_cpp(const Rcpp::NumericVector& x);
-RcppExport SEXP _wavevalid_vexp_cpp(SEXP xSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type x(xSEXP);
-    rcpp_result_gen = Rcpp::wrap(vexp_cpp(x));
-    return rcpp_result_gen;
-END_RCPP
-}
 // gasp_bank_augment_cpp
 Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::VectorXd>& z, const Eigen::Map<Eigen::VectorXd>& w);
 RcppExport SEXP _wavevalid_gasp_bank_augment_cpp(SEXP bankSEXP, SEXP zSEXP, SEXP wSEXP) {
@@ -346,7 +335,6 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
     {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
     {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
-    {"_wavevalid_vexp_cpp", (DL_FUNC) &_wavevalid_vexp_cpp, 1},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_cycle_limit_cpp", (DL_FUNC) &_wavevalid_cycle_limit_cpp, 7},

@@ -119,13 +119,13 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
       beta.cols() != X.cols() || alpha.cols() != X.cols()) {
     Rcpp::stop("gasp_finalize_cpp: inconsistent dimensions");
   }
-  const wavevalid::GaspDist D(X);
+  const Eigen::MatrixXd Xc = X;
   Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
   Eigen::MatrixXd weights(K, n);
   Rcpp::NumericVector ch(static_cast<R_xlen_t>(K) * K * n);
   for (int i = 0; i < n; ++i) {
     if (i % 16 == 0) Rcpp::checkUserInterrupt();
-    wavevalid::GaspFinal f = wavevalid::gasp_finalize(D, Y.col(i), beta.row(i).transpose(),
+    wavevalid::GaspFinal f = wavevalid::gasp_finalize(Xc, Y.col(i), beta.row(i).transpose(),
                                                       alpha.row(i).transpose(), nugget(i));
     if (!f.ok) Rcpp::stop("the correlation matrix of coefficient %d is not positive definite", i + 1);
     mu[i] = f.mu;
@@ -188,12 +188,4 @@ Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen:
                             Rcpp::Named("nugget") = f.nugget, Rcpp::Named("objective") = f.loglik,
                             Rcpp::Named("n_eval") = f.n_eval, Rcpp::Named("n_grad") = f.n_grad,
                             Rcpp::Named("converged") = f.converged);
-}
-
-// exp(x) by the vectorised kernel of the likelihood (vexp.h), for its tests.
-// [[Rcpp::export]]
-Rcpp::NumericVector vexp_cpp(const Rcpp::NumericVector& x) {
-  Rcpp::NumericVector out(x.size());
-  wavevalid::vexp_affine(x.begin(), 1.0, 0.0, out.begin(), static_cast<int>(x.size()));
-  return out;
 }

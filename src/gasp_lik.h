@@ -19,7 +19,6 @@
 #include <cmath>
 #include <limits>
 #include <algorithm>
-#include "vexp.h"
 
 namespace wavevalid {
 
@@ -68,8 +67,7 @@ struct GaspDist {
 // gradient is computed only at points where it is used.
 // The lower triangle of the correlation matrix R (with `nugget` on its
 // diagonal) at theta = (log beta, alpha) for the pairwise distances D; keeps
-// T = beta d^(2 - alpha) by pair and input, S their sum and C = exp(-S)
-// (the exps vectorised, vexp.h).
+// T = beta d^(2 - alpha) by pair and input, S their sum and C = exp(-S).
 inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, double nugget, Eigen::MatrixXd& T,
                               Eigen::ArrayXd& S, Eigen::ArrayXd& C, Eigen::MatrixXd& R) {
   const int p = static_cast<int>(T.cols()), K = static_cast<int>(R.rows());
@@ -82,12 +80,11 @@ inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, d
     } else if (a == 1.0) {
       T.col(q).noalias() = std::exp(lb) * D.d1.col(q);
     } else {
-      vexp_affine(D.logd.col(q).data(), 2.0 - a, lb, T.col(q).data(), D.P);
+      T.col(q) = ((2.0 - a) * D.logd.col(q).array() + lb).exp().matrix();
     }
     S += T.col(q).array();
   }
-  C.resize(D.P);
-  vexp_neg(S.data(), C.data(), D.P);
+  C = (-S).exp();
   int idx = 0;
   for (int k = 0; k < K; ++k) {
     R(k, k) = 1.0 + nugget;
@@ -213,20 +210,24 @@ struct GaspFinal {
   bool ok = false;
 };
 
-inline GaspFinal gasp_finalize(const GaspDist& D, const Eigen::VectorXd& y, const Eigen::VectorXd& beta,
-                               const Eigen::VectorXd& alpha, double nugget) {
-  const int K = D.K, p = D.p;
+inline GaspFinal gasp_finalize(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                               const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
+                               double nugget) {
+  const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
   GaspFinal out;
-  // R from the same power-exponential terms as the likelihood (lower triangle)
-  Eigen::VectorXd theta(2 * p);
-  for (int q = 0; q < p; ++q) {
-    theta(q) = beta(q) > 0.0 ? std::log(beta(q)) : -std::numeric_limits<double>::infinity();
-    theta(p + q) = alpha(q);
+  Eigen::MatrixXd R(K, K);
+  for (int k = 0; k < K; ++k) {
+    R(k, k) = 1.0;
+    for (int j = k + 1; j < K; ++j) {
+      double s = 0.0;
+      for (int q = 0; q < p; ++q) {
+        if (beta(q) == 0.0) continue;
+        const double d = std::abs(X(j, q) - X(k, q));
+        if (d > 0.0) s += beta(q) * std::pow(d, 2.0 - alpha(q));
+      }
+      R(j, k) = R(k, j) = std::exp(-s);
+    }
   }
-  Eigen::MatrixXd T(D.P, p), R(K, K);
-  Eigen::ArrayXd S(D.P), C(D.P);
-  build_correlation(D, theta, 0.0, T, S, C, R);
-  R.triangularView<Eigen::StrictlyUpper>() = R.transpose();
   static const double ladder[] = {1e-8, 1e-6, 1e-4, 1e-2, 1.0};
   std::vector<double> tries(1, nugget);
   for (double g : ladder) if (g > nugget) tries.push_back(g);

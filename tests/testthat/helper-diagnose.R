@@ -15,10 +15,7 @@ diag_setup <- function() {
 }
 
 # The diagnosis on the suspension test bed with mechanism `hidden` hidden,
-# one chain of 1000 draws x 20 cycles (testbed_validation()); with 150 draws
-# a 90% band's tails rest on 7 or 8 draws, and chance excursions of the bias
-# band of 4 to 6 grid steps came and went with the sampler's random stream
-# with nothing hidden: the test bed, the fit, where_fails()
+# short chains (testbed_validation()): the test bed, the fit, where_fails()
 # and explain_bias() of the four mechanisms' signatures at the posterior mean
 # inputs (`explain` without the shift candidates, `all` with them). Fits are
 # kept by hidden mechanism and test-bed seed, in each test process
@@ -28,7 +25,7 @@ testbed_diagnosis <- function(hidden, seed = 1L) {
   key <- paste(hidden, seed)
   if (!is.null(testbed_fits[[key]])) return(testbed_fits[[key]])
   withr::local_options(list(wavevalid.quiet = TRUE))
-  v <- testbed_validation(hidden, seed, n_draws = 1000L)
+  v <- testbed_validation(hidden, seed)
   tb <- v$tb
   fit <- v$fit
   z_hat <- colMeans(as.matrix(fit$draws))[fit$inputs]
