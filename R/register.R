@@ -71,8 +71,18 @@
 #'
 #' Registration is refused (error of class `wavevalid_error_input`) when a
 #' window is not an increasing pair of times, falls outside the grid, or
-#' overlaps another window, and when the landmarks of a replicate come in a
-#' different order from the reference's (the warp would not be monotone).
+#' overlaps another window.
+#'
+#' When the landmarks of a replicate come in another order than the
+#' reference's in a window (reality's deepest dip after the peak where the
+#' model's is before it: a change of shape at the event, as when a tire
+#' leaves the ground), a warp through all of them would fold time. That window
+#' of that replicate is then registered on the largest set of its landmarks
+#' that keep the reference's order, of those the set nearest the reference's
+#' times; the others are left out, listed in the attribute `left_out` of the
+#' warps and in their print, with a warning (class
+#' `wavevalid_warning_landmarks`). The shape that differs stays in the
+#' registered curves, where the bias can show it.
 #'
 #' @param field A `wv_field` object, or a `wv_runs` object to register the
 #'   model runs themselves (see Registering the model runs).
@@ -216,6 +226,7 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
   }
   marker_sites <- if (is.null(landmark_site)) sites else landmark_site
   rows <- list()
+  left_out <- list()
   spread <- list()
   for (s in marker_sites) {
     ref_lm <- curve_landmarks(ref[[s]], t, windows, features, refine)
@@ -235,11 +246,18 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
       }
     }
     for (r in seq_len(R)) {
+      kept <- knots[[r]]$keep
       row <- data.frame(
-        site = s, replicate = r, window = ref_lm$window, feature = ref_lm$feature,
-        t_before = rep_lms[[r]]$t, t_after = ref_lm$t, stringsAsFactors = FALSE
+        site = s, replicate = r, window = ref_lm$window[kept], feature = ref_lm$feature[kept],
+        t_before = knots[[r]]$t_rep[kept], t_after = ref_lm$t[kept], stringsAsFactors = FALSE
       )
-      kn <- knots[[r]]
+      if (!all(kept)) {
+        left_out[[length(left_out) + 1L]] <- data.frame(
+          site = s, replicate = r, window = ref_lm$window[!kept], feature = ref_lm$feature[!kept],
+          t_before = knots[[r]]$t_rep[!kept], t_after = ref_lm$t[!kept], stringsAsFactors = FALSE
+        )
+      }
+      kn <- knots[[r]][c("before", "after")]
       if (!is.null(fitted)) {
         kn <- fitted[[r]]$knots
         if (length(fitted[[r]]$after)) {
@@ -253,9 +271,12 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
       rows[[length(rows) + 1L]] <- row
     }
   }
+  left_out <- if (length(left_out)) do.call(rbind, left_out)
+  if (!is.null(left_out)) warn_left_out(left_out, max(n_rep))
   warps <- new_wv_warps(do.call(rbind, rows), range = range(t), windows = windows,
                         landmark_site = if (is.null(landmark_site)) NA_character_ else landmark_site,
-                        sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)))
+                        sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
+                        left_out = left_out)
   validate_wv_warps(warps)
   validate_wv_field(new_wv_field(t, curves, field$x_nom, warps))
 }
@@ -347,26 +368,25 @@ landmark_spread <- function(Y, t, windows, features, refine, ref_lm, site) {
              stringsAsFactors = FALSE)
 }
 
-# Knots (before -> after) of the warp of one replicate, checked for monotonicity.
+# Knots (before -> after) of the warp of one replicate, checked for
+# monotonicity. In a window where the replicate's landmarks come in another
+# order than the reference's (a change of shape at the event: a dip that the
+# model puts before the peak and reality after it), the warp is tied to the
+# largest set of the window's landmarks that keep the reference's order, and
+# of those the set nearest the reference's times; `keep` marks the rows of
+# `ref_lm` used and `t_rep` gives the replicate's time of each of them.
 warp_knots_from <- function(rep_lm, ref_lm, t, site, replicate, call = rlang::caller_env()) {
+  t_rep <- rep_lm$t[match(paste(ref_lm$window, ref_lm$feature), paste(rep_lm$window, rep_lm$feature))]
+  keep <- rep(TRUE, nrow(ref_lm))
   for (w in unique(ref_lm$window)) {
-    f_ref <- ref_lm$feature[ref_lm$window == w]
-    f_rep <- rep_lm$feature[rep_lm$window == w]
-    if (!identical(f_ref, f_rep) || anyDuplicated(ref_lm$t[ref_lm$window == w]) ||
-        anyDuplicated(rep_lm$t[rep_lm$window == w])) {
-      wv_abort(c(
-        "Landmarks of replicate {replicate} (site {.val {site}}) are out of order in window {w}.",
-        "x" = "Reference order: {paste(f_ref, collapse = ' < ')} at t = {paste(signif(ref_lm$t[ref_lm$window == w], 5), collapse = ', ')}; replicate order: {paste(f_rep, collapse = ' < ')} at t = {paste(signif(rep_lm$t[rep_lm$window == w], 5), collapse = ', ')}.",
-        "i" = "The warp would not be monotone. Narrow the window around the event, use {.arg features} to keep one landmark, or drop the replicate."
-      ), call = call)
-    }
+    i <- which(ref_lm$window == w)
+    keep[i] <- ordered_landmarks(ref_lm$t[i], t_rep[i])
   }
-  # rows of rep_lm and ref_lm correspond: same windows, same features, same order
-  before <- c(t[1], rep_lm$t, t[length(t)])
-  after <- c(t[1], ref_lm$t, t[length(t)])
-  keep <- !(duplicated(before) & duplicated(after))
-  before <- before[keep]
-  after <- after[keep]
+  before <- c(t[1], t_rep[keep], t[length(t)])
+  after <- c(t[1], ref_lm$t[keep], t[length(t)])
+  keep_knot <- !(duplicated(before) & duplicated(after))
+  before <- before[keep_knot]
+  after <- after[keep_knot]
   if (any(diff(before) <= 0) || any(diff(after) <= 0)) {
     wv_abort(c(
       "The warp of replicate {replicate} (site {.val {site}}) is not monotone.",
@@ -374,8 +394,43 @@ warp_knots_from <- function(rep_lm, ref_lm, t, site, replicate, call = rlang::ca
       "i" = "Move the windows away from the ends of the grid."
     ), call = call)
   }
-  list(before = before, after = after)
+  list(before = before, after = after, keep = keep, t_rep = t_rep)
 }
+
+# The warning for landmarks left out of the warps: which replicates, windows
+# and features, and what it means.
+warn_left_out <- function(left_out, n_rep) {
+  wv_warn(c(
+    "Landmarks came in another order than the reference's and were left out of the warps: {left_out_summary(left_out, n_rep)}.",
+    "i" = "Each such window is registered on its landmarks that keep the reference's order (those nearest its times).",
+    "i" = "A shape that differs from the model's at an event is a finding in itself: look at those replicates in that window ({.code attr(field$warps, \"left_out\")}), or choose the {.arg features} that mark the event in both."
+  ), class = "landmarks")
+}
+
+# Which of one window's landmarks tie the warp: all of them when the
+# replicate's times (t_rep) come in the order of the reference's (t_ref),
+# strictly; otherwise the largest subset that does, the one with the smallest
+# total distance between the two times among subsets of that size.
+ordered_landmarks <- function(t_ref, t_rep) {
+  n <- length(t_ref)
+  in_order <- function(k) {
+    o <- order(t_ref[k])
+    !anyDuplicated(t_ref[k]) && !is.unsorted(t_rep[k][o], strictly = TRUE)
+  }
+  if (in_order(seq_len(n))) return(rep(TRUE, n))
+  best <- NULL
+  best_cost <- Inf
+  for (size in rev(seq_len(n - 1L))) {
+    for (k in utils::combn(n, size, simplify = FALSE)) {
+      if (!in_order(k)) next
+      cost <- sum(abs(t_rep[k] - t_ref[k]))
+      if (cost < best_cost) { best <- k; best_cost <- cost }
+    }
+    if (!is.null(best)) break
+  }
+  seq_len(n) %in% best
+}
+
 
 # --- input checks ------------------------------------------------------------
 

@@ -2,15 +2,15 @@
 
 # The columns every wv_warps has, and its attributes.
 warps_columns <- c("site", "replicate", "window", "feature", "t_before", "t_after")
-warps_attributes <- c("range", "windows", "landmark_site", "sites", "landmark_sd")
+warps_attributes <- c("range", "windows", "landmark_site", "sites", "landmark_sd", "left_out")
 
 # landmark_sd: NULL, or a data frame with one row per landmark of the
 # reference (site, window, feature, t_after) and `sd`, the standard deviation
 # of that landmark's time over the model runs the reference averages.
-new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = NULL) {
+new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = NULL, left_out = NULL) {
   rownames(x) <- NULL
   structure(x, range = range, windows = windows, landmark_site = landmark_site, sites = sites,
-            landmark_sd = landmark_sd, class = c("wv_warps", "data.frame"))
+            landmark_sd = landmark_sd, left_out = left_out, class = c("wv_warps", "data.frame"))
 }
 
 # Rows or columns of a wv_warps keep its attributes while every column the
@@ -24,6 +24,11 @@ new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = 
     return(out)
   }
   keep <- stats::setNames(lapply(warps_attributes, function(a) attr(x, a)), warps_attributes)
+  lo <- keep$left_out
+  if (!is.null(lo)) {
+    lo <- lo[paste(lo$site, lo$replicate) %in% paste(out$site, out$replicate), , drop = FALSE]
+    keep["left_out"] <- list(if (nrow(lo)) lo)
+  }
   do.call(new_wv_warps, c(list(out), keep))
 }
 
@@ -54,8 +59,23 @@ print.wv_warps <- function(x, ...) {
                 else sprintf("  landmarks found on site %s, warps applied to all sites", ls))
   cli::cat_line(sprintf("  landmark shift: median %s, max %s", format(signif(stats::median(shift), 3)),
                         format(signif(max(shift), 3))))
+  lo <- attr(x, "left_out")
+  if (!is.null(lo) && nrow(lo)) {
+    cli::cat_line(sprintf("  left out, in another order than the reference's: %s", left_out_summary(lo, n_rep)))
+  }
   print(as.data.frame(unclass_warps(x)), row.names = FALSE)
   invisible(x)
+}
+
+# "the min of window 1 at 7 of 7 replicates (site1)", one phrase per site,
+# window and feature left out.
+left_out_summary <- function(lo, n_rep) {
+  key <- unique(lo[c("site", "window", "feature")])
+  n <- vapply(seq_len(nrow(key)), function(i) {
+    sum(lo$site == key$site[i] & lo$window == key$window[i] & lo$feature == key$feature[i])
+  }, integer(1))
+  paste(sprintf("the %s of window %d at %d of %d replicates (%s)", key$feature, key$window, n, n_rep, key$site),
+        collapse = "; ")
 }
 
 unclass_warps <- function(x) {

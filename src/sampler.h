@@ -266,6 +266,15 @@ class Sampler : public SamplerState {
     return log_prior(priors_, joints_, z, set_.debug_break);
   }
 
+  // An accepted proposal: the proposed inputs and their predictions become
+  // the current ones (the old ones are the next proposal's buffers).
+  void take_proposal() {
+    z_.swap(zp_);
+    m_.swap(mp_);
+    v_.swap(vp_);
+    refresh_cache();
+  }
+
   // Adaptive Metropolis (sampler_walk.h), adapted during the burn-in.
   double walk_step(double ll_cur, int burn_it) {
     const bool adapt = burn_it >= 0;
@@ -283,10 +292,7 @@ class Sampler : public SamplerState {
     const bool accept = u < lr;
     if (adapt) { n_burn_ += 1; } else { n_input_ += 1; }
     if (accept) {
-      z_.swap(zp_);
-      m_.swap(mp_);
-      v_.swap(vp_);
-      refresh_cache();
+      take_proposal();
       if (adapt) { acc_burn_ += 1; } else { acc_input_ += 1; }
     }
     if (adapt) walk_.adapt(lr, z_);
@@ -308,10 +314,7 @@ class Sampler : public SamplerState {
     }
     n_input_ += 1;
     if (std::log(unif_(rng_)) < lr) {
-      z_.swap(zp_);
-      m_.swap(mp_);
-      v_.swap(vp_);
-      refresh_cache();
+      take_proposal();
       acc_input_ += 1;
       return ll_prop;
     }
@@ -369,10 +372,7 @@ class Sampler : public SamplerState {
     lr += ll_prop - ll_cur;
     n_input_ += 1;
     if (std::log(unif_(rng_)) < lr) {
-      z_.swap(zp_);
-      m_.swap(mp_);
-      v_.swap(vp_);
-      refresh_cache();
+      take_proposal();
       acc_input_ += 1;
       return ll_prop;
     }

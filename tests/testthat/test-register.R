@@ -128,7 +128,7 @@ test_that("only one feature per window can be used", {
   expect_true(all(abs(reg$warps$t_before - reg$warps$t_after - c(0.2, 0.3)) <= diff(t)[1] + 1e-9))
 })
 
-test_that("bad windows, out-of-order landmarks and mismatched grids are refused", {
+test_that("bad windows and mismatched grids are refused", {
   t <- grid()
   ref <- list(site1 = event_curve(t))
   field <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3))), t)
@@ -139,10 +139,6 @@ test_that("bad windows, out-of-order landmarks and mismatched grids are refused"
   expect_error(register_curves(field, ref, list(c(15, 25))), class = cls)
   expect_error(register_curves(field, ref, list(c(4, 10), c(9, 15))), class = cls)
   expect_error(register_curves(field, ref, list(c(13, 17), c(4, 8))), class = cls)
-  # a replicate whose peak comes before its dip: the warp would fold time
-  flipped <- field_runs(rbind(-event_curve(t, at = c(5.2, 14.3))), t)
-  expect_error(register_curves(flipped, ref, windows), class = cls)
-  expect_snapshot(register_curves(flipped, ref, windows), error = TRUE)
   # reference on another grid, or missing a site
   expect_error(register_curves(field, list(site1 = ref$site1[-1]), windows), class = cls)
   runs_other <- model_runs(data.frame(a = 1:2), rbind(ref$site1, ref$site1), t * 1.01)
@@ -150,6 +146,56 @@ test_that("bad windows, out-of-order landmarks and mismatched grids are refused"
   expect_error(register_curves(field, list(other = ref$site1), windows), class = cls)
   expect_error(register_curves(field, ref, windows, landmark_site = "nope"), class = cls)
   expect_error(register_curves(field, ref, windows, features = "peak"), class = cls)
+})
+
+test_that("landmarks in another order than the reference's are left out, with a warning, keeping those nearest", {
+  t <- grid()
+  ref <- list(site1 = event_curve(t))
+  # a replicate whose peak comes before its dip: a warp through both would fold time
+  flipped <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3)), -event_curve(t, at = c(5.2, 14.3))), t)
+  expect_warning(reg <- register_curves(flipped, ref, windows), class = "wavevalid_warning_landmarks")
+  expect_snapshot(invisible(register_curves(flipped, ref, windows)))
+  w <- as.data.frame(reg$warps)
+  lo <- attr(reg$warps, "left_out")
+  ref_lm <- wavevalid:::curve_landmarks(ref$site1, t, windows, wavevalid:::check_features(c("min", "max")))
+  rep_lm <- wavevalid:::curve_landmarks(flipped$curves$site1[2, ], t, windows,
+                                        wavevalid:::check_features(c("min", "max")))
+  # the first replicate keeps both landmarks of both windows
+  expect_equal(nrow(w[w$replicate == 1, ]), 4L)
+  for (k in unique(ref_lm$window)) {
+    r <- ref_lm[ref_lm$window == k, ]
+    p <- rep_lm[rep_lm$window == k, ]
+    dist <- abs(p$t[match(r$feature, p$feature)] - r$t)
+    kept <- w[w$replicate == 2 & w$window == k, ]
+    # one landmark per window, the one nearer the reference's time; the other listed as left out
+    expect_equal(kept$feature, r$feature[which.min(dist)])
+    expect_equal(kept$t_after, r$t[which.min(dist)])
+    expect_equal(lo$feature[lo$window == k], r$feature[which.max(dist)])
+  }
+  expect_true(all(lo$replicate == 2L))
+  # the registered replicate has its kept landmarks on the reference's times
+  y <- reg$curves$site1[2, ]
+  for (k in unique(ref_lm$window)) {
+    inw <- which(t >= windows[[k]][1] & t <= windows[[k]][2])
+    kept <- w[w$replicate == 2 & w$window == k, ]
+    at <- if (kept$feature == "max") t[inw][which.max(y[inw])] else t[inw][which.min(y[inw])]
+    expect_lte(abs(at - kept$t_after), diff(t[1:2]) + 1e-9)
+  }
+  # subsetting the warps keeps the left-out landmarks of the replicates kept
+  expect_null(attr(reg$warps[reg$warps$replicate == 1, ], "left_out"))
+  expect_equal(nrow(attr(reg$warps[reg$warps$replicate == 2, ], "left_out")), nrow(lo))
+})
+
+test_that("the order-keeping set of landmarks is the largest, then the nearest", {
+  ol <- wavevalid:::ordered_landmarks
+  expect_equal(ol(c(1, 2, 3), c(1.1, 2.1, 3.1)), c(TRUE, TRUE, TRUE))
+  # the third landmark jumped before the first two: dropping it alone restores the order
+  expect_equal(ol(c(1, 2, 3), c(1.1, 2.1, 0.5)), c(TRUE, TRUE, FALSE))
+  # two swapped: either one restores it; the one nearer its reference time stays
+  expect_equal(ol(c(1, 2), c(2.05, 1.5)), c(FALSE, TRUE))
+  expect_equal(ol(c(1, 2), c(1.2, 0.1)), c(TRUE, FALSE))
+  # ties in the replicate's times are out of order too
+  expect_equal(sum(ol(c(1, 2), c(1.5, 1.5))), 1L)
 })
 
 test_that("on the test bed, registration brings every landmark onto the reference and shrinks the spread", {
