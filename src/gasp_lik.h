@@ -19,6 +19,7 @@
 #include <cmath>
 #include <limits>
 #include <algorithm>
+#include "vexp.h"
 
 namespace wavevalid {
 
@@ -67,7 +68,8 @@ struct GaspDist {
 // gradient is computed only at points where it is used.
 // The lower triangle of the correlation matrix R (with `nugget` on its
 // diagonal) at theta = (log beta, alpha) for the pairwise distances D; keeps
-// T = beta d^(2 - alpha) by pair and input, S their sum and C = exp(-S).
+// T = beta d^(2 - alpha) by pair and input, S their sum and C = exp(-S)
+// (the exps in wide vectors, to the bit as Eigen's, vexp.h).
 inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, double nugget, Eigen::MatrixXd& T,
                               Eigen::ArrayXd& S, Eigen::ArrayXd& C, Eigen::MatrixXd& R) {
   const int p = static_cast<int>(T.cols()), K = static_cast<int>(R.rows());
@@ -80,11 +82,21 @@ inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, d
     } else if (a == 1.0) {
       T.col(q).noalias() = std::exp(lb) * D.d1.col(q);
     } else {
-      T.col(q) = ((2.0 - a) * D.logd.col(q).array() + lb).exp().matrix();
+      if (vexp_eigen_available) {
+        affine_eigen(D.logd.col(q).data(), 2.0 - a, lb, T.col(q).data(), T.rows());
+        vexp_eigen(T.col(q).data(), T.col(q).data(), T.rows());
+      } else {
+        T.col(q) = ((2.0 - a) * D.logd.col(q).array() + lb).exp().matrix();
+      }
     }
     S += T.col(q).array();
   }
-  C = (-S).exp();
+  if (vexp_eigen_available) {
+    C = -S;
+    vexp_eigen(C.data(), C.data(), C.size());
+  } else {
+    C = (-S).exp();
+  }
   int idx = 0;
   for (int k = 0; k < K; ++k) {
     R(k, k) = 1.0 + nugget;
@@ -103,6 +115,8 @@ class GaspLik {
     R_.resize(K_, K_);
     Linv_.resize(K_, K_);
     Ri_.resize(K_, K_);
+    LT_.resize(((K_ + 7) / 8) * 8, K_);
+    acc_.resize(LT_.rows(), 4);
     Mp_.resize(P_);
     ones_ = Eigen::VectorXd::Ones(K_);
   }
@@ -147,19 +161,24 @@ class GaspLik {
     // R^-1 = L^-T L^-1 (lower triangle) from the Cholesky factor, using the
     // triangular structure of both factors (K^3 / 3 flops in all)
     const Eigen::MatrixXd& L = llt_.matrixLLT();
-    Linv_.setZero();
-    for (int j = 0; j < K_; ++j) {  // column j of L^-1: forward substitution from e_j
-      Linv_(j, j) = 1.0;
-      for (int k = j; k < K_; ++k) {
-        const double xk = Linv_(k, j) / L(k, k);
-        Linv_(k, j) = xk;
-        const int rest = K_ - k - 1;
-        if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
+    if (vexp_eigen_available) {  // the same entries in wider vectors (vexp.h)
+      tri_inverse_t(L.data(), LT_.data(), K_, static_cast<int>(LT_.rows()));
+      gram_lower_t(LT_.data(), Ri_.data(), acc_.data(), K_, static_cast<int>(LT_.rows()));
+    } else {
+      Linv_.setZero();
+      for (int j = 0; j < K_; ++j) {  // column j of L^-1: forward substitution from e_j
+        Linv_(j, j) = 1.0;
+        for (int k = j; k < K_; ++k) {
+          const double xk = Linv_(k, j) / L(k, k);
+          Linv_(k, j) = xk;
+          const int rest = K_ - k - 1;
+          if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
+        }
       }
-    }
-    for (int k = 0; k < K_; ++k) {
-      for (int j = k; j < K_; ++j) {
-        Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
+      for (int k = 0; k < K_; ++k) {
+        for (int j = k; j < K_; ++j) {
+          Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
+        }
       }
     }
     int idx = 0;
@@ -192,7 +211,7 @@ class GaspLik {
   const GaspDist& D_;
   Eigen::VectorXd y_;
   int K_, p_, P_;
-  Eigen::MatrixXd T_, R_, Linv_, Ri_;
+  Eigen::MatrixXd T_, R_, Linv_, Ri_, LT_, acc_;
   Eigen::ArrayXd S_, C_, Mp_;
   Eigen::VectorXd ones_, u_;
   Eigen::LLT<Eigen::MatrixXd> llt_;

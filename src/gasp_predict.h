@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <vector>
 #include <cmath>
+#include "vexp.h"
 #ifdef __SSE2__
 #include <emmintrin.h>
 #endif
@@ -50,11 +51,25 @@ struct GaspBank {
         s += b * d2.col(q).array();
       } else if (a == 1.0) {
         s += b * d1.col(q).array();
+      } else if (vexp_eigen_available) {
+        // r as scratch: the powers |d|^(2 - a), their exps taken as Eigen
+        // takes those of an expression added to s
+        double* e = r.data();
+        const double c = 2.0 - a;
+        const double* l = logd.col(q).data();
+        for (Eigen::Index k = 0; k < r.size(); ++k) e[k] = c * l[k];
+        vexp_eigen(e, e, r.size(), s.data());
+        s += b * r.array();
       } else {
         s += b * ((2.0 - a) * logd.col(q).array()).exp();
       }
     }
-    r.array() = (-s).exp();
+    if (vexp_eigen_available) {
+      r.array() = -s;
+      vexp_eigen(r.data(), r.data(), r.size());
+    } else {
+      r.array() = (-s).exp();
+    }
   }
 
   void corr_vector(int i, const Eigen::MatrixXd& d1, const Eigen::MatrixXd& d2,

@@ -1,0 +1,299 @@
+// exp over arrays, to the bit as Eigen 3.3's SSE2 array exp computes it, in
+// wider vectors.
+//
+// On x86-64 without SSE4.1 or AVX (the compilers' default target), Eigen 3.3
+// evaluates `array.exp()` with its packet exp of two doubles (pexp<Packet2d>:
+// the Cephes rational approximation) at the positions its assignment loop
+// aligns to 16 bytes, and with the C library's exp at the others (a first
+// element whose address is not aligned, a last odd one). exp_cephes() does
+// the packet exp's IEEE operations in the same order for one element, and
+// vexp_eigen() sends each element down the same path as Eigen would: the
+// results are those of Eigen's expression to the bit, while the loop over
+// the packet positions is compiled for AVX-512 and AVX2 as well, chosen at
+// run time (GCC on x86-64 Linux; contraction into fused multiply-adds is off
+// in every clone). Where Eigen's expression is not that one (another Eigen,
+// another target), vexp_eigen_available is false and callers keep Eigen's
+// expression. Free of R types.
+#ifndef WAVEVALID_VEXP_H
+#define WAVEVALID_VEXP_H
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <Eigen/Core>
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
+    EIGEN_WORLD_VERSION == 3 && EIGEN_MAJOR_VERSION == 3 && defined(EIGEN_VECTORIZE_SSE2) && \
+    !defined(EIGEN_VECTORIZE_SSE4_1) && !defined(EIGEN_VECTORIZE_AVX) && !defined(EIGEN_VECTORIZE_FMA) && \
+    !defined(EIGEN_DONT_VECTORIZE) && !defined(EIGEN_UNALIGNED_VECTORIZE_OFF)
+#define WAVEVALID_VEXP_EIGEN 1
+#include <immintrin.h>
+#define WAVEVALID_VEXP_TARGET(isa) __attribute__((target(isa), optimize("fp-contract=off")))
+#define WAVEVALID_CLONES \
+  __attribute__((target_clones("avx512f", "avx2", "default"), optimize("O3", "fp-contract=off")))
+#define WAVEVALID_NO_CONTRACT __attribute__((optimize("fp-contract=off")))
+#else
+#define WAVEVALID_VEXP_EIGEN 0
+#define WAVEVALID_CLONES
+#define WAVEVALID_NO_CONTRACT
+#endif
+
+namespace wavevalid {
+
+constexpr bool vexp_eigen_available = WAVEVALID_VEXP_EIGEN == 1;
+
+// One lane of Eigen 3.3's pexp<Packet2d> (SSE2): the same operations, in the
+// same order, with the same constants.
+WAVEVALID_NO_CONTRACT inline double exp_cephes(double x0) {
+  double x = x0 < 709.437 ? x0 : 709.437;                     // pmin(x, exp_hi)
+  x = x > -709.436139303 ? x : -709.436139303;                // pmax(., exp_lo)
+  double fx = 1.4426950408889634073599 * x + 0.5;              // pmadd(LOG2EF, x, half)
+  double tmp = static_cast<double>(static_cast<std::int32_t>(fx));  // cvttpd, cvtepi32
+  fx = tmp - (tmp > fx ? 1.0 : 0.0);                           // floor
+  const double t1 = fx * 0.693145751953125;
+  const double z = fx * 1.42860682030941723212e-6;
+  x = x - t1;
+  x = x - z;
+  const double x2 = x * x;
+  double px = 1.26177193074810590878e-4 * x2 + 3.02994407707441961300e-2;
+  px = px * x2 + 9.99999999999999999910e-1;
+  px = px * x;
+  double qx = 3.00198505138664455042e-6 * x2 + 2.52448340349684104192e-3;
+  qx = qx * x2 + 2.27265548208155028766e-1;
+  qx = qx * x2 + 2.00000000000000000009e0;
+  x = px / (qx - px);
+  x = 2.0 * x + 1.0;
+  // 2^fx: (fx + 1023) << 20 in the high 32 bits, the low ones zero
+  const std::uint32_t hi = static_cast<std::uint32_t>(static_cast<std::int32_t>(fx) + 1023) << 20;
+  const std::uint64_t bits = static_cast<std::uint64_t>(hi) << 32;
+  double scale;
+  std::memcpy(&scale, &bits, sizeof scale);
+  const double r = x * scale;
+  return r > x0 ? r : x0;                                      // pmax(r, _x)
+}
+
+#if WAVEVALID_VEXP_EIGEN
+// The same operations on 4 and on 8 lanes (AVX2, AVX-512).
+WAVEVALID_VEXP_TARGET("avx2")
+inline void exp_cephes_avx2(const double* x, double* out, std::ptrdiff_t n) {
+  const __m256d hi = _mm256_set1_pd(709.437), lo = _mm256_set1_pd(-709.436139303);
+  const __m256d log2e = _mm256_set1_pd(1.4426950408889634073599), half = _mm256_set1_pd(0.5);
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  const __m256d c1 = _mm256_set1_pd(0.693145751953125), c2 = _mm256_set1_pd(1.42860682030941723212e-6);
+  const __m256d p0 = _mm256_set1_pd(1.26177193074810590878e-4), p1 = _mm256_set1_pd(3.02994407707441961300e-2);
+  const __m256d p2 = _mm256_set1_pd(9.99999999999999999910e-1);
+  const __m256d q0 = _mm256_set1_pd(3.00198505138664455042e-6), q1 = _mm256_set1_pd(2.52448340349684104192e-3);
+  const __m256d q2 = _mm256_set1_pd(2.27265548208155028766e-1), q3 = _mm256_set1_pd(2.00000000000000000009e0);
+  const __m128i bias = _mm_set1_epi32(1023);
+  std::ptrdiff_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    const __m256d x0 = _mm256_loadu_pd(x + i);
+    __m256d v = _mm256_max_pd(_mm256_min_pd(x0, hi), lo);
+    __m256d fx = _mm256_add_pd(_mm256_mul_pd(log2e, v), half);
+    __m256d tmp = _mm256_cvtepi32_pd(_mm256_cvttpd_epi32(fx));
+    fx = _mm256_sub_pd(tmp, _mm256_and_pd(_mm256_cmp_pd(tmp, fx, _CMP_GT_OQ), one));
+    tmp = _mm256_mul_pd(fx, c1);
+    const __m256d z = _mm256_mul_pd(fx, c2);
+    v = _mm256_sub_pd(v, tmp);
+    v = _mm256_sub_pd(v, z);
+    const __m256d x2 = _mm256_mul_pd(v, v);
+    __m256d px = _mm256_add_pd(_mm256_mul_pd(p0, x2), p1);
+    px = _mm256_add_pd(_mm256_mul_pd(px, x2), p2);
+    px = _mm256_mul_pd(px, v);
+    __m256d qx = _mm256_add_pd(_mm256_mul_pd(q0, x2), q1);
+    qx = _mm256_add_pd(_mm256_mul_pd(qx, x2), q2);
+    qx = _mm256_add_pd(_mm256_mul_pd(qx, x2), q3);
+    v = _mm256_div_pd(px, _mm256_sub_pd(qx, px));
+    v = _mm256_add_pd(_mm256_mul_pd(two, v), one);
+    const __m128i e = _mm_slli_epi32(_mm_add_epi32(_mm256_cvttpd_epi32(fx), bias), 20);
+    const __m256d scale = _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_cvtepu32_epi64(e), 32));
+    _mm256_storeu_pd(out + i, _mm256_max_pd(_mm256_mul_pd(v, scale), x0));
+  }
+  for (; i < n; ++i) out[i] = exp_cephes(x[i]);
+}
+
+WAVEVALID_VEXP_TARGET("avx512f")
+inline void exp_cephes_avx512(const double* x, double* out, std::ptrdiff_t n) {
+  const __m512d hi = _mm512_set1_pd(709.437), lo = _mm512_set1_pd(-709.436139303);
+  const __m512d log2e = _mm512_set1_pd(1.4426950408889634073599), half = _mm512_set1_pd(0.5);
+  const __m512d one = _mm512_set1_pd(1.0), two = _mm512_set1_pd(2.0);
+  const __m512d c1 = _mm512_set1_pd(0.693145751953125), c2 = _mm512_set1_pd(1.42860682030941723212e-6);
+  const __m512d p0 = _mm512_set1_pd(1.26177193074810590878e-4), p1 = _mm512_set1_pd(3.02994407707441961300e-2);
+  const __m512d p2 = _mm512_set1_pd(9.99999999999999999910e-1);
+  const __m512d q0 = _mm512_set1_pd(3.00198505138664455042e-6), q1 = _mm512_set1_pd(2.52448340349684104192e-3);
+  const __m512d q2 = _mm512_set1_pd(2.27265548208155028766e-1), q3 = _mm512_set1_pd(2.00000000000000000009e0);
+  const __m256i bias = _mm256_set1_epi32(1023);
+  std::ptrdiff_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m512d x0 = _mm512_loadu_pd(x + i);
+    __m512d v = _mm512_max_pd(_mm512_min_pd(x0, hi), lo);
+    __m512d fx = _mm512_add_pd(_mm512_mul_pd(log2e, v), half);
+    __m512d tmp = _mm512_cvtepi32_pd(_mm512_cvttpd_epi32(fx));
+    fx = _mm512_sub_pd(tmp, _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(tmp, fx, _CMP_GT_OQ), one));
+    tmp = _mm512_mul_pd(fx, c1);
+    const __m512d z = _mm512_mul_pd(fx, c2);
+    v = _mm512_sub_pd(v, tmp);
+    v = _mm512_sub_pd(v, z);
+    const __m512d x2 = _mm512_mul_pd(v, v);
+    __m512d px = _mm512_add_pd(_mm512_mul_pd(p0, x2), p1);
+    px = _mm512_add_pd(_mm512_mul_pd(px, x2), p2);
+    px = _mm512_mul_pd(px, v);
+    __m512d qx = _mm512_add_pd(_mm512_mul_pd(q0, x2), q1);
+    qx = _mm512_add_pd(_mm512_mul_pd(qx, x2), q2);
+    qx = _mm512_add_pd(_mm512_mul_pd(qx, x2), q3);
+    v = _mm512_div_pd(px, _mm512_sub_pd(qx, px));
+    v = _mm512_add_pd(_mm512_mul_pd(two, v), one);
+    const __m256i e = _mm256_slli_epi32(_mm256_add_epi32(_mm512_cvttpd_epi32(fx), bias), 20);
+    const __m512d scale = _mm512_castsi512_pd(_mm512_slli_epi64(_mm512_cvtepu32_epi64(e), 32));
+    _mm512_storeu_pd(out + i, _mm512_max_pd(_mm512_mul_pd(v, scale), x0));
+  }
+  for (; i < n; ++i) out[i] = exp_cephes(x[i]);
+}
+
+inline void exp_cephes_plain(const double* x, double* out, std::ptrdiff_t n) {
+  for (std::ptrdiff_t i = 0; i < n; ++i) out[i] = exp_cephes(x[i]);
+}
+
+typedef void (*ExpLoop)(const double*, double*, std::ptrdiff_t);
+
+// The widest loop this processor runs, chosen once.
+inline ExpLoop exp_cephes_loop() {
+  static const ExpLoop loop = [] {
+    __builtin_cpu_init();
+    if (__builtin_cpu_supports("avx512f")) return static_cast<ExpLoop>(exp_cephes_avx512);
+    if (__builtin_cpu_supports("avx2")) return static_cast<ExpLoop>(exp_cephes_avx2);
+    return static_cast<ExpLoop>(exp_cephes_plain);
+  }();
+  return loop;
+}
+#endif
+
+// out[i] = exp(x[i]) for i < n, each element by the path Eigen 3.3's
+// assignment `dst = x.exp()` takes for it (see above), for a destination dst
+// at `aligned_as` (by default out itself). x may be out.
+inline void vexp_eigen(const double* x, double* out, std::ptrdiff_t n, const double* aligned_as = nullptr) {
+  const std::uintptr_t addr = reinterpret_cast<std::uintptr_t>(aligned_as ? aligned_as : out);
+  std::ptrdiff_t start = addr % sizeof(double) != 0 ? n : ((addr % 16) == 0 ? 0 : 1);
+  if (start > n) start = n;
+  const std::ptrdiff_t end = start + ((n - start) / 2) * 2;
+  for (std::ptrdiff_t i = 0; i < start; ++i) out[i] = std::exp(x[i]);
+#if WAVEVALID_VEXP_EIGEN
+  exp_cephes_loop()(x + start, out + start, end - start);
+#else
+  for (std::ptrdiff_t i = start; i < end; ++i) out[i] = exp_cephes(x[i]);
+#endif
+  for (std::ptrdiff_t i = end; i < n; ++i) out[i] = std::exp(x[i]);
+}
+
+// out[i] = a * x[i] + b, rounded after the product and after the sum as
+// Eigen's `a * x + b` (SSE2) rounds them.
+WAVEVALID_NO_CONTRACT inline void affine_eigen(const double* x, double a, double b, double* out, std::ptrdiff_t n) {
+  for (std::ptrdiff_t i = 0; i < n; ++i) out[i] = a * x[i] + b;
+}
+
+// The inverse of a Cholesky factor and the lower triangle of R^-1, as the
+// likelihood's gradient computes them with Eigen's SSE2 packets, to the bit,
+// in wider vectors: every entry gets the same operations in the same order.
+//
+// LT (Kp x K, column-major, Kp >= K a multiple of 8; every entry written):
+// LT[j + i Kp] = (L^-1)(i, j) for the lower triangular L (K x K,
+// column-major), by the forward substitution of each column j of L^-1 from
+// e_j (an entry's updates in the order k = j, j + 1, ...), all columns at once.
+WAVEVALID_CLONES inline void tri_inverse_t(const double* __restrict L, double* __restrict LT, int K, int Kp) {
+  for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(K) * Kp; ++i) LT[i] = 0.0;
+  for (int k = 0; k < K; ++k) {
+    const double* __restrict lk = L + static_cast<std::ptrdiff_t>(k) * K;
+    double* __restrict ck = LT + static_cast<std::ptrdiff_t>(k) * Kp;
+    ck[k] = 1.0;
+    const int m = ((k + 8) / 8) * 8;  // lanes 0..k, rounded up to 8 (the others hold zeros and stay so)
+    const double d = lk[k];
+    for (int j = 0; j < m; ++j) ck[j] = ck[j] / d;
+    for (int i = k + 1; i < K; ++i) {
+      const double l = lk[i];
+      double* __restrict ci = LT + static_cast<std::ptrdiff_t>(i) * Kp;
+      for (int j = 0; j < m; ++j) ci[j] = ci[j] - ck[j] * l;
+    }
+  }
+}
+
+// Ri(j, k) for k <= j (Ri K x K column-major) = sum_{i >= j} L^-1(i, j) L^-1(i, k),
+// summed as Eigen's dot of the two columns' segments from row j sums it with
+// SSE2 packets: four partial sums interleaved by element, combined as
+// (s0 + s2) + (s1 + s3), a last pair added to the first two, an odd last
+// element at the end. All k at once; acc holds 4 Kp.
+WAVEVALID_CLONES inline void gram_lower_t(const double* __restrict LT, double* __restrict Ri, double* __restrict acc,
+                                   int K, int Kp) {
+  double* __restrict A0 = acc;
+  double* __restrict A1 = acc + Kp;
+  double* __restrict B0 = acc + 2 * Kp;
+  double* __restrict B1 = acc + 3 * Kp;
+  for (int j = 0; j < K; ++j) {
+    const int n = K - j, m = ((j + 8) / 8) * 8;
+    const double* __restrict row = LT + static_cast<std::ptrdiff_t>(j) * Kp;  // row[k + t Kp] = L^-1(j + t, k)
+    auto lj = [&](int t) { return row[j + static_cast<std::ptrdiff_t>(t) * Kp]; };  // L^-1(j + t, j)
+    if (n == 1) {
+      const double a = lj(0);
+      for (int k = 0; k < m; ++k) A0[k] = a * row[k];
+    } else if (n < 4) {
+      const double a0 = lj(0), a1 = lj(1);
+      const double* __restrict r1 = row + Kp;
+      for (int k = 0; k < m; ++k) A0[k] = a0 * row[k] + a1 * r1[k];
+      if (n == 3) {
+        const double a2 = lj(2);
+        const double* __restrict r2 = row + 2 * Kp;
+        for (int k = 0; k < m; ++k) A0[k] = A0[k] + a2 * r2[k];
+      }
+    } else {
+      {
+        const double a0 = lj(0), a1 = lj(1), a2 = lj(2), a3 = lj(3);
+        const double* __restrict r1 = row + Kp;
+        const double* __restrict r2 = row + 2 * Kp;
+        const double* __restrict r3 = row + 3 * Kp;
+        for (int k = 0; k < m; ++k) {
+          A0[k] = a0 * row[k];
+          A1[k] = a1 * r1[k];
+          B0[k] = a2 * r2[k];
+          B1[k] = a3 * r3[k];
+        }
+      }
+      const int e2 = (n / 4) * 4;
+      for (int t = 4; t < e2; t += 4) {
+        const double a0 = lj(t), a1 = lj(t + 1), a2 = lj(t + 2), a3 = lj(t + 3);
+        const double* __restrict r0 = row + static_cast<std::ptrdiff_t>(t) * Kp;
+        const double* __restrict r1 = r0 + Kp;
+        const double* __restrict r2 = r0 + 2 * Kp;
+        const double* __restrict r3 = r0 + 3 * Kp;
+        for (int k = 0; k < m; ++k) {
+          A0[k] = A0[k] + a0 * r0[k];
+          A1[k] = A1[k] + a1 * r1[k];
+          B0[k] = B0[k] + a2 * r2[k];
+          B1[k] = B1[k] + a3 * r3[k];
+        }
+      }
+      for (int k = 0; k < m; ++k) {
+        A0[k] = A0[k] + B0[k];
+        A1[k] = A1[k] + B1[k];
+      }
+      if (n - e2 >= 2) {
+        const double a0 = lj(e2), a1 = lj(e2 + 1);
+        const double* __restrict r0 = row + static_cast<std::ptrdiff_t>(e2) * Kp;
+        const double* __restrict r1 = r0 + Kp;
+        for (int k = 0; k < m; ++k) {
+          A0[k] = A0[k] + a0 * r0[k];
+          A1[k] = A1[k] + a1 * r1[k];
+        }
+      }
+      for (int k = 0; k < m; ++k) A0[k] = A0[k] + A1[k];
+      if (n % 2 == 1) {
+        const double a = lj(n - 1);
+        const double* __restrict r = row + static_cast<std::ptrdiff_t>(n - 1) * Kp;
+        for (int k = 0; k < m; ++k) A0[k] = A0[k] + a * r[k];
+      }
+    }
+    for (int k = 0; k <= j; ++k) Ri[j + static_cast<std::ptrdiff_t>(k) * K] = A0[k];
+  }
+}
+
+}  // namespace wavevalid
+
+#endif
