@@ -53,6 +53,10 @@ gasp_level_fit_cpp <- function(X, Y, control, prior, restricted, warm) {
     .Call(`_wavevalid_gasp_level_fit_cpp`, X, Y, control, prior, restricted, warm)
 }
 
+vexp_identity_cpp <- function(x, X) {
+    .Call(`_wavevalid_vexp_identity_cpp`, x, X)
+}
+
 gasp_bank_augment_cpp <- function(bank, z, w) {
     .Call(`_wavevalid_gasp_bank_augment_cpp`, bank, z, w)
 }

@@ -200,6 +200,18 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// vexp_identity_cpp
+Rcpp::List vexp_identity_cpp(const Eigen::Map<Eigen::ArrayXd>& x, const Eigen::Map<Eigen::MatrixXd>& X);
+RcppExport SEXP _wavevalid_vexp_identity_cpp(SEXP xSEXP, SEXP XSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::ArrayXd>& >::type x(xSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type X(XSEXP);
+    rcpp_result_gen = Rcpp::wrap(vexp_identity_cpp(x, X));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_bank_augment_cpp
 Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::VectorXd>& z, const Eigen::Map<Eigen::VectorXd>& w);
 RcppExport SEXP _wavevalid_gasp_bank_augment_cpp(SEXP bankSEXP, SEXP zSEXP, SEXP wSEXP) {
@@ -335,6 +347,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
     {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
     {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
+    {"_wavevalid_vexp_identity_cpp", (DL_FUNC) &_wavevalid_vexp_identity_cpp, 2},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_cycle_limit_cpp", (DL_FUNC) &_wavevalid_cycle_limit_cpp, 7},

@@ -300,3 +300,19 @@ test_that("summary() reports the studentised errors of the emulators at held-out
   expect_error(summary(em, new_runs = model_runs(data.frame(a = 0.5), f(data.frame(a = 0.5, b = 0.5)), t)),
                class = "wavevalid_error_input")
 })
+
+test_that("the wide-vector kernels give Eigen's results to the bit", {
+  withr::local_seed(3)
+  x <- c(seq(-745, 710, length.out = 100001), stats::runif(1e5, -30, 1), 0, -0, 1e-300, -1e-300, 709.437, -709.5)
+  for (K in c(66L, 67L, 5L, 1L)) {
+    X <- matrix(stats::runif(K * 9), K, 9)
+    res <- wavevalid:::vexp_identity_cpp(x, X)
+    if (!res$in_use) skip("this build keeps Eigen's own expressions")
+    expect_identical(unlist(res[c("exp", "inverse", "gram", "sums")]), c(exp = 0L, inverse = 0L, gram = 0L, sums = 0L),
+                     label = paste("K =", K))
+  }
+  # and the exp is the exp: within 2 units in the last place where the result is a normal number
+  e <- x[x > -708 & x < 709]
+  v <- wavevalid:::vexp_identity_cpp(e, matrix(0.5, 2, 1))$values
+  expect_true(all(abs(v - exp(e)) <= 2 * .Machine$double.eps * exp(e)))
+})
