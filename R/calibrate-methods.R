@@ -133,6 +133,11 @@ print.wv_fit <- function(x, ...) {
                   paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "),
                   " of its variance")
   }
+  lo <- if (!is.null(x$field$warps)) attr(x$field$warps, "left_out")
+  if (!is.null(lo) && nrow(lo)) {
+    cli::cat_line("! Registration left out landmarks in another order than the reference's: ",
+                  left_out_summary(lo, length(unique(x$field$warps$replicate))))
+  }
   il <- x$settings$inform_levels
   if (length(il)) {
     cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ", paste(il, collapse = ", "),

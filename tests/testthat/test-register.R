@@ -186,6 +186,19 @@ test_that("landmarks in another order than the reference's are left out, with a 
   expect_equal(nrow(attr(reg$warps[reg$warps$replicate == 2, ], "left_out")), nrow(lo))
 })
 
+test_that("the print of a fit on a field registered with landmarks left out says which", {
+  ex <- wavevalid:::example_calibration_inputs()
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 2, chains = 1, seed = 1,
+                                    quiet = TRUE))
+  expect_false(any(grepl("left out landmarks", utils::capture.output(print(fit)))))
+  t <- grid()
+  flipped <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3)), -event_curve(t, at = c(5.2, 14.3))), t)
+  reg <- suppressWarnings(register_curves(flipped, list(site1 = event_curve(t)), windows))
+  fit$field$warps <- reg$warps
+  out <- utils::capture.output(print(fit))
+  expect_true(any(grepl("Registration left out landmarks", out) & grepl("the min of window 1 at 1 of 2 replicates", out)))
+})
+
 test_that("the order-keeping set of landmarks is the largest, then the nearest", {
   ol <- wavevalid:::ordered_landmarks
   expect_equal(ol(c(1, 2, 3), c(1.1, 2.1, 3.1)), c(TRUE, TRUE, TRUE))
