@@ -25,9 +25,15 @@
 #' @inheritParams bands
 #' @return A `wv_comparison` data frame with columns `metric`, `before`,
 #'   `after`, `change` (relative change, after / before - 1) and rows
-#'   `bias_rms`, `bias_peak`, `band_width`, `model_rmse` (pure-model
-#'   prediction against the mean of the fitted field data) and, with a holdout,
-#'   `holdout_rmse` and `holdout_coverage`.
+#'   `bias_rms` (root mean square of the posterior mean bias over sites and
+#'   time), `bias_rms_local` and `bias_rms_record` (the same for its localised
+#'   part and for its record-wide part, the levels whose functions span the
+#'   whole record, as [where_fails()] splits them: `bias_rms` squared is the
+#'   sum of their squares), `bias_peak`, `band_width`, `model_rmse`
+#'   (pure-model prediction against the mean of the fitted field data) and,
+#'   with a holdout, `holdout_rmse` and `holdout_coverage`. When the bias grows
+#'   but its localised part falls, the print says so: the calibrated inputs
+#'   can trade an offset of the whole record against the events.
 #' @export
 #' @examples
 #' before <- example_fit()
@@ -73,12 +79,26 @@ validation_metrics <- function(fit, level) {
     data.frame(site = s, t = fit$field$t, y = colMeans(fit$field$curves[[s]]))
   }))
   mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
+  wide <- fit$basis$level %in% record_wide_levels(fit$basis)
   c(
     bias_rms = sqrt(mean(b$mean^2)),
+    bias_rms_local = part_rms(fit, !wide),
+    bias_rms_record = part_rms(fit, wide),
     bias_peak = max(abs(b$mean)),
     band_width = mean(r$upper - r$lower),
     model_rmse = sqrt(mean((mp$mean - mp$y)^2))
   )
+}
+
+# Root mean square over sites and time of the posterior mean of the part of
+# the bias carried by the coefficients `keep`.
+part_rms <- function(fit, keep) {
+  Psi <- fit$basis$Psi[, keep, drop = FALSE]
+  sq <- vapply(names(fit$wb), function(s) {
+    m <- drop(Psi %*% colMeans(fit$wb[[s]][, keep, drop = FALSE]))
+    sum(m^2)
+  }, numeric(1))
+  sqrt(sum(sq) / (nrow(Psi) * length(sq)))
 }
 
 holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
@@ -130,6 +150,13 @@ print.wv_comparison <- function(x, ...) {
   df$after <- signif(df$after, 4)
   df$change <- sprintf("%+.1f%%", 100 * df$change)
   print(df, row.names = FALSE)
+  ch <- stats::setNames(x$change, x$metric)
+  if (all(c("bias_rms", "bias_rms_local", "bias_rms_record") %in% names(ch))) {
+    if (ch[["bias_rms"]] >= 0 && ch[["bias_rms_local"]] < 0) {
+      cli::cat_line("The localised bias fell; what grew is the record-wide part (an offset or a slow trend), which ",
+                    "the calibrated inputs can trade against the events: see where_fails() of each fit.")
+    }
+  }
   invisible(x)
 }
 

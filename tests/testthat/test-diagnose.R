@@ -244,8 +244,20 @@ test_that("adding the missing effect makes the error fall", {
   cmp <- compare_validations(d$fit, after)
   expect_s3_class(cmp, "wv_comparison")
   expect_named(cmp, c("metric", "before", "after", "change"))
-  expect_true(all(c("bias_rms", "bias_peak", "band_width", "model_rmse") %in% cmp$metric))
+  expect_true(all(c("bias_rms", "bias_rms_local", "bias_rms_record", "bias_peak", "band_width", "model_rmse") %in%
+                    cmp$metric))
   expect_lt(cmp$change[cmp$metric == "bias_rms"], -0.5)
+  # the bias by scale: orthonormal parts of the posterior mean bias
+  for (w in c("before", "after")) {
+    v <- stats::setNames(cmp[[w]], cmp$metric)
+    expect_equal(v[["bias_rms"]]^2, v[["bias_rms_local"]]^2 + v[["bias_rms_record"]]^2, tolerance = 1e-8)
+    expect_gt(v[["bias_rms_local"]], 0)
+  }
+  wide <- d$fit$basis$level %in% wavevalid:::record_wide_levels(d$fit$basis)
+  rec <- attr(where_fails(d$fit), "record_wide")
+  expect_equal(cmp$before[cmp$metric == "bias_rms_record"],
+               sqrt(mean(drop(d$fit$basis$Psi[, wide] %*% colMeans(d$fit$wb$site1[, wide]))^2)))
+  expect_equal(rec$offset, mean(drop(d$fit$basis$Psi[, wide] %*% colMeans(d$fit$wb$site1[, wide]))), tolerance = 1e-8)
   expect_lt(cmp$change[cmp$metric == "model_rmse"], 0)
   # held-out replicates of the same system
   withr::local_seed(22)
@@ -268,6 +280,12 @@ test_that("adding the missing effect makes the error fall", {
   expect_error(compare_validations(d$fit, after, holdout = c(list(field = list(before = hold)), preds)),
                class = "wavevalid_error_input")
   expect_error(compare_validations(d$fit, "after"), class = "wavevalid_error_input")
+  # the print reads a grown bias whose localised part fell as a traded offset, and only then
+  traded <- cmp
+  traded$after[traded$metric == "bias_rms"] <- 2 * traded$before[traded$metric == "bias_rms"]
+  traded$change <- traded$after / traded$before - 1
+  expect_true(any(grepl("localised bias fell", utils::capture.output(print(traded)))))
+  expect_false(any(grepl("localised bias fell", utils::capture.output(print(cmp)))))
 })
 
 test_that("on the test bed without a hidden mechanism, nothing is flagged or explained", {
