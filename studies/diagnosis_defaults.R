@@ -29,7 +29,8 @@
 #              condition's holdout_rmse (predict(type = "new_nominal") at B,
 #              the after-model's B runs spreading the strength over its 99%
 #              posterior interval, B's replicates registered to the mean of
-#              each model's B runs).
+#              each model's B runs); local_fall, the same for the bias's
+#              localised part (bias_rms_local).
 # Rows are appended to `out` (CSV) as each case ends.
 #   Rscript studies/diagnosis_defaults.R [beds=dosing,suspension] [seeds=1:5] [hidden=none,all]
 #                                        [n_draws=150] [n_inner=20] [out=diagnosis_defaults.csv]
@@ -107,6 +108,7 @@ run_case <- function(b, seed, hd) {
                                                          before = p_before, after = p_after))
   get <- function(m, w) cmp[[w]][cmp$metric == m]
   bias_fall <- 1 - get("bias_rms", "after") / get("bias_rms", "before")
+  local_fall <- 1 - get("bias_rms_local", "after") / get("bias_rms_local", "before")
   hold_fall <- 1 - get("holdout_rmse", "after") / get("holdout_rmse", "before")
   c3 <- if (hd == "none") NA else lead == hd && bias_fall >= 0.7 && hold_fall > 0
   data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, overlap = overlap, longest = longest,
@@ -115,7 +117,7 @@ run_case <- function(b, seed, hd) {
              sig_other = round(v_sig$other, 3), c2_sig = v_sig$ok,
              rf_top = v_rf$top, rf_p = round(if (hd == "none") rf$inclusion_prob[1] else v_rf$p_true, 3),
              rf_other = round(v_rf$other, 3), p_none = round(p_none, 3), c2 = v_rf$ok,
-             lead = lead, bias_fall = round(bias_fall, 3), hold_before = signif(get("holdout_rmse", "before"), 3),
+             lead = lead, bias_fall = round(bias_fall, 3), local_fall = round(local_fall, 3), hold_before = signif(get("holdout_rmse", "before"), 3),
              hold_after = signif(get("holdout_rmse", "after"), 3), c3 = c3, secs = round(clock() - t0),
              stringsAsFactors = FALSE)
 }
