@@ -117,7 +117,8 @@ run_case <- function(b, seed, hd) {
              sig_other = round(v_sig$other, 3), c2_sig = v_sig$ok,
              rf_top = v_rf$top, rf_p = round(if (hd == "none") rf$inclusion_prob[1] else v_rf$p_true, 3),
              rf_other = round(v_rf$other, 3), p_none = round(p_none, 3), c2 = v_rf$ok,
-             lead = lead, bias_fall = round(bias_fall, 3), local_fall = round(local_fall, 3), hold_before = signif(get("holdout_rmse", "before"), 3),
+             lead = lead, bias_fall = round(bias_fall, 3), local_fall = round(local_fall, 3),
+             hold_before = signif(get("holdout_rmse", "before"), 3),
              hold_after = signif(get("holdout_rmse", "after"), 3), c3 = c3, secs = round(clock() - t0),
              stringsAsFactors = FALSE)
 }
