@@ -193,8 +193,8 @@ Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen:
 // The wide-vector kernels of the likelihood and the sampler (vexp.h) beside
 // Eigen's expressions they stand for, for their tests: exp of x written at
 // each offset 0..2 of an aligned array (Eigen takes the C library's exp at
-// unaligned ends), and the inverse factor, R^-1's lower triangle and the
-// gradient's sums for a correlation matrix on the K x p design X. Returns
+// unaligned ends), and the inverse factor and R^-1's lower triangle for a
+// correlation matrix on the design X (K runs). Returns
 // the number of entries that differ in any bit, by kernel, whether the
 // kernels are in use on this build, and the kernel's exp of x.
 // [[Rcpp::export]]
@@ -216,53 +216,25 @@ Rcpp::List vexp_identity_cpp(const Eigen::Map<Eigen::ArrayXd>& x, const Eigen::M
     d_exp += differ(a.data(), b.data(), m);
   }
   // a correlation matrix and its factor
-  const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
+  const int K = static_cast<int>(X.rows());
   Eigen::MatrixXd R(K, K);
   for (int j = 0; j < K; ++j)
     for (int k = 0; k < K; ++k) R(j, k) = std::exp(-4.0 * (X.row(j) - X.row(k)).squaredNorm()) + (j == k ? 1e-6 : 0.0);
   Eigen::LLT<Eigen::MatrixXd> llt(R);
   const Eigen::MatrixXd& L = llt.matrixLLT();
-  Eigen::MatrixXd Linv = Eigen::MatrixXd::Zero(K, K), Ri(K, K);
-  for (int j = 0; j < K; ++j) {
-    Linv(j, j) = 1.0;
-    for (int k = j; k < K; ++k) {
-      const double xk = Linv(k, j) / L(k, k);
-      Linv(k, j) = xk;
-      const int rest = K - k - 1;
-      if (rest > 0) Linv.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
-    }
-  }
-  for (int k = 0; k < K; ++k)
-    for (int j = k; j < K; ++j) Ri(j, k) = Linv.col(j).segment(j, K - j).dot(Linv.col(k).segment(j, K - j));
-  const int Kp = ((K + 7) / 8) * 8;
-  Eigen::MatrixXd LT(Kp, K), Ri2(K, K), acc(Kp, 4);
-  wavevalid::tri_inverse_t(L.data(), LT.data(), K, Kp);
-  wavevalid::gram_lower_t(LT.data(), Ri2.data(), acc.data(), K, Kp);
+  Eigen::MatrixXd Linv(K, K), Ri(K, K), Ri2(K, K);
+  wavevalid::InverseGram::eigen(L, Linv, Ri);
+  wavevalid::InverseGram kernels;
+  kernels.resize(K);
+  kernels.compute(L, Ri2);
+  const Eigen::MatrixXd& LT = kernels.transposed();
   int d_inv = 0, d_ri = 0;
   for (int j = 0; j < K; ++j)
     for (int i = 0; i < K; ++i) d_inv += differ(&Linv(i, j), &LT(j, i), 1);
   for (int k = 0; k < K; ++k) d_ri += differ(&Ri(k, k), &Ri2(k, k), K - k);
-  // the gradient's sums over pairs, on the first column of x as weights
-  const int P = K * (K - 1) / 2;
-  Eigen::ArrayXd M(P);
-  Eigen::MatrixXd T(P, p), G(P, p);
-  for (int i = 0; i < P; ++i) M(i) = x(i % n);
-  for (int q = 0; q < p; ++q)
-    for (int i = 0; i < P; ++i) {
-      T(i, q) = std::exp(x((i + 7 * q) % n) / 50.0);
-      G(i, q) = (i + q) % 41 == 0 ? -1e300 : x((3 * i + q) % n) / 10.0;
-    }
-  Eigen::VectorXd s1(p), s2(p), r1(p), r2(p);
-  for (int q = 0; q < p; ++q) {
-    const Eigen::ArrayXd mt = M * T.col(q).array();
-    r1(q) = mt.sum();
-    r2(q) = (mt * G.col(q).array().max(-745.0)).sum();
-  }
-  wavevalid::grad_sums(M.data(), T.data(), G.data(), P, p, s1.data(), s2.data());
-  const int d_sums = differ(r1.data(), s1.data(), p) + differ(r2.data(), s2.data(), p);
   Rcpp::NumericVector values(n);
   wavevalid::vexp_eigen(x.data(), values.begin(), n);
   return Rcpp::List::create(Rcpp::Named("in_use") = wavevalid::vexp_eigen_available, Rcpp::Named("values") = values,
                             Rcpp::Named("exp") = d_exp,
-                            Rcpp::Named("inverse") = d_inv, Rcpp::Named("gram") = d_ri, Rcpp::Named("sums") = d_sums);
+                            Rcpp::Named("inverse") = d_inv, Rcpp::Named("gram") = d_ri);
 }

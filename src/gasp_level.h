@@ -45,10 +45,8 @@ class GaspLevelLik {
     T_.resize(P_, p_);
     S_.resize(P_);
     R_.resize(K_, K_);
-    Linv_.resize(K_, K_);
     Ri_.resize(K_, K_);
-    LT_.resize(((K_ + 7) / 8) * 8, K_);
-    acc_.resize(LT_.rows(), 4);
+    inverse_.resize(K_);
     Mp_.resize(P_);
     ones_ = Eigen::VectorXd::Ones(K_);
     C_jr_ = std::pow(static_cast<double>(K_), -1.0 / p_);
@@ -120,26 +118,7 @@ class GaspLevelLik {
     ++n_grad;
     grad.resize(2 * p_);
     const Eigen::MatrixXd& L = llt_.matrixLLT();
-    if (vexp_eigen_available) {  // the same entries in wider vectors (vexp.h)
-      tri_inverse_t(L.data(), LT_.data(), K_, static_cast<int>(LT_.rows()));
-      gram_lower_t(LT_.data(), Ri_.data(), acc_.data(), K_, static_cast<int>(LT_.rows()));
-    } else {
-      Linv_.setZero();
-      for (int j = 0; j < K_; ++j) {
-        Linv_(j, j) = 1.0;
-        for (int k = j; k < K_; ++k) {
-          const double xk = Linv_(k, j) / L(k, k);
-          Linv_(k, j) = xk;
-          const int rest = K_ - k - 1;
-          if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
-        }
-      }
-      for (int k = 0; k < K_; ++k) {
-        for (int j = k; j < K_; ++j) {
-          Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
-        }
-      }
-    }
+    inverse_.compute(L, Ri_);
     // G = sum_i u_i u_i' / s2_i - m R^-1 (+ m a a' / 1'a), lower triangle
     const Eigen::MatrixXd Us = U_ * s2_.cwiseInverse().cwiseSqrt().asDiagonal();
     Eigen::MatrixXd G = Eigen::MatrixXd::Zero(K_, K_);
@@ -180,7 +159,8 @@ class GaspLevelLik {
   bool restricted_;
   int K_, p_, P_, m_;
   double C_jr_ = 1.0, b_jr_ = 1.0, one_a_ = 1.0;
-  Eigen::MatrixXd T_, R_, Linv_, Ri_, U_, LT_, acc_;
+  Eigen::MatrixXd T_, R_, Ri_, U_;
+  InverseGram inverse_;
   Eigen::ArrayXd S_, C_, Mp_;
   Eigen::VectorXd ones_, a_, mu_, s2_, theta_;
   Eigen::LLT<Eigen::MatrixXd> llt_;

@@ -108,6 +108,49 @@ inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, d
   }
 }
 
+// R^-1 = L^-T L^-1 (lower triangle) from the lower Cholesky factor L, using
+// the triangular structure of both factors (K^3 / 3 flops in all): column j
+// of L^-1 by forward substitution from e_j, then the dots of its columns'
+// segments. compute() takes the wide-vector kernels of vexp.h where they give
+// Eigen's results to the bit, and eigen() is the code they stand for.
+class InverseGram {
+ public:
+  void resize(int K) {
+    Linv_.resize(K, K);
+    LT_.resize(((K + 7) / 8) * 8, K);
+    acc_.resize(LT_.rows(), 4);
+  }
+
+  void compute(const Eigen::MatrixXd& L, Eigen::MatrixXd& Ri) {
+    if (!vexp_eigen_available) return eigen(L, Linv_, Ri);
+    const int K = static_cast<int>(L.rows()), Kp = static_cast<int>(LT_.rows());
+    tri_inverse_t(L.data(), LT_.data(), K, Kp);
+    gram_lower_t(LT_.data(), Ri.data(), acc_.data(), K, Kp);
+  }
+
+  static void eigen(const Eigen::MatrixXd& L, Eigen::MatrixXd& Linv, Eigen::MatrixXd& Ri) {
+    const int K = static_cast<int>(L.rows());
+    Linv.setZero();
+    for (int j = 0; j < K; ++j) {
+      Linv(j, j) = 1.0;
+      for (int k = j; k < K; ++k) {
+        const double xk = Linv(k, j) / L(k, k);
+        Linv(k, j) = xk;
+        const int rest = K - k - 1;
+        if (rest > 0) Linv.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
+      }
+    }
+    for (int k = 0; k < K; ++k) {
+      for (int j = k; j < K; ++j) Ri(j, k) = Linv.col(j).segment(j, K - j).dot(Linv.col(k).segment(j, K - j));
+    }
+  }
+
+  const Eigen::MatrixXd& transposed() const { return LT_; }  // LT(j, i) = L^-1(i, j), after compute()
+
+ private:
+  Eigen::MatrixXd Linv_, LT_, acc_;
+};
+
 class GaspLik {
  public:
   GaspLik(const GaspDist& D, const Eigen::VectorXd& y) : D_(D), y_(y) {
@@ -117,11 +160,8 @@ class GaspLik {
     T_.resize(P_, p_);
     S_.resize(P_);
     R_.resize(K_, K_);
-    Linv_.resize(K_, K_);
     Ri_.resize(K_, K_);
-    LT_.resize(((K_ + 7) / 8) * 8, K_);
-    acc_.resize(LT_.rows(), 4);
-    s1_.resize(p_);
+    inverse_.resize(K_);
     Mp_.resize(P_);
     ones_ = Eigen::VectorXd::Ones(K_);
   }
@@ -163,29 +203,7 @@ class GaspLik {
   void gradient(Eigen::VectorXd& grad) {
     ++n_grad;
     grad.resize(2 * p_);
-    // R^-1 = L^-T L^-1 (lower triangle) from the Cholesky factor, using the
-    // triangular structure of both factors (K^3 / 3 flops in all)
-    const Eigen::MatrixXd& L = llt_.matrixLLT();
-    if (vexp_eigen_available) {  // the same entries in wider vectors (vexp.h)
-      tri_inverse_t(L.data(), LT_.data(), K_, static_cast<int>(LT_.rows()));
-      gram_lower_t(LT_.data(), Ri_.data(), acc_.data(), K_, static_cast<int>(LT_.rows()));
-    } else {
-      Linv_.setZero();
-      for (int j = 0; j < K_; ++j) {  // column j of L^-1: forward substitution from e_j
-        Linv_(j, j) = 1.0;
-        for (int k = j; k < K_; ++k) {
-          const double xk = Linv_(k, j) / L(k, k);
-          Linv_(k, j) = xk;
-          const int rest = K_ - k - 1;
-          if (rest > 0) Linv_.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
-        }
-      }
-      for (int k = 0; k < K_; ++k) {
-        for (int j = k; j < K_; ++j) {
-          Ri_(j, k) = Linv_.col(j).segment(j, K_ - j).dot(Linv_.col(k).segment(j, K_ - j));
-        }
-      }
-    }
+    inverse_.compute(llt_.matrixLLT(), Ri_);  // R^-1, lower triangle
     int idx = 0;
     const double is2 = 1.0 / sigma2_;
     for (int k = 0; k < K_; ++k) {
@@ -194,11 +212,6 @@ class GaspLik {
         Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);  // factor 2 (symmetry) times 1/2
         ++idx;
       }
-    }
-    if (vexp_eigen_available) {  // the same sums, three inputs at a time (vexp.h)
-      grad_sums(Mp_.data(), T_.data(), D_.logd.data(), P_, p_, s1_.data(), grad.data() + p_);
-      for (int q = 0; q < p_; ++q) grad(q) = -s1_(q);
-      return;
     }
     for (int q = 0; q < p_; ++q) {
       const Eigen::ArrayXd mt = Mp_ * T_.col(q).array();
@@ -221,9 +234,10 @@ class GaspLik {
   const GaspDist& D_;
   Eigen::VectorXd y_;
   int K_, p_, P_;
-  Eigen::MatrixXd T_, R_, Linv_, Ri_, LT_, acc_;
+  Eigen::MatrixXd T_, R_, Ri_;
+  InverseGram inverse_;
   Eigen::ArrayXd S_, C_, Mp_;
-  Eigen::VectorXd ones_, u_, s1_, a_, b_;
+  Eigen::VectorXd ones_, u_, a_, b_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
   double mu_ = 0.0, sigma2_ = 0.0, rcond_ = 0.0;
   bool ok_ = false;

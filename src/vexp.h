@@ -20,7 +20,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <algorithm>
 #include <Eigen/Core>
 
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__) && \
@@ -197,93 +196,6 @@ WAVEVALID_CLONES inline void affine_eigen(const double* __restrict x, double a, 
 WAVEVALID_CLONES inline void add_to(double* __restrict s, const double* __restrict x, std::ptrdiff_t n) {
   for (std::ptrdiff_t i = 0; i < n; ++i) s[i] = s[i] + x[i];
 }
-
-// For each q < p: s1[q] = sum_i m[i] T[i, q] and s2[q] = sum_i m[i] T[i, q]
-// max(G[i, q], -745) (T, G: n x p, column-major), each summed as Eigen's
-// SSE2 sum of an array expression sums it: four partial sums interleaved by
-// element, (s0 + s2) + (s1 + s3), a last pair added to the first two, an odd
-// last element at the end. Inputs three at a time: six independent chains.
-WAVEVALID_CLONES inline void grad_sums(const double* __restrict m, const double* __restrict T,
-                                       const double* __restrict G, int n, int p, double* __restrict s1,
-                                       double* __restrict s2) {
-  constexpr int Q = 3;
-  const int e2 = (n / 4) * 4;
-  auto x1 = [&](int q, int i) { return m[i] * T[static_cast<std::ptrdiff_t>(q) * n + i]; };
-  auto x2 = [&](int q, int i) {
-    const double g = G[static_cast<std::ptrdiff_t>(q) * n + i];
-    return x1(q, i) * (g > -745.0 ? g : -745.0);
-  };
-  for (int q0 = 0; q0 < p; q0 += Q) {
-    const int nq = std::min(Q, p - q0);
-    if (n < 4 || nq < Q) {  // short, or the last inputs: one at a time
-      for (int q = q0; q < q0 + nq; ++q) {
-        double r1, r2;
-        if (n < 4) {
-          r1 = n > 0 ? x1(q, 0) : 0.0;
-          r2 = n > 0 ? x2(q, 0) : 0.0;
-          for (int i = 1; i < n; ++i) { r1 = r1 + x1(q, i); r2 = r2 + x2(q, i); }
-        } else {
-          double a[4], b[4];
-          for (int l = 0; l < 4; ++l) { a[l] = x1(q, l); b[l] = x2(q, l); }
-          for (int i = 4; i < e2; i += 4)
-            for (int l = 0; l < 4; ++l) { a[l] = a[l] + x1(q, i + l); b[l] = b[l] + x2(q, i + l); }
-          a[0] = a[0] + a[2]; a[1] = a[1] + a[3];
-          b[0] = b[0] + b[2]; b[1] = b[1] + b[3];
-          if (n - e2 >= 2) {
-            a[0] = a[0] + x1(q, e2); a[1] = a[1] + x1(q, e2 + 1);
-            b[0] = b[0] + x2(q, e2); b[1] = b[1] + x2(q, e2 + 1);
-          }
-          r1 = a[0] + a[1];
-          r2 = b[0] + b[1];
-          if (n % 2 == 1) { r1 = r1 + x1(q, n - 1); r2 = r2 + x2(q, n - 1); }
-        }
-        s1[q] = r1;
-        s2[q] = r2;
-      }
-      continue;
-    }
-    const double* __restrict t0 = T + static_cast<std::ptrdiff_t>(q0) * n;
-    const double* __restrict t1 = t0 + n;
-    const double* __restrict t2 = t1 + n;
-    const double* __restrict g0 = G + static_cast<std::ptrdiff_t>(q0) * n;
-    const double* __restrict g1 = g0 + n;
-    const double* __restrict g2 = g1 + n;
-    double a0[4], a1[4], a2[4], b0[4], b1[4], b2[4];
-    for (int l = 0; l < 4; ++l) {
-      a0[l] = x1(q0, l); a1[l] = x1(q0 + 1, l); a2[l] = x1(q0 + 2, l);
-      b0[l] = x2(q0, l); b1[l] = x2(q0 + 1, l); b2[l] = x2(q0 + 2, l);
-    }
-    for (int i = 4; i < e2; i += 4) {
-      for (int l = 0; l < 4; ++l) {
-        const double mi = m[i + l];
-        const double u0 = mi * t0[i + l], u1 = mi * t1[i + l], u2 = mi * t2[i + l];
-        const double h0 = g0[i + l] > -745.0 ? g0[i + l] : -745.0;
-        const double h1 = g1[i + l] > -745.0 ? g1[i + l] : -745.0;
-        const double h2 = g2[i + l] > -745.0 ? g2[i + l] : -745.0;
-        a0[l] = a0[l] + u0; a1[l] = a1[l] + u1; a2[l] = a2[l] + u2;
-        b0[l] = b0[l] + u0 * h0; b1[l] = b1[l] + u1 * h1; b2[l] = b2[l] + u2 * h2;
-      }
-    }
-    double* A[3] = {a0, a1, a2};
-    double* B[3] = {b0, b1, b2};
-    for (int h = 0; h < Q; ++h) {
-      const int q = q0 + h;
-      double* a = A[h];
-      double* b = B[h];
-      a[0] = a[0] + a[2]; a[1] = a[1] + a[3];
-      b[0] = b[0] + b[2]; b[1] = b[1] + b[3];
-      if (n - e2 >= 2) {
-        a[0] = a[0] + x1(q, e2); a[1] = a[1] + x1(q, e2 + 1);
-        b[0] = b[0] + x2(q, e2); b[1] = b[1] + x2(q, e2 + 1);
-      }
-      double r1 = a[0] + a[1], r2 = b[0] + b[1];
-      if (n % 2 == 1) { r1 = r1 + x1(q, n - 1); r2 = r2 + x2(q, n - 1); }
-      s1[q] = r1;
-      s2[q] = r2;
-    }
-  }
-}
-
 
 // The inverse of a Cholesky factor and the lower triangle of R^-1, as the
 // likelihood's gradient computes them with Eigen's SSE2 packets, to the bit,
