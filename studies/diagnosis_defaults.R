@@ -35,7 +35,7 @@
 #   Rscript studies/diagnosis_defaults.R [beds=dosing,suspension] [seeds=1:5] [hidden=none,all]
 #                                        [n_draws=150] [n_inner=20] [out=diagnosis_defaults.csv]
 #                                        [knots=auto] [dosing_features=rise] [suspension_features=min,max]
-#                                        [engine=gasp_level] [off_runs=TRUE]
+#                                        [engine=gasp_level] [off_runs=TRUE] [pool_levels=NULL]
 # knots: "auto" (validate()'s default, 1/32 of the record), NULL (landmarks
 # only) or a spacing in time units; features: the landmarks of each test
 # bed's windows ("+"-free, comma-separated).
@@ -43,7 +43,9 @@ suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 args <- study_args(list(beds = "dosing,suspension", seeds = "1:5", hidden = "none,all", n_draws = "150",
                         n_inner = "20", out = "diagnosis_defaults.csv", knots = "auto", dosing_features = "rise",
-                        suspension_features = "min,max", engine = "gasp_level", off_runs = "TRUE"))
+                        suspension_features = "min,max", engine = "gasp_level", off_runs = "TRUE",
+                        pool_levels = "NULL"))
+pool_levels <- arg_value(args$pool_levels)
 off_runs <- arg_flag(args$off_runs)
 knots_arg <- if (args$knots == "auto") "auto" else arg_value(args$knots)
 beds <- arg_names(args$beds)
@@ -61,7 +63,8 @@ run_case <- function(b, seed, hd) {
   B <- bed[[b]]
   tb <- B$make(seed = seed, hidden = hd)
   knots <- if (identical(knots_arg, "auto")) diff(range(tb$A$field$t)) / 32 else knots_arg
-  fit <- testbed_default_fit(tb, B$features, n_draws, n_inner, knots_every = knots, engine = args$engine)
+  fit <- testbed_default_fit(tb, B$features, n_draws, n_inner, knots_every = knots, engine = args$engine,
+                             pool_levels = pool_levels)
   # C1
   wf <- where_fails(fit)
   rw <- attr(wf, "record_wide")
@@ -78,7 +81,7 @@ run_case <- function(b, seed, hd) {
   exm <- ex[ex$candidate %in% mech, ]
   # C2, the re-validated models
   refits <- testbed_default_refits(tb, fit, B$simulate, mech, n_draws, n_inner, engine = args$engine,
-                                   off_runs = off_runs)
+                                   off_runs = off_runs, pool_levels = pool_levels)
   ex_rf <- explain_bias(fit, refits)
   rf <- as.data.frame(unclass(ex_rf))
   p_none <- with(attr(ex_rf, "subsets"), probability[subset == "(none)"])
