@@ -62,14 +62,14 @@
 #' interval of `where_fails()` overlapped where the mechanism acts in 13: the
 #' two mechanisms the calibrated inputs mimic most (a digressive damper, a
 #' progressive bump stop) were missed where they act at 7 of 10 seeds: the
-#' inputs take the mechanism up there. With nothing hidden (seeds 1-5) `where_fails()` left localised
-#' intervals of 6 to 15 grid steps at every seed and a credible record-wide
-#' bias at three, and a mechanism was claimed at one seed. A credible offset
-#' of the whole record came with 15 of the 20 hidden cases: the calibrated
-#' inputs trade it against the events, so after a change compare the
-#' localised part of the bias (`bias_rms_local` of [compare_validations()]).
-#' The figures by mechanism are in the package's source repository (`studies/README.md`,
-#' "diagnosis_defaults.R").
+#' inputs take the mechanism up there. With nothing hidden (seeds 1-5)
+#' `where_fails()` left localised intervals of 6 to 15 grid steps at every
+#' seed and a credible record-wide bias at three, and a mechanism was claimed
+#' at one seed. A credible offset of the whole record came with 15 of the 20
+#' hidden cases: the calibrated inputs trade it against the events, so after
+#' a change compare the localised part of the bias (`bias_rms_local` of
+#' [compare_validations()]). The figures by mechanism are in the package's
+#' source repository (`studies/README.md`, "diagnosis_defaults.R").
 #'
 #' @inheritParams fit_emulators
 #' @inheritParams calibrate

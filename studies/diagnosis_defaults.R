@@ -81,7 +81,7 @@ run_case <- function(b, seed, hd) {
   exm <- ex[ex$candidate %in% mech, ]
   # C2, the re-validated models
   refits <- testbed_default_refits(tb, fit, B$simulate, mech, n_draws, n_inner, engine = args$engine,
-                                   off_runs = off_runs, pool_levels = pool_levels)
+                                   off_runs = off_runs)
   ex_rf <- explain_bias(fit, refits)
   rf <- as.data.frame(unclass(ex_rf))
   p_none <- with(attr(ex_rf, "subsets"), probability[subset == "(none)"])

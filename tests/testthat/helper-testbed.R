@@ -257,10 +257,11 @@ testbed_default_fit <- function(tb, features, n_draws = 150L, n_inner = 20L, ...
 # calibration input on [0, 1], 66 runs of the model with it at a maximin
 # design joined by the model's own runs with the strength at 0 (the
 # mechanism switched off), the default emulators on the fit's basis,
-# calibrated on the fit's field with `pool_levels` (`off_runs = FALSE` leaves
-# the model's own runs out). A named list of fits for explain_bias().
+# calibrated on the fit's field with the fit's `pool_levels` (`off_runs =
+# FALSE` leaves the model's own runs out). A named list of fits for
+# explain_bias().
 testbed_default_refits <- function(tb, fit, simulate, mechanisms, n_draws = 150L, n_inner = 20L, engine = NULL,
-                                   off_runs = TRUE, pool_levels = NULL) {
+                                   off_runs = TRUE) {
   old <- options(wavevalid.quiet = TRUE)
   on.exit(options(old), add = TRUE)
   fits <- lapply(mechanisms, function(m) {
@@ -275,7 +276,7 @@ testbed_default_refits <- function(tb, fit, simulate, mechanisms, n_draws = 150L
     em <- suppressWarnings(if (is.null(engine)) fit_emulators(runs, fit$basis) else
       fit_emulators(runs, fit$basis, engine = engine))
     suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               pool_levels = pool_levels, quiet = TRUE))
+                               pool_levels = fit$settings$pool_levels, quiet = TRUE))
   })
   stats::setNames(fits, mechanisms)
 }
