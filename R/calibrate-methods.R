@@ -169,19 +169,34 @@ noise_lines <- function(fit) {
     stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
   f <- function(v) format(signif(v, 3), trim = TRUE)
   lines <- vapply(sites, function(s) {
-    sd_draws <- sqrt(fit$sigma2[[s]][, 1])
+    ev <- fit$noise_evidence[[s]]
+    sd_draws <- sqrt(fit$sigma2[[s]][, 1] / (if (is.null(ev$mult)) 1 else ev$mult[1]))
     switch(setting[[s]],
       replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
                            s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),
       given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(fit$sigma2[[s]][1, ])))),
       finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
                        s, f(sqrt(fit$sigma2[[s]][1, 1]))),
-      learned = sprintf("%s: learned, one variance for all coefficients; %s prior on its sd, scale %s; posterior sd %s [%s, %s]",
-                        s, fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
+      learned = sprintf("%s: learned, %s; %s prior on its sd, scale %s; posterior sd %s [%s, %s]%s",
+                        s, if (is.null(ev)) "one variance for all coefficients" else "the variance of one measurement",
+                        fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
                         f(stats::quantile(sd_draws, 0.05, names = FALSE)),
-                        f(stats::quantile(sd_draws, 0.95, names = FALSE))))
+                        f(stats::quantile(sd_draws, 0.95, names = FALSE)), measured_noise_text(ev)))
   }, character(1))
   c("Field noise:", paste0("  ", lines))
+}
+
+# What the learned noise took from the measurements on their own time stamps
+# (field_runs()), as the end of its print line.
+measured_noise_text <- function(ev) {
+  if (is.null(ev)) return("")
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  paste0("\n    from the measured curve on its ", ev$n_stamps, " time stamps: the prior's scale from its detail (sd ",
+         f(ev$detail_sd), ")",
+         if (ev$df > 0) sprintf("; %d repeated measurements in the likelihood (%g df, their sd %s)", ev$n_repeated,
+                                ev$df, f(sqrt(ev$ss / ev$df))) else "",
+         "; each coefficient's variance from the resampling onto the grid (", f(min(ev$mult)), " to ",
+         f(max(ev$mult)), " times one measurement's)")
 }
 
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))

@@ -1,6 +1,43 @@
 # calibrate(), stage 1: the field data, emulators and I/U map as the sampler's
 # sites, priors and tau2 groups.
 
+# The inputs of the runs' design or of the emulators (`what`: "runs" or
+# "emulators") against those of the I/U map: NULL when they are the same,
+# else `figure` (which inputs lack where) and `fix` (how to make them agree).
+# An input of the map that the runs do not vary would be calibrated from its
+# prior alone, and an input of the runs without a range has no prior: both
+# stop validate() and calibrate().
+iu_inputs_mismatch <- function(inputs, iu, what = c("runs", "emulators")) {
+  what <- match.arg(what)
+  unrun <- setdiff(iu$name, inputs)
+  unmapped <- setdiff(inputs, iu$name)
+  if (!length(unrun) && !length(unmapped)) return(NULL)
+  names_text <- function(x) paste(x, collapse = ", ")
+  s <- function(x, one, more) if (length(x) == 1L) one else more
+  where <- if (what == "runs") "the design of the runs" else "the inputs of the emulators"
+  figure <- c(
+    if (length(unrun)) sprintf("the I/U map's input%s %s %s not in %s", s(unrun, "", "s"), names_text(unrun),
+                               s(unrun, "is", "are"), where),
+    if (length(unmapped)) sprintf("%s's input%s %s %s not in the I/U map",
+                                  if (what == "runs") "the design" else "the emulators", s(unmapped, "", "s"),
+                                  names_text(unmapped), s(unmapped, "is", "are"))
+  )
+  drop <- if (length(unrun) == 1L) sprintf("iu[iu$name != \"%s\", ]", unrun) else
+    sprintf("iu[!iu$name %%in%% c(%s), ]", paste0("\"", unrun, "\"", collapse = ", "))
+  fix <- c(
+    if (length(unrun)) sprintf("%s %s, or drop %s from the I/U map with %s (the runs do not vary %s, so the calibration could only return %s prior).",
+                               if (what == "runs") "Add" else "Fit the emulators on runs whose design holds",
+                               if (what == "runs") paste(names_text(unrun), "to the design of the runs (run the model over it)") else names_text(unrun),
+                               s(unrun, "it", "them"), drop, s(unrun, "it", "them"), s(unrun, "its", "their")),
+    if (length(unmapped)) sprintf("Add %s to the I/U map with iu_add() (an input held fixed with a narrow range around its value)%s.",
+                                  names_text(unmapped),
+                                  if (what == "runs") paste(", or drop", s(unmapped, "it", "them"), "from the design of the runs") else "")
+  )
+  list(figure = paste(figure, collapse = "; "), fix = paste(fix, collapse = " "))
+}
+
+upper_first <- function(x) paste0(toupper(substr(x, 1L, 1L)), substring(x, 2L))
+
 # --- data and priors ----------------------------------------------------------
 
 calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = NULL,
@@ -15,13 +52,13 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     ), call = call)
   }
   inputs <- emulators$inputs
-  miss <- setdiff(inputs, iu$name)
-  if (length(miss)) {
+  mismatch <- iu_inputs_mismatch(inputs, iu, "emulators")
+  if (!is.null(mismatch)) {
     wv_abort(c(
-      "Every input of the emulators must be in the I/U map.",
-      "x" = "{.val {miss}} {cli::qty(length(miss))}{?is/are} missing from {.arg iu}.",
-      "i" = "Add {cli::qty(length(miss))}{?it/them} with {.fn iu_map}."
-    ), call = call)
+      "The emulators and {.arg iu} must have the same inputs.",
+      "x" = "{upper_first(mismatch$figure)}.",
+      "i" = "{mismatch$fix}"
+    ), class = c("inputs", "input"), call = call)
   }
   sites <- names(field$curves)
   nobank <- setdiff(sites, names(emulators$banks))
@@ -31,16 +68,6 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   iu <- iu_upgrade(iu)
   k <- match(inputs, iu$name)
-  for (b in attr(iu, "joint")) {
-    out <- setdiff(b$names, inputs)
-    if (length(out) && length(out) < length(b$names)) {
-      wv_abort(c(
-        "A joint prior of {.arg iu} covers inputs the emulators have and inputs they lack.",
-        "x" = "{.val {out}} {?is/are} not an input of the emulators; {.val {intersect(b$names, inputs)}} {?is/are}.",
-        "i" = "Give the joint prior over the emulators' inputs only."
-      ), class = c("prior", "input"), call = call)
-    }
-  }
   x_nom <- stats::setNames(iu$nominal[k], inputs)
   if (!is.null(field$x_nom)) {
     use <- intersect(names(field$x_nom), inputs)
@@ -72,13 +99,14 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   if (any(noise_setting == "learned") && is.null(noise)) {
     noise <- noise_prior()
-    wv_inform(c("i" = "{cli::qty(sum(noise_setting == 'learned'))}Site{?s} {.val {sites[noise_setting == 'learned']}} {?has/have} one field replicate: the field noise is learned in the posterior, one variance for all coefficients (see {.fn noise_prior})."))
+    wv_inform(c("i" = "{cli::qty(sum(noise_setting == 'learned'))}Site{?s} {.val {sites[noise_setting == 'learned']}} {?has/have} one field replicate: the field noise is learned in the posterior, one variance for all coefficients (see {.fn noise_prior}).",
+                if (length(field$noise)) c(" " = "It is the variance of one measurement, with the evidence {.fn field_runs} kept from the measured curve on its own time stamps.")))
   }
   noise_scale <- NULL
   if (!is.null(noise)) {
     learned <- sites[noise_setting == "learned"]
     noise_scale <- if (is.null(noise$scale)) {
-      attr(field_noise(subset_field_sites(field, learned), basis), "sd")
+      measured_noise_scale(field, basis, learned)
     } else if (length(noise$scale) == 1L && is.null(names(noise$scale))) {
       stats::setNames(rep(noise$scale, length(learned)), learned)
     } else {
@@ -121,14 +149,16 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
                            sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
     if (noise_setting[[s]] == "learned") {
-      site_data[[s]]$noise <- list(scale = unname(noise_scale[[s]]),
-                                   family = match(noise$family, c("half-cauchy", "half-normal")) - 1L)
+      site_data[[s]]$noise <- c(list(scale = unname(noise_scale[[s]]),
+                                     family = match(noise$family, c("half-cauchy", "half-normal")) - 1L),
+                                measured_noise_evidence(field$noise[[s]], basis))
     }
     bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise)
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise,
+       noise_evidence = noise_evidence_summary(field, basis, sites[noise_setting == "learned"], site_data))
 }
 
 # The bias-variance groups of the coefficients of a basis: one per level, or
@@ -205,6 +235,45 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
 }
 
 # The field data of some sites only.
+# The default scale of the learned noise's prior by site: the noise sd of the
+# measured curve on its own time stamps where field_runs() kept it, else the
+# finest-level estimate of field_noise().
+measured_noise_scale <- function(field, basis, sites) {
+  kept <- vapply(sites, function(s) !is.null(field$noise[[s]]$detail_sd), logical(1))
+  out <- stats::setNames(numeric(length(sites)), sites)
+  if (any(!kept)) out[!kept] <- attr(field_noise(subset_field_sites(field, sites[!kept]), basis), "sd")
+  for (s in sites[kept]) out[[s]] <- field$noise[[s]]$detail_sd
+  if (any(!(out > 0))) {
+    wv_abort(c("The measured curve of site{?s} {.val {sites[!(out > 0)]}} shows no noise at all.",
+               "i" = "Give the scale of the noise with {.code noise_prior(scale = )}, or the variances with {.arg sigma2}."),
+             class = "numeric")
+  }
+  out
+}
+
+# What the sampler takes of the noise evidence field_runs() kept for a site
+# (NULL: none): each coefficient's noise variance in units of one
+# measurement's (mult) and the repeated measurements' scatter (ss, df).
+measured_noise_evidence <- function(nz, basis) {
+  if (is.null(nz)) return(NULL)
+  out <- list(mult = resampled_noise_multipliers(nz$map, basis$Psi))
+  if (nz$df > 0) out <- c(out, list(ss = nz$ss, df = nz$df))
+  out
+}
+
+# For the print and the report, by learned site: where the noise evidence
+# came from (NULL where nothing was kept from the measurements).
+noise_evidence_summary <- function(field, basis, learned, site_data) {
+  out <- lapply(learned, function(s) {
+    nz <- field$noise[[s]]
+    if (is.null(nz)) return(NULL)
+    list(n_stamps = nz$n_stamps, n_repeated = nz$n_repeated, df = nz$df, ss = nz$ss, detail_sd = nz$detail_sd,
+         mult = site_data[[s]]$noise$mult)
+  })
+  out <- stats::setNames(out, learned)
+  out[!vapply(out, is.null, logical(1))]
+}
+
 subset_field_sites <- function(field, sites) {
   field$curves <- field$curves[sites]
   field

@@ -173,7 +173,13 @@
 #' coefficient of an orthonormal wavelet basis), moved by a random walk on
 #' its logarithm in every cycle of the sampler, under the weakly informative
 #' prior of [noise_prior()] (by default a half-Cauchy on the noise standard
-#' deviation whose scale is the finest-level estimate). The fit records how
+#' deviation whose scale is the finest-level estimate). When the field was
+#' built by [field_runs()] from measurements off the grid (repeated time
+#' stamps, another grid), the learned variance is that of one measurement:
+#' each coefficient's variance follows from the averaging and interpolation
+#' onto the grid, the scatter of repeated measurements enters the
+#' likelihood, and the prior's scale is the noise of the curve on its own
+#' time stamps. The fit keeps that evidence in `noise_evidence`. The fit records how
 #' the noise was set at each site in `noise_setting` (`"replicates"`,
 #' `"given"`, `"finest"` or `"learned"`); print, summary and the report state
 #' it.
@@ -484,7 +490,8 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
     groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
     seed = seed, settings = settings, registration_var = spec$extra,
-    noise_setting = spec$noise_setting, noise_prior = spec$noise_prior
+    noise_setting = spec$noise_setting, noise_prior = spec$noise_prior,
+    noise_evidence = if (length(spec$noise_evidence)) spec$noise_evidence
   ))
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat

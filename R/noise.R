@@ -70,27 +70,41 @@ field_noise <- function(field, basis) {
 #' averaged over replicates): where the signal is negligible at the finest
 #' level this is the noise standard deviation. On a smoothed or interpolated
 #' curve the finest level is too quiet and this scale too small; the heavy
-#' tail then lets the posterior move up, but give `scale` yourself when you
+#' tail then lets the posterior move up. Where [field_runs()] interpolated
+#' the measurements onto the grid, the default scale is instead the noise of
+#' the measured curve on its own time stamps. Give `scale` yourself when you
 #' know the instrument's noise.
 #'
 #' With one curve the data tell the noise from the bias only because the
 #' noise variance is shared by every retained coefficient while each level
 #' has its own bias variance `tau2_j`; and the basis keeps few coefficients of
 #' the fine levels, where the noise shows best. The noise is then weakly
-#' identified and can be learned too small, the bias variances taking the
-#' rest. On a small example (128 points, noise sd 0.02, 11 retained
-#' coefficients) the posterior median of the sd was 0.001; with
-#' `pool_levels` covering every level (one bias variance per site) it was
-#' 0.008, with a 90\% interval reaching 0.023.
+#' identified and tends to be learned too small, the bias variances taking
+#' the rest. Evidence of the noise that the curve on the grid loses is kept by
+#' [field_runs()] from the measurements as recorded, and used here: the
+#' scatter of repeated measurements at one time stamp, the noise of the curve
+#' on its own time stamps (the default `scale`), and each coefficient's noise
+#' variance after the measurements were averaged and interpolated onto the
+#' grid (`sigma2` is then the variance of one measurement). On a simulated
+#' curve of 100 time stamps with noise sd 0.05 interpolated onto 128 points,
+#' the posterior median of the sd was 0.021 to 0.027 at three seeds; with
+#' every other stamp measured twice, 0.043 to 0.057.
 #'
 #' In the sampler `log(sigma2)` moves by a Gaussian random walk (its step
 #' tuned during the burn-in, then frozen) in every cycle; its target is the
-#' likelihood of the field mean, `N(wbar_i; m_i, V_i + sigma2 / R + tau2_j(i))`,
-#' with, for two or more replicates, the replicates' scatter about their mean
-#' (`s2_i / sigma2 ~ chi^2_(R-1)`), the bias variances' prior (which depends
-#' on `sigma2`) and this prior.
+#' likelihood of the field mean, `N(wbar_i; m_i, V_i + c_i sigma2 / R +
+#' tau2_j(i))` (`c_i` the coefficient's noise multiplier, 1 for a curve on its
+#' own dyadic grid), with, for two or more replicates, the replicates' scatter
+#' about their mean (`s2_i / (c_i sigma2) ~ chi^2_(R-1)`), with repeated
+#' measurements their scatter (`ss / sigma2 ~ chi^2_df`), and this prior.
+#' The bias variances' prior `1 / (tau2_j + mean(sigma2_j) / R)` takes the
+#' learned noise at its prior's scale (`c_i scale^2`), so that it sets the
+#' scale of `tau2_j` without acting as a prior on `sigma2`: with the learned
+#' `sigma2` in it, each level whose bias is small would add a factor
+#' `1 / sigma2` and pull the noise towards zero.
 #'
-#' @param scale `NULL` (the finest-level estimate of each site), one positive
+#' @param scale `NULL` (by site, the noise sd of the measured curve on its own
+#'   time stamps where [field_runs()] kept it, else the finest-level estimate), one positive
 #'   number (the scale of the noise standard deviation, in the units of the
 #'   curves, for every site), or a vector named by site.
 #' @param family `"half-cauchy"` (default) or `"half-normal"`.

@@ -278,7 +278,7 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
                         sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
                         left_out = left_out)
   validate_wv_warps(warps)
-  validate_wv_field(new_wv_field(t, curves, field$x_nom, warps))
+  validate_wv_field(new_wv_field(t, curves, field$x_nom, warps, noise = field$noise))
 }
 
 # --- input checks ------------------------------------------------------------

@@ -166,7 +166,9 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 
 // sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
 //   noise (optional: list(scale, family) when sigma2 is learned: family 0
-//   half-Cauchy, 1 half-normal on its sd),
+//   half-Cauchy, 1 half-normal on its sd; optional mult (length n: the
+//   coefficients' noise variances as multiples of sigma2), ss and df (the
+//   scatter of repeated measurements: ss / sigma2 ~ chi^2_df)),
 //   group (0-based global tau2 group per coefficient; a group may span
 //   sites), bias_of (optional, 0-based: the site whose bias coefficients this
 //   site shares; its groups must be that site's), shift (optional, length p:
@@ -184,7 +186,8 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   fix_tau2, n_draws, n_inner, step, seed, chain;
 //   optional: debug_break (0; 1: no proposal-density ratio of the global moves, 2: no tau2 ratio,
 //   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
-//   5: no likelihood of the sites with a shift, only to show that the
+//   5: no likelihood of the sites with a shift, 6: the learned noise's multipliers taken as 1,
+//   only to show that the
 //   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs
@@ -220,6 +223,13 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       if (d.fixed_sigma2) Rcpp::stop("site %d: sigma2 both given and learned", s + 1);
       if (!(d.noise_scale > 0.0) || d.noise_family < 0 || d.noise_family > 1)
         Rcpp::stop("site %d: bad noise prior", s + 1);
+      if (nz.containsElementNamed("mult") && !Rf_isNull(nz["mult"]))
+        d.noise_mult = Rcpp::as<Eigen::VectorXd>(nz["mult"]);
+      if (nz.containsElementNamed("df") && !Rf_isNull(nz["df"])) {
+        d.noise_df = Rcpp::as<double>(nz["df"]);
+        d.noise_ss = Rcpp::as<double>(nz["ss"]);
+        if (!(d.noise_df >= 0.0) || !(d.noise_ss >= 0.0)) Rcpp::stop("site %d: bad noise evidence", s + 1);
+      }
     }
     if (si.containsElementNamed("bias_of") && !Rf_isNull(si["bias_of"]))
       d.bias_of = Rcpp::as<int>(si["bias_of"]);
@@ -231,7 +241,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     Rcpp::RObject ex = si.containsElementNamed("extra") ? si["extra"] : Rcpp::RObject(R_NilValue);
     d.extra = ex.isNULL() ? Eigen::VectorXd::Zero(n) : Rcpp::as<Eigen::VectorXd>(ex);
     if (d.wbar.size() != n || d.s2.size() != n || static_cast<int>(d.group.size()) != n ||
-        (d.fixed_sigma2 && d.sigma2_fixed.size() != n) || d.extra.size() != n || (d.extra.array() < 0).any())
+        (d.fixed_sigma2 && d.sigma2_fixed.size() != n) || d.extra.size() != n || (d.extra.array() < 0).any() ||
+        (d.noise_mult.size() && (d.noise_mult.size() != n || !(d.noise_mult.array() > 0).all())))
       Rcpp::stop("site %d: data do not match the emulator bank (%d coefficients)", s + 1, n);
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");
@@ -240,7 +251,10 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     if (!d.fixed_sigma2 && !d.learn_sigma2 && d.R < 2)
       Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
   }
-  for (int s = 0; s < S; ++s) data[s].bank = &banks[s];
+  for (int s = 0; s < S; ++s) {
+    data[s].bank = &banks[s];
+    if (set.debug_break == 6) data[s].noise_mult.resize(0);
+  }
 
   std::vector<wavevalid::InputPrior> pr;
   std::vector<wavevalid::JointPrior> joints;

@@ -190,14 +190,8 @@ class Sampler : public SamplerState {
       eta_[s] = prop;
       const double sig2 = std::exp(prop);
       sigma2_[s].setConstant(sig2);
-      for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sig2 + d.R * d.extra(i)) / d.R;
-      for (int g = 0; g < G_; ++g) {
-        if (spans_[g]) {
-          if (group_has_site(g, static_cast<int>(s))) sigbar_(g) = spanning_sigbar(g, -1, 0.0) * sites_[group_site_[g]].R;
-        } else if (group_site_[g] == static_cast<int>(s)) {
-          sigbar_(g) = sig2 + d.R * group_extra_mean(g);
-        }
-      }
+      if (d.noise_mult.size()) sigma2_[s].array() *= d.noise_mult.array();
+      for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sigma2_[s](i) + d.R * d.extra(i)) / d.R;
       base_[s] = v_[s] + ebar_[s];
     }
     return loglik(tau2_);

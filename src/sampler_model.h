@@ -34,6 +34,14 @@ struct SiteData {
   bool learn_sigma2 = false;
   double noise_scale = 1.0;
   int noise_family = 0;
+  // The learned sigma2 is that of one measurement; coefficient i of the field
+  // curve has noise variance noise_mult(i) * sigma2 (the resampling of the
+  // measurements onto the grid; empty: 1 for all). Repeated measurements at
+  // one time stamp add their scatter, noise_ss / sigma2 ~ chi^2_(noise_df).
+  Eigen::VectorXd noise_mult;
+  double noise_ss = 0.0, noise_df = 0.0;
+
+  double mult(int i) const { return noise_mult.size() ? noise_mult(i) : 1.0; }
 
   // Log prior of eta = log sigma2 (up to a constant): the prior of sigma times
   // d sigma / d eta = sigma / 2 (with `jacobian`).

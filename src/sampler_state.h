@@ -146,18 +146,21 @@ class SamplerState {
         sigma2_[s] = d.sigma2_fixed;
       } else if (d.learn_sigma2) {
         sigma2_[s].setConstant(std::exp(eta_[s]));
+        if (d.noise_mult.size()) sigma2_[s].array() *= d.noise_mult.array();
       } else {
         std::gamma_distribution<double> ga(0.5 * (d.R - 1.0), 1.0);
         for (int i = 0; i < n; ++i) sigma2_[s](i) = 0.5 * d.s2(i) / ga(rng_);
       }
       // the variance of wbar, sigma2 / R + extra, computed as (sigma2 + R extra) / R
       // so that extra = r gives the same numbers as sigma2 + R r; the
-      // prior's scale is its mean
+      // prior's scale is its mean, with a learned sigma2 at its prior's
+      // scale (so that the tau2 prior does not depend on the learned sigma2)
       for (int i = 0; i < n; ++i) {
         const double e = sigma2_[s](i) + d.R * d.extra(i);
         ebar_[s](i) = e / d.R;
         const int g = d.group[i];
-        sigbar_(g) += spans_[g] ? ebar_[s](i) * sites_[group_site_[g]].R : e;
+        const double ep = d.learn_sigma2 ? d.noise_scale * d.noise_scale * d.mult(i) + d.R * d.extra(i) : e;
+        sigbar_(g) += spans_[g] ? ep / d.R * sites_[group_site_[g]].R : ep;
       }
     }
     for (int g = 0; g < G_; ++g) {
@@ -198,8 +201,9 @@ class SamplerState {
 
   // Log target of eta = log sigma2 of learned site s at the current inputs
   // and tau2: the field means' likelihood (and, with R >= 2, the replicates'
-  // scatter about their mean), the tau2 priors of the site's groups (which
-  // depend on sigma2; not when tau2 is fixed) and the prior of eta.
+  // scatter about their mean; and the scatter of repeated measurements at
+  // one time stamp) and the prior of eta. The tau2 priors' scale takes the
+  // learned sigma2 at its prior's scale, so they do not enter.
   double noise_target(int s, double eta) const {
     const SiteData& d = sites_[s];
     const int n = d.bank->n_coef();
@@ -210,53 +214,20 @@ class SamplerState {
       for (int i = 0; i < n; ++i) {
         ll += shared_term(root, tau2_(d.group[i]),
                           [&](int q) {
-                            return q == s ? v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R : base_[q](i);
+                            return q == s ? v_[s](i) + (sig2 * d.mult(i) + d.R * d.extra(i)) / d.R : base_[q](i);
                           },
                           [&](int q) { return resid_[q](i); });
-        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / (sig2 * d.mult(i)));
       }
     } else {
       for (int i = 0; i < n; ++i) {
-        const double tot = v_[s](i) + (sig2 + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
+        const double tot = v_[s](i) + (sig2 * d.mult(i) + d.R * d.extra(i)) / d.R + tau2_(d.group[i]);
         ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
-        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / sig2);
+        if (d.R >= 2.0) ll -= 0.5 * ((d.R - 1.0) * eta + d.s2(i) / (sig2 * d.mult(i)));
       }
     }
-    double lp = set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
-    if (!set_.fix_tau2) {
-      for (int g = 0; g < G_; ++g) {
-        if (spans_[g]) {
-          if (group_has_site(g, s)) lp -= std::log(tau2_(g) + spanning_sigbar(g, s, sig2));
-          continue;
-        }
-        if (group_site_[g] != s) continue;
-        lp -= std::log(tau2_(g) + (sig2 + d.R * group_extra_mean(g)) / d.R);
-      }
-    }
-    return lp;
-  }
-
-  bool group_has_site(int g, int s) const {
-    return std::find(msite_[g].begin(), msite_[g].end(), s) != msite_[g].end();
-  }
-
-  // A group over several sites: the mean over its coefficients of
-  // sigma2 / R + extra, site s's sigma2 set to sig2 (s < 0: none replaced).
-  double spanning_sigbar(int g, int s, double sig2) const {
-    double e = 0.0;
-    for (std::size_t k = 0; k < members_[g].size(); ++k) {
-      const int q = msite_[g][k], i = members_[g][k];
-      const SiteData& d = sites_[q];
-      e += (q == s ? sig2 : sigma2_[q](i)) / d.R + d.extra(i);
-    }
-    return members_[g].empty() ? 0.0 : e / members_[g].size();
-  }
-
-  double group_extra_mean(int g) const {
-    const SiteData& d = sites_[group_site_[g]];
-    double e = 0.0;
-    for (int i : members_[g]) e += d.extra(i);
-    return members_[g].empty() ? 0.0 : e / members_[g].size();
+    if (d.noise_df > 0.0) ll -= 0.5 * (d.noise_df * eta + d.noise_ss / sig2);
+    return set_.temper * ll + d.log_prior_eta(eta, set_.debug_break != 4);
   }
 
   // One coefficient's log likelihood over site s and the sites sharing its

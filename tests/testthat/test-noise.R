@@ -50,13 +50,18 @@ test_that("a one-replicate, non-dyadic problem validates end to end with the fin
 # SBC for the learned noise: u1 uniform, one noise variance for the 8
 # coefficients drawn from its prior, tau2 known; truth (u1, sigma2, w^M, w^b)
 # from the model, ranks of the truth among the kept draws.
+# With `mult`, coefficient i's noise variance is mult[i] * sigma2 (a curve
+# resampled onto the grid); with `df` > 0, repeated measurements add their
+# scatter ss ~ sigma2 chi^2_df.
 sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, family = "half-cauchy",
-                              n_draws = 49L, n_inner = 10L, tau2 = 0.05, burnin = 300L) {
+                              n_draws = 49L, n_inner = 10L, tau2 = 0.05, burnin = 300L, mult = NULL, df = 0) {
   s <- sbc_setup(R, noise_prior(scale = scale, family = family))
   n <- s$n
   spec <- s$spec
   G <- s$G
   bank <- s$bank
+  if (!is.null(mult)) spec$sites$site1$noise$mult <- rep_len(mult, n)
+  m <- if (is.null(mult)) rep(1, n) else rep_len(mult, n)
   ranks <- matrix(NA_integer_, reps, 2, dimnames = list(NULL, c("u1", "sigma2")))
   for (r in seq_len(reps)) {
     z <- stats::runif(1)
@@ -64,14 +69,15 @@ sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, famil
     pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(z, 1))
     wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
     wb <- stats::rnorm(n, 0, sqrt(tau2))
-    W <- matrix(wM + wb, R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, sig), R, n)
+    W <- matrix(wM + wb, R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, sig * sqrt(m)), R, n, byrow = TRUE)
     spec$sites$site1$wbar <- colMeans(W)
     spec$sites$site1$s2 <- colSums(sweep(W, 2L, colMeans(W))^2)
+    if (df > 0) spec$sites$site1$noise[c("ss", "df")] <- list(sig^2 * stats::rchisq(1, df), df)
     out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break, adaptive = TRUE,
       burnin = burnin, n_search = 20L))
-    ranks[r, ] <- c(sum(out$inputs[, 1] < z), sum(out$sigma2[[1]][, 1] < sig^2))
+    ranks[r, ] <- c(sum(out$inputs[, 1] < z), sum(out$sigma2[[1]][, 1] < m[1] * sig^2))
   }
   sbc_rank_pvalues(ranks, n_draws)
 }
@@ -82,6 +88,16 @@ test_that("SBC of the learned noise at a small size, and not without the Jacobia
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
   withr::local_seed(4401)
   p_broken <- sbc_noise_pvalues(400, debug_break = 4L)
+  expect_lt(p_broken[["sigma2"]], 0.001)
+})
+
+test_that("SBC of the learned noise of a resampled curve with repeated measurements, and not without its multipliers", {
+  mult <- c(0.15, 1.8, 1.2, 0.4, 2.5, 0.8, 1.5, 0.3)
+  withr::local_seed(4405)
+  p_ok <- sbc_noise_pvalues(400, mult = mult, df = 6)
+  expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
+  withr::local_seed(4405)
+  p_broken <- sbc_noise_pvalues(400, mult = mult, df = 6, debug_break = 6L)
   expect_lt(p_broken[["sigma2"]], 0.001)
 })
 
@@ -134,4 +150,68 @@ test_that("how the noise was set is stored, printed and checked", {
   expect_error(noise_prior(scale = -1), class = "wavevalid_error_input")
   expect_error(noise_prior(family = "cauchy"), class = "wavevalid_error_input")
   expect_snapshot(print(noise_prior(scale = 0.1)))
+})
+
+test_that("field_runs() averages repeated time stamps and keeps their scatter, the curve's detail and the resampling", {
+  withr::local_seed(21)
+  t0 <- seq(0, 1, length.out = 40)
+  t_obs <- sort(c(t0, t0[c(3, 10, 11, 30)]))
+  Y <- rbind(sin(2 * pi * t_obs), cos(2 * pi * t_obs)) + matrix(rnorm(2 * length(t_obs), sd = 0.1), 2)
+  grid <- seq(-0.01, 1, length.out = 64)
+  expect_message(f <- field_runs(Y, t_obs, grid = grid), class = "wavevalid_message")
+  expect_identical(f$t, grid)
+  nz <- f$noise$site1
+  k <- match(t_obs, t0)
+  avg <- t(apply(Y, 1, function(y) tapply(y, k, mean)))
+  expect_equal(nz$ss, sum((Y - avg[, k])^2))
+  expect_identical(nz$df, 8)
+  expect_identical(nz$n_repeated, 4L)
+  expect_equal(f$curves$site1[2, ], stats::approx(t0, avg[2, ], xout = grid, rule = 2)$y)
+  # the multipliers are the diagonal of Psi' A D A' Psi, A the interpolation
+  A <- sapply(seq_along(t0), function(j) stats::approx(t0, as.numeric(seq_along(t0) == j), xout = grid, rule = 2)$y)
+  D <- diag(1 / tabulate(k, length(t0)))
+  Psi <- qr.Q(qr(matrix(rnorm(64 * 9), 64, 9)))
+  expect_equal(wavevalid:::resampled_noise_multipliers(nz$map, Psi), diag(t(Psi) %*% A %*% D %*% t(A) %*% Psi))
+  # on a dyadic grid without repeats there is nothing to keep
+  expect_null(field_runs(Y[, !duplicated(t_obs)][, 1:32], t0[1:32])$noise)
+  expect_error(field_runs(Y[, rev(seq_along(t_obs))], rev(t_obs)), class = "wavevalid_error")
+  expect_error(field_runs(Y, t_obs, grid = seq(-0.2, 1, length.out = 64)), class = "wavevalid_error_grid")
+  expect_error(field_runs(Y, t_obs, grid = seq(0, 1, length.out = 60)), class = "wavevalid_error_grid")
+})
+
+test_that("the noise learned from one curve with repeated time stamps recovers the truth", {
+  skip_on_cran()
+  f <- function(t, a, b) sin(2 * pi * t * (1 + a)) + b * t
+  tg <- seq(0, 1, length.out = 128)
+  withr::local_seed(1)
+  design <- data.frame(a = runif(25), b = runif(25))
+  runs <- model_runs(design, t(apply(design, 1, function(z) f(tg, z[1], z[2]))), tg)
+  iu <- iu_map(c("a", "b"), c("calibration", "calibration"), c(0, 0), c(1, 1))
+  # 100 time stamps, every other one measured twice, noise sd 0.05
+  t0 <- seq(0, 1, length.out = 100)
+  t_obs <- sort(c(t0, t0[seq(1, 100, by = 2)]))
+  for (seed in 1:3) {
+    withr::local_seed(seed)
+    y <- f(t_obs, 0.4, 0.6) + rnorm(length(t_obs), sd = 0.05)
+    field <- suppressMessages(field_runs(rbind(y), t_obs, grid = tg))
+    fit <- suppressWarnings(suppressMessages(validate(runs, field, iu, n_draws = 300, n_inner = 20, chains = 1,
+                                                      seed = seed, quiet = TRUE)))
+    ev <- fit$noise_evidence$site1
+    sd_draws <- sqrt(fit$sigma2$site1[, 1] / ev$mult[1])
+    expect_lt(abs(stats::median(sd_draws) / 0.05 - 1), 0.3)
+    expect_true(any(grepl("repeated measurements in the likelihood", capture.output(print(fit)))))
+  }
+})
+
+test_that("on the flyer plate the learned noise agrees with the repeated measurements", {
+  skip_on_cran()
+  fl <- load_flyer()
+  nz <- fl$field$noise$velocity
+  expect_identical(nz$df, 34)
+  pairs_sd <- sqrt(nz$ss / nz$df)
+  expect_equal(pairs_sd, 4.3e-4, tolerance = 0.02)
+  fit <- suppressWarnings(suppressMessages(validate(fl$runs, fl$field, fl$iu, n_draws = 100, n_inner = 20,
+                                                    chains = 1, seed = 1, quiet = TRUE)))
+  sd_draws <- sqrt(fit$sigma2$velocity[, 1] / fit$noise_evidence$velocity$mult[1])
+  expect_lt(abs(log(stats::median(sd_draws) / pairs_sd)), log(2))
 })
