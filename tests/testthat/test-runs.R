@@ -27,7 +27,9 @@ test_that("containers reject bad input with classed errors", {
   expect_snapshot(model_runs(design, cur[, -1], t), error = TRUE)
   # non-increasing grid
   expect_error(model_runs(design, cur, rev(t)), class = "wavevalid_error_input")
-  expect_error(field_runs(cur, c(t[1:10], t[10], t[12:64])), class = "wavevalid_error_input")
+  expect_error(field_runs(cur, c(t[1:10], t[9], t[12:64])), class = "wavevalid_error_input")
+  # a repeated time stamp is a repeated measurement (averaged, see test-noise.R)
+  expect_s3_class(suppressMessages(field_runs(cur, c(t[1:10], t[10], t[12:64]))), "wv_field")
   # NA inside a field curve is refused and located
   bad <- cur
   bad[2, 30] <- NA
