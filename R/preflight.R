@@ -28,12 +28,16 @@
 #'   with one replicate). One replicate with the noise learned is a warning
 #'   (class `wavevalid_warning_noise`): one curve tells noise from bias only
 #'   weakly.
-#' * **inputs**: every input of the design is in the I/U map (else an error
-#'   of class `wavevalid_error_inputs`), and each I/U range lies within the
-#'   design's range (else a warning of class `wavevalid_warning_inputs`: the
-#'   emulators would extrapolate; a range counts when it reaches beyond the
-#'   design by more than 5% of its width or 1.5 / K of it, K runs, about one
-#'   and a half spacings of a space-filling design).
+#' * **inputs**: the design of the runs and the I/U map have the same inputs
+#'   (else an error of class `wavevalid_error_inputs`, before any emulator is
+#'   fitted): an input of the map that the runs do not vary could only follow
+#'   its prior, and an input of the runs without a range has no prior. Add
+#'   the input to the runs or to the map ([iu_add()]), or drop it from the
+#'   map (`iu[iu$name != "u2", ]`). Each I/U range lies within the design's
+#'   range (else a warning of class `wavevalid_warning_inputs`: the emulators
+#'   would extrapolate; a range counts when it reaches beyond the design by
+#'   more than 5% of its width or 1.5 / K of it, K runs, about one and a half
+#'   spacings of a space-filling design).
 #' * **windows** (when given): the event windows of the registration.
 #'
 #' @inheritParams validate
@@ -204,13 +208,9 @@ describe_noise <- function(sigma2, reps) {
 
 preflight_inputs <- function(runs, iu) {
   inputs <- names(runs$design)
-  miss <- setdiff(inputs, iu$name)
-  if (length(miss)) {
-    return(preflight_row("error", sprintf("the design's input%s %s %s not in the I/U map",
-                                          if (length(miss) == 1L) "" else "s", paste(miss, collapse = ", "),
-                                          if (length(miss) == 1L) "is" else "are"),
-                         "Add every input of the design to the I/U map with iu_map() (fixed inputs with a narrow range).",
-                         class = "inputs"))
+  mismatch <- iu_inputs_mismatch(inputs, iu, "runs")
+  if (!is.null(mismatch)) {
+    return(preflight_row("error", mismatch$figure, mismatch$fix, class = c("inputs", "input")))
   }
   k <- match(inputs, iu$name)
   lo <- vapply(runs$design, min, numeric(1))
@@ -222,8 +222,6 @@ preflight_inputs <- function(runs, iu) {
   beyond <- pmax(out_lo, out_hi) > slack
   fig <- sprintf("%d inputs (%d calibration, %d variation) in the I/U map", length(inputs),
                  sum(iu$type[k] == "calibration"), sum(iu$type[k] == "variation"))
-  unused <- setdiff(iu$name, inputs)
-  if (length(unused)) fig <- paste0(fig, sprintf("; %s of the I/U map not in the design, ignored", paste(unused, collapse = ", ")))
   if (any(beyond)) {
     detail <- sprintf("%s: I/U [%s, %s], design [%s, %s]", inputs[beyond], format_range(iu$lower[k][beyond]),
                       format_range(iu$upper[k][beyond]), format_range(lo[beyond]), format_range(hi[beyond]))

@@ -97,15 +97,61 @@ test_that("a bad grid and a basis too coarse are refused before any fit", {
   expect_identical(mild$status[mild$check == "basis"], "warning")
 })
 
-test_that("inputs of the design are checked against the I/U map", {
+test_that("an input of the runs that the I/U map lacks stops validate() before any fit", {
   pp <- preflight_problem()
   short <- iu_map("u", "calibration", 0, 1)
   pf <- preflight(pp$runs, pp$field, short, sigma2 = 1)
   expect_identical(pf$status[pf$check == "inputs"], "error")
-  expect_match(pf$figure[pf$check == "inputs"], "x is not in the I/U map")
+  expect_match(pf$figure[pf$check == "inputs"], "the design's input x is not in the I/U map")
+  expect_match(pf$fix[pf$check == "inputs"], "iu_add()", fixed = TRUE)
   out <- count_calls(validate(pp$runs, pp$field, short, sigma2 = 1, quiet = TRUE))
   expect_s3_class(out$value, "wavevalid_error_inputs")
+  expect_match(conditionMessage(out$value), "x is not in the I/U map")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
+})
+
+test_that("an input of the I/U map that the runs lack stops validate() before any fit", {
+  pp <- preflight_problem()
+  # the runs without x: x would only follow its prior
+  runs_u <- new_wv_runs(pp$runs$design["u"], pp$runs$t, pp$runs$curves)
+  pf <- preflight(runs_u, pp$field, pp$iu, sigma2 = 1)
+  expect_identical(pf$status[pf$check == "inputs"], "error")
+  expect_match(pf$figure[pf$check == "inputs"], "the I/U map's input x is not in the design of the runs")
+  expect_match(pf$fix[pf$check == "inputs"], 'iu[iu$name != "x", ]', fixed = TRUE)
+  out <- count_calls(validate(runs_u, pp$field, pp$iu, sigma2 = 1, quiet = TRUE))
+  expect_s3_class(out$value, "wavevalid_error_inputs")
+  expect_match(conditionMessage(out$value), "x is not in the design of the runs")
+  expect_identical(unname(out$calls), c(0L, 0L, 0L))
+  # both ways at once, several inputs: one error names them all
+  iu3 <- iu_add(pp$iu, c("w", "v"), lower = c(0, 0), upper = c(1, 1))
+  runs_z <- new_wv_runs(cbind(pp$runs$design["u"], z = pp$runs$design$x), pp$runs$t, pp$runs$curves)
+  pf <- preflight(runs_z, pp$field, iu3, sigma2 = 1)
+  expect_match(pf$figure[pf$check == "inputs"], "inputs x, w, v are not in the design of the runs; the design's input z")
+  expect_match(pf$fix[pf$check == "inputs"], 'iu[!iu$name %in% c("x", "w", "v"), ]', fixed = TRUE)
+  # the fix the error gives: the map subset to the runs' inputs passes
+  dropped <- pp$iu[pp$iu$name != "x", ]
+  expect_s3_class(dropped, "wv_iu")
+  expect_identical(preflight(runs_u, pp$field, dropped, sigma2 = 1)$status[4], "ok")
+})
+
+test_that("calibrate() wants the emulators' inputs and the I/U map's to be the same", {
+  ex <- example_problem()
+  more <- iu_add(ex$iu, "w", lower = 0, upper = 1)
+  err <- expect_error(calibrate(ex$emulators, ex$field, more, n_draws = 10, n_inner = 2, chains = 1, seed = 1,
+                                quiet = TRUE),
+                      class = "wavevalid_error_inputs")
+  expect_match(conditionMessage(err), "w is not in the inputs of the emulators")
+  expect_match(conditionMessage(err), 'iu[iu$name != "w", ]', fixed = TRUE)
+  less <- ex$iu[ex$iu$name != "x1", ]
+  err <- expect_error(calibrate(ex$emulators, ex$field, less, n_draws = 10, n_inner = 2, chains = 1, seed = 1,
+                                quiet = TRUE),
+                      class = "wavevalid_error_inputs")
+  expect_s3_class(err, "wavevalid_error_input")
+  expect_match(conditionMessage(err), "x1 is not in the I/U map")
+})
+
+test_that("the I/U ranges are checked against the design's", {
+  pp <- preflight_problem()
   wide <- iu_map(c("u", "x"), c("calibration", "variation"), c(0, -0.5), c(1, 1))
   pf <- preflight(pp$runs, pp$field, wide, sigma2 = 1)
   expect_identical(pf$status[pf$check == "inputs"], "warning")
