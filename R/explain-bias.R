@@ -119,8 +119,9 @@
 #'
 #' @inheritParams bands
 #' @inheritParams calibrate
-#' @param candidates A named list of candidate curves on the fit's grid: each a
-#'   numeric vector (used at every site) or a named list by site of vectors.
+#' @param candidates A named list of candidate curves: each a numeric vector
+#'   (used at every site) or a named list by site of vectors, on the fit's
+#'   grid `fit$basis$t` or on the grid the runs were given on (see `t`).
 #'   May be empty when `shifts = TRUE`. Or a named list of `wv_fit` objects,
 #'   the model re-validated with each candidate mechanism (see the section
 #'   "Re-validated models as candidates").
@@ -137,6 +138,16 @@
 #'   candidate: candidates with the same name are versions of one effect, such
 #'   as its signature simulated at different inputs (see Details). The table
 #'   then has one row per effect, named by `effect`.
+#' @param t The times of candidate curves that are not on the fit's grid: when
+#'   the runs were given on a grid that is not dyadic, [model_runs()] and
+#'   [field_runs()] interpolated them to one (`fit$basis$t`), and candidates
+#'   simulated on the original grid can be given there. A curve with one
+#'   value per point of `t` (increasing times over the interval of
+#'   `fit$basis$t`) is linearly interpolated to `fit$basis$t`, with a message.
+#'   With `t = NULL`, a curve of `n` values, fewer than the `N` of
+#'   `fit$basis$t` but more than `N / 2` (a grid that [model_runs()] would
+#'   have interpolated to `fit$basis$t`), is taken as equally spaced over its
+#'   interval and interpolated likewise. Not used with re-validated models.
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
@@ -195,7 +206,8 @@
 #'                        n_inner = 20, chains = 1, seed = 2, quiet = TRUE)
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
-                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, ...) {
+                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, t = NULL,
+                         ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
@@ -203,7 +215,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   if (candidates_are_fits(candidates)) return(explain_refits(fit, candidates, n_draws, level))
-  cand <- candidate_coefficients(fit, candidates)
+  cand <- candidate_coefficients(fit, candidates, t)
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
   draws <- as.matrix(fit$draws)
@@ -268,19 +280,22 @@ candidate_effects <- function(effect, nm, call = rlang::caller_env()) {
   effect
 }
 
-# Coefficients (all sites stacked, in the order of fit$wb) of user candidates.
-candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) {
+# Coefficients (all sites stacked, in the order of fit$wb) of user candidates,
+# each curve first put on the fit's grid (candidate_on_grid()); one message
+# names the curves that were interpolated.
+candidate_coefficients <- function(fit, candidates, t = NULL, call = rlang::caller_env()) {
   sites <- names(fit$wb)
-  n_t <- length(fit$basis$t)
+  tb <- fit$basis$t
   if (!is.list(candidates)) {
     wv_abort("{.arg candidates} must be a named list of curves.", call = call)
   }
+  if (!is.null(t)) t <- check_candidate_grid(t, tb, call = call)
   if (length(candidates) == 0L) return(matrix(0, sum(vapply(fit$wb, ncol, 1L)), 0L))
   nm <- names(candidates)
   if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
     wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
   }
-  cols <- lapply(nm, function(k) {
+  placed <- lapply(nm, function(k) {
     cur <- candidates[[k]]
     if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)), sites)
     if (!is.list(cur) || !all(sites %in% names(cur))) {
@@ -290,20 +305,16 @@ candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) 
         "i" = if (any(grepl("/", sites, fixed = TRUE))) "A site {.val e/s} is site {.val s} of experiment {.val e}: give the candidate's curve in that experiment's condition."
       ), call = call)
     }
-    unlist(lapply(sites, function(s) {
-      y <- cur[[s]]
-      if (!is.numeric(y) || length(y) != n_t) {
-        wv_abort(c(
-          "Candidate {.val {k}} is not on the fit's grid at site {.val {s}}.",
-          "x" = "It has {length(y)} value{?s}; the grid has {n_t} points.",
-          "i" = "Interpolate it to {.code fit$basis$t} first."
-        ), call = call)
-      }
-      if (any(!is.finite(y))) wv_abort("Candidate {.val {k}} has missing or infinite values.", call = call)
-      drop(y %*% fit$basis$Psi)
-    }))
+    lapply(sites, function(s) candidate_on_grid(cur[[s]], k, s, tb, t, call = call))
   })
-  out <- do.call(cbind, cols)
+  from <- lapply(placed, function(p) unlist(lapply(p, `[[`, "from")))
+  if (length(unlist(from))) {
+    moved <- nm[lengths(from) > 0L]
+    wv_inform(c(
+      "i" = "{cli::qty(length(moved))}Candidate{?s} {.val {moved}} {?was/were} not on the fit's grid of {length(tb)} points ({.code fit$basis$t}): linearly interpolated to it from {unique(unlist(from))}."
+    ))
+  }
+  out <- do.call(cbind, lapply(placed, function(p) unlist(lapply(p, function(y) drop(y$y %*% fit$basis$Psi)))))
   colnames(out) <- nm
   zero <- colSums(out^2) == 0
   if (any(zero)) {
@@ -313,6 +324,70 @@ candidate_coefficients <- function(fit, candidates, call = rlang::caller_env()) 
     ), call = call)
   }
   out
+}
+
+# The curve `y` of candidate `k` at site `s` on the fit's grid `tb`: `y` as
+# given when it has one value per point of `tb` (and `t` does not say
+# otherwise); linearly interpolated from the grid `t` when it has one value per
+# point of `t`; else, without `t`, from as many equally spaced points over the
+# interval of `tb` when model_runs() and field_runs() would have interpolated
+# such a grid to `tb` (more than half as many points as `tb`, fewer than it):
+# the user's grid when it was equally spaced but not dyadic. A list with `y`
+# and `from` (how the curve was placed, NULL when it was on `tb`).
+candidate_on_grid <- function(y, k, s, tb, t = NULL, call = rlang::caller_env()) {
+  n_t <- length(tb)
+  if (!is.numeric(y) || !length(y)) {
+    wv_abort("Candidate {.val {k}} at site {.val {s}} must be a numeric curve, not {.obj_type_friendly {y}}.",
+             call = call)
+  }
+  y <- as.numeric(y)
+  if (any(!is.finite(y))) {
+    wv_abort(c("Candidate {.val {k}} has missing or infinite values at site {.val {s}}.",
+               "i" = "Give a complete curve: fill the gaps (e.g. by interpolation) first."),
+             call = call)
+  }
+  n <- length(y)
+  if (!is.null(t) && n == length(t)) {
+    if (n == n_t && max(abs(t - tb)) <= 1e-8 * max(1, abs(tb))) return(list(y = y, from = NULL))
+    from <- t
+    how <- sprintf("the %d points of `t`", n)
+  } else if (n == n_t) {
+    return(list(y = y, from = NULL))
+  } else if (is.null(t) && n >= 8L && 2L^ceiling(log2(n)) == n_t) {
+    from <- seq(tb[1], tb[n_t], length.out = n)
+    how <- sprintf("%d equally spaced points on [%s, %s] (give `t` if they are not)", n,
+                   format(signif(tb[1], 4)), format(signif(tb[n_t], 4)))
+  } else {
+    also <- if (is.null(t)) "" else sprintf(", `t` has %d", length(t))
+    wv_abort(c(
+      "Candidate {.val {k}} is not on the fit's grid at site {.val {s}}.",
+      "x" = "It has {n} value{?s}; the grid has {n_t} points{also}.",
+      "i" = "Interpolate it to {.code fit$basis$t} first, or give its times with {.arg t} (over the interval of the fit's grid)."
+    ), class = c("grid", "input"), call = call)
+  }
+  list(y = stats::approx(from, y, xout = tb, rule = 2)$y, from = how)
+}
+
+# The grid `t` of candidate curves, checked against the fit's grid `tb`:
+# finite, strictly increasing, at least 8 points, over the same interval.
+check_candidate_grid <- function(t, tb, call = rlang::caller_env()) {
+  ok <- is.numeric(t) && length(t) >= 8L && all(is.finite(t))
+  if (!ok || any(diff(t) <= 0)) {
+    wv_abort(c("{.arg t} must hold the times of the candidate curves: at least 8 finite, increasing values.",
+               "x" = if (ok) "Its values do not increase." else
+                 "It is {.obj_type_friendly {t}} of length {length(t)}, or holds missing or infinite values."),
+             class = c("grid", "input"), call = call)
+  }
+  n_t <- length(tb)
+  tol <- 1e-6 * (tb[n_t] - tb[1])
+  if (abs(t[1] - tb[1]) > tol || abs(t[length(t)] - tb[n_t]) > tol) {
+    wv_abort(c(
+      "{.arg t} must span the interval of the fit's grid.",
+      "x" = "It spans [{signif(t[1], 6)}, {signif(t[length(t)], 6)}]; the fit's grid {.code fit$basis$t} spans [{signif(tb[1], 6)}, {signif(tb[n_t], 6)}].",
+      "i" = "Give the candidates on the grid the runs and the field were given on, or cut and interpolate them to that interval first."
+    ), class = c("grid", "input"), call = call)
+  }
+  as.numeric(t)
 }
 
 # Emulator gradient of every coefficient in each input at the posterior mean
