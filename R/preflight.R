@@ -159,7 +159,7 @@ preflight_basis <- function(basis, field, tolerance) {
 
 preflight_noise <- function(field, sigma2) {
   reps <- vapply(field$curves, nrow, integer(1))
-  setting <- describe_noise(sigma2, reps)
+  setting <- describe_noise(sigma2, reps, field$noise)
   fig <- paste(sprintf("%s: %d replicate%s, %s", names(reps), reps, ifelse(reps == 1L, "", "s"), setting$how),
                collapse = "; ")
   if (any(!setting$ok)) {
@@ -173,8 +173,10 @@ preflight_noise <- function(field, sigma2) {
 # argument of calibrate() and the number of replicates by site: `how` (text
 # by site), `ok` (by site: can they be set?) and `fix`. Every way of setting
 # the noise is described here, so a new one needs only a branch here.
-describe_noise <- function(sigma2, reps) {
+describe_noise <- function(sigma2, reps, evidence = NULL) {
   sites <- names(reps)
+  kept <- vapply(sites, function(s) !is.null(evidence[[s]]), logical(1))
+  repeated <- vapply(sites, function(s) as.numeric(evidence[[s]]$df %||% 0), numeric(1))
   prior <- if (inherits(sigma2, "wv_noise_prior")) sigma2
   if (!is.null(prior)) sigma2 <- NULL
   given <- if (is.list(sigma2)) sites %in% names(sigma2) else rep(!is.null(sigma2), length(sites))
@@ -186,6 +188,12 @@ describe_noise <- function(sigma2, reps) {
   learn <- !given & (reps < 2L | !is.null(prior))
   how <- ifelse(reps >= 2L, sprintf("variances estimated from the %d replicates (the method's estimate)", reps), "")
   how[learn] <- prior_text(prior %||% noise_prior())
+  from_curve <- learn & kept & is.null((prior %||% noise_prior())$scale)
+  how[from_curve] <- sub("scale the finest-level estimate", "scale from the measured curve on its own time stamps",
+                         how[from_curve], fixed = TRUE)
+  how[learn & repeated > 0] <- paste0(how[learn & repeated > 0],
+                                      sprintf(", with the scatter of repeated measurements at one time stamp (%g df)",
+                                              repeated[learn & repeated > 0]))
   if (identical(sigma2, "finest")) {
     how <- rep("variances from the finest wavelet level of the field curves (sigma2 = \"finest\", assumes near-white noise; on a smoothed or interpolated curve it is too small)",
                length(sites))
@@ -198,7 +206,7 @@ describe_noise <- function(sigma2, reps) {
     }, "")
   }
   # one replicate and the noise learned: weakly identified against the bias
-  weak <- reps < 2L & learn
+  weak <- reps < 2L & learn & repeated == 0
   list(how = stats::setNames(how, sites), ok = stats::setNames(rep(TRUE, length(sites)), sites),
        weak = stats::setNames(weak, sites),
        fix = sprintf("Site%s %s ha%s one field replicate: its noise is learned with the bias and is weakly identified. Give sigma2 (one value or one per coefficient) if the measurement noise is known, or noise_prior(scale = ) with a scale you can defend.",

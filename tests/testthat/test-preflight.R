@@ -161,10 +161,16 @@ test_that("the I/U ranges are checked against the design's", {
   expect_identical(bad_windows$status[bad_windows$check == "windows"], "error")
 })
 
-test_that("the flyer plate passes every check but the noise of its one curve, which sigma2 settles", {
+test_that("the flyer plate passes every check: its repeated measurements identify the noise of its one curve", {
   fl <- load_flyer()
   pf <- preflight(fl$runs, fl$field, fl$iu)
-  expect_identical(pf$status, c("ok", "ok", "warning", "ok"))
+  expect_identical(pf$status, c("ok", "ok", "ok", "ok"))
+  expect_match(pf$figure[pf$check == "noise"], "repeated measurements at one time stamp (34 df)", fixed = TRUE)
+  expect_match(pf$figure[pf$check == "noise"], "scale from the measured curve on its own time stamps", fixed = TRUE)
+  # the same curve without its repeated measurements: one curve tells noise from bias weakly
+  single <- fl$field
+  single$noise$velocity$df <- 0
+  expect_identical(preflight(fl$runs, single, fl$iu)$status, c("ok", "ok", "warning", "ok"))
   expect_identical(preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8)$status, rep("ok", 4))
   rep_pf <- preflight(fl$runs, fl$field, fl$iu, sigma2 = 1e-8, basis_args = list(retain = "report"))
   expect_identical(rep_pf$status[rep_pf$check == "basis"], "error")
