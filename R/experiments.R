@@ -31,15 +31,19 @@
 #' @param emulators A `wv_emulators` object of this experiment's own runs, or
 #'   `NULL` with `change`.
 #' @param reference Optional `wv_runs` of the model in this experiment's
-#'   condition (the nominal run with the change, say): [validate()] registers
-#'   the experiment's field data to their mean, as it registers the base
-#'   experiment's to its runs. `NULL`: to the base experiment's reference.
+#'   condition (the runs of the base design with the change, say):
+#'   [validate()] registers the experiment's field data to their mean, as it
+#'   registers the base experiment's to the mean of its runs. `NULL` (the
+#'   default): to the model in this experiment's condition as the emulators
+#'   predict it, never to the base condition's runs (see [validate()],
+#'   argument `experiments`).
 #' @return A `wv_experiment` object.
 #' @seealso [calibrate()], [where_fails()] (which reports each experiment's
 #'   sites).
 #' @export
 #' @examples
 #' tb <- load_testbed()
+#' # validate() registers its field data to the model with the change
 #' experiment(tb$added_mass$field, change = tb$added_mass$delta)
 experiment <- function(field, change = NULL, emulators = NULL, reference = NULL) {
   call <- rlang::current_env()
@@ -89,11 +93,22 @@ check_experiment_list <- function(experiments, call = rlang::caller_env()) {
   invisible(experiments)
 }
 
-# The experiments as a named list of wv_experiment objects (plain lists with
-# `field` and `change` or `emulators` are taken too), checked against the base
-# experiment (its nominal inputs `x_nom`, from calibration_spec()) before any
-# sampling.
-check_experiments <- function(experiments, emulators, field, x_nom, call = rlang::caller_env()) {
+# An element `x` (named `e`) of the list `experiments` as a wv_experiment
+# (a plain list with `field` and `change` or `emulators` is taken too).
+as_experiment <- function(x, e, call = rlang::caller_env()) {
+  if (inherits(x, "wv_experiment")) return(x)
+  if (!is.list(x) || is.null(x$field)) {
+    wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment", call = call)
+  }
+  experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference)
+}
+
+# The experiments as a named list of wv_experiment objects, checked against
+# the base experiment before any sampling: their emulators' inputs, basis and
+# sites, the inputs their change names, and, given the nominal inputs `x_nom`
+# (from calibration_spec()), that the change keeps them inside the emulators'
+# design.
+check_experiments <- function(experiments, emulators, field, x_nom = NULL, call = rlang::caller_env()) {
   if (is.null(experiments)) return(NULL)
   check_experiment_list(experiments, call = call)
   bad <- grepl("/", names(experiments), fixed = TRUE) | names(experiments) %in% names(field$curves)
@@ -102,13 +117,7 @@ check_experiments <- function(experiments, emulators, field, x_nom, call = rlang
                "x" = "{.val {names(experiments)[bad]}}."), class = "experiment", call = call)
   }
   out <- lapply(names(experiments), function(e) {
-    x <- experiments[[e]]
-    if (!inherits(x, "wv_experiment")) {
-      if (!is.list(x) || is.null(x$field)) {
-        wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment", call = call)
-      }
-      x <- experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference)
-    }
+    x <- as_experiment(experiments[[e]], e, call = call)
     em <- x$emulators %||% emulators
     if (!identical(em$inputs, emulators$inputs)) {
       wv_abort(c("The emulators of experiment {.val {e}} must have the base emulators' inputs.",
@@ -132,6 +141,8 @@ check_experiments <- function(experiments, emulators, field, x_nom, call = rlang
         wv_abort(c("The change of experiment {.val {e}} names input{?s} the emulators lack: {.val {unknown}}.",
                    "i" = "Inputs: {.val {emulators$inputs}}."), class = "experiment", call = call)
       }
+    }
+    if (!is.null(x$change) && !is.null(x_nom)) {
       rng <- apply(emulators$design[, names(x$change), drop = FALSE], 2L, range)
       at <- x_nom[names(x$change)] + x$change
       out_rng <- at < rng[1L, ] | at > rng[2L, ]
@@ -145,6 +156,89 @@ check_experiments <- function(experiments, emulators, field, x_nom, call = rlang
     x
   })
   stats::setNames(out, names(experiments))
+}
+
+# --- registration of the experiments' field data -------------------------------
+
+# The model runs whose mean the field data of experiment `x` are registered
+# to: its own `reference` when given, else the model in its condition as the
+# emulators predict it. With `change`: every run of `runs` (the base
+# experiment's, to which `emulators` were fitted) with its retained wavelet
+# coefficients replaced by the emulators' means at its inputs plus the change,
+# so that the mean of these runs stands to the experiment as the mean of
+# `runs` stands to the base experiment. Every run is kept, those the change
+# moves outside the range of the design too (the emulators extrapolate
+# there): on the suspension test bed, leaving them out or moving them to the
+# edge of the range took the reference farther from the true runs with the
+# change. The part of a run the basis does not retain (fine detail the
+# change hardly alters, to which the warp knots between the events are
+# fitted) is kept from the run itself. With `emulators` of its own: their
+# means at their own design, plus the base runs' mean part outside the basis
+# at the sites of `runs`.
+experiment_reference <- function(x, emulators, runs) {
+  if (!is.null(x$reference)) return(x$reference)
+  sites <- names(x$field$curves)
+  outside <- function(basis, m) m - basis_curves(basis, basis_coef(basis, m))
+  if (!is.null(x$change)) {
+    design <- runs$design
+    for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
+    curves <- lapply(sites, function(s) {
+      basis_curves(emulators$basis, predict(emulators, design, site = s)$mean) +
+        outside(emulators$basis, runs$curves[[s]])
+    })
+  } else {
+    em <- x$emulators
+    design <- as.data.frame(em$design)
+    curves <- lapply(sites, function(s) {
+      y <- basis_curves(em$basis, predict(em, em$design, site = s)$mean)
+      if (s %in% names(runs$curves)) y <- sweep(y, 2L, colMeans(outside(em$basis, runs$curves[[s]])), `+`)
+      y
+    })
+  }
+  validate_wv_runs(new_wv_runs(design, runs$t, stats::setNames(curves, sites)))
+}
+
+# The experiments (checked by check_experiments()) with their field data
+# registered like the base experiment's (the arguments of register_curves()
+# in `...`), each to experiment_reference(); says once which reference each
+# one was registered to.
+register_experiments <- function(experiments, emulators, runs, windows, ..., quiet = FALSE) {
+  how <- character(0)
+  for (e in names(experiments)) {
+    x <- experiments[[e]]
+    ref <- experiment_reference(x, emulators, runs)
+    x$field <- register_curves(x$field, ref, windows, ...)
+    experiments[[e]] <- x
+    how[[e]] <- if (!is.null(x$reference)) {
+      sprintf("its reference (%d run%s)", nrow(ref$design), if (nrow(ref$design) == 1L) "" else "s")
+    } else if (!is.null(x$change)) {
+      n_out <- sum(outside_design(ref$design, runs$design, names(x$change)))
+      paste0("the emulators at the runs' inputs changed by ",
+             paste(sprintf("%s %+g", names(x$change), x$change), collapse = ", "),
+             if (n_out) sprintf(" (%d of %d runs moved outside their range, extrapolated)", n_out,
+                                nrow(ref$design)))
+    } else {
+      sprintf("its emulators at their %d runs' inputs", nrow(ref$design))
+    }
+  }
+  if (!quiet) {
+    names_e <- names(how)
+    bullets <- sprintf("{.val {names_e[%d]}}: {how[%d]}", seq_along(how), seq_along(how))
+    wv_inform(c("i" = "The field data of the experiments were registered to the model in their own condition:",
+                stats::setNames(bullets, rep("*", length(bullets)))))
+  }
+  experiments
+}
+
+# Which rows of `design` lie outside the range of `runs_design` in the
+# columns `inputs`.
+outside_design <- function(design, runs_design, inputs) {
+  out <- rep(FALSE, nrow(design))
+  for (p in inputs) {
+    r <- range(runs_design[[p]])
+    out <- out | design[[p]] < r[1] | design[[p]] > r[2]
+  }
+  out
 }
 
 # Adds the experiments' sites to the base experiment's sampler spec. Site `s`
@@ -194,6 +288,7 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
       spec$n_rep[[name]] <- sub$n_rep[[s]]
       if (!is.null(sub$extra)) spec$extra[[name]] <- sub$extra[[s]]
       spec$noise_setting[[name]] <- sub$noise_setting[[s]]
+      if (!is.null(sub$noise_evidence[[s]])) spec$noise_evidence[[name]] <- sub$noise_evidence[[s]]
       if (!is.null(sub$noise_prior) && !is.null(sub$noise_prior$scale[s]) && !is.na(sub$noise_prior$scale[s])) {
         if (is.null(spec$noise_prior)) {
           spec$noise_prior <- sub$noise_prior

@@ -188,20 +188,59 @@ test_that("the test bed's added mass takes replicates without changing the rest"
   expect_error(testbed_suspension(3, n_added_mass = 0), class = "wavevalid_error")
 })
 
-test_that("validate() registers each experiment's field data like the base experiment's", {
+test_that("validate() registers an experiment without reference to the model with its change", {
+  withr::local_seed(1)
   tb <- testbed_suspension(1, "none", n_added_mass = 2)
-  d <- tb$A$runs$design
-  d$x1 <- d$x1 + tb$added_mass$delta[["x1"]]
-  exps <- list(added_mass = experiment(tb$added_mass$field, change = tb$added_mass$delta,
-                                       reference = simulate_suspension(d)))
-  fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, n_draws = 20, n_inner = 5,
-                                   chains = 1, seed = 1, burnin = 200, n_search = 10, quiet = TRUE,
-                                   experiments = exps))
+  dm <- tb$added_mass$delta
+  exps <- list(added_mass = experiment(tb$added_mass$field, change = dm))
+  msg <- expect_message(
+    fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, n_draws = 20, n_inner = 5,
+                                     chains = 1, seed = 1, burnin = 200, n_search = 10, experiments = exps)),
+    class = "wavevalid_message")
+  said <- function(m) gsub("\\s+", " ", conditionMessage(m))
+  expect_match(said(msg), "\"added_mass\": the emulators at the runs' inputs changed by x1 +0.15", fixed = TRUE)
   expect_identical(names(fit$wb), c("site1", "site2", "added_mass/site1", "added_mass/site2"))
-  reg <- fit$field$curves[["added_mass/site1"]]
-  expect_identical(dim(reg), c(2L, length(tb$A$field$t)))
-  expect_false(isTRUE(all.equal(reg, tb$added_mass$field$curves$site1)))
+  expect_identical(dim(fit$field$curves[["added_mass/site1"]]), c(2L, length(tb$A$field$t)))
   expect_equal(unname(fit$shift[["added_mass/site2"]][["x1"]]), 0.15)
+  # the basis comes from the runs and condition A's field alone
+  knots <- diff(range(tb$A$field$t)) / 32
+  field_A <- register_curves(tb$A$field, tb$A$runs, tb$windows, knots_every = knots)
+  expect_identical(fit$basis$index, wavelet_basis(tb$A$runs, field_A)$index)
+
+  # registered as to the simulator's runs with the change, not as to condition A's runs
+  d <- tb$A$runs$design
+  d$x1 <- d$x1 + dm[["x1"]]
+  true_runs <- simulate_suspension(d)
+  to_true <- register_curves(tb$added_mass$field, true_runs, tb$windows, knots_every = knots)
+  to_base <- register_curves(tb$added_mass$field, tb$A$runs, tb$windows, knots_every = knots)
+  rms <- function(a, b) sqrt(mean((a - b)^2))
+  reg <- fit$field$curves[["added_mass/site1"]]
+  expect_lt(rms(reg, to_true$curves$site1), 0.005)
+  expect_gt(rms(to_base$curves$site1, to_true$curves$site1), 5 * rms(reg, to_true$curves$site1))
+  again <- wavevalid:::register_experiments(exps, fit$emulators, tb$A$runs, tb$windows, knots_every = knots,
+                                            quiet = TRUE)$added_mass$field
+  expect_equal(again$curves$site1, reg)
+  # the landmarks and the warp knots between them
+  expect_identical(again$warps$t_after, to_true$warps$t_after)
+  knot_dt <- function(x) max(abs(x$warps$t_before - to_true$warps$t_before))
+  expect_lt(knot_dt(again), 0.02)
+  expect_gt(knot_dt(to_base), 5 * knot_dt(again))
+
+  # the reference the user gives is used as given
+  given <- list(added_mass = experiment(tb$added_mass$field, change = dm, reference = true_runs))
+  expect_identical(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
+                                                    knots_every = knots, quiet = TRUE)$added_mass$field, to_true)
+  msg <- expect_message(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
+                                                         knots_every = knots), class = "wavevalid_message")
+  expect_match(said(msg), "\"added_mass\": its reference (66 runs)", fixed = TRUE)
+  # an experiment with emulators of its own: their prediction at their design
+  sub <- model_runs(true_runs$design[1:30, ], lapply(true_runs$curves, function(m) m[1:30, ]), true_runs$t)
+  em_own <- withr::with_options(list(wavevalid.quiet = TRUE), suppressWarnings(fit_emulators(sub, fit$basis)))
+  ref_own <- wavevalid:::experiment_reference(experiment(tb$added_mass$field, emulators = em_own), fit$emulators,
+                                              tb$A$runs)
+  expect_identical(ref_own$design, as.data.frame(em_own$design))
+  expect_lt(rms(colMeans(ref_own$curves$site1), colMeans(sub$curves$site1)), 0.05)
+  expect_gt(rms(colMeans(tb$A$runs$curves$site1), colMeans(sub$curves$site1)), 0.2)
 })
 
 test_that("the report shows each experiment", {
