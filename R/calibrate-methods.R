@@ -116,8 +116,10 @@ print.wv_fit <- function(x, ...) {
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
+  cli::cat_line("(sd_ratio: posterior sd / prior sd; near 1 the data say little of the input)")
   for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
   for (line in noise_lines(x)) cli::cat_line(line)
+  for (line in shared_error_lines(x)) cli::cat_line(line)
   for (line in experiment_lines(x)) cli::cat_line(line)
   if (!is.null(x$emulators)) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
@@ -207,8 +209,30 @@ input_table <- function(x) {
              mean = colMeans(X[, x$inputs, drop = FALSE]),
              q2.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
              q97.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+             sd_ratio = apply(X[, x$inputs, drop = FALSE], 2, stats::sd) / (x$prior_sd %||% prior_sds(x$prior_iu))[x$inputs],
              rhat = unname(x$rhat[x$inputs]), ess = round(unname(x$ess[x$inputs])),
              stringsAsFactors = FALSE)
+}
+
+# How the inputs' likelihood counted the coefficients, for print() and the
+# report.
+shared_error_lines <- function(x) {
+  se <- x$shared_errors
+  if (is.null(se)) {
+    return(c("Inputs' likelihood: the coefficients taken as independent (the method's). Errors they share (the emulators' at one input, a replicate's registration) then count many times: the inputs' intervals are too narrow (input_likelihood = \"adjusted\" weighs them)."))
+  }
+  sprintf("Inputs' likelihood: the coefficients' shared errors counted once, the likelihood raised to %s in the inputs' steps (%d inputs / %s, the magnitude adjustment of a composite likelihood; errors across %d coefficients from the emulators' leave-one-out errors and the replicates' scatter)",
+          format(signif(se$weight, 3)), se$p, format(signif(se$trace, 3)), se$n_coef)
+}
+
+# The prior sd of each input (by simulation from the prior, with a fixed
+# seed; R's random number generator is left as it was).
+prior_sds <- function(iu, n = 20000L) {
+  env <- globalenv()
+  old <- if (exists(".Random.seed", envir = env, inherits = FALSE)) get(".Random.seed", envir = env)
+  on.exit(if (is.null(old)) rm(".Random.seed", envir = env) else assign(".Random.seed", old, envir = env))
+  set.seed(1L)
+  apply(iu_prior_draws(iu, n), 2L, stats::sd)
 }
 
 #' @export

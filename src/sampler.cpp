@@ -24,7 +24,7 @@ struct ChainSettings {
 const char* const kRequired[] = {"n_groups", "z_init", "tau2_init", "fix_tau2", "n_draws",
                                  "n_inner", "step", "seed", "chain"};
 const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global", "p_indep",
-                                 "n_search", "threads", "informs", "temper"};
+                                 "n_search", "threads", "informs", "temper", "input_weight"};
 
 bool has_entry(const Rcpp::List& x, const char* name) {
   return x.containsElementNamed(name);
@@ -110,6 +110,9 @@ ChainSettings read_settings(const Rcpp::List& x) {
     Rcpp::stop("informs must have one value per group");
   set.temper = optional_scalar<double>(x, "temper", 1.0);
   if (!(set.temper > 0.0 && set.temper <= 1.0)) Rcpp::stop("temper must lie in (0, 1]");
+  set.input_weight = optional_scalar<double>(x, "input_weight", 1.0);
+  if (!(set.input_weight > 0.0 && set.input_weight <= 1.0)) Rcpp::stop("input_weight must lie in (0, 1]");
+  if (set.debug_break == 7) set.input_weight = 1.0;
   if (has_entry(x, "progress")) {
     SEXP progress = x["progress"];
     out.progress = progress;
@@ -191,7 +194,8 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs
-//   (one 0/1 per group, or empty: all inform), temper (1).
+//   (one 0/1 per group, or empty: all inform), temper (1), input_weight (1: the power of the
+//   likelihood in the inputs' steps alone; debug_break 7 takes it as 1).
 // [[Rcpp::export]]
 Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,
                                const Rcpp::List& settings) {

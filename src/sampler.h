@@ -15,7 +15,9 @@
 //      (extra_i: a known variance of wbar_i beyond the replicates' own, 0 unless given;
 //      the product over i raised to the power settings.temper, 1 unless given)
 //      x prior(z) x prod_g 1 / (tau2_g + sigmabar2_g / R) (sigmabar2_g / R the
-//      mean of sigma2_i / R + extra_i over the group);
+//      mean of sigma2_i / R + extra_i over the group); in the inputs' steps the
+//      likelihood's ratio is raised to settings.input_weight (1 unless given: the
+//      magnitude adjustment for errors the coefficients share), not in tau2's;
 //   3. w^b_i from eq. (17), then w^M_i from eq. (16).
 //
 // prior(z): per input uniform, truncated normal or truncated log-normal (with
@@ -280,7 +282,7 @@ class Sampler : public SamplerState {
     if (std::isfinite(lp)) {
       predict_all(zp_, mp_, vp_);
       ll_prop = loglik_with(mp_, vp_, tau2_);
-      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
+      lr = set_.input_weight * (ll_prop - ll_cur) + lp - log_prior_inputs(z_);
     }
     const double u = std::log(unif_(rng_));
     const bool accept = u < lr;
@@ -303,7 +305,7 @@ class Sampler : public SamplerState {
     if (std::isfinite(lp)) {
       predict_all(zp_, mp_, vp_);
       ll_prop = loglik_with(mp_, vp_, tau2_);
-      lr = ll_prop - ll_cur + lp - log_prior_inputs(z_);
+      lr = set_.input_weight * (ll_prop - ll_cur) + lp - log_prior_inputs(z_);
       if (set_.debug_break != 1) lr += walk_.log_independent(z_) - walk_.log_independent(zp_);
     }
     n_input_ += 1;
@@ -319,7 +321,7 @@ class Sampler : public SamplerState {
   // there: the score of a candidate start.
   double profile_score(const Eigen::VectorXd& z, Eigen::VectorXd& t2) {
     t2 = set_.fix_tau2 ? tau2_ : moment_tau2(m_, v_);
-    double lp = loglik_with(m_, v_, t2) + log_prior_inputs(z);
+    double lp = set_.input_weight * loglik_with(m_, v_, t2) + log_prior_inputs(z);
     for (int g = 0; g < G_; ++g)
       if (informs_[g]) lp += log_prior_tau(g, t2(g));
     return lp;
@@ -363,7 +365,7 @@ class Sampler : public SamplerState {
     if (!joints_.empty()) lr += joint_terms(zp_) - joint_terms(z_);
     predict_all(zp_, mp_, vp_);
     const double ll_prop = loglik_with(mp_, vp_, tau2_);
-    lr += ll_prop - ll_cur;
+    lr += set_.input_weight * (ll_prop - ll_cur);
     n_input_ += 1;
     if (std::log(unif_(rng_)) < lr) {
       take_proposal();

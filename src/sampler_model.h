@@ -204,7 +204,9 @@ struct SamplerSettings {
   int debug_break = 0;              // 1: drop the mixture-density or proposal ratio of global moves, 2: drop the tau2 ratio,
                                     // 3: drop the inputs' prior density (its support kept),
                                     // 4: drop the Jacobian of log sigma2 in the learned-noise step,
-                                    // 5: drop the likelihood of the sites with an input shift
+                                    // 5: drop the likelihood of the sites with an input shift,
+                                    // 6: the learned noise's multipliers taken as 1,
+                                    // 7: the inputs' likelihood weight taken as 1
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)
@@ -215,6 +217,9 @@ struct SamplerSettings {
   std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs
                                     // (a cut: its tau2 and bias follow the inputs); empty: all inform
   double temper = 1.0;              // power of the likelihood in the target (1: the method's posterior)
+  double input_weight = 1.0;        // power of the likelihood in the inputs' steps alone: the magnitude
+                                    // adjustment of the composite likelihood for errors that the
+                                    // coefficients share (1: the coefficients independent, the method's)
 };
 
 struct SamplerOutput {

@@ -1,0 +1,90 @@
+# One input, one tau2 group, sigma2 known (as in test-calibrate.R's grid
+# problem): three replicates at u1 = 0.3.
+shared_grid_problem <- function() {
+  pb <- small_problem(two_inputs = FALSE, level = 4L)
+  n <- length(pb$basis$index)
+  R <- 3
+  pr <- wavevalid:::gasp_bank_predict_cpp(pb$emulators$banks$site1, matrix(0.3, 1))
+  W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.6), R, n)
+  list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = 0.36, R = R, W = W, wbar = colMeans(W))
+}
+
+test_that("with the inputs' weight and tau2 fixed, the sampler reproduces the grid posterior of the likelihood raised to it, and not when the weight is dropped", {
+  withr::local_seed(11)
+  gp <- shared_grid_problem()
+  u <- seq(0.0005, 0.9995, by = 0.001)
+  P <- wavevalid:::gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(u, ncol = 1))
+  t2 <- 0.09
+  post_cdf <- function(w) {
+    lp <- w * vapply(seq_along(u), function(a) {
+      sum(stats::dnorm(gp$wbar, P$mean[a, ], sqrt(P$var[a, ] + gp$sigma2 / gp$R + t2), log = TRUE))
+    }, numeric(1))
+    d <- exp(lp - max(lp))
+    stats::approxfun(u, cumsum(d) / sum(d), yleft = 0, yright = 1)
+  }
+  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  spec$input_weight <- 0.2
+  tau <- wavevalid:::resolve_fix_tau2(t2, spec$groups)
+  run <- function(debug_break) {
+    wavevalid:::run_chains(spec, 1500, 30, 1, 5, 0.1, tau, debug_break = debug_break, quiet = TRUE,
+                           proposal = "adaptive", burnin = 5000)[[1]]$inputs[, 1]
+  }
+  ok <- run(0L)
+  expect_gt(suppressWarnings(stats::ks.test(ok, post_cdf(0.2))$p.value), 0.01)
+  expect_lt(suppressWarnings(stats::ks.test(ok, post_cdf(1))$p.value), 0.01)
+  broken <- run(7L)
+  expect_lt(suppressWarnings(stats::ks.test(broken, post_cdf(0.2))$p.value), 0.01)
+  expect_gt(suppressWarnings(stats::ks.test(broken, post_cdf(1))$p.value), 0.01)
+})
+
+test_that("the weight is p / tr(H^-1 J) of the errors' covariance, computed densely", {
+  withr::local_seed(12)
+  gp <- shared_grid_problem()
+  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  z <- 0.35
+  tau2 <- 0.05
+  sigma2 <- list(site1 = rep(gp$sigma2, length(gp$wbar)))
+  got <- wavevalid:::composite_weight(spec, gp$field, z, tau2, sigma2)
+  bank <- gp$pb$emulators$banks$site1
+  h <- 1e-4
+  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(c(z, z + h, z - h), ncol = 1))
+  G <- (P$mean[2, ] - P$mean[3, ]) / (2 * h)
+  v <- P$var[1, ]
+  d <- v + gp$sigma2 / gp$R + tau2
+  E <- wavevalid:::bank_loo_errors(bank)
+  C <- crossprod(E) / nrow(E)
+  C <- C / sqrt(outer(diag(C), diag(C)))
+  S <- stats::cov(gp$W) / gp$R
+  Sigma <- diag(sqrt(v)) %*% C %*% diag(sqrt(v)) + diag(tau2, length(v)) + S
+  H <- sum(G^2 / d)
+  J <- drop(t(G / d) %*% Sigma %*% (G / d))
+  expect_equal(got$weight, min(1, H / J), tolerance = 1e-6)
+  expect_equal(got$trace, J / H, tolerance = 1e-6)
+  expect_identical(got$p, 1L)
+})
+
+test_that("calibrate() weighs the inputs' likelihood for shared errors on request, says so, and keeps the method's by name", {
+  withr::local_seed(13)
+  gp <- shared_grid_problem()
+  run <- function(lik) {
+    calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 3,
+              sigma2 = gp$sigma2, input_likelihood = lik, quiet = TRUE)
+  }
+  ind <- run("independent")
+  adj <- run("adjusted")
+  expect_null(ind$shared_errors)
+  w <- adj$shared_errors$weight
+  expect_true(w > 0 && w <= 1)
+  expect_identical(adj$settings$input_likelihood, "adjusted")
+  expect_true(any(grepl("taken as independent", capture.output(print(ind)))))
+  expect_true(any(grepl(sprintf("raised to %s", format(signif(w, 3))), capture.output(print(adj)), fixed = TRUE)))
+  expect_true(any(grepl("sd_ratio", capture.output(print(adj)))))
+  # the weight widens the inputs' posterior
+  sd_of <- function(f) stats::sd(as.matrix(f$draws)[, "u1"])
+  expect_gt(sd_of(adj), sd_of(ind))
+  # the default is the method's likelihood, draw for draw
+  def <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 3,
+                   sigma2 = gp$sigma2, quiet = TRUE)
+  expect_identical(as.matrix(def$draws), as.matrix(ind$draws))
+  expect_error(run("pca"), class = "wavevalid_error_input")
+})
