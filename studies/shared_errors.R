@@ -1,0 +1,98 @@
+# Are the calibrated inputs honest when the model is right, and what do the
+# errors that many coefficients share do to them? Both test beds with nothing
+# hidden, condition A, the default protocol (landmarks in the event windows,
+# a knot every 1/32 of the record, default basis and emulators), two chains
+# of n_draws x n_inner, seed 1. Variants:
+#   independent   the defaults: the method's likelihood, coefficients independent
+#   adjusted      calibrate(input_likelihood = "adjusted"): the inputs'
+#                 likelihood weighted by the magnitude adjustment for shared errors
+#   reg_indep     the model runs registered to the same reference as the field
+#                 (their mean, same windows and knots) and the emulators fitted
+#                 to them: model and field on one time axis; independent
+#   reg_adjusted  the same, with input_likelihood = "adjusted"
+# Per bed, seed and variant:
+#   inputs_in  true inputs inside their 95% posterior intervals (of p)
+#   outside    which inputs were not
+#   sd_ratio   median over the inputs of posterior sd / prior sd
+#   weight     the inputs' likelihood weight (1: independent)
+#   cover      share of points where the 90% reality band covers the noise-free
+#              truth registered like the field
+#   width      median width of that band
+#   secs       seconds for the fit (registration, basis, emulators, calibration)
+#   Rscript studies/shared_errors.R [beds=suspension,dosing] [seeds=1:5]
+#       [variants=independent,adjusted,reg_indep,reg_adjusted] [n_draws=300] [n_inner=30]
+#       [out=studies/shared_errors.csv]
+suppressPackageStartupMessages(library(wavevalid))
+source("studies/common.R")
+opt <- study_args(list(beds = "suspension,dosing", seeds = "1:5",
+                       variants = "independent,adjusted,reg_indep,reg_adjusted", n_draws = "300",
+                       n_inner = "30", out = "studies/shared_errors.csv"))
+beds <- arg_names(opt$beds)
+seeds <- arg_numbers(opt$seeds)
+variants <- arg_names(opt$variants)
+n_draws <- as.integer(opt$n_draws)
+n_inner <- as.integer(opt$n_inner)
+options(wavevalid.quiet = TRUE)
+`%||%` <- function(a, b) if (is.null(a)) b else a
+future::plan(future::sequential)
+
+band_cover <- function(band, curves) {
+  hit <- unlist(lapply(names(curves), function(s) {
+    b <- band[band$site == s, ]
+    y <- curves[[s]][1, ]
+    y >= b$lower & y <= b$upper
+  }))
+  mean(hit)
+}
+
+one_case <- function(bed, seed, variant) {
+  B <- testbed_beds[[bed]]
+  tb <- B$make(seed, "none")
+  knots <- diff(range(tb$A$field$t)) / 32
+  t0 <- clock()
+  field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = B$features, knots_every = knots)
+  runs <- tb$A$runs
+  if (startsWith(variant, "reg_")) {
+    runs <- suppressWarnings(register_curves(runs, tb$A$runs, tb$windows, features = B$features,
+                                             knots_every = knots))
+  }
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+  lik <- if (variant %in% c("adjusted", "reg_adjusted")) "adjusted" else "independent"
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1,
+                                    input_likelihood = lik))
+  secs <- clock() - t0
+  truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
+  truth_reg <- register_curves(truth, tb$A$runs, tb$windows, features = B$features, knots_every = knots)
+  r <- reality(fit)
+  X <- as.matrix(fit$draws)
+  z_true <- true_inputs(tb, fit$inputs)
+  inside <- vapply(fit$inputs, function(p) {
+    q <- stats::quantile(X[, p], c(0.025, 0.975))
+    z_true[[p]] >= q[1] && z_true[[p]] <= q[2]
+  }, logical(1))
+  tab <- summary(fit)$inputs
+  data.frame(bed = bed, seed = seed, variant = variant, inputs_in = sum(inside), p = length(inside),
+             outside = paste(names(inside)[!inside], collapse = ","),
+             sd_ratio = round(stats::median(tab$sd_ratio), 3),
+             weight = round(fit$shared_errors$weight %||% 1, 3),
+             cover = round(band_cover(r, truth_reg$curves), 3), width = signif(stats::median(r$upper - r$lower), 3),
+             secs = round(secs))
+}
+
+rows <- list()
+for (bed in beds) for (seed in seeds) for (variant in variants) {
+  x <- one_case(bed, seed, variant)
+  rows[[length(rows) + 1L]] <- x
+  print(x, row.names = FALSE)
+}
+out <- do.call(rbind, rows)
+utils::write.csv(out, opt$out, row.names = FALSE)
+cat("\n== by bed and variant\n")
+agg <- do.call(rbind, lapply(split(out, list(out$bed, out$variant), drop = TRUE), function(d) {
+  data.frame(bed = d$bed[1], variant = d$variant[1], seeds = nrow(d),
+             inputs_in = sprintf("%d of %d (min %d)", sum(d$inputs_in), sum(d$p), min(d$inputs_in)),
+             share_in = round(sum(d$inputs_in) / sum(d$p), 2), sd_ratio = round(mean(d$sd_ratio), 2),
+             weight = round(mean(d$weight), 3), cover = round(mean(d$cover), 3), cover_min = min(d$cover),
+             width = signif(mean(d$width), 3))
+}))
+print(agg, row.names = FALSE)
