@@ -19,17 +19,24 @@
 #              truth registered like the field
 #   width      median width of that band
 #   secs       seconds for the fit (registration, basis, emulators, calibration)
-#   Rscript studies/shared_errors.R [beds=suspension,dosing] [seeds=1:5]
+#   longest    where_fails(): the longest localised interval, in grid steps
+#   record     where_fails(): a credible record-wide bias at some site
+#   overlap    with a mechanism hidden: a localised interval overlaps where it acts
+# With hidden=<mechanisms>, each bed's mechanisms named there are hidden in
+# turn (the inputs are then not expected inside their intervals; the columns
+# of where_fails() tell what the weight does to the diagnosis).
+#   Rscript studies/shared_errors.R [beds=suspension,dosing] [seeds=1:5] [hidden=none]
 #       [variants=independent,adjusted,reg_indep,reg_adjusted] [n_draws=300] [n_inner=30]
 #       [out=studies/shared_errors.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
-opt <- study_args(list(beds = "suspension,dosing", seeds = "1:5",
+opt <- study_args(list(beds = "suspension,dosing", seeds = "1:5", hidden = "none",
                        variants = "independent,adjusted,reg_indep,reg_adjusted", n_draws = "300",
                        n_inner = "30", out = "studies/shared_errors.csv"))
 beds <- arg_names(opt$beds)
 seeds <- arg_numbers(opt$seeds)
 variants <- arg_names(opt$variants)
+hidden <- arg_names(opt$hidden)
 n_draws <- as.integer(opt$n_draws)
 n_inner <- as.integer(opt$n_inner)
 options(wavevalid.quiet = TRUE)
@@ -45,9 +52,9 @@ band_cover <- function(band, curves) {
   mean(hit)
 }
 
-one_case <- function(bed, seed, variant) {
+one_case <- function(bed, seed, variant, hd) {
   B <- testbed_beds[[bed]]
-  tb <- B$make(seed, "none")
+  tb <- B$make(seed, hd)
   knots <- diff(range(tb$A$field$t)) / 32
   t0 <- clock()
   field <- register_curves(tb$A$field, tb$A$runs, tb$windows, features = B$features, knots_every = knots)
@@ -71,28 +78,37 @@ one_case <- function(bed, seed, variant) {
     z_true[[p]] >= q[1] && z_true[[p]] <= q[2]
   }, logical(1))
   tab <- summary(fit)$inputs
-  data.frame(bed = bed, seed = seed, variant = variant, inputs_in = sum(inside), p = length(inside),
+  wf <- where_fails(fit)
+  overlap <- NA
+  if (hd != "none") {
+    eff <- B$signatures(true_inputs(tb, fit$inputs), hd)[[1]]
+    overlap <- any(flagged_share(wf, eff) > 0, na.rm = TRUE)
+  }
+  data.frame(bed = bed, hidden = hd, seed = seed, variant = variant, inputs_in = sum(inside), p = length(inside),
              outside = paste(names(inside)[!inside], collapse = ","),
              sd_ratio = round(stats::median(tab$sd_ratio), 3),
              weight = round(fit$shared_errors$weight %||% 1, 3),
              cover = round(band_cover(r, truth_reg$curves), 3), width = signif(stats::median(r$upper - r$lower), 3),
-             secs = round(secs))
+             secs = round(secs), longest = longest_steps(wf), record = any(attr(wf, "record_wide")$credible),
+             overlap = overlap)
 }
 
 rows <- list()
-for (bed in beds) for (seed in seeds) for (variant in variants) {
-  x <- one_case(bed, seed, variant)
+for (bed in beds) for (hd in hidden) for (seed in seeds) for (variant in variants) {
+  if (hd != "none" && !hd %in% testbed_beds[[bed]]$mechanisms()) next
+  x <- one_case(bed, seed, variant, hd)
   rows[[length(rows) + 1L]] <- x
   print(x, row.names = FALSE)
 }
 out <- do.call(rbind, rows)
 utils::write.csv(out, opt$out, row.names = FALSE)
 cat("\n== by bed and variant\n")
-agg <- do.call(rbind, lapply(split(out, list(out$bed, out$variant), drop = TRUE), function(d) {
-  data.frame(bed = d$bed[1], variant = d$variant[1], seeds = nrow(d),
+agg <- do.call(rbind, lapply(split(out, list(out$bed, out$hidden, out$variant), drop = TRUE), function(d) {
+  data.frame(bed = d$bed[1], hidden = d$hidden[1], variant = d$variant[1], seeds = nrow(d),
              inputs_in = sprintf("%d of %d (min %d)", sum(d$inputs_in), sum(d$p), min(d$inputs_in)),
              share_in = round(sum(d$inputs_in) / sum(d$p), 2), sd_ratio = round(mean(d$sd_ratio), 2),
              weight = round(mean(d$weight), 3), cover = round(mean(d$cover), 3), cover_min = min(d$cover),
-             width = signif(mean(d$width), 3))
+             width = signif(mean(d$width), 3), longest = paste(d$longest, collapse = ","),
+             record = sum(d$record), overlap = sum(d$overlap))
 }))
 print(agg, row.names = FALSE)
