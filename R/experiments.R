@@ -183,14 +183,14 @@ experiment_reference <- function(x, emulators, runs) {
     design <- runs$design
     for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
     curves <- lapply(sites, function(s) {
-      basis_curves(emulators$basis, predict(emulators, design, site = s)$mean) +
+      basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) +
         outside(emulators$basis, runs$curves[[s]])
     })
   } else {
     em <- x$emulators
     design <- as.data.frame(em$design)
     curves <- lapply(sites, function(s) {
-      y <- basis_curves(em$basis, predict(em, em$design, site = s)$mean)
+      y <- basis_curves(em$basis, stats::predict(em, em$design, site = s)$mean)
       if (s %in% names(runs$curves)) y <- sweep(y, 2L, colMeans(outside(em$basis, runs$curves[[s]])), `+`)
       y
     })
