@@ -172,7 +172,7 @@ noise_lines <- function(fit) {
   f <- function(v) format(signif(v, 3), trim = TRUE)
   lines <- vapply(sites, function(s) {
     ev <- fit$noise_evidence[[s]]
-    sd_draws <- sqrt(fit$sigma2[[s]][, 1] / (if (is.null(ev$mult)) 1 else ev$mult[1]))
+    sd_draws <- sqrt(fit$sigma2[[s]][, 1] / (ev$mult %||% 1)[1])
     switch(setting[[s]],
       replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
                            s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),

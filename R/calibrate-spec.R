@@ -158,7 +158,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
        s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise,
-       noise_evidence = noise_evidence_summary(field, basis, sites[noise_setting == "learned"], site_data))
+       noise_evidence = noise_evidence_summary(field, sites[noise_setting == "learned"], site_data))
 }
 
 # The bias-variance groups of the coefficients of a basis: one per level, or
@@ -234,7 +234,6 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
   list(fixed = rep(TRUE, G), values = stats::setNames(vals, groups$name))
 }
 
-# The field data of some sites only.
 # The default scale of the learned noise's prior by site: the noise sd of the
 # measured curve on its own time stamps where field_runs() kept it, else the
 # finest-level estimate of field_noise().
@@ -263,7 +262,7 @@ measured_noise_evidence <- function(nz, basis) {
 
 # For the print and the report, by learned site: where the noise evidence
 # came from (NULL where nothing was kept from the measurements).
-noise_evidence_summary <- function(field, basis, learned, site_data) {
+noise_evidence_summary <- function(field, learned, site_data) {
   out <- lapply(learned, function(s) {
     nz <- field$noise[[s]]
     if (is.null(nz)) return(NULL)
@@ -274,6 +273,7 @@ noise_evidence_summary <- function(field, basis, learned, site_data) {
   out[!vapply(out, is.null, logical(1))]
 }
 
+# The field data of some sites only.
 subset_field_sites <- function(field, sites) {
   field$curves <- field$curves[sites]
   field

@@ -145,13 +145,12 @@ residual_draws <- function(fit, site, H, new_run = FALSE) {
 # replicate block by block (replayable_normals()).
 residual_source <- function(fit, site, H, new_run = FALSE) {
   Y <- fit$field$curves[[site]]
-  outside <- function(M) M - basis_curves(fit$basis, basis_coef(fit$basis, M))
   R <- nrow(Y)
   ybar <- colMeans(Y)
-  detail <- drop(outside(matrix(ybar, nrow = 1L)))
+  detail <- drop(basis_remainder(fit$basis, matrix(ybar, nrow = 1L)))
   scale <- 1 / R + as.numeric(new_run)
   if (R >= 2L) {
-    D <- outside(sweep(Y, 2L, ybar))
+    D <- basis_remainder(fit$basis, sweep(Y, 2L, ybar))
     G <- matrix(stats::rnorm(H * R, sd = sqrt(scale / (R - 1))), H)
     # the replicates' variance is itself estimated on R - 1 degrees of freedom
     chi <- sqrt((R - 1) / stats::rchisq(H, R - 1))

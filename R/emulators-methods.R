@@ -323,10 +323,9 @@ loo_residuals <- function(emulators, ...) {
     k <- nrow(b$X)
     n <- length(b$mu)
     if (n == 0L) return(NULL)
-    # diag(R^-1) of each coefficient; one data frame per site
-    Ri_diag <- vapply(seq_len(n), function(i) colSums(forwardsolve(b$chol[, , i], diag(k))^2), numeric(k))
-    e <- as.vector(b$weights / Ri_diag)
-    sd <- as.vector(sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
+    lo <- bank_loo(b)
+    e <- as.vector(lo$e)
+    sd <- as.vector(lo$sd)
     observed <- as.vector(b$y)
     flat <- rep(!is.finite(p$loglik), each = k)
     data.frame(site = s, index = rep(p$index, each = k), level = rep(p$level, each = k), run = rep(seq_len(k), n),
@@ -336,6 +335,16 @@ loo_residuals <- function(emulators, ...) {
   out <- do.call(rbind, out)
   rownames(out) <- NULL
   out
+}
+
+# The leave-one-out errors `e` of a bank's coefficients at its design points
+# and their standard deviations `sd` (runs x coefficients), from diag(R^-1)
+# of each coefficient.
+bank_loo <- function(b) {
+  k <- nrow(b$X)
+  n <- length(b$mu)
+  Ri_diag <- matrix(vapply(seq_len(n), function(i) colSums(forwardsolve(b$chol[, , i], diag(k))^2), numeric(k)), k)
+  list(e = b$weights / Ri_diag, sd = sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
 }
 
 #' Plot GASP emulators

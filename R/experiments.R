@@ -178,20 +178,19 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, call 
 experiment_reference <- function(x, emulators, runs) {
   if (!is.null(x$reference)) return(x$reference)
   sites <- names(x$field$curves)
-  outside <- function(basis, m) m - basis_curves(basis, basis_coef(basis, m))
   if (!is.null(x$change)) {
     design <- runs$design
     for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
     curves <- lapply(sites, function(s) {
       basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) +
-        outside(emulators$basis, runs$curves[[s]])
+        basis_remainder(emulators$basis, runs$curves[[s]])
     })
   } else {
     em <- x$emulators
     design <- as.data.frame(em$design)
     curves <- lapply(sites, function(s) {
       y <- basis_curves(em$basis, stats::predict(em, em$design, site = s)$mean)
-      if (s %in% names(runs$curves)) y <- sweep(y, 2L, colMeans(outside(em$basis, runs$curves[[s]])), `+`)
+      if (s %in% names(runs$curves)) y <- sweep(y, 2L, colMeans(basis_remainder(em$basis, runs$curves[[s]])), `+`)
       y
     })
   }

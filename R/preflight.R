@@ -137,7 +137,7 @@ preflight_basis <- function(basis, field, tolerance) {
   # a field curve meets its tolerance within its noise level too
   field_miss <- vapply(seq_len(nrow(fld)), function(i) {
     y <- field$curves[[fld$site[i]]][fld$id[i], ]
-    lost <- sqrt(mean((y - basis_curves(basis, basis_coef(basis, y)))^2))
+    lost <- sqrt(mean(basis_remainder(basis, y)^2))
     fld$rel_l2[i] > tolerance[["field"]] && lost > finest_level_sd(y, basis$settings)
   }, logical(1))
   fix <- sprintf("Use wavelet_basis(retain = \"error\") (the default), which meets the tolerance (runs %s, field %s), or keep more coefficients (a larger fraction).",

@@ -180,17 +180,13 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
       lapply(curves, function(m) measurement_noise(m, t, stamps, regridded$t))
     return(validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise)))
   }
-  noise <- lapply(curves, function(m) measurement_noise(m, t, stamps, grid))
+  noise <- lapply(curves, function(m) measurement_noise(m, t, stamps, grid %||% dyadic_grid(stamps)))
   averaged <- lapply(noise, function(nz) nz$averaged)
   if (is.null(grid)) {
     regridded <- to_dyadic(stamps, averaged)
   } else {
     wv_inform(c("i" = "The curves were linearly interpolated from {length(stamps)} distinct time stamp{?s} to the {length(grid)} points of {.arg grid}."))
-    regridded <- list(t = grid, curves = lapply(averaged, function(m) {
-      out <- t(apply(m, 1L, function(y) stats::approx(stamps, y, xout = grid, rule = 2)$y))
-      if (nrow(m) == 1L) out <- matrix(out, nrow = 1L)
-      out
-    }))
+    regridded <- list(t = grid, curves = interpolate_curves(stamps, averaged, grid, rule = 2))
   }
   noise <- lapply(noise, function(nz) {
     nz$averaged <- NULL
@@ -238,9 +234,9 @@ check_field_grid <- function(grid, stamps, call = rlang::caller_env()) {
 }
 
 # The noise evidence of one site's curves (rows) measured at `t` (stamps may
-# repeat): the values averaged by stamp, their scatter (ss, df), the
-# difference-based noise sd of the averaged curves on the stamps, and the
-# linear map from the stamps to `grid` (interpolation, held at the ends) with
+# repeat) and put on `grid`: the values averaged by stamp, their scatter (ss,
+# df), the difference-based noise sd of the averaged curves on the stamps, and
+# the linear map from the stamps to `grid` (interpolation, held at the ends) with
 # the variance factor 1 / (number of values) of each stamp.
 measurement_noise <- function(m, t, stamps, grid) {
   k <- match(t, stamps)
@@ -249,7 +245,6 @@ measurement_noise <- function(m, t, stamps, grid) {
   if (nrow(m) == 1L) averaged <- matrix(averaged, nrow = 1L)
   ss <- sum((m - averaged[, k, drop = FALSE])^2)
   df <- as.numeric(nrow(m) * (length(t) - length(stamps)))
-  grid <- grid %||% seq(stamps[1], stamps[length(stamps)], length.out = 2L^ceiling(log2(length(stamps))))
   lo <- findInterval(grid, stamps, all.inside = TRUE)
   w <- (grid - stamps[lo]) / (stamps[lo + 1L] - stamps[lo])
   w <- pmin(pmax(w, 0), 1)
@@ -390,17 +385,25 @@ is_dyadic_grid <- function(t) {
 # points on [min(t), max(t)], unless the grid is dyadic already.
 to_dyadic <- function(t, curves) {
   if (is_dyadic_grid(t)) return(list(t = t, curves = curves))
-  n_new <- 2L^ceiling(log2(length(t)))
-  t_new <- seq(t[1], t[length(t)], length.out = n_new)
+  t_new <- dyadic_grid(t)
   wv_inform(c(
-    "i" = "The grid of {length(t)} point{?s} is not dyadic; curves were linearly interpolated to {n_new} equally spaced points on [{signif(t[1], 4)}, {signif(t[length(t)], 4)}]."
+    "i" = "The grid of {length(t)} point{?s} is not dyadic; curves were linearly interpolated to {length(t_new)} equally spaced points on [{signif(t[1], 4)}, {signif(t[length(t)], 4)}]."
   ))
-  curves <- lapply(curves, function(m) {
-    out <- t(apply(m, 1L, function(y) stats::approx(t, y, xout = t_new)$y))
+  list(t = t_new, curves = interpolate_curves(t, curves, t_new))
+}
+
+# 2^ceiling(log2(T)) equally spaced points on [min(t), max(t)].
+dyadic_grid <- function(t) seq(t[1], t[length(t)], length.out = 2L^ceiling(log2(length(t))))
+
+# Every curve (rows of each matrix of the list `curves`, at times `t`)
+# linearly interpolated to `t_new`; `rule` as in stats::approx() (2: held at
+# the end values beyond `t`).
+interpolate_curves <- function(t, curves, t_new, rule = 1) {
+  lapply(curves, function(m) {
+    out <- t(apply(m, 1L, function(y) stats::approx(t, y, xout = t_new, rule = rule)$y))
     if (nrow(m) == 1L) out <- matrix(out, nrow = 1L)
     out
   })
-  list(t = t_new, curves = curves)
 }
 
 # Long data frame of a K x T matrix of curves.

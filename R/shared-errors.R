@@ -54,8 +54,12 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
       W <- field$curves[[sites[k]]] %*% spec$basis$Psi
       W <- sweep(W, 2L, colMeans(W))[, keep, drop = FALSE] / sqrt((d$R - 1) * d$R)
     }
+    # the leave-one-out errors scaled to unit mean square by coefficient (their
+    # correlation); flat emulators' are zero
+    loo <- bank_loo_errors(d$bank)[, keep, drop = FALSE]
+    rms <- sqrt(colMeans(loo^2))
     list(G = t(G)[keep, , drop = FALSE], v = v[keep], e = e[keep], t2 = tau2[d$group[keep] + 1L],
-         loo = bank_loo_errors(d$bank)[, keep, drop = FALSE], X = d$bank$X, W = W)
+         loo = sweep(loo, 2L, ifelse(rms > 0, rms, 1), `/`), flat = rms == 0, X = d$bank$X, W = W)
   })
   A <- do.call(rbind, lapply(parts, function(q) q$G / (q$v + q$e + q$t2)))
   G <- do.call(rbind, lapply(parts, `[[`, "G"))
@@ -67,19 +71,18 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
   offs <- cumsum(c(0L, vapply(parts, function(q) length(q$v), integer(1))))
   rows <- function(k) offs[k] + seq_len(length(parts[[k]]$v))
   J <- matrix(0, p, p)
-  design <- vapply(parts, function(q) paste(dim(q$X), sum(q$X), collapse = " "), character(1))
+  design <- integer(length(parts))
+  for (k in seq_along(parts)) {
+    same <- which(vapply(parts[seq_len(k - 1L)], function(q) identical(q$X, parts[[k]]$X), logical(1)))
+    design[k] <- if (length(same)) design[same[1L]] else k
+  }
   for (dz in unique(design)) {
     ks <- which(design == dz)
-    M <- Reduce(`+`, lapply(ks, function(k) {
-      q <- parts[[k]]
-      s <- sqrt(colMeans(q$loo^2))
-      sweep(q$loo, 2L, ifelse(s > 0, s, 1), `/`) %*% (sqrt(q$v) * A[rows(k), , drop = FALSE])
-    }))
+    M <- Reduce(`+`, lapply(ks, function(k) parts[[k]]$loo %*% (sqrt(parts[[k]]$v) * A[rows(k), , drop = FALSE])))
     J <- J + crossprod(M) / nrow(M)
     for (k in ks) {
       q <- parts[[k]]
-      flat <- colMeans(q$loo^2) == 0
-      if (any(flat)) J <- J + crossprod(A[rows(k)[flat], , drop = FALSE] * sqrt(q$v[flat]))
+      if (any(q$flat)) J <- J + crossprod(A[rows(k)[q$flat], , drop = FALSE] * sqrt(q$v[q$flat]))
     }
   }
   for (k in seq_along(parts)) {
@@ -99,14 +102,9 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
 # The leave-one-out errors of an emulator bank's coefficients at its design
 # points, studentised (runs x coefficients; 0 for flat emulators).
 bank_loo_errors <- function(b) {
-  k <- nrow(b$X)
-  n <- length(b$mu)
-  if (n == 0L) return(matrix(0, k, 0L))
-  Ri_diag <- vapply(seq_len(n), function(i) colSums(forwardsolve(b$chol[, , i], diag(k))^2), numeric(k))
-  if (is.null(dim(Ri_diag))) Ri_diag <- matrix(Ri_diag, k)
-  e <- b$weights / Ri_diag
-  sd <- sqrt(1 / (rep(b$lambda, each = k) * Ri_diag))
-  out <- e / sd
+  if (length(b$mu) == 0L) return(matrix(0, nrow(b$X), 0L))
+  lo <- bank_loo(b)
+  out <- lo$e / lo$sd
   out[!is.finite(out)] <- 0
   out
 }

@@ -376,6 +376,10 @@ basis_coef <- function(basis, curves) {
   curves %*% basis$Psi
 }
 
+# The part of curves (a vector or N x T) the basis does not retain: each
+# curve less its projection on the retained coefficients.
+basis_remainder <- function(basis, curves) curves - basis_curves(basis, basis_coef(basis, curves))
+
 # N x |I| coefficients -> N x T curves.
 basis_curves <- function(basis, W) {
   if (is.null(dim(W))) W <- matrix(W, nrow = 1L)

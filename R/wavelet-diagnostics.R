@@ -43,7 +43,7 @@ reconstruction_check <- function(basis, runs = NULL, field = NULL) {
   curves <- list()
   for (src in names(sets)) for (s in names(sets[[src]])) {
     m <- sets[[src]][[s]]
-    err <- m - basis_curves(basis, basis_coef(basis, m))
+    err <- basis_remainder(basis, m)
     rows[[length(rows) + 1L]] <- data.frame(site = s, source = src, id = seq_len(nrow(m)),
                                             rel_l2 = sqrt(rowSums(err^2) / rowSums(m^2)),
                                             max_abs = apply(abs(err), 1L, max), stringsAsFactors = FALSE)
