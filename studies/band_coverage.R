@@ -34,16 +34,6 @@ register_runs <- as.logical(opt$register_runs)
 options(wavevalid.quiet = TRUE)
 future::plan(future::sequential)
 
-# share of the points of `curves` (one row per site) inside the band
-band_cover <- function(band, curves) {
-  hit <- unlist(lapply(names(curves), function(s) {
-    b <- band[band$site == s, ]
-    y <- curves[[s]][1, ]
-    y >= b$lower & y <= b$upper
-  }))
-  mean(hit)
-}
-
 band_case <- function(seed, engine) {
   tb <- testbed_suspension(seed = seed, hidden = "none")
   runs <- if (n_runs == 66L) tb$A$runs else simulate_suspension(design_maximin(tb$iu, n_runs, seed = 2))
@@ -61,10 +51,7 @@ band_case <- function(seed, engine) {
   X <- as.matrix(fit$draws)
   true_in <- true_inputs(tb, fit$inputs)
   stopifnot(all(fit$inputs %in% colnames(X)), all(X[, fit$inputs] >= 0 & X[, fit$inputs] <= 1))
-  inside <- vapply(fit$inputs, function(p) {
-    q <- stats::quantile(X[, p], c(0.025, 0.975))
-    true_in[[p]] >= q[1] && true_in[[p]] <= q[2]
-  }, logical(1))
+  inside <- inputs_inside(X, true_in, fit$inputs)
   data.frame(seed = seed, engine = engine, cover = band_cover(r, truth_reg$curves),
              cover_raw = band_cover(r, truth$curves), width = stats::median(r$upper - r$lower),
              inputs_in = sum(inside), outside = paste(names(inside)[!inside], collapse = ","),

@@ -10,6 +10,28 @@ clock <- function() as.numeric(proc.time()[["elapsed"]])
 # The true inputs of test bed `tb` (coded), in the order of `inputs`.
 true_inputs <- function(tb, inputs = tb$iu$name) c(tb$truth$u, 0.5 + tb$truth$delta)[inputs]
 
+`%||%` <- function(a, b) if (is.null(a)) b else a
+
+# Share of the points of `curves` (a list by site, one row each) inside the
+# band (a data frame with site, lower, upper: reality(), say).
+band_cover <- function(band, curves) {
+  hit <- unlist(lapply(names(curves), function(s) {
+    b <- band[band$site == s, ]
+    y <- curves[[s]][1, ]
+    y >= b$lower & y <= b$upper
+  }))
+  mean(hit)
+}
+
+# For each of `inputs`, whether its true value `z_true[[p]]` lies inside the
+# central 95% interval of the draws X (a matrix with a column per input).
+inputs_inside <- function(X, z_true, inputs) {
+  vapply(inputs, function(p) {
+    q <- stats::quantile(X[, p], c(0.025, 0.975))
+    z_true[[p]] >= q[1] && z_true[[p]] <= q[2]
+  }, logical(1))
+}
+
 # Longest flagged interval of a where_fails() table, in grid steps.
 longest_steps <- function(fails) {
   t <- attr(fails, "bias")$t

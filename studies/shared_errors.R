@@ -40,17 +40,8 @@ hidden <- arg_names(opt$hidden)
 n_draws <- as.integer(opt$n_draws)
 n_inner <- as.integer(opt$n_inner)
 options(wavevalid.quiet = TRUE)
-`%||%` <- function(a, b) if (is.null(a)) b else a
 future::plan(future::sequential)
 
-band_cover <- function(band, curves) {
-  hit <- unlist(lapply(names(curves), function(s) {
-    b <- band[band$site == s, ]
-    y <- curves[[s]][1, ]
-    y >= b$lower & y <= b$upper
-  }))
-  mean(hit)
-}
 
 one_case <- function(bed, seed, variant, hd) {
   B <- testbed_beds[[bed]]
@@ -73,10 +64,7 @@ one_case <- function(bed, seed, variant, hd) {
   r <- reality(fit)
   X <- as.matrix(fit$draws)
   z_true <- true_inputs(tb, fit$inputs)
-  inside <- vapply(fit$inputs, function(p) {
-    q <- stats::quantile(X[, p], c(0.025, 0.975))
-    z_true[[p]] >= q[1] && z_true[[p]] <= q[2]
-  }, logical(1))
+  inside <- inputs_inside(X, z_true, fit$inputs)
   tab <- summary(fit)$inputs
   wf <- where_fails(fit)
   overlap <- NA

@@ -29,7 +29,6 @@ hidden <- arg_names(opt$hidden)
 n_draws <- as.integer(opt$n_draws)
 n_inner <- as.integer(opt$n_inner)
 options(wavevalid.quiet = TRUE)
-`%||%` <- function(a, b) if (is.null(a)) b else a
 future::plan(future::sequential)
 
 one_case <- function(bed, hd, seed) {
@@ -49,10 +48,7 @@ one_case <- function(bed, hd, seed) {
                                     input_likelihood = lik))
     X <- as.matrix(f$draws)
     own <- setdiff(f$inputs, s_name)
-    inside <- vapply(own, function(p) {
-      q <- stats::quantile(X[, p], c(0.025, 0.975))
-      z_true[[p]] >= q[1] && z_true[[p]] <= q[2]
-    }, logical(1))
+    inside <- inputs_inside(X, z_true, own)
     tab <- summary(f)$inputs
     data.frame(bed = bed, hidden = hd, seed = seed, variant = lik, inputs_in = sum(inside), p = length(own),
                outside = paste(names(inside)[!inside], collapse = ","), s_mean = round(mean(X[, s_name]), 3),
