@@ -31,7 +31,14 @@
 #'   whole record, as [where_fails()] splits them: `bias_rms` squared is the
 #'   sum of their squares), `bias_peak`, `band_width`, `model_rmse`
 #'   (pure-model prediction against the mean of the fitted field data) and,
-#'   with a holdout, `holdout_rmse` and `holdout_coverage`. When the bias grows
+#'   `inputs_in_conflict` (inputs in conflict with their prior, as
+#'   [where_fails()] judges them: an input that mimics a missing effect) and,
+#'   with a holdout, `holdout_rmse` (the bias-corrected prediction),
+#'   `holdout_rmse_model` (the model alone, the prediction's `model` column)
+#'   and `holdout_coverage`. The print ends with a verdict: whether the
+#'   conflicts were resolved and, with a holdout, whether the model alone and
+#'   the bias-corrected prediction err less there; at a held-out condition an
+#'   input that absorbs the missing effect cannot fake an improvement. When the bias grows
 #'   but its localised part falls, the print says so: the calibrated inputs
 #'   can trade an offset of the whole record against the events.
 #' @export
@@ -65,8 +72,9 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
   }
   out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
                     stringsAsFactors = FALSE)
-  out$change <- out$after / out$before - 1
+  out$change <- ifelse(out$before == 0 & out$after == 0, 0, out$after / out$before - 1)
   attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
+  attr(out, "conflicts") <- list(before = input_conflicts(before), after = input_conflicts(after))
   class(out) <- c("wv_comparison", "data.frame")
   out
 }
@@ -86,7 +94,8 @@ validation_metrics <- function(fit, level) {
     bias_rms_record = part_rms(fit, wide),
     bias_peak = max(abs(b$mean)),
     band_width = mean(r$upper - r$lower),
-    model_rmse = sqrt(mean((mp$mean - mp$y)^2))
+    model_rmse = sqrt(mean((mp$mean - mp$y)^2)),
+    inputs_in_conflict = sum(input_conflicts(fit)$conflict)
   )
 }
 
@@ -129,7 +138,7 @@ holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
   p <- as.data.frame(pred)
   sites <- intersect(unique(p$site), names(field$curves))
   if (!length(sites)) wv_abort("The held-out field data share no site with the prediction.", call = call)
-  err <- inside <- numeric()
+  err <- err_model <- inside <- numeric()
   for (s in sites) {
     ps <- p[p$site == s, ]
     if (!isTRUE(all.equal(ps$t, field$t))) {
@@ -137,9 +146,10 @@ holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
     }
     y <- field$curves[[s]]
     err <- c(err, as.vector(sweep(y, 2, ps$mean)))
+    err_model <- c(err_model, as.vector(sweep(y, 2, ps$model)))
     inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`)))
   }
-  c(holdout_rmse = sqrt(mean(err^2)), holdout_coverage = mean(inside))
+  c(holdout_rmse = sqrt(mean(err^2)), holdout_rmse_model = sqrt(mean(err_model^2)), holdout_coverage = mean(inside))
 }
 
 #' @export
@@ -148,7 +158,7 @@ print.wv_comparison <- function(x, ...) {
   df <- as.data.frame(unclass(x)[c("metric", "before", "after", "change")], stringsAsFactors = FALSE)
   df$before <- signif(df$before, 4)
   df$after <- signif(df$after, 4)
-  df$change <- sprintf("%+.1f%%", 100 * df$change)
+  df$change <- ifelse(is.finite(df$change), sprintf("%+.1f%%", 100 * df$change), "-")
   print(df, row.names = FALSE)
   ch <- stats::setNames(x$change, x$metric)
   if (all(c("bias_rms", "bias_rms_local", "bias_rms_record") %in% names(ch))) {
@@ -157,7 +167,47 @@ print.wv_comparison <- function(x, ...) {
                     "the calibrated inputs can trade against the events: see where_fails() of each fit.")
     }
   }
+  for (line in comparison_verdict(x)) cli::cat_line(line)
   invisible(x)
+}
+
+# Whether the change helped, and why: the conflicts of the inputs with their
+# prior, and the error at the held-out condition (which an input absorbing
+# the effect cannot fake), or the fitted data's localised bias without one.
+comparison_verdict <- function(x) {
+  v <- stats::setNames(x$after, x$metric)
+  b <- stats::setNames(x$before, x$metric)
+  cf <- attr(x, "conflicts")
+  names_of <- function(d) if (is.null(d) || !any(d$conflict)) "none" else paste(d$input[d$conflict], collapse = ", ")
+  lines <- character()
+  if (!is.null(cf)) {
+    before <- names_of(cf$before)
+    after <- names_of(cf$after)
+    lines <- c(lines, sprintf("Inputs in conflict with their prior: before %s; after %s%s.", before, after,
+                              if (before != "none" && after == "none") " (resolved)"
+                              else if (after != "none") " (an input still mimics what the model lacks: see where_fails(after))"
+                              else ""))
+  }
+  ratio <- function(m) v[[m]] / b[[m]]
+  if ("holdout_rmse_model" %in% names(v)) {
+    rm <- ratio("holdout_rmse_model")
+    rc <- ratio("holdout_rmse")
+    verdict <- if (rm < 1 && rc <= 1.05) {
+      "the change helped: the model alone predicts the held-out data better, and the bias-corrected prediction is no worse"
+    } else if (rm < 1) {
+      "the model alone predicts the held-out data better, but the bias-corrected prediction is worse: the calibration compensates elsewhere (see the inputs' posteriors of each fit)"
+    } else if (rc < 1) {
+      "the model alone does not predict the held-out data better; only the bias correction does"
+    } else {
+      "the change did not help at the held-out condition"
+    }
+    lines <- c(lines, sprintf("At the held-out condition the model alone errs %s times as much as before and the bias-corrected prediction %s times: %s.",
+                              format(round(rm, 2), nsmall = 2), format(round(rc, 2), nsmall = 2), verdict))
+  } else {
+    lines <- c(lines, sprintf("The localised bias is %s times what it was. Without a held-out condition this rests on the fitted data, where an input that absorbs the effect can fake a fall: give holdout = (another experiment, load or dose).",
+                              format(round(ratio("bias_rms_local"), 2), nsmall = 2)))
+  }
+  lines
 }
 
 #' @export

@@ -24,6 +24,32 @@
 #' small offset of the whole record, or a misfit at the scale of the field
 #' noise that many replicates make credible, then drops out.
 #'
+#' @section Inputs that cover a misfit:
+#' A calibrated input that can mimic a missing effect is pulled to the values
+#' that mimic it, and the bias then shrinks where the effect acts. Such an
+#' input is a finding of its own (attribute `conflicts`): it is in conflict
+#' with its prior when its posterior median lies in the prior's tail beyond
+#' `0.05 / (2 p)` on its side (`p` inputs, so that when the model is right
+#' some input is flagged by chance with probability about 5%), or when at
+#' least half of its posterior lies within 2% of the range from a bound (and
+#' four times the prior's share there).
+#'
+#' With `hold = TRUE` (default) the bias is then read again with those inputs
+#' held to their prior: reality stays as the fit reads it (its coefficients
+#' `w^M + w^b`, draw by draw), and the model is evaluated with the inputs in
+#' conflict drawn from their prior and the others at their posterior draws
+#' (the emulators conditioned on the fit's model coefficients, as for a new
+#' vehicle). The difference is the bias of the model without the inputs'
+#' pull; its intervals are reported as the misfit the inputs covered
+#' (attribute `held`; in `as.data.frame()`, rows of `scale` `"held"` with the
+#' inputs in `covered_by`), and, when its band excludes zero nowhere, the
+#' print still places the pull: where it moves the model most (`pull`, the
+#' stretch where the model moves by at least half its largest move). Give
+#' `attr(x, "held")$fit` to [explain_bias()] to ask which effect is missing
+#' there. The other inputs keep the values they took beside the pull;
+#' [hold_inputs()] calibrates them again with the inputs held (where they
+#' may take up part of the misfit in turn).
+#'
 #' @inheritParams bands
 #' @param band `"simultaneous"` (default): the narrowest band holding whole
 #'   bias curves with probability `level` (see [bias()]), so that a bias curve
@@ -38,6 +64,9 @@
 #' @param scales `"split"` (default): the record-wide part of the bias
 #'   reported on its own and the intervals found in the rest; `"whole"`: the
 #'   intervals found in the whole bias.
+#' @param hold If `TRUE` (default), read the bias again with the inputs in
+#'   conflict with their prior held to it (see the section Inputs that cover a
+#'   misfit). Fits of several experiments report their conflicts without it.
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
 #'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
@@ -59,7 +88,16 @@
 #'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
 #'   `start` and `end`), `bias_whole` (the band of the whole bias) and, for a
 #'   fit of several experiments, `experiments` (the experiment of each site;
-#'   `as.data.frame()` then adds a column `experiment`).
+#'   `as.data.frame()` then adds a column `experiment`), `conflicts` (one row
+#'   per input: its posterior `median`, the prior's `prior_mean` and
+#'   `prior_sd`, `prior_sds` (the median's distance from the prior mean in
+#'   prior sd), the `side`, `prior_tail` (the prior's mass beyond the
+#'   median), `share_at_bound` and `prior_share_at_bound` on that side, and
+#'   `far`, `piled`, `conflict`) and `held` (when inputs were held: their
+#'   names `inputs`, the re-read `fit`, its `fails`, the `pull` (by site,
+#'   where the inputs' pull moves the model's localised part most: `start`,
+#'   `end`, `t` and the largest `shift`) and `bias_rms_local`, the localised
+#'   bias's root mean square as fitted and held).
 #'   `as.data.frame()` gives one table of the findings with a column `scale`:
 #'   `"record"` for a credible record-wide part (one row per site, spanning
 #'   the record) and `"local"` for the intervals.
@@ -74,13 +112,14 @@
 #' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
-                        tolerance = 0, scales = c("split", "whole"), ...) {
+                        tolerance = 0, scales = c("split", "whole"), hold = TRUE, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
   check_level(level)
   band <- check_choice(band)
   scales <- check_choice(scales)
   check_number(min_steps, min = 1, integer = TRUE)
+  check_flag(hold)
   tol <- site_tolerance(tolerance, names(fit$wb))
   b_whole <- bias(fit, level = level)
   wide_levels <- record_wide_levels(fit$basis)
@@ -131,6 +170,18 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   attr(out, "credible") <- credible_bias(b, gap)
   attr(out, "pooled_level0") <- 0 %in% fit$settings$pool_levels
   attr(out, "experiments") <- fit$experiments
+  cf <- input_conflicts(fit)
+  attr(out, "conflicts") <- cf
+  held <- NULL
+  if (hold && any(cf$conflict) && is.null(fit$experiments)) {
+    hf <- reread_held(fit, cf$input[cf$conflict])
+    hw <- where_fails(hf, level = level, band = band, min_steps = min_steps, tolerance = tolerance,
+                      scales = scales, hold = FALSE)
+    held <- list(inputs = hf$held$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
+                 bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
+  }
+  attr(out, "held") <- held
+  attr(out, "holds") <- fit$held
   class(out) <- c("wv_fails", "data.frame")
   out
 }
@@ -189,6 +240,13 @@ as.data.frame.wv_fails <- function(x, row.names = NULL, optional = FALSE, ...) {
                             sign = ifelse(rw$offset > 0, "reality above model", "reality below model"),
                             scale = "record", stringsAsFactors = FALSE), out)
   }
+  hd <- attr(x, "held", exact = TRUE)
+  if (!is.null(hd) && nrow(hd$fails)) {
+    h <- as.data.frame(unclass(hd$fails)[cols], stringsAsFactors = FALSE)
+    h$scale <- "held"
+    out <- rbind(out, h)
+  }
+  if (!is.null(hd)) out$covered_by <- ifelse(out$scale == "held", paste(hd$inputs, collapse = ","), NA_character_)
   ex <- attr(x, "experiments")
   if (!is.null(ex)) out$experiment <- ex$experiment[match(out$site, ex$site)]
   rownames(out) <- row.names

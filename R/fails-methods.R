@@ -57,11 +57,55 @@ print.wv_fails <- function(x, ...) {
                           format(signif(cr$credible_bias[k], 3)), cr$site[k], format(signif(cr$t[k], 4))))
   }
   bd <- attr(x, "boundary")
-  if (!is.null(bd) && any(bd$flagged)) {
-    cli::cat_line("Posterior piled up at a bound of its range: ", paste(bd$input[bd$flagged], collapse = ", "),
+  cf <- attr(x, "conflicts")
+  conflicted <- if (is.null(cf)) character() else cf$input[cf$conflict]
+  weak <- if (is.null(bd)) character() else setdiff(bd$input[bd$flagged], conflicted)
+  if (length(weak)) {
+    cli::cat_line("Posterior partly piled up at a bound of its range: ", paste(weak, collapse = ", "),
                   " (an input acting as a tuning knob?)")
   }
+  if (length(conflicted)) {
+    cli::cat_line("Inputs in conflict with their prior (the data pull them where the prior says they hardly are; ",
+                  "an input that mimics a missing effect does this):")
+    for (line in conflict_text(cf)) cli::cat_line("  ", line)
+    for (line in held_lines(x)) cli::cat_line(line)
+  }
+  hf <- attr(x, "holds", exact = TRUE)
+  if (!is.null(hf)) {
+    cli::cat_line(sprintf("This fit holds %s to %s prior: its bias includes what %s covered.",
+                          paste(hf$inputs, collapse = ", "), if (length(hf$inputs) == 1L) "its" else "their",
+                          if (length(hf$inputs) == 1L) "it" else "they"))
+  }
   invisible(x)
+}
+
+# What the inputs in conflict covered: the intervals of the bias with them
+# held to their prior, or where their pull moves the model most.
+held_lines <- function(x) {
+  hd <- attr(x, "held", exact = TRUE)
+  if (is.null(hd)) {
+    if (!is.null(attr(x, "experiments"))) return("Hold them in the fit of each experiment on its own (hold_inputs()) to see what they cover.")
+    return("Read the bias with them held to their prior to see what they cover: where_fails(fit, hold = TRUE).")
+  }
+  who <- paste(hd$inputs, collapse = ", ")
+  rms <- signif(hd$bias_rms_local, 3)
+  hw <- hd$fails
+  pull <- hd$pull
+  k <- which.max(abs(pull$shift))
+  pull_txt <- sprintf("%s [%s, %s] (by %s at t = %s)", pull$site[k], format(signif(pull$start[k], 4)),
+                      format(signif(pull$end[k], 4)), format(signif(abs(pull$shift[k]), 3)),
+                      format(signif(pull$t[k], 4)))
+  if (!nrow(hw)) {
+    return(sprintf("With %s held to the prior the localised bias's band still holds zero (root mean square %s, %s as fitted); the pull moves the model most at %s: the misfit %s cover%s, if any, lies there.",
+                   who, format(rms[["held"]]), format(rms[["fitted"]]), pull_txt,
+                   if (length(hd$inputs) == 1L) "it" else "they", if (length(hd$inputs) == 1L) "s" else ""))
+  }
+  top <- utils::head(as.data.frame(unclass(hw)[c("site", "start", "end", "peak_abs_bias")]), 5)
+  c(sprintf("With %s held to the prior, the model fails at (the misfit %s covered; localised bias root mean square %s, %s as fitted; the pull moves the model most at %s):",
+            who, if (length(hd$inputs) == 1L) "it" else "they", format(rms[["held"]]), format(rms[["fitted"]]), pull_txt),
+    sprintf("  %s [%s, %s], peak |bias| %s", top$site, format(signif(top$start, 4)), format(signif(top$end, 4)),
+            format(signif(top$peak_abs_bias, 3))),
+    if (nrow(hw) > 5) sprintf("  ... and %d more", nrow(hw) - 5))
 }
 
 #' @export
@@ -124,9 +168,37 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     b$part <- factor(b$part, levels = c("whole bias", "localised"))
     if (nrow(regions)) regions$part <- factor("localised", levels = levels(b$part))
   }
+  hd <- attr(object, "held", exact = TRUE)
+  held_regions <- pull <- NULL
+  if (!is.null(hd)) {
+    # the bias with the inputs in conflict held to their prior, in a panel of its own
+    lab <- paste0("held: ", paste(hd$inputs, collapse = ", "))
+    if (!split) b$part <- "bias"
+    hb <- band_limits(attr(hd$fails, "bias"), attr(object, "band") %||% "simultaneous")
+    hb$part <- lab
+    lev <- c(levels(factor(b$part, levels = unique(as.character(b$part)))), lab)
+    b <- rbind(b[names(hb)], hb)
+    b$part <- factor(b$part, levels = lev)
+    if (nrow(regions)) regions$part <- factor(if (split) "localised" else "bias", levels = lev)
+    held_regions <- as.data.frame(unclass(hd$fails)[c("site", "start", "end")])
+    held_regions$part <- factor(rep(lab, nrow(held_regions)), levels = lev)
+    pull <- hd$pull
+    pull$part <- factor(rep(lab, nrow(pull)), levels = lev)
+    split <- TRUE
+  }
   p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
   if (nrow(regions)) {
     p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                fill = "#D55E00", alpha = 0.25)
+  }
+  if (!is.null(pull)) {
+    p <- p + ggplot2::geom_rect(data = pull, inherit.aes = FALSE,
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                fill = "#0072B2", alpha = 0.12)
+  }
+  if (!is.null(held_regions) && nrow(held_regions)) {
+    p <- p + ggplot2::geom_rect(data = held_regions, inherit.aes = FALSE,
                                 ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
                                 fill = "#D55E00", alpha = 0.25)
   }
@@ -144,8 +216,16 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     ggplot2::labs(x = "time", y = "bias",
                   title = paste0("Where the model fails: intervals where the ", if (split) "localised ",
                                  "bias band ", if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero"),
-                  subtitle = if (split) paste0("The whole bias above; below, what is left without the record-wide ",
-                                               "levels (", attr(object, "record_wide")$levels[1], ")")) +
+                  subtitle = paste0(
+                    if (identical(attr(object, "scales"), "split")) {
+                      paste0("The whole bias; what is left without the record-wide levels (",
+                             attr(object, "record_wide")$levels[1], ")")
+                    },
+                    if (!is.null(hd)) {
+                      paste0(if (identical(attr(object, "scales"), "split")) "; " else "",
+                             "the localised bias with ", paste(hd$inputs, collapse = ", "),
+                             " held to the prior (blue: where their pull moves the model most)")
+                    })) +
     ggplot2::theme_bw()
 }
 

@@ -13,8 +13,13 @@
 #              mechanism acts (its signature at the true inputs above a tenth
 #              of its peak) at some site; longest, the longest localised
 #              interval in grid steps; wide, whether the record-wide part is
-#              credibly non-zero at some site. Nothing hidden passes with no
-#              credible record-wide part and longest <= 5.
+#              credibly non-zero at some site; conflicts, the inputs in
+#              conflict with their prior; held_overlap and held_longest, the
+#              same for the intervals of the bias with them held to their
+#              prior (where_fails()'s default). c1 hidden: overlap or
+#              held_overlap. Nothing hidden passes with no credible
+#              record-wide part, longest <= 5 and no conflict (c1_strict: no
+#              conflict and longest <= 5, the record-wide part aside).
 #   C2 screen  explain_bias() with each mechanism's signature at the
 #              posterior mean inputs (and the shifts): top, its probability,
 #              the largest other mechanism's (decoy).
@@ -30,12 +35,19 @@
 #              the after-model's B runs spreading the strength over its 99%
 #              posterior interval, B's replicates registered to the mean of
 #              each model's B runs); local_fall, the same for the bias's
-#              localised part (bias_rms_local).
+#              localised part (bias_rms_local); conflicts_after, the
+#              inputs in conflict after; model_ratio and corrected_ratio, the
+#              held-out error after / before of the model alone and of the
+#              bias-corrected prediction. c3_held: the leading mechanism is
+#              the hidden one, local_fall >= 0.7, no conflict after,
+#              model_ratio <= 0.8 and corrected_ratio <= 1.05.
+# With c2=FALSE the C2 screen and refits are skipped and only the hidden
+# mechanism is re-validated (the lead is then the hidden mechanism).
 # Rows are appended to `out` (CSV) as each case ends.
 #   Rscript studies/diagnosis_defaults.R [beds=dosing,suspension] [seeds=1:5] [hidden=none,all]
 #                                        [n_draws=150] [n_inner=20] [out=diagnosis_defaults.csv]
 #                                        [knots=auto] [dosing_features=rise] [suspension_features=min,max]
-#                                        [engine=gasp_level] [off_runs=TRUE] [pool_levels=NULL]
+#                                        [engine=gasp_level] [off_runs=TRUE] [pool_levels=NULL] [c2=TRUE]
 # knots: "auto" (validate()'s default, 1/32 of the record), NULL (landmarks
 # only) or a spacing in time units; features: the landmarks of each test
 # bed's windows ("+"-free, comma-separated).
@@ -44,7 +56,8 @@ source("studies/common.R")
 args <- study_args(list(beds = "dosing,suspension", seeds = "1:5", hidden = "none,all", n_draws = "150",
                         n_inner = "20", out = "diagnosis_defaults.csv", knots = "auto", dosing_features = "rise",
                         suspension_features = "min,max", engine = "gasp_level", off_runs = "TRUE",
-                        pool_levels = "NULL"))
+                        pool_levels = "NULL", c2 = "TRUE"))
+do_c2 <- arg_flag(args$c2)
 pool_levels <- arg_value(args$pool_levels)
 off_runs <- arg_flag(args$off_runs)
 knots_arg <- if (args$knots == "auto") "auto" else arg_value(args$knots)
@@ -74,27 +87,52 @@ run_case <- function(b, seed, hd) {
     eff <- B$signatures(true_inputs(tb, fit$inputs), hd)[[1]]
     overlap <- any(flagged_share(wf, eff) > 0, na.rm = TRUE)
   }
-  c1 <- if (hd == "none") !any(rw$credible) && longest <= 5 else overlap
-  # C2, the screen
+  cf <- attr(wf, "conflicts")
+  conflicts <- paste(cf$input[cf$conflict], collapse = "+")
+  hd_w <- attr(wf, "held")
+  held_overlap <- NA
+  held_longest <- NA
+  if (!is.null(hd_w)) {
+    held_longest <- longest_steps(hd_w$fails)
+    if (hd != "none") held_overlap <- any(flagged_share(hd_w$fails, eff) > 0, na.rm = TRUE)
+  }
+  c1 <- if (hd == "none") !any(rw$credible) && longest <= 5 && !any(cf$conflict) else overlap || isTRUE(held_overlap)
+  c1_strict <- if (hd == "none") longest <= 5 && !any(cf$conflict) else NA
   mech <- B$mechanisms()
-  ex <- as.data.frame(unclass(explain_bias(fit, B$signatures(coef(fit)), n_draws = 100, seed = 1)))
-  exm <- ex[ex$candidate %in% mech, ]
-  # C2, the re-validated models
-  refits <- testbed_default_refits(tb, fit, B$simulate, mech, n_draws, n_inner, engine = args$engine,
-                                   off_runs = off_runs)
-  ex_rf <- explain_bias(fit, refits)
-  rf <- as.data.frame(unclass(ex_rf))
-  p_none <- with(attr(ex_rf, "subsets"), probability[subset == "(none)"])
   verdict <- function(tab) {
     p_true <- if (hd == "none") NA else tab$inclusion_prob[tab$candidate == hd]
     other <- max(tab$inclusion_prob[tab$candidate != hd])
     ok <- if (hd == "none") other < 0.5 else tab$candidate[1] == hd && p_true >= 0.9 && other < 0.5
     list(top = tab$candidate[1], p_true = p_true, other = other, ok = ok)
   }
-  v_sig <- verdict(exm)
-  v_rf <- verdict(rf)
+  none_v <- list(top = NA, p_true = NA, other = NA, ok = NA)
+  if (do_c2) {
+    # C2, the screen
+    ex <- as.data.frame(unclass(explain_bias(fit, B$signatures(coef(fit)), n_draws = 100, seed = 1)))
+    exm <- ex[ex$candidate %in% mech, ]
+    # C2, the re-validated models
+    refits <- testbed_default_refits(tb, fit, B$simulate, mech, n_draws, n_inner, engine = args$engine,
+                                     off_runs = off_runs)
+    ex_rf <- explain_bias(fit, refits)
+    rf <- as.data.frame(unclass(ex_rf))
+    p_none <- with(attr(ex_rf, "subsets"), probability[subset == "(none)"])
+    v_sig <- verdict(exm)
+    v_rf <- verdict(rf)
+    lead <- rf$candidate[1]
+  } else {
+    if (hd == "none") {
+      return(data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, c1_strict = c1_strict, overlap = overlap,
+                        longest = longest, wide = any(rw$credible), conflicts = conflicts, held_overlap = held_overlap,
+                        held_longest = held_longest, secs = round(clock() - t0), stringsAsFactors = FALSE))
+    }
+    refits <- testbed_default_refits(tb, fit, B$simulate, hd, n_draws, n_inner, engine = args$engine,
+                                     off_runs = off_runs)
+    v_sig <- v_rf <- none_v
+    exm <- rf <- data.frame(inclusion_prob = NA)
+    p_none <- NA
+    lead <- hd
+  }
   # C3, the leading mechanism added
-  lead <- rf$candidate[1]
   after <- refits[[lead]]
   s_name <- paste0("s_", lead)
   design_B <- tb$B$runs$design
@@ -114,15 +152,23 @@ run_case <- function(b, seed, hd) {
   local_fall <- 1 - get("bias_rms_local", "after") / get("bias_rms_local", "before")
   hold_fall <- 1 - get("holdout_rmse", "after") / get("holdout_rmse", "before")
   c3 <- if (hd == "none") NA else lead == hd && bias_fall >= 0.7 && hold_fall > 0
-  data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, overlap = overlap, longest = longest,
-             wide = any(rw$credible), wide_offset = by_site(rw$offset),
+  model_ratio <- get("holdout_rmse_model", "after") / get("holdout_rmse_model", "before")
+  corrected_ratio <- get("holdout_rmse", "after") / get("holdout_rmse", "before")
+  conflicts_after <- get("inputs_in_conflict", "after")
+  c3_held <- if (hd == "none") NA else lead == hd && local_fall >= 0.7 && conflicts_after == 0 &&
+    model_ratio <= 0.8 && corrected_ratio <= 1.05
+  data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, c1_strict = c1_strict, overlap = overlap,
+             longest = longest, wide = any(rw$credible), wide_offset = by_site(rw$offset), conflicts = conflicts,
+             held_overlap = held_overlap, held_longest = held_longest,
              sig_top = v_sig$top, sig_p = round(if (hd == "none") exm$inclusion_prob[1] else v_sig$p_true, 3),
              sig_other = round(v_sig$other, 3), c2_sig = v_sig$ok,
              rf_top = v_rf$top, rf_p = round(if (hd == "none") rf$inclusion_prob[1] else v_rf$p_true, 3),
              rf_other = round(v_rf$other, 3), p_none = round(p_none, 3), c2 = v_rf$ok,
              lead = lead, bias_fall = round(bias_fall, 3), local_fall = round(local_fall, 3),
              hold_before = signif(get("holdout_rmse", "before"), 3),
-             hold_after = signif(get("holdout_rmse", "after"), 3), c3 = c3, secs = round(clock() - t0),
+             hold_after = signif(get("holdout_rmse", "after"), 3), c3 = c3,
+             conflicts_after = conflicts_after, model_ratio = round(model_ratio, 3),
+             corrected_ratio = round(corrected_ratio, 3), c3_held = c3_held, secs = round(clock() - t0),
              stringsAsFactors = FALSE)
 }
 

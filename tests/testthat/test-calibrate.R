@@ -111,7 +111,7 @@ grid_check <- function(proposal, n_draws, n_inner) {
   cdf_u <- stats::approxfun(gm$u, cumsum(gm$fu), yleft = 0, yright = 1)
   cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
   fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                   seed = 5, sigma2 = gp$sigma2, proposal = proposal, quiet = TRUE)
+                   seed = 5, sigma2 = gp$sigma2, proposal = proposal, input_likelihood = "independent", quiet = TRUE)
   X <- as.matrix(fit$draws)
   expect_gt(stats::ks.test(X[, "u1"], cdf_u)$p.value, 0.01)
   expect_gt(stats::ks.test(log(X[, "tau2[site1:4]"]), cdf_lt)$p.value, 0.01)
@@ -140,7 +140,7 @@ test_that("a tempered calibration reproduces the grid posterior of the likelihoo
   g1 <- grid_marginals(gp)
   cdf <- function(x, f) stats::approxfun(x, cumsum(f), yleft = 0, yright = 1)
   fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, temper = 0.25, quiet = TRUE)
+                   sigma2 = gp$sigma2, temper = 0.25, input_likelihood = "independent", quiet = TRUE)
   expect_identical(fit$settings$temper, 0.25)
   expect_true(any(grepl("Tempered posterior", capture.output(print(fit)))))
   X <- as.matrix(fit$draws)
@@ -150,9 +150,9 @@ test_that("a tempered calibration reproduces the grid posterior of the likelihoo
   expect_lt(suppressWarnings(stats::ks.test(X[, "u1"], cdf(g1$u, g1$fu))$p.value), 0.01)
   # temper = 1 is the method's posterior, draw for draw
   a <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
-                 sigma2 = gp$sigma2, quiet = TRUE)
+                 sigma2 = gp$sigma2, input_likelihood = "independent", quiet = TRUE)
   b <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
-                 sigma2 = gp$sigma2, temper = 1, quiet = TRUE)
+                 sigma2 = gp$sigma2, temper = 1, input_likelihood = "independent", quiet = TRUE)
   expect_identical(as.matrix(a$draws), as.matrix(b$draws))
   for (bad in list(0, -0.5, 1.5, NA_real_, "0.5", c(0.5, 0.6))) {
     expect_error(calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 5, n_inner = 2, chains = 1,
@@ -169,14 +169,14 @@ test_that("pooled levels share one tau2: the sampler reproduces the grid posteri
   gm <- grid_marginals(gp)
   cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
   fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, pool_levels = 2:3, quiet = TRUE)
+                   sigma2 = gp$sigma2, pool_levels = 2:3, input_likelihood = "independent", quiet = TRUE)
   expect_identical(fit$groups$name, "site1:2-3")
   expect_identical(unique(fit$bias_group$site1), "site1:2-3")
   X <- as.matrix(fit$draws)
   expect_gt(stats::ks.test(log(X[, "tau2[site1:2-3]"]), cdf_lt)$p.value, 0.01)
   # one variance per level is another posterior: level 2 alone does not follow it
   own <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, quiet = TRUE)
+                   sigma2 = gp$sigma2, input_likelihood = "independent", quiet = TRUE)
   expect_identical(own$groups$name, c("site1:2", "site1:3"))
   expect_lt(stats::ks.test(log(as.matrix(own$draws)[, "tau2[site1:2]"]), cdf_lt)$p.value, 0.01)
 })
@@ -243,15 +243,15 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
 test_that("the inputs' posterior with inform_levels is the posterior from those levels alone", {
   cp <- cut_problem(fine = 2)
   cut <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 1500, n_inner = 20, chains = 1, seed = 5,
-                   inform_levels = 0:2, quiet = TRUE)
+                   inform_levels = 0:2, input_likelihood = "independent", quiet = TRUE)
   # the same problem on its first four coefficients (levels 0 to 2) only
   coarse <- small_problem(index = 1:4)
   W <- cp$field$curves$site1 %*% cp$pb$basis$Psi
   alone <- calibrate(coarse$emulators, field_from_coef(coarse$basis, W[, 1:4]), coarse$iu, n_draws = 1500,
-                     n_inner = 20, chains = 1, seed = 6, quiet = TRUE)
+                     n_inner = 20, chains = 1, seed = 6, input_likelihood = "independent", quiet = TRUE)
   plain <- cut_problem()
   full <- calibrate(plain$pb$emulators, plain$field, plain$pb$iu, n_draws = 1500, n_inner = 20, chains = 1,
-                    seed = 5, quiet = TRUE)
+                    seed = 5, input_likelihood = "independent", quiet = TRUE)
   for (p in c("u1", "x1")) {
     expect_gt(suppressWarnings(stats::ks.test(as.matrix(cut$draws)[, p], as.matrix(alone$draws)[, p]))$p.value, 0.01)
   }

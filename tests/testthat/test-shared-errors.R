@@ -63,7 +63,7 @@ test_that("the weight is p / tr(H^-1 J) of the errors' covariance, computed dens
   expect_identical(got$p, 1L)
 })
 
-test_that("calibrate() weighs the inputs' likelihood for shared errors on request, says so, and keeps the method's by name", {
+test_that("calibrate() weighs the inputs' likelihood for shared errors by default, says so, and keeps the method's by name", {
   withr::local_seed(13)
   gp <- shared_grid_problem()
   run <- function(lik) {
@@ -82,9 +82,9 @@ test_that("calibrate() weighs the inputs' likelihood for shared errors on reques
   # the weight widens the inputs' posterior
   sd_of <- function(f) stats::sd(as.matrix(f$draws)[, "u1"])
   expect_gt(sd_of(adj), sd_of(ind))
-  # the default is the method's likelihood, draw for draw
+  # the default is the adjusted likelihood, draw for draw
   def <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 3,
                    sigma2 = gp$sigma2, quiet = TRUE)
-  expect_identical(as.matrix(def$draws), as.matrix(ind$draws))
+  expect_identical(as.matrix(def$draws), as.matrix(adj$draws))
   expect_error(run("pca"), class = "wavevalid_error_input")
 })

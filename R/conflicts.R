@@ -1,0 +1,272 @@
+# Inputs in conflict with their prior, and the bias re-read with them held to
+# their prior (the cut).
+
+# Each input's posterior against its prior: a data frame with one row per
+# input. An input is in conflict when the data pull it where its prior says it
+# hardly is:
+# * `far`: the posterior median lies in the prior's tail beyond alpha / (2 p)
+#   on its side (p inputs: when the model is right and the posterior sits at a
+#   truth drawn from the prior, some input is flagged with probability about
+#   alpha); or
+# * `piled`: at least half of the posterior lies within `margin` of the range
+#   from a bound, and at least four times the prior's share there.
+# Inputs already held (hold_inputs()) and inputs whose range is a point are
+# not judged.
+input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5) {
+  X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
+  P <- prior_sample(fit$prior_iu)
+  colnames(P) <- fit$inputs
+  bd <- boundary_check(fit, margin)
+  p <- length(fit$inputs)
+  held <- fit$held$inputs %||% character()
+  out <- do.call(rbind, lapply(seq_len(p), function(k) {
+    nm <- fit$inputs[k]
+    x <- X[, nm]
+    q <- P[, nm]
+    med <- stats::median(x)
+    mu <- mean(q)
+    s <- stats::sd(q)
+    side <- if (med >= stats::median(q)) "upper" else "lower"
+    tail <- if (side == "upper") mean(q >= med) else mean(q <= med)
+    b <- bd[bd$input == nm, ]
+    share <- if (side == "upper") b$near_upper else b$near_lower
+    prior_share <- if (side == "upper") b$prior_near_upper else b$prior_near_lower
+    judged <- s > 0 && !(nm %in% held) &&
+      (fit$prior_iu$upper[k] - fit$prior_iu$lower[k]) > 1e-4 * max(abs(fit$prior_iu$upper[k]), 1)
+    far <- judged && tail < alpha / (2 * p)
+    piled <- judged && share >= majority && share >= 4 * prior_share
+    data.frame(input = nm, type = fit$prior_iu$type[k], median = med, prior_mean = mu, prior_sd = s,
+               prior_sds = if (s > 0) (med - mu) / s else 0, side = side, prior_tail = tail,
+               share_at_bound = share, prior_share_at_bound = prior_share, far = far, piled = piled,
+               conflict = far || piled, stringsAsFactors = FALSE)
+  }))
+  attr(out, "alpha") <- alpha
+  out
+}
+
+# Draws from the prior of the inputs (own units), with a fixed stream; R's
+# random number generator is left as it was.
+prior_sample <- function(iu, n = 20000L) {
+  env <- globalenv()
+  old <- if (exists(".Random.seed", envir = env, inherits = FALSE)) get(".Random.seed", envir = env)
+  on.exit(if (is.null(old)) rm(".Random.seed", envir = env) else assign(".Random.seed", old, envir = env))
+  set.seed(1L)
+  iu_prior_draws(iu, n)
+}
+
+# One line per conflicting input, for the prints.
+conflict_text <- function(cf) {
+  cf <- cf[cf$conflict, , drop = FALSE]
+  vapply(seq_len(nrow(cf)), function(i) {
+    r <- cf[i, ]
+    where <- if (r$piled) {
+      sprintf("piled at its %s bound (%.0f%% of the draws within 2%% of the range from it; prior %.0f%%)",
+              r$side, 100 * r$share_at_bound, 100 * r$prior_share_at_bound)
+    } else {
+      sprintf("in its prior's %s tail", r$side)
+    }
+    sprintf("%s %s, median %s, %s prior sd from the prior's mean %s", r$input, where, format(signif(r$median, 3)),
+            format(round(r$prior_sds, 1), nsmall = 1), format(signif(r$prior_mean, 3)))
+  }, character(1))
+}
+
+#' Hold calibrated inputs to their prior and read the bias again
+#'
+#' An input that can mimic a missing effect is pulled towards the values
+#' that mimic it, often to a bound of its range or far into its prior's tail;
+#' the bias then shrinks where the effect acts, and [where_fails()] finds
+#' little. `hold_inputs()` takes those inputs out of the calibration: each is
+#' held to its prior, so that the data inform the other inputs, the bias and
+#' the noise but not the held inputs (the "cut" of modular Bayesian
+#' analysis, Liu, Bayarri and Berger 2009). What the held inputs covered then
+#' shows in the bias.
+#'
+#' The cut posterior is the prior of the held inputs times the posterior of
+#' everything else given them. It is computed by stratification: the held
+#' inputs are fixed at `strata` points of their prior (stratum `k` at the
+#' prior's quantile `(k - 0.5) / strata` of each held input, the strata
+#' permuted across several held inputs as in a Latin square), the fit is
+#' calibrated again at each point (one chain, with the fit's settings and the
+#' same field data, emulators and noise), and the draws of the strata are
+#' pooled. Its bias bands therefore include how much the held inputs could
+#' move the model within their prior.
+#'
+#' @param fit A `wv_fit` from [calibrate()] or [validate()] (one experiment).
+#' @param inputs Names of the inputs to hold; `NULL` (default) holds those
+#'   in conflict with their prior (see [where_fails()]).
+#' @param strata Number of points of the held inputs' prior (each one
+#'   calibration).
+#' @param quiet If `TRUE`, no progress bar.
+#' @return A `wv_fit` whose draws pool the strata (one chain each; their
+#'   R-hat, which would measure the spread between strata, is not computed),
+#'   with `held`: the `inputs` held, their `values` by stratum, and the
+#'   `original` fit's conflicts. Every method of a fit applies; its bias is
+#'   the bias with the inputs held to their prior, and [explain_bias()] can
+#'   be given it. Predictions of new runs from it keep the held inputs'
+#'   prior.
+#' @seealso [where_fails()], which calls it for inputs in conflict.
+#' @export
+#' @examples
+#' \donttest{
+#' fit <- example_fit()
+#' held <- hold_inputs(fit, inputs = "u1", strata = 2, quiet = TRUE)
+#' held$held$values
+#' where_fails(held)
+#' }
+hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wavevalid.quiet", FALSE)) {
+  check_class(fit, "wv_fit")
+  check_number(strata, min = 1, max = 50, integer = TRUE)
+  check_flag(quiet)
+  if (!is.null(fit$experiments)) {
+    wv_abort(c("Inputs can be held only in a fit of one experiment.",
+               "i" = "Hold them in the fit of each experiment on its own."), class = "experiment")
+  }
+  cf <- input_conflicts(fit)
+  if (is.null(inputs)) inputs <- cf$input[cf$conflict]
+  if (!is.character(inputs) || !length(inputs) || anyNA(inputs) || anyDuplicated(inputs)) {
+    wv_abort(c("{.arg inputs} must name one or more inputs of the fit.",
+               "i" = if (!any(cf$conflict)) "No input of the fit is in conflict with its prior."),
+             class = "input")
+  }
+  bad <- setdiff(inputs, fit$inputs)
+  if (length(bad)) {
+    wv_abort(c("{.val {bad}} {?is/are} not {?an input/inputs} of the fit.",
+               "i" = "Its inputs are {.val {fit$inputs}}."), class = "input")
+  }
+  joint <- attr(fit$iu, "joint")
+  in_joint <- intersect(inputs, unlist(lapply(joint, `[[`, "names")))
+  if (length(in_joint)) {
+    wv_abort("{.val {in_joint}} {?has/have} a joint prior with other inputs and cannot be held alone.",
+             class = "input")
+  }
+  strata <- as.integer(strata)
+  P <- prior_sample(fit$prior_iu)
+  colnames(P) <- fit$inputs
+  values <- vapply(seq_along(inputs), function(j) {
+    ord <- (seq_len(strata) + j - 2L) %% strata + 1L
+    stats::quantile(P[, inputs[j]], (ord - 0.5) / strata, names = FALSE)
+  }, numeric(strata))
+  values <- matrix(values, strata, length(inputs), dimnames = list(NULL, inputs))
+  st <- fit$settings
+  args <- fit$calibrate_args %||% list()
+  seed <- fit$seed %||% 1L
+  if (!quiet) {
+    pb <- cli::cli_progress_bar(sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "),
+                                        if (length(inputs) == 1L) "its" else "their"), total = strata)
+  }
+  fits <- lapply(seq_len(strata), function(k) {
+    iu <- held_iu(fit, values[k, ])
+    f <- suppressMessages(suppressWarnings(calibrate(
+      fit$emulators, fit$field, iu, n_draws = st$n_draws, n_inner = st$n_inner, chains = 1L, seed = seed + k,
+      sigma2 = args$sigma2, step = st$step, proposal = st$proposal, global_moves = st$global_moves,
+      burnin = st$burnin, fix_tau2 = args$fix_tau2, pool_levels = st$pool_levels,
+      registration_variance = st$registration_variance, inform_levels = st$inform_levels,
+      temper = st$temper %||% 1, n_search = st$n_search %||% 200L,
+      input_likelihood = st$input_likelihood %||% "independent", quiet = TRUE
+    ), classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary")))
+    if (!quiet) cli::cli_progress_update(id = pb)
+    f
+  })
+  pool_fits(fit, fits, values, cf)
+}
+
+# The fit's I/U map with the inputs `values` (named, in the fit's own units)
+# held: each a calibration input on a point-like range at its value.
+held_iu <- function(fit, values) {
+  iu <- fit$iu
+  for (nm in names(values)) {
+    k <- match(nm, iu$name)
+    v <- values[[nm]]
+    eps <- 1e-7 * max(iu$upper[k] - iu$lower[k], abs(v), 1e-8)
+    iu$type[k] <- "calibration"
+    iu$lower[k] <- v - eps
+    iu$upper[k] <- v + eps
+    iu$nominal[k] <- v
+    if ("prior" %in% names(iu)) iu$prior[k] <- "uniform"
+    if ("prior_sd" %in% names(iu)) iu$prior_sd[k] <- NA_real_
+    if ("prior_mean" %in% names(iu)) iu$prior_mean[k] <- NA_real_
+  }
+  iu
+}
+
+# The strata's fits pooled into one fit, with the original's I/U map, prior
+# and settings.
+pool_fits <- function(fit, fits, values, conflicts) {
+  out <- fits[[1L]]
+  stack <- function(what) {
+    stats::setNames(lapply(names(out[[what]]), function(s) do.call(rbind, lapply(fits, function(f) f[[what]][[s]]))),
+                    names(out[[what]]))
+  }
+  out$draws <- coda::mcmc.list(lapply(fits, function(f) f$draws[[1L]]))
+  out$wM <- stack("wM")
+  out$wb <- stack("wb")
+  out$sigma2 <- stack("sigma2")
+  out$chain <- rep(seq_along(fits), vapply(fits, function(f) length(f$chain), integer(1)))
+  out$acceptance <- do.call(rbind, lapply(seq_along(fits), function(k) transform(fits[[k]]$acceptance, chain = k)))
+  out$start <- do.call(rbind, lapply(fits, `[[`, "start"))
+  out$proposal_cov <- do.call(c, lapply(fits, `[[`, "proposal_cov"))
+  out$iu <- fit$iu
+  out$prior_iu <- fit$prior_iu
+  out$prior_sd <- fit$prior_sd %||% prior_sds(fit$prior_iu)
+  out$seed <- fit$seed
+  out$settings$chains <- length(fits)
+  out$ess <- coda::effectiveSize(out$draws)
+  out$rhat <- stats::setNames(rep(NA_real_, length(out$inputs)), out$inputs)
+  out$x_nom <- fit$x_nom
+  out$flags <- boundary_flags(out, out$rhat)
+  out$flags$boundary <- out$flags$boundary[!out$flags$boundary$input %in% colnames(values), , drop = FALSE]
+  out$held <- list(inputs = colnames(values), values = values, original = conflicts)
+  validate_wv_fit(out)
+}
+
+# The fit read again with the inputs `inputs` held to their prior: reality's
+# coefficients (w^M + w^b) kept draw by draw, the model's drawn from the
+# emulators, conditioned on the fit's model coefficients at the posterior
+# inputs, at those inputs with `inputs` replaced by prior draws. A wv_fit
+# whose bias is reality less that model.
+reread_held <- function(fit, inputs) {
+  inputs_all <- fit$emulators$inputs
+  post <- as.matrix(fit$draws)[, inputs_all, drop = FALSE]
+  H <- nrow(post)
+  out <- fit
+  with_rng_seed(fit$seed %||% 1L, {
+    prior <- iu_prior_draws(fit$prior_iu, H)
+    colnames(prior) <- fit$inputs
+    Znew <- post
+    Znew[, inputs] <- prior[, inputs]
+    for (s in names(fit$wb)) {
+      pr <- gasp_bank_predict_augmented_cpp(fit$emulators$banks[[s]], post, fit$wM[[s]], Znew)
+      wM <- pr$mean + sqrt(pmax(pr$var, 0)) * matrix(stats::rnorm(length(pr$mean)), nrow(pr$mean))
+      dimnames(wM) <- dimnames(fit$wM[[s]])
+      out$wb[[s]] <- fit$wM[[s]] + fit$wb[[s]] - wM
+      out$wM[[s]] <- wM
+    }
+  })
+  X <- as.matrix(fit$draws)
+  X[, inputs] <- Znew[, inputs]
+  out$draws <- coda::mcmc.list(lapply(unique(fit$chain), function(k) {
+    coda::mcmc(X[fit$chain == k, , drop = FALSE], thin = coda::thin(fit$draws[[k]]))
+  }))
+  out$held <- list(inputs = inputs, how = "reread")
+  out$flags$boundary <- out$flags$boundary[!out$flags$boundary$input %in% inputs, , drop = FALSE]
+  validate_wv_fit(out)
+}
+
+# Where the inputs' pull moves the localised part of the model most, by
+# site: the stretch around the largest move where the move is at least half
+# of it.
+pull_support <- function(fit, held, keep) {
+  do.call(rbind, lapply(names(fit$wb), function(s) {
+    Psi <- fit$basis$Psi[, keep, drop = FALSE]
+    shift <- drop(Psi %*% (colMeans(fit$wM[[s]][, keep, drop = FALSE]) - colMeans(held$wM[[s]][, keep, drop = FALSE])))
+    k <- which.max(abs(shift))
+    big <- abs(shift) >= abs(shift[k]) / 2
+    r <- rle(big)
+    ends <- cumsum(r$lengths)
+    starts <- ends - r$lengths + 1L
+    j <- which(starts <= k & ends >= k)
+    dt <- diff(fit$basis$t[1:2])
+    data.frame(site = s, start = fit$basis$t[starts[j]], end = fit$basis$t[ends[j]] + dt, t = fit$basis$t[k],
+               shift = shift[k], stringsAsFactors = FALSE)
+  }))
+}

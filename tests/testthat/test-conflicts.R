@@ -1,0 +1,157 @@
+# example_problem()'s model, (1 + x / 2) sin(2 pi t) + u1 * bump(0.6), with
+# reality at inputs `u`, `x` plus `extra` (a curve on the grid); u1's prior
+# normal(0.3, sd 0.1) on [0, 1].
+conflict_problem <- function(u, x = 0.55, extra = 0, seed = 4) {
+  ex <- example_problem()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2) + extra
+  withr::with_seed(seed, {
+    reps <- t(replicate(4, truth + stats::rnorm(length(t), sd = 0.03)))
+  })
+  ex$field <- field_runs(reps, t, x_nom = c(x1 = 0.5), site = "site1")
+  ex$iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1),
+                  prior = c("normal", "normal"), prior_mean = c(0.3, NA), prior_sd = c(0.1, NA))
+  ex
+}
+
+conflict_fit <- function(ex, seed = 1) {
+  suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 10, chains = 2, seed = seed,
+                             quiet = TRUE),
+                   classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary"))
+}
+
+test_that("an input that absorbs what the model lacks is a conflict, and held to its prior the misfit shows where it is", {
+  # reality's bump is 0.9 high, six prior sd of u1 above its prior mean: the model reaches it only there
+  ex <- suppressMessages(conflict_problem(u = 0.9))
+  fit <- conflict_fit(ex)
+  cf <- input_conflicts(fit)
+  expect_true(cf$conflict[cf$input == "u1"])
+  expect_true(cf$far[cf$input == "u1"])
+  expect_identical(cf$side[cf$input == "u1"], "upper")
+  expect_gt(cf$prior_sds[cf$input == "u1"], 3)
+  expect_false(cf$conflict[cf$input == "x1"])
+  wf <- where_fails(fit)
+  hd <- attr(wf, "held")
+  expect_identical(hd$inputs, "u1")
+  # reality is the fit's, draw for draw; the model's inputs are u1 from its prior, x1 from the posterior
+  hf <- hd$fit
+  expect_equal(hf$wM$site1 + hf$wb$site1, fit$wM$site1 + fit$wb$site1)
+  expect_equal(as.matrix(hf$draws)[, "x1"], as.matrix(fit$draws)[, "x1"])
+  expect_lt(abs(mean(as.matrix(hf$draws)[, "u1"]) - 0.3), 0.03)
+  # the held bias places the bump u1 covered, and the pull moves the model most there
+  hw <- hd$fails
+  expect_gt(nrow(hw), 0)
+  # the leading interval (by integrated bias) holds the bump
+  expect_true(hw$start[1] <= 0.6 && hw$end[1] >= 0.6)
+  expect_true(hd$pull$start <= 0.6 && hd$pull$end >= 0.6)
+  expect_gt(hd$bias_rms_local[["held"]], 2 * hd$bias_rms_local[["fitted"]])
+  df <- as.data.frame(wf)
+  expect_true(all(df$covered_by[df$scale == "held"] == "u1"))
+  expect_true(all(is.na(df$covered_by[df$scale != "held"])))
+  out <- capture.output(print(wf))
+  expect_true(any(grepl("u1 in its prior's upper tail", out, fixed = TRUE)))
+  expect_true(any(grepl("With u1 held to the prior, the model fails at", out, fixed = TRUE)))
+  expect_s3_class(autoplot(wf), "ggplot")
+  # the re-read fit is a fit: its own where_fails() says what it holds, and holds nothing more
+  wh <- where_fails(hf)
+  expect_false(attr(wh, "conflicts")$conflict[attr(wh, "conflicts")$input == "u1"])
+  expect_null(attr(wh, "held"))
+  expect_true(any(grepl("This fit holds u1 to its prior", capture.output(print(wh)), fixed = TRUE)))
+  # no holding on request
+  expect_null(attr(where_fails(fit, hold = FALSE), "held"))
+})
+
+test_that("a posterior piled at a bound is a conflict, a partial pile is not", {
+  fit <- example_fit()
+  X <- as.matrix(fit$draws)
+  n <- nrow(X)
+  with_draws <- function(u) {
+    f <- fit
+    X[, "u1"] <- u
+    f$draws <- coda::mcmc.list(lapply(unique(f$chain), function(k) coda::mcmc(X[f$chain == k, , drop = FALSE])))
+    input_conflicts(f)
+  }
+  # u1 uniform on [0, 1]: 60% of the draws within 2% of the upper bound
+  piled <- with_draws(ifelse(seq_len(n) %% 5 < 3, 0.99, 0.9))
+  expect_true(piled$piled[piled$input == "u1"])
+  expect_true(piled$conflict[piled$input == "u1"])
+  partial <- with_draws(ifelse(seq_len(n) %% 5 < 2, 0.99, 0.9))
+  expect_false(partial$conflict[partial$input == "u1"])
+})
+
+test_that("hold_inputs() calibrates again with the inputs at strata of their prior", {
+  ex <- suppressMessages(conflict_problem(u = 0.9))
+  fit <- conflict_fit(ex)
+  held <- hold_inputs(fit, strata = 3, quiet = TRUE)
+  expect_identical(held$held$inputs, "u1")
+  # u1 ~ normal(0.3, 0.1) truncated to [0, 1]: its quantiles 1/6, 1/2, 5/6
+  q <- stats::qnorm(c(1, 3, 5) / 6, 0.3, 0.1)
+  expect_equal(unname(held$held$values[, "u1"]), q, tolerance = 0.01)
+  expect_equal(sort(unique(round(as.matrix(held$draws)[, "u1"], 2))), round(q, 2))
+  expect_identical(nrow(as.matrix(held$draws)), 3L * 150L)
+  expect_true(any(grepl("This fit holds u1 to its prior", capture.output(print(where_fails(held))), fixed = TRUE)))
+})
+
+test_that("with the model right no input is in conflict and nothing is held", {
+  ex <- suppressMessages(conflict_problem(u = 0.35))
+  fit <- conflict_fit(ex)
+  wf <- where_fails(fit)
+  expect_false(any(attr(wf, "conflicts")$conflict))
+  expect_null(attr(wf, "held"))
+  expect_false(any(grepl("conflict", capture.output(print(wf)))))
+})
+
+test_that("a variation pulled far into its prior's tail is a conflict", {
+  # x1 ~ N(0.5, 1/6) on [0, 1]; reality's sine is that of x1 = 0.5 times 1.45, beyond x1's range
+  ex <- suppressMessages(conflict_problem(u = 0.3, x = 1.4))
+  fit <- conflict_fit(ex)
+  cf <- input_conflicts(fit)
+  k <- cf$input == "x1"
+  expect_true(cf$conflict[k])
+  expect_gt(cf$prior_sds[k], 2)
+  expect_lt(cf$prior_tail[k], 0.05 / 4)
+})
+
+test_that("hold_inputs() refuses what it cannot hold, before any calibration", {
+  fit <- example_fit()
+  calls <- 0L
+  trace("calibrate", function() calls <<- calls + 1L, where = asNamespace("wavevalid"), print = FALSE)
+  on.exit(untrace("calibrate", where = asNamespace("wavevalid")), add = TRUE)
+  expect_error(hold_inputs(fit, inputs = "nope"), class = "wavevalid_error_input")
+  expect_error(hold_inputs(fit, inputs = character()), class = "wavevalid_error_input")
+  expect_error(hold_inputs(fit, inputs = "u1", strata = 0), class = "wavevalid_error_input")
+  expect_error(hold_inputs(list(), inputs = "u1"), class = "wavevalid_error_input")
+  expect_identical(calls, 0L)
+})
+
+test_that("compare_validations() reports the conflicts, the model alone at the held-out data and a verdict", {
+  ex <- suppressMessages(conflict_problem(u = 0.9))
+  before <- conflict_fit(ex)
+  # the model with what it lacked: its bump three times as high (its emulators refitted)
+  ex2 <- ex
+  em <- ex$emulators
+  t <- ex$field$t
+  model2 <- function(z) (1 + 0.5 * z[2]) * sin(2 * pi * t) + 3 * z[1] * exp(-((t - 0.6) / 0.08)^2)
+  Y <- t(apply(em$design, 1, model2)) %*% em$basis$Psi
+  bank <- wavevalid:::bank_fixed_hyper(em$design, Y, beta = c(2, 2), alpha = c(0, 0))
+  ex2$emulators$banks$site1 <- bank
+  ex2$emulators$params$mu <- bank$mu
+  after <- conflict_fit(ex2)
+  holdout <- suppressMessages(conflict_problem(u = 0.9, seed = 5))$field
+  cmp <- compare_validations(before, after, holdout = holdout)
+  m <- stats::setNames(cmp$after, cmp$metric)
+  b <- stats::setNames(cmp$before, cmp$metric)
+  expect_identical(b[["inputs_in_conflict"]], 1)
+  expect_identical(m[["inputs_in_conflict"]], 0)
+  expect_true(all(c("holdout_rmse", "holdout_rmse_model") %in% cmp$metric))
+  # the model alone: the pure-model prediction against the held-out replicates
+  p <- as.data.frame(stats::predict(after, type = "field_run", seed = 1))
+  expect_equal(m[["holdout_rmse_model"]], sqrt(mean(sweep(holdout$curves$site1, 2, p$model)^2)))
+  pb <- as.data.frame(stats::predict(before, type = "field_run", seed = 1))
+  expect_equal(b[["holdout_rmse_model"]], sqrt(mean(sweep(holdout$curves$site1, 2, pb$model)^2)))
+  out <- capture.output(print(cmp))
+  expect_true(any(grepl("before u1; after none (resolved)", out, fixed = TRUE)))
+  expect_true(any(grepl("the model alone errs", out, fixed = TRUE)))
+  expect_true(any(grepl("Without a held-out condition", capture.output(print(compare_validations(before, after))),
+                        fixed = TRUE)))
+})
