@@ -42,12 +42,14 @@
 #              the hidden one, local_fall >= 0.7, no conflict after,
 #              model_ratio <= 0.8 and corrected_ratio <= 1.05.
 # With c2=FALSE the C2 screen and refits are skipped and only the hidden
-# mechanism is re-validated (the lead is then the hidden mechanism).
+# mechanism is re-validated (the lead is then the hidden mechanism); with
+# c2=FALSE and c3=FALSE only C1 is measured.
 # Rows are appended to `out` (CSV) as each case ends.
 #   Rscript studies/diagnosis_defaults.R [beds=dosing,suspension] [seeds=1:5] [hidden=none,all]
 #                                        [n_draws=150] [n_inner=20] [out=diagnosis_defaults.csv]
 #                                        [knots=auto] [dosing_features=rise] [suspension_features=min,max]
 #                                        [engine=gasp_level] [off_runs=TRUE] [pool_levels=NULL] [c2=TRUE]
+#                                        [c3=TRUE]
 # knots: "auto" (validate()'s default, 1/32 of the record), NULL (landmarks
 # only) or a spacing in time units; features: the landmarks of each test
 # bed's windows ("+"-free, comma-separated).
@@ -56,8 +58,9 @@ source("studies/common.R")
 args <- study_args(list(beds = "dosing,suspension", seeds = "1:5", hidden = "none,all", n_draws = "150",
                         n_inner = "20", out = "diagnosis_defaults.csv", knots = "auto", dosing_features = "rise",
                         suspension_features = "min,max", engine = "gasp_level", off_runs = "TRUE",
-                        pool_levels = "NULL", c2 = "TRUE"))
+                        pool_levels = "NULL", c2 = "TRUE", c3 = "TRUE"))
 do_c2 <- arg_flag(args$c2)
+do_c3 <- arg_flag(args$c3)
 pool_levels <- arg_value(args$pool_levels)
 off_runs <- arg_flag(args$off_runs)
 knots_arg <- if (args$knots == "auto") "auto" else arg_value(args$knots)
@@ -120,7 +123,7 @@ run_case <- function(b, seed, hd) {
     v_rf <- verdict(rf)
     lead <- rf$candidate[1]
   } else {
-    if (hd == "none") {
+    if (hd == "none" || !do_c3) {
       return(data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, c1_strict = c1_strict, overlap = overlap,
                         longest = longest, wide = any(rw$credible), conflicts = conflicts, held_overlap = held_overlap,
                         held_longest = held_longest, secs = round(clock() - t0), stringsAsFactors = FALSE))
@@ -131,6 +134,15 @@ run_case <- function(b, seed, hd) {
     exm <- rf <- data.frame(inclusion_prob = NA)
     p_none <- NA
     lead <- hd
+  }
+  if (do_c2 && (!do_c3 || hd == "none")) {
+    return(data.frame(bed = b, seed = seed, hidden = hd, c1 = c1, c1_strict = c1_strict, overlap = overlap,
+                      longest = longest, wide = any(rw$credible), conflicts = conflicts, held_overlap = held_overlap,
+                      held_longest = held_longest, sig_top = v_sig$top, sig_other = round(v_sig$other, 3),
+                      c2_sig = v_sig$ok, rf_top = v_rf$top,
+                      rf_p = round(if (hd == "none") rf$inclusion_prob[1] else v_rf$p_true, 3),
+                      rf_other = round(v_rf$other, 3), p_none = round(p_none, 3), c2 = v_rf$ok,
+                      secs = round(clock() - t0), stringsAsFactors = FALSE))
   }
   # C3, the leading mechanism added
   after <- refits[[lead]]

@@ -1,8 +1,9 @@
 # Validation demo on the shipped suspension test bed: validates the model on
 # condition A (both sites), predicts condition B and the added-mass run, finds
-# where the model fails and which mechanism is missing, and writes figures, a
-# summary and an HTML report to the folder given as the first argument
-# (default "out").
+# where the model fails (and which input covered it) and which mechanism is
+# missing, adds it, validates again and judges the change at the added-mass
+# run, held out of both fits; writes figures, a summary and an HTML report to
+# the folder given as the first argument (default "out").
 args <- commandArgs(trailingOnly = TRUE)
 out <- if (length(args)) args[1] else "out"
 dir.create(out, showWarnings = FALSE, recursive = TRUE)
@@ -29,7 +30,8 @@ save_plot(autoplot(fit, type = "reality", windows = windows), "04-reality.png")
 
 fails <- where_fails(fit)
 print(fails)
-save_plot(autoplot(fails), "05-where-it-fails.png")
+save_plot(autoplot(fails), "05-where-it-fails.png", height = 7)
+held <- attr(fails, "held")
 
 candidates <- testbed_signatures(colMeans(as.matrix(fit$draws))[fit$inputs])
 expl <- explain_bias(fit, candidates, seed = 1)
@@ -42,6 +44,31 @@ pred_mass <- predict(fit, type = "added_load", new_runs = tb$added_mass$runs, se
 field_mass <- register_curves(tb$added_mass$field, tb$A$runs, windows, knots_every = knots)
 save_plot(autoplot(pred_B, field = field_B, windows = windows), "07-condition-B.png")
 save_plot(autoplot(pred_mass, field = field_mass, windows = windows), "08-added-mass.png")
+
+# the leading effect added: its strength a calibration input on [0, 1], the
+# model run at 66 new points and at the former runs with the strength at 0
+lead <- as.character(expl$candidate[1])
+s_name <- paste0("s_", lead)
+iu_m <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
+off <- tb$A$runs$design
+off[[s_name]] <- 0
+runs_m <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t),
+            simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = lead))
+fit_m <- validate(runs_m, tb$A$field, iu_m, windows = windows, n_draws = 500, n_inner = 100, chains = 2, seed = 1)
+fails_m <- where_fails(fit_m)
+print(fails_m)
+# the added-mass run, held out of both fits: each model registers it to its own runs and predicts it
+strength <- stats::median(as.matrix(fit_m$draws)[, s_name])
+mass_design <- tb$added_mass$runs$design
+mass_design[[s_name]] <- strength
+runs_mass_m <- simulate_suspension(mass_design, mechanism = lead)
+runs_mass_m$design[[s_name]] <- strength
+pred_mass_m <- predict(fit_m, type = "added_load", new_runs = runs_mass_m, seed = 1)
+field_mass_m <- register_curves(tb$added_mass$field, runs_m, windows, knots_every = knots)
+comparison <- compare_validations(fit, fit_m, holdout = list(
+  field = list(before = field_mass, after = field_mass_m), before = pred_mass, after = pred_mass_m))
+print(comparison)
+save_plot(autoplot(comparison), "09-before-and-after.png", height = 6)
 
 coverage <- function(pred, field) {
   d <- as.data.frame(pred)
@@ -65,6 +92,25 @@ summary_lines <- c(
   } else {
     "localised failure intervals: none"
   },
+  {
+    cf <- attr(fails, "conflicts")
+    if (any(cf$conflict)) {
+      sprintf("inputs in conflict with their prior: %s", paste(sprintf("%s (median %.3f, %.1f prior sd from its prior mean)",
+              cf$input[cf$conflict], cf$median[cf$conflict], cf$prior_sds[cf$conflict]), collapse = ", "))
+    } else {
+      "inputs in conflict with their prior: none"
+    }
+  },
+  if (!is.null(held) && nrow(held$fails)) {
+    h <- held$fails
+    sprintf("with %s held to the prior, the top finding: %s t in [%.2f, %.2f], %s, the misfit %s covered",
+            paste(held$inputs, collapse = ", "), h$site[1], h$start[1], h$end[1],
+            if (any(vapply(windows, function(w) h$start[1] < w[2] && h$end[1] > w[1], logical(1)))) {
+              "in an event window"
+            } else {
+              "outside the event windows"
+            }, paste(held$inputs, collapse = ", "))
+  },
   sprintf("record-wide bias (levels %s): %s", attr(fails, "record_wide")$levels[1],
           paste(with(attr(fails, "record_wide"),
                      sprintf("%s mean %.3f [%.3f, %.3f]%s", site, offset, offset_lower, offset_upper,
@@ -74,9 +120,17 @@ summary_lines <- c(
           paste(sprintf("%s %.1f%%", names(field_B$curves), 100 * coverage(pred_B, field_B)), collapse = ", ")),
   sprintf("added-mass field run inside the 90%% band: %s",
           paste(sprintf("%s %.1f%%", names(field_mass$curves), 100 * coverage(pred_mass, field_mass)), collapse = ", ")),
+  {
+    m <- stats::setNames(comparison$after / comparison$before, comparison$metric)
+    sprintf("with %s added: inputs in conflict %d (before %d); localised bias x%.2f; at the held-out added-mass run the model alone errs x%.2f and the bias-corrected prediction x%.2f",
+            lead, as.integer(comparison$after[comparison$metric == "inputs_in_conflict"]),
+            as.integer(comparison$before[comparison$metric == "inputs_in_conflict"]), m[["bias_rms_local"]],
+            m[["holdout_rmse_model"]], m[["holdout_rmse"]])
+  },
   sprintf("elapsed: %.1f minutes", as.numeric(difftime(Sys.time(), started, units = "mins")))
 )
 writeLines(summary_lines, file.path(out, "summary.txt"))
 writeLines(summary_lines)
 validation_report(fit, file.path(out, "validation-report.html"), runs = tb$A$runs, candidates = candidates,
-                  predictions = list(`condition B` = pred_B, `added mass` = pred_mass), windows = windows)
+                  predictions = list(`condition B` = pred_B, `added mass` = pred_mass), windows = windows,
+                  comparison = comparison)
