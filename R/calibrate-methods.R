@@ -153,6 +153,20 @@ print.wv_fit <- function(x, ...) {
     cli::cat_line("! Posterior piled at a bound: ",
                   paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior), collapse = ", "))
   }
+  cf <- input_conflicts(x)
+  if (any(cf$conflict)) {
+    cf <- cf[cf$conflict, , drop = FALSE]
+    cli::cat_line("! In conflict with their prior (inputs that may mimic a missing effect; where_fails() reads the ",
+                  "bias with them held to it): ",
+                  paste(sprintf("%s (%+.1f prior sd%s)", cf$input, cf$prior_sds,
+                                ifelse(cf$piled, sprintf(", %.0f%% at its %s bound", 100 * cf$share_at_bound, cf$side), "")),
+                        collapse = ", "))
+  }
+  if (!is.null(x$held)) {
+    cli::cat_line("Held to their prior: ", paste(x$held$inputs, collapse = ", "),
+                  if (identical(x$held$how, "reread")) " (the bias read again with them drawn from it)"
+                  else sprintf(" (calibrated again at %d strata of it)", nrow(x$held$values)))
+  }
   invisible(x)
 }
 

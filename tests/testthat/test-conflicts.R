@@ -30,6 +30,7 @@ test_that("an input that absorbs what the model lacks is a conflict, and held to
   expect_identical(cf$side[cf$input == "u1"], "upper")
   expect_gt(cf$prior_sds[cf$input == "u1"], 3)
   expect_false(cf$conflict[cf$input == "x1"])
+  expect_true(any(grepl("In conflict with their prior", capture.output(print(fit)), fixed = TRUE)))
   wf <- where_fails(fit)
   hd <- attr(wf, "held")
   expect_identical(hd$inputs, "u1")
@@ -57,6 +58,7 @@ test_that("an input that absorbs what the model lacks is a conflict, and held to
   expect_false(attr(wh, "conflicts")$conflict[attr(wh, "conflicts")$input == "u1"])
   expect_null(attr(wh, "held"))
   expect_true(any(grepl("This fit holds u1 to its prior", capture.output(print(wh)), fixed = TRUE)))
+  expect_true(any(grepl("Held to their prior: u1 (the bias read again", capture.output(print(hf)), fixed = TRUE)))
   # no holding on request
   expect_null(attr(where_fails(fit, hold = FALSE), "held"))
 })
