@@ -176,7 +176,7 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     if (!split) b$part <- "bias"
     hb <- band_limits(attr(hd$fails, "bias"), attr(object, "band") %||% "simultaneous")
     hb$part <- lab
-    lev <- c(levels(factor(b$part, levels = unique(as.character(b$part)))), lab)
+    lev <- c(if (is.factor(b$part)) levels(b$part) else unique(b$part), lab)
     b <- rbind(b[names(hb)], hb)
     b$part <- factor(b$part, levels = lev)
     if (nrow(regions)) regions$part <- factor(if (split) "localised" else "bias", levels = lev)
@@ -222,9 +222,9 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
                              attr(object, "record_wide")$levels[1], ")")
                     },
                     if (!is.null(hd)) {
-                      paste0(if (identical(attr(object, "scales"), "split")) "; " else "",
-                             "the localised bias with ", paste(hd$inputs, collapse = ", "),
-                             " held to the prior (blue: where their pull moves the model most)")
+                      paste0(if (identical(attr(object, "scales"), "split")) ";\n" else "",
+                             "at the bottom with ", paste(hd$inputs, collapse = ", "),
+                             " held to the prior (blue: where the pull moves the model most)")
                     })) +
     ggplot2::theme_bw()
 }
