@@ -239,14 +239,9 @@ shared_error_lines <- function(x) {
           format(signif(se$weight, 3)), se$p, format(signif(se$trace, 3)), se$n_coef)
 }
 
-# The prior sd of each input (by simulation from the prior, with a fixed
-# seed; R's random number generator is left as it was).
+# The prior sd of each input (by simulation from the prior, prior_sample()).
 prior_sds <- function(iu, n = 20000L) {
-  env <- globalenv()
-  old <- if (exists(".Random.seed", envir = env, inherits = FALSE)) get(".Random.seed", envir = env)
-  on.exit(if (is.null(old)) rm(".Random.seed", envir = env) else assign(".Random.seed", old, envir = env))
-  set.seed(1L)
-  apply(iu_prior_draws(iu, n), 2L, stats::sd)
+  apply(prior_sample(iu, n), 2L, stats::sd)
 }
 
 #' @export

@@ -63,8 +63,9 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
   if (!isTRUE(all.equal(before$basis$t, after$basis$t))) {
     wv_abort("{.arg before} and {.arg after} must be on the same time grid.")
   }
-  m_before <- validation_metrics(before, level)
-  m_after <- validation_metrics(after, level)
+  conflicts <- list(before = input_conflicts(before), after = input_conflicts(after))
+  m_before <- c(validation_metrics(before, level), inputs_in_conflict = sum(conflicts$before$conflict))
+  m_after <- c(validation_metrics(after, level), inputs_in_conflict = sum(conflicts$after$conflict))
   if (!is.null(holdout)) {
     preds <- holdout_predictions(before, after, holdout, level)
     m_before <- c(m_before, holdout_metrics(preds$before, preds$field$before))
@@ -74,7 +75,7 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
                     stringsAsFactors = FALSE)
   out$change <- ifelse(out$before == 0 & out$after == 0, 0, out$after / out$before - 1)
   attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
-  attr(out, "conflicts") <- list(before = input_conflicts(before), after = input_conflicts(after))
+  attr(out, "conflicts") <- conflicts
   class(out) <- c("wv_comparison", "data.frame")
   out
 }
@@ -94,8 +95,7 @@ validation_metrics <- function(fit, level) {
     bias_rms_record = part_rms(fit, wide),
     bias_peak = max(abs(b$mean)),
     band_width = mean(r$upper - r$lower),
-    model_rmse = sqrt(mean((mp$mean - mp$y)^2)),
-    inputs_in_conflict = sum(input_conflicts(fit)$conflict)
+    model_rmse = sqrt(mean((mp$mean - mp$y)^2))
   )
 }
 

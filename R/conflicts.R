@@ -47,11 +47,7 @@ input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5) {
 # Draws from the prior of the inputs (own units), with a fixed stream; R's
 # random number generator is left as it was.
 prior_sample <- function(iu, n = 20000L) {
-  env <- globalenv()
-  old <- if (exists(".Random.seed", envir = env, inherits = FALSE)) get(".Random.seed", envir = env)
-  on.exit(if (is.null(old)) rm(".Random.seed", envir = env) else assign(".Random.seed", old, envir = env))
-  set.seed(1L)
-  iu_prior_draws(iu, n)
+  with_rng_seed(1L, iu_prior_draws(iu, n))
 }
 
 # One line per conflicting input, for the prints.
