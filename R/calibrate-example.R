@@ -4,7 +4,7 @@
 
 # Wavelet basis of the given coefficient positions on a dyadic grid t.
 basis_from_index <- function(t, index, filter.number = 2, family = "DaubExPhase") {
-  settings <- basis_settings(length(t), filter.number, family, keep_levels = 0L, fraction = 0)
+  settings <- basis_settings(length(t), filter.number, family, whole_levels = 0:1, fraction = 0)
   index <- as.integer(index)
   new_wv_basis(index, index_level(index), basis_matrix(index, settings), t, sites = NULL, settings = settings)
 }
@@ -111,8 +111,8 @@ example_problem <- function(seed = 1) {
 example_fit <- function(seed = 1) {
   ex <- example_problem(seed)
   withCallingHandlers(
-    calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 20, chains = 2,
-              seed = seed, quiet = TRUE),
+    calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = seed,
+              sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)),
     wavevalid_warning_mixing = function(w) invokeRestart("muffleWarning")
   )
 }

@@ -147,6 +147,10 @@ print.wv_fit <- function(x, ...) {
   }
   tp <- x$settings$temper %||% 1
   if (tp < 1) cli::cat_line("Tempered posterior: the likelihood raised to the power ", signif(tp, 3), " (temper)")
+  if (!is.null(x$control)) {
+    cli::cat_line("Model: ", control_call(x$control$bias, always = "input_likelihood"))
+    cli::cat_line("Sampler: ", control_call(x$control$sampler), ", chains = ", length(x$draws), ", seed = ", x$seed)
+  }
   if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
   b <- x$flags$boundary
   if (nrow(b)) {

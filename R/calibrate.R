@@ -145,27 +145,10 @@
 #'   the grid of the model runs and of the wavelet basis.
 #' @param iu A `wv_iu` object ([iu_map()]): the uncertain inputs with their
 #'   types, ranges, nominal values and priors.
-#' @param n_draws Saved draws per chain.
-#' @param n_inner Metropolis-Hastings cycles between saved draws (thinning).
 #' @param chains Number of chains.
 #' @param seed `NULL` (a seed drawn from R's random number generator, so
 #'   that [set.seed()] applies) or a whole number: the random draws depend on
 #'   it alone, not on the state of R's generator.
-#' @param sigma2 How the field noise variances are set (see the section
-#'   Field noise):
-#'   * `NULL` (default): from the replicates at sites with two or more (the
-#'     method's modular estimate), learned in the posterior with the default
-#'     [noise_prior()] at sites with one (with a message);
-#'   * a [noise_prior()]: learned in the posterior at every site, one variance
-#'     per site shared by all coefficients;
-#'   * fixed variances: a numeric vector (one value or one per coefficient)
-#'     for a single site, or a list of such vectors named by site (the sites
-#'     left out keep the default);
-#'   * `"finest"`: estimated once from the finest wavelet level of the field
-#'     curves with [field_noise()], with a warning. On a smoothed or
-#'     interpolated curve the finest level holds less than the noise, and
-#'     this underestimates it (the bands are then too narrow).
-#'
 #' @section Errors the coefficients share:
 #' The method's likelihood is a product over the retained coefficients, as
 #' though their errors were independent. The emulators' error at one input
@@ -207,83 +190,21 @@
 #' the noise was set at each site in `noise_setting` (`"replicates"`,
 #' `"given"`, `"finest"` or `"learned"`); print, summary and the report state
 #' it.
-#' @param step Half-width of the local proposal as a fraction of each input's
-#'   range (the method's 0.05 on a coded range of about 0.5-0.75).
-#' @param proposal `"adaptive"` (default) or `"report"`; see the section
-#'   Proposals.
-#' @param global_moves Probability, in `[0, 1)`, that a cycle of the
-#'   `"adaptive"` sampler makes an independence move (see the section
-#'   Proposals); 0 (default) keeps the report's mixture step as the global
-#'   move, in a tenth of the cycles.
-#' @param burnin Metropolis-Hastings cycles run before the first saved draw
-#'   and discarded (`sigma2` is drawn anew every `n_inner` of them). `NULL`
-#'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
-#'   adapts during these cycles, and 0 for `"report"`.
-#' @param fix_tau2 Optional fixed bias variances (one value, or a vector named
-#'   by group `"site:level"`); they are then not sampled. Mostly for checks.
-#' @param pool_levels `NULL` (one bias variance per site and level, as in the
-#'   method) or two or more levels whose bias coefficients share one variance
-#'   at each site (group `"site:a-b"`). Level 0 (the scaling coefficient: the
-#'   mean of the curve) and level 1 hold one coefficient each, so their own
-#'   variance is barely informed by the data and their bias is almost
-#'   unshrunk; `pool_levels = 0:3` shrinks them with the 8 coefficients of
-#'   levels 0 to 3. See the section Bias variances.
-#' @param registration_variance Add to the variance of the registered field
-#'   mean the variance that comes from registering to the mean of the model
-#'   runs: the model at the true inputs has its landmarks elsewhere, by about
-#'   the spread of the landmark times over the runs, and an error in a
-#'   landmark's time moves the registered curves along their slope between
-#'   its neighbouring knots. Coefficient `i` then has `wbar_i` of variance
-#'   `sigma2_i / R + r_i` in eq. (15)-(18), `r_i` computed once from the
-#'   registered field mean (see the section Registration). Needs a field
-#'   registered to `wv_runs` with [register_curves()]. `FALSE` (default) is
-#'   the method's report.
-#' @param inform_levels `NULL` (every level informs the inputs, as in the
-#'   method) or the wavelet levels whose coefficients inform the inputs; the
-#'   other levels get their `tau2` and bias given the inputs drawn. See the
-#'   section Levels cut off the inputs. Levels pooled by `pool_levels` must be
-#'   all in or all out.
-#' @param input_likelihood How the inputs' likelihood counts the retained
-#'   coefficients (see the section Errors the coefficients share):
-#'   `"adjusted"` (default) raised, in the inputs' steps only, to the power
-#'   of the magnitude adjustment of a composite likelihood estimated from the
-#'   data; `"independent"` as independent, the method's likelihood and
-#'   posterior.
-#' @param temper Power of the likelihood in (0, 1]: 1 (default) is the
-#'   method's posterior; smaller values widen the posterior for errors the
-#'   coefficients share. See the section Tempered posterior.
-#' @param n_search Number of draws from the prior of the inputs searched,
-#'   with the nominal point, for the start of each chain's burn-in under
-#'   `"adaptive"` (the best by profile likelihood; 0 starts at the nominals).
-#'   The random walk stays in the mode it starts in, so where the posterior
-#'   has several, a wider search finds the better one more often (on the
-#'   suspension test bed with ten inputs, chains started from 2000 draws found
-#'   the mode near the true inputs that 200 draws missed). Each draw costs
-#'   one emulator prediction. See the section Proposals.
 #' @param experiments `NULL` (one experiment: `field`) or a named list of
 #'   further experiments of the same unit, each made with [experiment()]: its
 #'   field data and either the known change of some inputs (the base
 #'   emulators then serve at the changed inputs) or its own emulators. See the
 #'   section Several experiments.
-#' @param level_variances With `experiments`: `"shared"` (default) gives a
-#'   resolution level one bias variance across the experiments (each
-#'   experiment keeps its own bias coefficients); `"per_experiment"` gives
-#'   each experiment its own.
-#' @param experiment_bias With `experiments`: `"own"` (default), one bias
-#'   function per experiment and site; `"shared"`, one bias function per site
-#'   common to every experiment (the same discrepancy under every load; needs
-#'   `level_variances = "shared"`).
-#' @param threads Threads (OpenMP) sharing the emulator predictions of each
-#'   chain, default `getOption("wavevalid.threads", 1)`. Every coefficient is
-#'   predicted on its own, so the draws do not depend on `threads`. Use more
-#'   than one when the chains run one after another (the default sequential
-#'   [future::plan()]); with one worker per core, keep 1. No more threads are
-#'   used than there are free cores (the cores less the other processes the
-#'   load average counts, on Linux; or `getOption("wavevalid.free_cores")`
-#'   when set); a message says when `threads` is cut.
-#' @param quiet Suppress the progress bar (default
-#'   `getOption("wavevalid.quiet", FALSE)`).
-#' @param ... Must be empty: an unknown argument is an error.
+#' @param bias A [bias_control()] object: how the field noise is set, the
+#'   bias variances' grouping over wavelet levels, the levels that inform
+#'   the inputs and the inputs' likelihood.
+#' @param sampler A [sampler_control()] object: draws, thinning,
+#'   proposal, burn-in, the start's search, threads and progress bar.
+#' @param ... Must be empty. The settings `bias_control()` and
+#'   `sampler_control()` hold were arguments of `calibrate()` before
+#'   them: a call that still names one (`n_draws = 200`) works for this
+#'   version, with a warning of class `wavevalid_warning_deprecated`;
+#'   any other name is an error.
 #' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
 #'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
 #'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
@@ -328,92 +249,82 @@
 #' @export
 #' @examples
 #' ex <- example_problem()
-#' fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 20,
-#'                  chains = 2, seed = 1, quiet = TRUE)
+#' fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1,
+#'                  sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' fit
-calibrate <- function(emulators, field, iu, n_draws = 1000, n_inner = 200, chains = 2,
-                      seed = NULL, sigma2 = NULL, step = 0.1, proposal = c("adaptive", "report"),
-                      global_moves = 0, burnin = NULL, fix_tau2 = NULL, pool_levels = NULL, registration_variance = FALSE,
-                      inform_levels = NULL, temper = 1, n_search = 200, experiments = NULL,
-                      input_likelihood = c("adjusted", "independent"),
-                      level_variances = c("shared", "per_experiment"), experiment_bias = c("own", "shared"),
-                      threads = getOption("wavevalid.threads", 1L), quiet = getOption("wavevalid.quiet", FALSE), ...) {
-  check_dots_none(...)
+calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_control(),
+                      sampler = sampler_control(), chains = 2, seed = NULL, ...) {
+  ctl <- resolve_controls(bias, sampler, list(...), "calibrate")
+  bias <- ctl$bias
+  sampler <- ctl$sampler
   check_class(emulators, "wv_emulators")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
-  check_number(n_draws, min = 1, integer = TRUE)
-  check_number(n_inner, min = 1, integer = TRUE)
   check_number(chains, min = 1, integer = TRUE)
-  check_number(step, min = 1e-6, max = 1)
-  proposal <- check_choice(proposal)
-  check_number(global_moves, min = 0, max = 0.99)
-  if (is.null(burnin)) {
-    burnin <- if (proposal == "adaptive") max(5000, floor(n_draws * n_inner / 4)) else 0
-  }
-  check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
-  check_number(threads, min = 1, max = 1024, integer = TRUE)
-  free <- free_cores()
-  if (threads > free) {
-    if (!quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {threads}.")
-    threads <- free
-  }
   seed <- resolve_seed(seed)
-  check_flag(registration_variance)
-  check_number(temper, min = 0, max = 1)
-  check_number(n_search, min = 0, max = 1e7, integer = TRUE)
-  if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
-  check_sigma2(sigma2, names(field$curves))
-  level_variances <- check_choice(level_variances)
-  input_likelihood <- check_choice(input_likelihood)
-  experiment_bias <- check_choice(experiment_bias)
-  if (experiment_bias == "shared" && level_variances == "per_experiment") {
-    wv_abort(c("A bias shared by the experiments has one variance per level.",
-               "i" = "Use {.code level_variances = \"shared\"} with {.code experiment_bias = \"shared\"}."),
-             class = "experiment")
+  check_sigma2(bias$sigma2, names(field$curves))
+  sm <- sampler
+  if (is.null(sm$burnin)) {
+    sm$burnin <- if (sm$proposal == "adaptive") max(5000, floor(sm$n_draws * sm$n_inner / 4)) else 0
   }
+  free <- free_cores()
+  if (sm$threads > free) {
+    if (!sm$quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {sm$threads}.")
+    sm$threads <- free
+  }
+  fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
+  fit$control <- list(bias = bias, sampler = sampler)
+  warn_fit_flags(fit)
+  warn_experiment_extrapolation(fit)
+  fit
+}
+
+# calibrate() past its checks: `sm` the sampler's settings with the burn-in
+# and threads resolved.
+calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, seed) {
+  sigma2 <- bias$sigma2
+  pool_levels <- bias$pool_levels
+  registration_variance <- bias$registration_variance
+  inform_levels <- bias$inform_levels
   spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
   experiments <- check_experiments(experiments, emulators, field, spec$x_nom)
   if (!is.null(experiments)) {
-    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, level_variances,
-                            experiment_bias)
+    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, bias$level_variances,
+                            bias$experiment_bias)
     parts <- experiment_fit_parts(spec, emulators, field, experiments)
     emulators <- parts$emulators
     field <- parts$field
   }
-  tau <- resolve_fix_tau2(fix_tau2, spec$groups)
+  tau <- resolve_fix_tau2(bias$fix_tau2, spec$groups)
   spec$informs <- informing_groups(inform_levels, spec$basis$level, spec$bias_group, spec$groups)
   spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
-  spec$temper <- temper
+  spec$temper <- bias$temper
   shared <- NULL
-  if (input_likelihood == "adjusted") {
-    shared <- shared_error_weight(spec, field, tau, seed, proposal, burnin, n_search, threads)
+  if (bias$input_likelihood == "adjusted") {
+    shared <- shared_error_weight(spec, field, tau, seed, sm$proposal, sm$burnin, sm$n_search, sm$threads)
     spec$input_weight <- shared$weight
   }
-  runs <- run_chains(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L, quiet = quiet,
-                     proposal = proposal, burnin = burnin, p_indep = global_moves, n_search = n_search,
-                     threads = threads)
+  runs <- run_chains(spec, sm$n_draws, sm$n_inner, chains, seed, sm$step, tau, debug_break = 0L, quiet = sm$quiet,
+                     proposal = sm$proposal, burnin = sm$burnin, p_indep = sm$global_moves, n_search = sm$n_search,
+                     threads = sm$threads)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
-                      settings = list(n_draws = n_draws, n_inner = n_inner, chains = chains,
-                                      step = step, proposal = proposal, global_moves = global_moves,
-                                      burnin = burnin,
+                      settings = list(n_draws = sm$n_draws, n_inner = sm$n_inner, chains = chains,
+                                      step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,
+                                      burnin = sm$burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
                                       registration_variance = registration_variance,
-                                      inform_levels = spec$inform_levels, temper = temper,
-                                      n_search = n_search, input_likelihood = input_likelihood),
+                                      inform_levels = spec$inform_levels, temper = bias$temper,
+                                      n_search = sm$n_search, input_likelihood = bias$input_likelihood),
                       seed = seed)
   fit$shared_errors <- shared
-  fit$calibrate_args <- list(sigma2 = sigma2, fix_tau2 = fix_tau2)
   fit$prior_sd <- prior_sds(fit$prior_iu)
   if (!is.null(experiments)) {
-    fit$settings$level_variances <- level_variances
-    fit$settings$experiment_bias <- experiment_bias
+    fit$settings$level_variances <- bias$level_variances
+    fit$settings$experiment_bias <- bias$experiment_bias
     fit$experiments <- spec$experiments
     fit$shift <- spec$shift
   }
-  warn_fit_flags(fit)
-  warn_experiment_extrapolation(fit)
   fit
 }
 

@@ -48,8 +48,8 @@
 #' # in practice `after` is the model with the added effect (see
 #' # vignette("missing-effect", package = "wavevalid")); here the same model
 #' # with the bias variances held small, to show the layout
-#' after <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 20,
-#'                    chains = 2, seed = 1, fix_tau2 = 1e-4, quiet = TRUE)
+#' after <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1, bias = bias_control(fix_tau2 = 1e-4),
+#'                    sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE))
 #' cmp <- compare_validations(before, after)
 #' cmp
 #' autoplot(cmp)

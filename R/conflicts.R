@@ -143,8 +143,9 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
     stats::quantile(P[, inputs[j]], (ord - 0.5) / strata, names = FALSE)
   }, numeric(strata))
   values <- matrix(values, strata, length(inputs), dimnames = list(NULL, inputs))
-  st <- fit$settings
-  args <- fit$calibrate_args %||% list()
+  ctl <- fit_controls(fit)
+  sampler <- ctl$sampler
+  sampler$quiet <- TRUE
   seed <- fit$seed %||% 1L
   if (!quiet) {
     pb <- cli::cli_progress_bar(sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "),
@@ -153,12 +154,7 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   fits <- lapply(seq_len(strata), function(k) {
     iu <- held_iu(fit, values[k, ])
     f <- suppressMessages(suppressWarnings(calibrate(
-      fit$emulators, fit$field, iu, n_draws = st$n_draws, n_inner = st$n_inner, chains = 1L, seed = seed + k,
-      sigma2 = args$sigma2, step = st$step, proposal = st$proposal, global_moves = st$global_moves,
-      burnin = st$burnin, fix_tau2 = args$fix_tau2, pool_levels = st$pool_levels,
-      registration_variance = st$registration_variance, inform_levels = st$inform_levels,
-      temper = st$temper %||% 1, n_search = st$n_search %||% 200L,
-      input_likelihood = st$input_likelihood %||% "independent", quiet = TRUE
+      fit$emulators, fit$field, iu, bias = ctl$bias, sampler = sampler, chains = 1L, seed = seed + k
     ), classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary")))
     if (!quiet) cli::cli_progress_update(id = pb)
     f

@@ -73,7 +73,7 @@
 #'   posterior mean bias over the interval), `share_of_signal` (that integral
 #'   over the integral of the absolute predicted reality there), `sign`
 #'   (whether the model is above or below reality), ranked by
-#'   `integrated_abs_bias`. Attributes: `levels` (bias energy by site and
+#'   `integrated_abs_bias`. Attributes: `wavelet_levels` (bias energy by site and
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
 #'   each bound, within 2% of the range from it; `flagged` when it piles up
 #'   there: at least 10% of the draws, and at least four times the prior's
@@ -107,7 +107,7 @@
 #' fit <- example_fit()
 #' wf <- where_fails(fit)
 #' wf
-#' attr(wf, "levels")
+#' attr(wf, "wavelet_levels")
 #' # only where the bias is credibly larger than 0.1
 #' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
@@ -158,7 +158,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   }
   out <- out[order(-out$integrated_abs_bias), , drop = FALSE]
   rownames(out) <- NULL
-  attr(out, "levels") <- bias_by_level(fit, level)
+  attr(out, "wavelet_levels") <- bias_by_level(fit, level)
   attr(out, "boundary") <- boundary_check(fit)
   attr(out, "bias") <- b
   attr(out, "bias_whole") <- b_whole

@@ -202,8 +202,8 @@
 #'   s * exp(-((t - 0.25) / 0.05)^2)
 #' runs <- model_runs(design, t(apply(design, 1, function(z) model(z[1], z[2], z[3]))), t, site = "site1")
 #' iu_bump <- iu_add(fit$iu, "s_bump", lower = 0, upper = 1)
-#' with_bump <- calibrate(fit_emulators(runs, fit$basis), fit$field, iu_bump, n_draws = 100,
-#'                        n_inner = 20, chains = 1, seed = 2, quiet = TRUE)
+#' with_bump <- calibrate(fit_emulators(runs, fit$basis), fit$field, iu_bump, chains = 1, seed = 2,
+#'                        sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, t = NULL,

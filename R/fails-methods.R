@@ -37,7 +37,7 @@ print.wv_fails <- function(x, ...) {
     cli::cat_line(sprintf("Record-wide bias (levels %s, an offset or a slow trend; the intervals above are what is left): ",
                           rw$levels[1]), paste(txt, collapse = "; "))
   }
-  levs <- attr(x, "levels")
+  levs <- attr(x, "wavelet_levels")
   if (!is.null(levs)) {
     top <- levs[order(-levs$energy), ][seq_len(min(3, nrow(levs))), ]
     cli::cat_line("Bias energy is highest at wavelet level",
@@ -47,7 +47,7 @@ print.wv_fails <- function(x, ...) {
     if (length(off) && !isTRUE(attr(x, "pooled_level0"))) {
       cli::cat_line("The mean of the record (level 0) is credibly off at ", paste(off, collapse = ", "),
                     ". One coefficient barely informs its bias variance, so the calibrated inputs may trade",
-                    " that offset against the events; compare with calibrate(pool_levels = 0:3)")
+                    " that offset against the events; compare with bias_control(pool_levels = 0:3)")
     }
   }
   cr <- attr(x, "credible")
@@ -114,7 +114,7 @@ summary.wv_fails <- function(object, ...) {
     n = nrow(object),
     by_site = if (nrow(object)) tapply(object$integrated_abs_bias, object$site, sum) else numeric(),
     total_length = sum(object$end - object$start),
-    levels = attr(object, "levels"),
+    wavelet_levels = attr(object, "wavelet_levels"),
     boundary = attr(object, "boundary"),
     credible = attr(object, "credible")
   ), class = "summary_wv_fails")
@@ -133,7 +133,7 @@ print.summary_wv_fails <- function(x, ...) {
                         collapse = ", "))
   }
   cli::cat_line("Bias energy by wavelet level:")
-  lv <- x$levels
+  lv <- x$wavelet_levels
   lv$share <- round(lv$share, 3)
   lv$energy <- signif(lv$energy, 3)
   print(lv, row.names = FALSE)
@@ -148,7 +148,7 @@ print.summary_wv_fails <- function(x, ...) {
 autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
   type <- check_choice(type)
   if (type == "levels") {
-    lv <- attr(object, "levels")
+    lv <- attr(object, "wavelet_levels")
     return(ggplot2::ggplot(lv, ggplot2::aes(factor(.data$level), .data$share)) +
       ggplot2::geom_col(fill = "grey40") +
       ggplot2::facet_wrap(~site) +

@@ -39,10 +39,10 @@ steepest_at <- function(tt, y, refine = FALSE) {
 # first grid point at which y - level has changed sign from its value at the
 # start of the window (or is zero); with refine, the time between that point
 # and the one before at which the straight line between them crosses the
-# level. The level is `cross$level`, or the fraction `cross$fraction` of the
+# level. The level is `cross$value`, or the fraction `cross$fraction` of the
 # way from the smallest to the largest value of y in the window.
 crossing_at <- function(tt, y, cross, refine = FALSE, window = NA, call = rlang::caller_env()) {
-  level <- cross$level %||% (min(y) + cross$fraction * (max(y) - min(y)))
+  level <- cross$value %||% (min(y) + cross$fraction * (max(y) - min(y)))
   d <- y - level
   side <- sign(d[1])
   k <- if (side == 0) 1L else which(sign(d) != side)[1]
@@ -50,7 +50,7 @@ crossing_at <- function(tt, y, cross, refine = FALSE, window = NA, call = rlang:
     wv_abort(c(
       "A curve does not cross the level {signif(level, 4)} in window {window}.",
       "x" = "It stays between {signif(min(y), 4)} and {signif(max(y), 4)} there.",
-      "i" = "Widen the window around the event, or give a level it crosses with {.arg cross_level} or {.arg cross_fraction}."
+      "i" = "Widen the window around the event, or give a value it crosses with {.arg cross_value} or {.arg cross_fraction}."
     ), call = call)
   }
   if (!refine || k == 1L || d[k] == 0) return(tt[k])

@@ -18,8 +18,8 @@
 #'   `(y[i + 1] - y[i - 1]) / (t[i + 1] - t[i - 1])`; with `refine = TRUE`, the
 #'   vertex of the parabola through that difference and its two neighbours,
 #'   as for an extremum;
-#' * `"cross"`: the first crossing, either way, of a level: `cross_level` if
-#'   given, else the level `cross_fraction` (default one half) of the way from
+#' * `"cross"`: the first crossing, either way, of a value: `cross_value` if
+#'   given, else the value `cross_fraction` (default one half) of the way from
 #'   the curve's smallest to its largest value in the window, so that a
 #'   replicate of another amplitude than the reference is cut at the same
 #'   stage of its rise. The landmark is the first grid point past the level;
@@ -98,10 +98,11 @@
 #' @param features Which landmarks to use in each window: one or more of
 #'   `"min"`, `"max"` (both by default), `"rise"` (steepest rise), `"fall"`
 #'   (steepest fall) and `"cross"` (first crossing of a level); see Details.
-#' @param cross_fraction,cross_level For `"cross"`: the level crossed, as a
+#' @param cross_fraction,cross_value For `"cross"`: the value crossed, as a
 #'   fraction of the way from each curve's smallest to its largest value in
-#'   the window (default 0.5), or, when `cross_level` is given, that value
-#'   for every curve.
+#'   the window (default 0.5), or, when `cross_value` is given, that value
+#'   for every curve (`cross_level`, its former name, works for this version
+#'   with a warning of class `wavevalid_warning_deprecated`).
 #' @param knots_every `NULL` (the report's landmark warp) or the spacing, in
 #'   time units, of the further warp knots fitted between the windows (see
 #'   Details).
@@ -195,13 +196,17 @@ register_curves.wv_runs <- function(field, reference, windows, ...) {
 register_curves.wv_field <- function(field, reference, windows, landmark_site = 1L,
                                      features = c("min", "max"), knots_every = NULL, refine = FALSE,
                                      knots_to = c("reference", "replicates"), cross_fraction = 0.5,
-                                     cross_level = NULL, ...) {
-  check_dots_none(...)
+                                     cross_value = NULL, ...) {
+  if (...length()) {
+    call <- renamed_arg(sys.call(), "cross_level", "cross_value", "register_curves")
+    if (!is.null(call)) return(eval(call, parent.frame()))
+    check_dots_none(...)
+  }
   t <- field$t
   sites <- names(field$curves)
   ref <- resolve_reference(reference, t, sites)
   windows <- check_windows(windows, t)
-  features <- check_features(features, cross_fraction, cross_level)
+  features <- check_features(features, cross_fraction, cross_value)
   check_flag(refine)
   knots_to <- check_choice(knots_to)
   if (!is.null(knots_every)) {
@@ -350,7 +355,7 @@ check_windows <- function(windows, t, call = rlang::caller_env()) {
 
 landmark_features <- c("min", "max", "rise", "fall", "cross")
 
-check_features <- function(features, cross_fraction = 0.5, cross_level = NULL, call = rlang::caller_env()) {
+check_features <- function(features, cross_fraction = 0.5, cross_value = NULL, call = rlang::caller_env()) {
   if (!is.character(features) || length(features) == 0L || !all(features %in% landmark_features) ||
       anyDuplicated(features)) {
     wv_abort(c(
@@ -363,8 +368,8 @@ check_features <- function(features, cross_fraction = 0.5, cross_level = NULL, c
     wv_abort("{.arg cross_fraction} must lie strictly between 0 and 1: a curve never crosses its own extreme.",
              call = call)
   }
-  if (!is.null(cross_level)) check_number(cross_level, "cross_level", call = call)
+  if (!is.null(cross_value)) check_number(cross_value, "cross_value", call = call)
   out <- intersect(landmark_features, features)
-  if ("cross" %in% out) attr(out, "cross") <- list(fraction = cross_fraction, level = cross_level)
+  if ("cross" %in% out) attr(out, "cross") <- list(fraction = cross_fraction, value = cross_value)
   out
 }

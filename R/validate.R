@@ -86,10 +86,6 @@
 #'   `"max"`, `"rise"`, `"fall"`, `"cross"` that the physics of the events
 #'   makes sharp.
 #' @param basis_args A list of further arguments to [wavelet_basis()].
-#' @param sigma2 How the field noise is set (passed to [calibrate()]):
-#'   `NULL` (default; from the replicates, or with one replicate learned in
-#'   the posterior under [noise_prior()]), fixed variances, `"finest"`, or a
-#'   [noise_prior()].
 #' @param experiments `NULL` or a named list of further experiments of the
 #'   same unit ([experiment()]), calibrated jointly with `field` (see
 #'   [calibrate()]). With `windows`, their field data are registered like
@@ -110,33 +106,44 @@
 #'   the simulator's runs with the change, 13 to condition A's runs), and the
 #'   posterior variances of the calibration inputs were 0.43 to 0.90 of
 #'   condition A's alone.
-#' @param quiet Suppress the sampler's progress bar (passed to [calibrate()])
-#'   and the message on the experiments' registration (default
-#'   `getOption("wavevalid.quiet", FALSE)`).
-#' @param ... Passed to [calibrate()] (`n_draws`, `n_inner`, `chains`, `seed`,
-#'   ...).
+#' @param bias,sampler,chains,seed Passed to [calibrate()]: a
+#'   [bias_control()] (the field noise, the bias variances, the inputs'
+#'   likelihood), a [sampler_control()] (draws, thinning, proposal; its
+#'   `quiet` also silences the message on the experiments' registration), the
+#'   number of chains and the seed.
+#' @param ... Must be empty. Settings of `bias_control()` and
+#'   `sampler_control()` named here (`n_draws = 200`, `sigma2 = ...`,
+#'   `quiet = TRUE`) work for this version, with a warning of class
+#'   `wavevalid_warning_deprecated`.
 #' @return A `wv_fit` object (see [calibrate()]).
 #' @export
 #' @examples
 #' \donttest{
 #' tb <- load_testbed()
 #' fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = list(c(6, 11), c(37, 41)),
-#'                 n_draws = 200, n_inner = 50, seed = 1)
+#'                 sampler = sampler_control(n_draws = 200, n_inner = 50), seed = 1)
 #' fit
 #'
 #' # with the added-mass experiment of the same vehicle, its field data
 #' # registered to the model with the mass added
 #' exps <- list(added_mass = experiment(tb$added_mass$field, change = tb$added_mass$delta))
 #' fit2 <- validate(tb$A$runs, tb$A$field, tb$iu, windows = list(c(6, 11), c(37, 41)),
-#'                  experiments = exps, n_draws = 200, n_inner = 50, seed = 1)
+#'                  experiments = exps, sampler = sampler_control(n_draws = 200, n_inner = 50),
+#'                  seed = 1)
 #' }
 validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_every = "auto",
-                     features = c("min", "max"), basis_args = list(), engine = "gasp_level", sigma2 = NULL,
-                     experiments = NULL, quiet = getOption("wavevalid.quiet", FALSE), ...) {
+                     features = c("min", "max"), basis_args = list(), engine = "gasp_level",
+                     experiments = NULL, bias = bias_control(), sampler = sampler_control(), chains = 2,
+                     seed = NULL, ...) {
+  ctl <- resolve_controls(bias, sampler, list(...), "validate")
+  bias <- ctl$bias
+  sampler <- ctl$sampler
+  quiet <- sampler$quiet
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  sigma2 <- bias$sigma2
   check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
   if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
@@ -153,5 +160,6 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
                                           knots_every = knots_every, quiet = quiet)
     }
   }
-  calibrate(emulators, field, iu, sigma2 = sigma2, experiments = experiments, quiet = quiet, ...)
+  calibrate(emulators, field, iu, experiments = experiments, bias = bias, sampler = sampler, chains = chains,
+            seed = seed)
 }

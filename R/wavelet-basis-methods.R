@@ -27,7 +27,8 @@ print.wv_basis <- function(x, ...) {
 }
 
 basis_rule_text <- function(st) {
-  lv <- if (length(st$keep_levels)) paste0(" and all of levels ", paste(range(st$keep_levels + 1L), collapse = "-"))
+  wl <- st$whole_levels %||% c(0L, st$keep_levels + 1L)
+  lv <- if (length(wl) > 1L) paste0(" and all of levels ", paste(range(wl), collapse = "-"))
         else ""
   rule <- sprintf("scaling coefficient%s, plus each curve's top %s%% of coefficients", lv, format(100 * st$fraction))
   if (identical(st$retain, "error")) {

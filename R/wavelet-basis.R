@@ -7,9 +7,9 @@
 #'
 #' @section Retention rules:
 #' `retain = "report"` is the rule of Appendix B of the method's report: for
-#' each curve, the scaling coefficient and all detail coefficients of the
-#' wavethresh levels in `keep_levels` (the default `0:2` is the report's
-#' "levels 0 through 3"), plus the coefficients whose magnitude is in the top
+#' each curve, all coefficients of the levels in `whole_levels` (the default
+#' `0:3` is the report's "levels 0 through 3"; the scaling coefficient is
+#' always kept), plus the coefficients whose magnitude is in the top
 #' `fraction` of all that curve's coefficients, i.e. at least the
 #' `1 - fraction` quantile of their absolute values (the hard threshold of
 #' [wavethresh::threshold()] with that value, ties kept). How much of a curve
@@ -45,18 +45,30 @@
 #' boundary wavelets do not wrap around, for `family = "DaubExPhase"` and
 #' `filter.number` 1 to 8. Coefficients keep the same positions and levels.
 #'
+#' @section Levels:
+#' The package numbers wavelet levels one way, the report's: level 0 is the
+#' scaling coefficient (the mean of the curve) and level `l + 1` is
+#' wavethresh's detail level `l` (`accessD(w, l)`), so level 1 holds one
+#' coefficient, level 2 two, level `j` `2^(j - 1)`, up to level `log2(T)` of
+#' a grid of `T` points. Every argument, print and attribute that names a
+#' wavelet level uses it: `whole_levels` here, `pool_levels` and
+#' `inform_levels` of [bias_control()], the `level` column of the basis and
+#' of `attr(where_fails(fit), "wavelet_levels")`, the groups `"site:level"` of
+#' the bias variances. An argument called `level` is always a credibility,
+#' never a wavelet level.
+#'
 #' Coefficients are indexed by their position in the full transform: index 1
 #' is the scaling coefficient (`accessC(w, 0)`), and the k-th coefficient of
-#' `accessD(w, l)` has index `2^l + k`. The report's level is 0 for the scaling
-#' coefficient and `l + 1` for wavethresh detail level `l`.
+#' `accessD(w, l)` has index `2^l + k`, at level `l + 1`.
 #'
 #' @inheritParams fit_emulators
 #' @param field A `wv_field` object on the same grid (usually registered with
 #'   [register_curves()]), or `NULL` to use the model runs only.
 #' @param filter.number,family The wavelet, passed to [wavethresh::wd()];
 #'   `family` is `"DaubExPhase"` or `"DaubLeAsymm"`.
-#' @param keep_levels wavethresh detail levels kept whole (the report's rule,
-#'   and the floor of the error rule).
+#' @param whole_levels Wavelet levels kept whole (the report's rule, and the
+#'   floor of the error rule), numbered as in the section Levels: 0 the
+#'   scaling coefficient, `l + 1` wavethresh's detail level `l`.
 #' @param fraction Share of each curve's coefficients (the largest in
 #'   magnitude) kept in addition; `1` keeps every coefficient.
 #' @param retain `"error"` (default): the report's rule, plus what each curve
@@ -68,11 +80,14 @@
 #'   when that is larger).
 #' @param boundary `"periodic"` (default, the report's transform) or
 #'   `"interval"` (wavelets on the interval). See the section Boundary.
+#' @param ... Must be empty. `keep_levels`, wavethresh's detail levels
+#'   counted from 0 (`keep_levels = 0:2` is `whole_levels = 0:3`), works for
+#'   this version with a warning of class `wavevalid_warning_deprecated`.
 #' @return A `wv_basis` object: a list with `index` (sorted integer positions
 #'   in the full coefficient vector), `level` (the report's level of each),
 #'   `Psi` (T x |I| matrix whose column j is the curve with coefficient
 #'   `index[j]` equal to one and all others zero; its columns are orthonormal),
-#'   `t`, `sites`, `settings` (filter.number, family, keep_levels, fraction,
+#'   `t`, `sites`, `settings` (filter.number, family, whole_levels, fraction,
 #'   retain, tolerance, boundary, n_t, n_levels), `by_site` (the index set each
 #'   site would give alone), `n_curves` (curves used, by site and source) and
 #'   `error` (the relative L2 reconstruction error of every curve used: a data
@@ -93,8 +108,9 @@
 #' wavelet_basis(runs, field, retain = "report")
 #' wavelet_basis(runs, field, boundary = "interval")
 wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubExPhase",
-                          keep_levels = 0:2, fraction = 0.025, retain = c("error", "report"),
-                          tolerance = c(runs = 0.01, field = 0.02), boundary = c("periodic", "interval")) {
+                          whole_levels = 0:3, fraction = 0.025, retain = c("error", "report"),
+                          tolerance = c(runs = 0.01, field = 0.02), boundary = c("periodic", "interval"), ...) {
+  if (...length()) whole_levels <- renamed_keep_levels(list(...), whole_levels)
   check_class(runs, "wv_runs")
   retain <- check_choice(retain)
   boundary <- check_choice(boundary)
@@ -111,10 +127,10 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
       ))
     }
   }
-  settings <- basis_settings(length(runs$t), filter.number, family, keep_levels, fraction,
+  settings <- basis_settings(length(runs$t), filter.number, family, whole_levels, fraction,
                              retain = retain, tolerance = tolerance, boundary = boundary)
   n <- settings$n_t
-  fixed <- c(1L, unlist(lapply(settings$keep_levels, function(l) 2L^l + seq_len(2L^l))))
+  fixed <- c(1L, unlist(lapply(setdiff(settings$whole_levels, 0L) - 1L, function(l) 2L^l + seq_len(2L^l))))
 
   by_site <- list()
   n_curves <- list()
@@ -206,7 +222,7 @@ finest_level_sd <- function(y, settings) {
   stats::mad(full_coef(y, settings)[seq(n %/% 2L + 1L, n)], center = 0)
 }
 
-basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, retain = "report",
+basis_settings <- function(n_t, filter.number, family, whole_levels, fraction, retain = "report",
                            tolerance = c(runs = 0.01, field = 0.02), boundary = "periodic",
                            call = rlang::caller_env()) {
   if (n_t < 4L || bitwAnd(n_t, n_t - 1L) != 0L) {
@@ -235,17 +251,17 @@ basis_settings <- function(n_t, filter.number, family, keep_levels, fraction, re
     wv_abort("Wavelets on the interval with {.arg filter.number} {filter.number} need at least {4 * filter.number} time points; the grid has {n_t}.",
              call = call)
   }
-  if (!is.numeric(keep_levels) || any(!is.finite(keep_levels)) || any(keep_levels != round(keep_levels)) ||
-      any(keep_levels < 0) || any(keep_levels > n_levels - 1L)) {
+  if (!is.numeric(whole_levels) || any(!is.finite(whole_levels)) || any(whole_levels != round(whole_levels)) ||
+      any(whole_levels < 0) || any(whole_levels > n_levels)) {
     wv_abort(c(
-      "{.arg keep_levels} must be whole wavethresh detail levels between 0 and {n_levels - 1}.",
-      "x" = "It is {.code {deparse(keep_levels)}}."
+      "{.arg whole_levels} must be whole wavelet levels between 0 (the scaling coefficient) and {n_levels}.",
+      "x" = "It is {.code {deparse(whole_levels)}}."
     ), call = call)
   }
   check_number(fraction, "fraction", min = 0, max = 1, call = call)
   tolerance <- check_tolerance(tolerance, call = call)
   list(filter.number = as.integer(filter.number), family = family,
-       keep_levels = sort(unique(as.integer(keep_levels))), fraction = fraction,
+       whole_levels = sort(unique(c(0L, as.integer(whole_levels)))), fraction = fraction,
        retain = retain, tolerance = tolerance, boundary = boundary,
        n_t = n_t, n_levels = n_levels)
 }
@@ -441,3 +457,20 @@ wavelet_reconstruct <- function(basis, coef) {
   }
   unname(basis_curves(basis, coef))
 }
+
+# wavelet_basis(keep_levels =) counted wavethresh's detail levels from 0: the
+# same levels are `keep_levels + 1` in the package's numbering.
+renamed_keep_levels <- function(dots, whole_levels, call = rlang::caller_env()) {
+  if (!"keep_levels" %in% names(dots)) {
+    do.call(check_dots_none, c(dots, list(call = call)))
+  }
+  old <- dots$keep_levels
+  rest <- dots[names(dots) != "keep_levels"]
+  if (length(rest)) do.call(check_dots_none, c(rest, list(call = call)))
+  wv_warn(c("The argument {.arg keep_levels} of {.fn wavelet_basis} is deprecated.",
+            "i" = "Use {.arg whole_levels}, which numbers levels from 0 for the scaling coefficient: {.code keep_levels = 0:2} is {.code whole_levels = 0:3}."),
+          class = "deprecated")
+  if (!is.numeric(old)) return(old)
+  c(0L, old + 1L)
+}
+

@@ -30,8 +30,8 @@ cat(sprintf("Test bed: %d coefficients per site, sites %s, %d runs, %d inputs (b
 
 # (a) one full chain: Site 1 alone, then both sites jointly
 one_chain <- function(label, emulators, field, threads = 1L) {
-  el <- system.time(fit <- calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                     seed = 1, threads = threads))[["elapsed"]]
+  el <- system.time(fit <- calibrate(emulators, field, iu, chains = 1, seed = 1,
+                                     sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, threads = threads)))[["elapsed"]]
   n_iter <- n_draws * n_inner + fit$settings$burnin
   cat(sprintf("(a) %s, %d thread%s: one chain, %d x %d cycles + %d burn-in = %d cycles: %.1f s (%.3f ms per cycle)\n",
               label, threads, if (threads > 1) "s" else "", n_draws, n_inner, fit$settings$burnin, n_iter, el,
@@ -56,8 +56,8 @@ el <- a1$el
 # calibrations of both sites that differ only in their number of cycles
 # (the start search and burn-in cancel), against plain R
 cycles_time <- function(n_draws) {
-  system.time(calibrate(emulators, field, iu, n_draws = n_draws, n_inner = 100, chains = 1, seed = 1,
-                        quiet = TRUE))[["elapsed"]]
+  system.time(calibrate(emulators, field, iu, chains = 1, seed = 1,
+                        sampler = sampler_control(n_draws = n_draws, n_inner = 100, quiet = TRUE)))[["elapsed"]]
 }
 cpp <- (cycles_time(55) - cycles_time(5)) / 5000
 
@@ -148,8 +148,8 @@ print(data.frame(input = names(ess), ess = round(ess), ess_per_s = signif(ess / 
 # cycles (global_moves = 0.5) and with the default (the report's mixture step
 # in a tenth); cycles per effective sample of each input
 unthinned <- function(global_moves) {
-  el <- system.time(f <- calibrate(emu1, field1, iu, n_draws = 20000, n_inner = 1,
-                                   chains = 1, seed = 1, burnin = 50000, global_moves = global_moves))[["elapsed"]]
+  el <- system.time(f <- calibrate(emu1, field1, iu, chains = 1, seed = 1,
+                                   sampler = sampler_control(n_draws = 20000, n_inner = 1, burnin = 50000, global_moves = global_moves)))[["elapsed"]]
   e <- coda::effectiveSize(f$draws)[emulators$inputs]
   list(cpe = 20000 / e, el = el, acc = f$acceptance)
 }

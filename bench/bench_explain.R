@@ -14,7 +14,8 @@ reps <- if (length(args) >= 1) as.integer(args[1]) else 5L
 tb <- testbed_suspension(seed = 1, hidden = "digressive_damper")
 field <- register_curves(tb$A$field, tb$A$runs, tb$windows, knots_every = 2)
 em <- suppressWarnings(fit_emulators(tb$A$runs, wavelet_basis(tb$A$runs, field)))
-fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = 150, n_inner = 20, chains = 1, seed = 1))
+fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1,
+                                  sampler = sampler_control(n_draws = 150, n_inner = 20)))
 sig <- testbed_signatures(colMeans(as.matrix(fit$draws))[fit$inputs])
 tm <- vapply(seq_len(reps), function(i) c(
   free = system.time(explain_bias(fit, sig, positive = FALSE, n_draws = 50, seed = 1))[["elapsed"]],

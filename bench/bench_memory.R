@@ -68,8 +68,8 @@ runs <- model_runs(design, run_curves, t)
 field <- field_runs(curves, t, x_nom = c(x1 = 0.5))
 basis <- wavelet_basis(runs, field)
 emulators <- suppressWarnings(fit_emulators(runs, basis))
-small <- suppressWarnings(calibrate(emulators, field, iu, n_draws = 40, n_inner = 5, chains = 1, burnin = 200,
-                                    seed = 1))
+small <- suppressWarnings(calibrate(emulators, field, iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 40, n_inner = 5, burnin = 200)))
 
 # --- repeat and perturb its draws up to H -------------------------------------
 grow <- function(m, sd_rel = 0.02) {

@@ -74,7 +74,7 @@ validate_case <- function(hidden, seed) {
 # precision and base
 site_stats <- function(fails, sig) {
   b <- attr(fails, "bias")
-  lv <- attr(fails, "levels")
+  lv <- attr(fails, "wavelet_levels")
   dt <- diff(b$t[1:2])
   vapply(names(sig), function(s) {
     acts <- abs(sig[[s]]) > 0.1 * max(abs(sig[[s]]))

@@ -55,7 +55,7 @@ fit_model <- function(tb, runs, iu, mechanism) {
 
 # the share of a fit's bias energy at wavelet level 0 (an offset of the record), by site
 level0 <- function(fit) {
-  lv <- attr(where_fails(fit), "levels")
+  lv <- attr(where_fails(fit), "wavelet_levels")
   paste(formatC(lv$share[lv$level == 0], digits = 2, format = "f"), collapse = "/")
 }
 

@@ -18,8 +18,8 @@ tb <- load_testbed()
 windows <- tb$windows
 # every default: the field registered on the events' landmarks (knots every
 # 1/32 of the record between them), the default basis and emulators
-fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = windows, n_draws = 500, n_inner = 100, chains = 2,
-                seed = 1)
+fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = windows, chains = 2, seed = 1,
+                sampler = sampler_control(n_draws = 500, n_inner = 100))
 print(fit)
 field <- fit$field
 knots <- diff(range(field$t)) / 32
@@ -54,7 +54,8 @@ off <- tb$A$runs$design
 off[[s_name]] <- 0
 runs_m <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t),
             simulate_suspension(design_maximin(iu_m, 66L, seed = 2), mechanism = lead))
-fit_m <- validate(runs_m, tb$A$field, iu_m, windows = windows, n_draws = 500, n_inner = 100, chains = 2, seed = 1)
+fit_m <- validate(runs_m, tb$A$field, iu_m, windows = windows, chains = 2, seed = 1,
+                  sampler = sampler_control(n_draws = 500, n_inner = 100))
 fails_m <- where_fails(fit_m)
 print(fails_m)
 # the added-mass run, held out of both fits: each model registers it to its own runs and predicts it

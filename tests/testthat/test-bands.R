@@ -13,7 +13,8 @@ test_that("pointwise bands cover the stated fraction of draws at each t", {
 
 test_that("bias(), reality() and model_prediction() give tidy bands built from the draws", {
   ex <- example_problem()
-  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 2, quiet = TRUE)
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 2,
+                   sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   b <- bias(fit)
   expect_named(b, c("site", "t", "mean", "lower", "upper", "lower_curve", "upper_curve"))
   expect_equal(nrow(b), length(fit$basis$t))
@@ -122,7 +123,8 @@ test_that("curve summaries built by blocks of time points match the whole-matrix
 
 test_that("predictions rebuilt by blocks of time points match the draws computed at once", {
   ex <- example_problem()
-  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 5, chains = 1, seed = 5, quiet = TRUE)
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 5,
+                   sampler = sampler_control(n_draws = 40, n_inner = 5, quiet = TRUE))
   # repeat the draws so that one site's curves span several blocks
   H <- 40000
   idx <- rep_len(seq_len(nrow(fit$wM$site1)), H)

@@ -110,8 +110,9 @@ grid_check <- function(proposal, n_draws, n_inner) {
   gm <- grid_marginals(gp)
   cdf_u <- stats::approxfun(gm$u, cumsum(gm$fu), yleft = 0, yright = 1)
   cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
-  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                   seed = 5, sigma2 = gp$sigma2, proposal = proposal, input_likelihood = "independent", quiet = TRUE)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 5,
+                   bias = bias_control(sigma2 = gp$sigma2, input_likelihood = "independent"),
+                   sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, proposal = proposal, quiet = TRUE))
   X <- as.matrix(fit$draws)
   expect_gt(stats::ks.test(X[, "u1"], cdf_u)$p.value, 0.01)
   expect_gt(stats::ks.test(log(X[, "tau2[site1:4]"]), cdf_lt)$p.value, 0.01)
@@ -139,8 +140,9 @@ test_that("a tempered calibration reproduces the grid posterior of the likelihoo
   gm <- grid_marginals(gp, temper = 0.25)
   g1 <- grid_marginals(gp)
   cdf <- function(x, f) stats::approxfun(x, cumsum(f), yleft = 0, yright = 1)
-  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, temper = 0.25, input_likelihood = "independent", quiet = TRUE)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 5,
+                   bias = bias_control(sigma2 = gp$sigma2, temper = 0.25, input_likelihood = "independent"),
+                   sampler = sampler_control(n_draws = 1500, n_inner = 30, quiet = TRUE))
   expect_identical(fit$settings$temper, 0.25)
   expect_true(any(grepl("Tempered posterior", capture.output(print(fit)))))
   X <- as.matrix(fit$draws)
@@ -149,14 +151,16 @@ test_that("a tempered calibration reproduces the grid posterior of the likelihoo
   # not the method's posterior, which is narrower
   expect_lt(suppressWarnings(stats::ks.test(X[, "u1"], cdf(g1$u, g1$fu))$p.value), 0.01)
   # temper = 1 is the method's posterior, draw for draw
-  a <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
-                 sigma2 = gp$sigma2, input_likelihood = "independent", quiet = TRUE)
-  b <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 2,
-                 sigma2 = gp$sigma2, temper = 1, input_likelihood = "independent", quiet = TRUE)
+  a <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 2,
+                 bias = bias_control(sigma2 = gp$sigma2, input_likelihood = "independent"),
+                 sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
+  b <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 2,
+                 bias = bias_control(sigma2 = gp$sigma2, temper = 1, input_likelihood = "independent"),
+                 sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
   expect_identical(as.matrix(a$draws), as.matrix(b$draws))
   for (bad in list(0, -0.5, 1.5, NA_real_, "0.5", c(0.5, 0.6))) {
-    expect_error(calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 5, n_inner = 2, chains = 1,
-                           temper = bad, quiet = TRUE), class = "wavevalid_error_input")
+    expect_error(calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, bias = bias_control(temper = bad),
+                           sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE)), class = "wavevalid_error_input")
   }
 })
 
@@ -168,15 +172,17 @@ test_that("pooled levels share one tau2: the sampler reproduces the grid posteri
   gp$pb$emulators$basis <- gp$pb$basis
   gm <- grid_marginals(gp)
   cdf_lt <- stats::approxfun(gm$lt, cumsum(gm$flt), yleft = 0, yright = 1)
-  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, pool_levels = 2:3, input_likelihood = "independent", quiet = TRUE)
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 5,
+                   bias = bias_control(sigma2 = gp$sigma2, pool_levels = 2:3, input_likelihood = "independent"),
+                   sampler = sampler_control(n_draws = 1500, n_inner = 30, quiet = TRUE))
   expect_identical(fit$groups$name, "site1:2-3")
   expect_identical(unique(fit$bias_group$site1), "site1:2-3")
   X <- as.matrix(fit$draws)
   expect_gt(stats::ks.test(log(X[, "tau2[site1:2-3]"]), cdf_lt)$p.value, 0.01)
   # one variance per level is another posterior: level 2 alone does not follow it
-  own <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 1500, n_inner = 30, chains = 1, seed = 5,
-                   sigma2 = gp$sigma2, input_likelihood = "independent", quiet = TRUE)
+  own <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 5,
+                   bias = bias_control(sigma2 = gp$sigma2, input_likelihood = "independent"),
+                   sampler = sampler_control(n_draws = 1500, n_inner = 30, quiet = TRUE))
   expect_identical(own$groups$name, c("site1:2", "site1:3"))
   expect_lt(stats::ks.test(log(as.matrix(own$draws)[, "tau2[site1:2]"]), cdf_lt)$p.value, 0.01)
 })
@@ -184,7 +190,8 @@ test_that("pooled levels share one tau2: the sampler reproduces the grid posteri
 test_that("pool_levels refuses what is not two or more levels of the basis", {
   ex <- example_problem()
   for (bad in list(1, c(0, -1), c(0.5, 1), "0:3", c(0, 99))) {
-    expect_error(calibrate(ex$emulators, ex$field, ex$iu, pool_levels = bad, quiet = TRUE),
+    expect_error(calibrate(ex$emulators, ex$field, ex$iu, bias = bias_control(pool_levels = bad),
+                           sampler = sampler_control(quiet = TRUE)),
                  class = "wavevalid_error_input")
   }
 })
@@ -204,10 +211,11 @@ cut_problem <- function(fine = 0) {
 test_that("inform_levels naming every level is the method's posterior, draw for draw", {
   cp <- cut_problem()
   for (proposal in c("adaptive", "report")) {
-    all <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 3,
-                     proposal = proposal, quiet = TRUE)
-    same <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 3,
-                      proposal = proposal, inform_levels = 0:3, quiet = TRUE)
+    all <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 3,
+                     sampler = sampler_control(n_draws = 50, n_inner = 5, proposal = proposal, quiet = TRUE))
+    same <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 3,
+                      bias = bias_control(inform_levels = 0:3),
+                      sampler = sampler_control(n_draws = 50, n_inner = 5, proposal = proposal, quiet = TRUE))
     expect_identical(as.matrix(same$draws), as.matrix(all$draws))
     expect_identical(same$wb, all$wb)
   }
@@ -222,8 +230,9 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
   expect_equal(unname(d), ifelse(base$pb$basis$level == 3, 2, 0), tolerance = 1e-10)
   for (proposal in c("adaptive", "report")) {
     run <- function(cp, inform_levels) {
-      calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 200, n_inner = 10, chains = 1, seed = 7,
-                proposal = proposal, inform_levels = inform_levels, quiet = TRUE)
+      calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 7,
+                bias = bias_control(inform_levels = inform_levels),
+                sampler = sampler_control(n_draws = 200, n_inner = 10, proposal = proposal, quiet = TRUE))
     }
     a <- run(base, 0:2)
     b <- run(off, 0:2)
@@ -242,16 +251,19 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
 
 test_that("the inputs' posterior with inform_levels is the posterior from those levels alone", {
   cp <- cut_problem(fine = 2)
-  cut <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, n_draws = 1500, n_inner = 20, chains = 1, seed = 5,
-                   inform_levels = 0:2, input_likelihood = "independent", quiet = TRUE)
+  cut <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 5,
+                   bias = bias_control(inform_levels = 0:2, input_likelihood = "independent"),
+                   sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   # the same problem on its first four coefficients (levels 0 to 2) only
   coarse <- small_problem(index = 1:4)
   W <- cp$field$curves$site1 %*% cp$pb$basis$Psi
-  alone <- calibrate(coarse$emulators, field_from_coef(coarse$basis, W[, 1:4]), coarse$iu, n_draws = 1500,
-                     n_inner = 20, chains = 1, seed = 6, input_likelihood = "independent", quiet = TRUE)
+  alone <- calibrate(coarse$emulators, field_from_coef(coarse$basis, W[, 1:4]), coarse$iu, chains = 1,
+                     seed = 6, bias = bias_control(input_likelihood = "independent"),
+                     sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   plain <- cut_problem()
-  full <- calibrate(plain$pb$emulators, plain$field, plain$pb$iu, n_draws = 1500, n_inner = 20, chains = 1,
-                    seed = 5, input_likelihood = "independent", quiet = TRUE)
+  full <- calibrate(plain$pb$emulators, plain$field, plain$pb$iu, chains = 1, seed = 5,
+                    bias = bias_control(input_likelihood = "independent"),
+                    sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   for (p in c("u1", "x1")) {
     expect_gt(suppressWarnings(stats::ks.test(as.matrix(cut$draws)[, p], as.matrix(alone$draws)[, p]))$p.value, 0.01)
   }
@@ -264,10 +276,13 @@ test_that("the inputs' posterior with inform_levels is the posterior from those 
 test_that("inform_levels refuses levels the basis lacks, a split pool, and leaving nothing", {
   ex <- example_problem()
   for (bad in list("0:3", c(0.5, 1), 99, NA_real_, numeric(0))) {
-    expect_error(calibrate(ex$emulators, ex$field, ex$iu, inform_levels = bad, quiet = TRUE),
+    expect_error(calibrate(ex$emulators, ex$field, ex$iu, bias = bias_control(inform_levels = bad),
+                           sampler = sampler_control(quiet = TRUE)),
                  class = "wavevalid_error_input")
   }
-  expect_error(calibrate(ex$emulators, ex$field, ex$iu, pool_levels = 0:3, inform_levels = 0:2, quiet = TRUE),
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu,
+                         bias = bias_control(pool_levels = 0:3, inform_levels = 0:2),
+                         sampler = sampler_control(quiet = TRUE)),
                class = "wavevalid_error_input", regexp = "share one bias variance")
 })
 
@@ -276,8 +291,8 @@ test_that("the adaptive sampler mixes on a narrow posterior where the report's d
   pb <- narrow_problem()
   truth <- pb$truth
   field <- pb$field
-  fit <- calibrate(pb$emulators, field, pb$iu, n_draws = 300, n_inner = 10, chains = 2, seed = 3,
-                   quiet = TRUE)
+  fit <- calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3,
+                   sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   expect_true(all(fit$rhat < 1.1), label = paste(signif(fit$rhat, 3), collapse = ", "))
   X <- as.matrix(fit$draws)[, c("u1", "x1")]
   q <- apply(X, 2, stats::quantile, c(0.005, 0.995))
@@ -286,8 +301,8 @@ test_that("the adaptive sampler mixes on a narrow posterior where the report's d
   expect_true(all(q[2, ] - q[1, ] < 0.05))
   expect_gt(min(fit$acceptance$inputs), 0.1)
   rep_fit <- suppressWarnings(
-    calibrate(pb$emulators, field, pb$iu, n_draws = 300, n_inner = 10, chains = 2, seed = 3,
-              proposal = "report", quiet = TRUE),
+    calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3,
+              sampler = sampler_control(n_draws = 300, n_inner = 10, proposal = "report", quiet = TRUE)),
     classes = "wavevalid_warning_mixing")
   expect_lt(max(rep_fit$acceptance$inputs), min(fit$acceptance$inputs) / 5)
 })
@@ -296,8 +311,9 @@ test_that("w^b and w^M draws follow eq. 16-17 at fixed inputs", {
   withr::local_seed(3)
   gp <- grid_problem()
   iu1 <- iu_map("u1", "calibration", 0.3, 0.3000001)
-  fit <- calibrate(gp$pb$emulators, gp$field, iu1, n_draws = 4000, n_inner = 1, chains = 1, seed = 2,
-                   sigma2 = gp$sigma2, fix_tau2 = 0.2, quiet = TRUE)
+  fit <- calibrate(gp$pb$emulators, gp$field, iu1, chains = 1, seed = 2,
+                   bias = bias_control(sigma2 = gp$sigma2, fix_tau2 = 0.2),
+                   sampler = sampler_control(n_draws = 4000, n_inner = 1, quiet = TRUE))
   pr <- wavevalid:::gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(0.3, 1))
   S <- drop(pr$var) + gp$sigma2 / gp$R
   mb <- 0.2 / (S + 0.2) * (gp$wbar - drop(pr$mean))
@@ -312,9 +328,12 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
   # short chains: the mixing warning is expected and beside the point here
   calibrate <- function(...) suppressWarnings(wavevalid::calibrate(...), classes = "wavevalid_warning_mixing")
   ex <- example_problem()
-  f1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
-  f2 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
-  f3 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 10, quiet = TRUE)
+  f1 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 9,
+                  sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
+  f2 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 9,
+                  sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
+  f3 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 10,
+                  sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
   expect_identical(as.matrix(f1$draws), as.matrix(f2$draws))
   expect_identical(f1$wb, f2$wb)
   expect_false(identical(as.matrix(f1$draws), as.matrix(f3$draws)))
@@ -322,14 +341,16 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
   # the emulator predictions shared among threads give the same chains (two
   # threads even when the machine has no second core free)
   withr::local_options(wavevalid.free_cores = 2L)
-  f5 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE,
-                  threads = 2)
+  f5 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 9,
+                  sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE, threads = 2))
   expect_identical(as.matrix(f1$draws), as.matrix(f5$draws))
   expect_identical(f1$wM, f5$wM)
   withr::local_seed(1)
-  g1 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, quiet = TRUE)
+  g1 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1,
+                  sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
   withr::local_seed(1)
-  g2 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, quiet = TRUE)
+  g2 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1,
+                  sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
   expect_identical(g1$seed, g2$seed)
   expect_identical(as.matrix(g1$draws), as.matrix(g2$draws))
 
@@ -339,7 +360,8 @@ test_that("same seed gives identical draws, sequentially and on two workers", {
   skip_if(isNamespaceLoaded("pkgload") && pkgload::is_dev_package("wavevalid"))
   future::plan(future::multisession, workers = 2)
   on.exit(future::plan(future::sequential), add = TRUE)
-  f4 <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 50, n_inner = 5, chains = 2, seed = 9, quiet = TRUE)
+  f4 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 9,
+                  sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
   expect_identical(as.matrix(f1$draws), as.matrix(f4$draws))
 })
 
@@ -348,30 +370,33 @@ test_that("bad input gives classed errors", {
   em <- ex$emulators
   f <- ex$field
   bad_grid <- wavevalid:::new_wv_field(seq(0, 2, length.out = 32), f$curves)
-  expect_error(calibrate(em, bad_grid, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, bad_grid, ex$iu, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   one <- wavevalid:::new_wv_field(f$t, list(site1 = f$curves$site1[1, , drop = FALSE]))
-  expect_error(calibrate(em, one, ex$iu, sigma2 = c(1e-3, -1), quiet = TRUE), class = "wavevalid_error_input")
-  expect_s3_class(calibrate(em, one, ex$iu, sigma2 = 1e-3, n_draws = 5, n_inner = 2, chains = 1,
-                            seed = 1, quiet = TRUE), "wv_fit")
+  expect_error(calibrate(em, one, ex$iu, bias = bias_control(sigma2 = c(1e-3, -1)),
+                         sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
+  expect_s3_class(calibrate(em, one, ex$iu, chains = 1, seed = 1, bias = bias_control(sigma2 = 1e-3),
+                            sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE)), "wv_fit")
   iu_short <- iu_map("u1", "calibration", 0, 1)
-  expect_error(calibrate(em, f, iu_short, quiet = TRUE), class = "wavevalid_error_input")
-  expect_error(calibrate(em, f, ex$iu, n_draws = 0, quiet = TRUE), class = "wavevalid_error_input")
-  expect_error(calibrate(em, f, ex$iu, n_draws = -5, quiet = TRUE), class = "wavevalid_error_input")
-  expect_error(calibrate(em, f, ex$iu, chains = 1.5, quiet = TRUE), class = "wavevalid_error_input")
-  expect_error(calibrate(em, f, ex$iu, threads = 0, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, iu_short, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, sampler = sampler_control(n_draws = 0, quiet = TRUE)), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, sampler = sampler_control(n_draws = -5, quiet = TRUE)), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, chains = 1.5, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, sampler = sampler_control(threads = 0, quiet = TRUE)), class = "wavevalid_error_input")
   # never more threads than free cores
   free <- wavevalid:::free_cores()
   expect_true(is.integer(free) && free >= 1L && free <= max(1L, parallel::detectCores(), na.rm = TRUE))
   expect_identical(withr::with_options(list(wavevalid.free_cores = 3), wavevalid:::free_cores()), 3L)
-  expect_error(calibrate(em, f, ex$iu, fix_tau2 = -1, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, f, ex$iu, bias = bias_control(fix_tau2 = -1),
+                         sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")
   other_site <- wavevalid:::new_wv_field(f$t, list(rear = f$curves$site1))
-  expect_error(calibrate(em, other_site, ex$iu, quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(em, other_site, ex$iu, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
 })
 
 test_that("a fit has the documented layout, mcmc.list and print", {
   ex <- example_problem()
-  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 50, chains = 2, seed = 3, quiet = TRUE)
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 3,
+                   sampler = sampler_control(n_draws = 100, n_inner = 50, quiet = TRUE))
   ml <- coda::as.mcmc.list(fit)
   expect_s3_class(ml, "mcmc.list")
   expect_equal(colnames(ml[[1]])[1:2], c("u1", "x1"))
@@ -398,8 +423,9 @@ test_that("an input piled at its bound is flagged with a classed warning", {
   # field beyond the model at x1 = 1 and no room for bias: x1 piles at its upper bound
   t <- f$t
   f$curves$site1 <- f$curves$site1 + 0.3 * sin(2 * pi * matrix(t, 4, 32, byrow = TRUE))
-  expect_warning(fit <- calibrate(ex$emulators, f, ex$iu, n_draws = 200, n_inner = 20, chains = 1,
-                                  seed = 4, fix_tau2 = 1e-4, quiet = TRUE),
+  expect_warning(fit <- calibrate(ex$emulators, f, ex$iu, chains = 1, seed = 4,
+                                  bias = bias_control(fix_tau2 = 1e-4),
+                                  sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)),
                  class = "wavevalid_warning_boundary")
   expect_true("x1" %in% fit$flags$boundary$input)
   # explain_bias warns that candidates simulated at these inputs may mislead
@@ -415,7 +441,8 @@ test_that("validate() runs the whole path", {
   ex <- example_problem()
   runs <- model_runs(as.data.frame(ex$emulators$design),
                      ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
-  fit <- validate(runs, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, quiet = TRUE)
+  fit <- validate(runs, ex$field, ex$iu, chains = 1, seed = 1,
+                  sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
   expect_s3_class(fit, "wv_fit")
 })
 
@@ -456,8 +483,8 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   W <- field$curves$site1 %*% Psi
   R <- nrow(W)
   s2 <- colSums(sweep(W, 2, colMeans(W))^2) / (R - 1)
-  run <- function(...) calibrate(ex$emulators, field, ex$iu, n_draws = 40, n_inner = 10, chains = 1, seed = 3,
-                                 quiet = TRUE, ...)
+  run <- function(...) calibrate(ex$emulators, field, ex$iu, chains = 1, seed = 3, bias = bias_control(...),
+                                 sampler = sampler_control(n_draws = 40, n_inner = 10, quiet = TRUE))
   a <- run(sigma2 = s2, registration_variance = TRUE)
   b <- run(sigma2 = s2 + R * r)
   expect_identical(as.matrix(a$draws), as.matrix(b$draws))
@@ -469,22 +496,25 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   expect_output(print(a), "Registration variance added to the field mean: site1 [0-9]+% of its variance")
   expect_false(any(grepl("Registration variance", utils::capture.output(print(b)))))
   # the tie to model runs is needed
-  expect_error(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
-                         registration_variance = TRUE), class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                         bias = bias_control(registration_variance = TRUE),
+                         sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE)), class = "wavevalid_error_input")
   to_curve <- register_curves(ex$field, list(site1 = colMeans(runs$curves$site1)), win, refine = TRUE)
   expect_null(attr(to_curve$warps, "landmark_sd"))
-  expect_error(calibrate(ex$emulators, to_curve, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
-                         registration_variance = TRUE), class = "wavevalid_error_input")
-  expect_error(calibrate(ex$emulators, field, ex$iu, n_draws = 5, n_inner = 2, chains = 1, seed = 1, quiet = TRUE,
-                         registration_variance = NA), class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, to_curve, ex$iu, chains = 1, seed = 1,
+                         bias = bias_control(registration_variance = TRUE),
+                         sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE)), class = "wavevalid_error_input")
+  expect_error(calibrate(ex$emulators, field, ex$iu, chains = 1, seed = 1,
+                         bias = bias_control(registration_variance = NA),
+                         sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE)), class = "wavevalid_error_input")
 })
 
 test_that("n_search sets the search for each chain's start", {
   withr::local_seed(7)
   pb <- narrow_problem()
   run <- function(n_search) {
-    calibrate(pb$emulators, pb$field, pb$iu, n_draws = 20, n_inner = 5, chains = 2, seed = 3, burnin = 10,
-              n_search = n_search, quiet = TRUE)
+    calibrate(pb$emulators, pb$field, pb$iu, chains = 2, seed = 3,
+              sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 10, n_search = n_search, quiet = TRUE))
   }
   # no search: the burn-in starts at the nominals
   none <- suppressWarnings(run(0))

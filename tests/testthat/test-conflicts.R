@@ -15,8 +15,8 @@ conflict_problem <- function(u, x = 0.55, extra = 0, seed = 4) {
 }
 
 conflict_fit <- function(ex, seed = 1) {
-  suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 10, chains = 2, seed = seed,
-                             quiet = TRUE),
+  suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = seed,
+                             sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)),
                    classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary"))
 }
 

@@ -1,6 +1,7 @@
 example_fit <- function() {
   ex <- example_problem()
-  calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 10, chains = 1, seed = 1, quiet = TRUE)
+  calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+            sampler = sampler_control(n_draws = 200, n_inner = 10, quiet = TRUE))
 }
 
 test_that("design_posterior() with no spread places every run at a posterior draw, inside the ranges", {

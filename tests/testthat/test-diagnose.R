@@ -8,7 +8,7 @@ test_that("where_fails finds the interval where the missing bump acts", {
   expect_true(top$start <= 0.3 && top$end >= 0.2)
   expect_equal(top$sign, "reality above model")
   expect_true(all(diff(wf$integrated_abs_bias) <= 0))
-  lv <- attr(wf, "levels")
+  lv <- attr(wf, "wavelet_levels")
   expect_equal(sum(lv$share), 1)
   expect_s3_class(attr(wf, "boundary"), "data.frame")
   expect_s3_class(autoplot(wf), "ggplot")
@@ -63,11 +63,12 @@ test_that("where_fails reports an offset of the record as one record-wide findin
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + 0.3
   ex$field$curves$site1 <- withr::with_seed(7, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
-  fit <- function(...) suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 150, n_inner = 20,
-                                                  chains = 1, seed = 11, quiet = TRUE, ...))
+  fit <- function(...) suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 11,
+                                                  bias = bias_control(...),
+                                                  sampler = sampler_control(n_draws = 150, n_inner = 20, quiet = TRUE)))
   f <- fit()
   wf <- where_fails(f)
-  lv <- attr(wf, "levels")
+  lv <- attr(wf, "wavelet_levels")
   expect_gt(lv$significant[lv$level == 0], 0)
   # the offset is the record-wide finding, about 0.3 and credible; the
   # localised part flags nothing
@@ -107,16 +108,17 @@ test_that("without a missing effect the whole-curve band flags (almost) nothing,
   steps <- function(wf) sum(round((wf$end - wf$start) / diff(t[1:2])))
   flagged <- vapply(1:20, function(r) {
     ex$field$curves$site1 <- withr::with_seed(100 + r, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
-    fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 10, chains = 1,
-                                      seed = r, quiet = TRUE))
+    fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = r,
+                                      sampler = sampler_control(n_draws = 100, n_inner = 10, quiet = TRUE)))
     c(simultaneous = steps(where_fails(fit)), pointwise = steps(where_fails(fit, band = "pointwise")))
   }, numeric(2))
   # a 90% whole-curve band misses a zero bias curve somewhere in about 10% of
   # the fits; the pointwise band at about 10% of all points
   expect_lte(mean(flagged["simultaneous", ] > 0), 0.3)
   expect_gt(sum(flagged["pointwise", ]), 2 * sum(flagged["simultaneous", ]))
-  expect_identical(attr(where_fails(fit = suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20,
-    n_inner = 5, chains = 1, seed = 1, quiet = TRUE)), band = "pointwise"), "band"), "pointwise")
+  expect_identical(attr(where_fails(fit = suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu,
+                                                                     chains = 1, seed = 1,
+                                                                     sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))), band = "pointwise"), "band"), "pointwise")
 })
 
 test_that("explain_bias ranks the true mechanism first and the decoys low", {
@@ -239,8 +241,8 @@ test_that("adding the missing effect makes the error fall", {
   iu_after <- iu_add(d$ex$iu, "s_bump", lower = 0, upper = 1)
   basis <- wavelet_basis(runs, d$ex$field, fraction = 1)
   em <- suppressWarnings(fit_emulators(runs, basis))
-  after <- suppressWarnings(calibrate(em, d$ex$field, iu_after, n_draws = 150, n_inner = 20, chains = 2,
-                                      seed = 12, quiet = TRUE))
+  after <- suppressWarnings(calibrate(em, d$ex$field, iu_after, chains = 2, seed = 12,
+                                      sampler = sampler_control(n_draws = 150, n_inner = 20, quiet = TRUE)))
   cmp <- compare_validations(d$fit, after)
   expect_s3_class(cmp, "wv_comparison")
   expect_named(cmp, c("metric", "before", "after", "change"))
@@ -393,7 +395,7 @@ test_that("on the test bed, the hidden mechanism is flagged where it acts, and o
     expect_named(share, c("site1", "site2"))
     expect_true(all(share > 0.2), label = paste(h, paste(round(share, 2), collapse = ", ")))
     pooled <- where_fails(testbed_validation(h, 1L, pool_levels = 0:3)$fit)
-    lv <- attr(pooled, "levels")
+    lv <- attr(pooled, "wavelet_levels")
     expect_true(all(lv$share[lv$level == 0] < 0.01), label = h)
     share <- flagged_share(pooled, effect)
     on <- flagged_share(pooled, effect, of = "flags")

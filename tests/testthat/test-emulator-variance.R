@@ -60,10 +60,10 @@ test_that("a calibration with rescaled emulators has a wider posterior", {
   ex <- example_problem()
   em <- ex$emulators
   em$banks$site1$lambda <- em$banks$site1$lambda / 25
-  wide <- suppressWarnings(calibrate(em, ex$field, ex$iu, n_draws = 100, n_inner = 10, chains = 1, seed = 3,
-                                     quiet = TRUE))
-  narrow <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 100, n_inner = 10, chains = 1,
-                                       seed = 3, quiet = TRUE))
+  wide <- suppressWarnings(calibrate(em, ex$field, ex$iu, chains = 1, seed = 3,
+                                     sampler = sampler_control(n_draws = 100, n_inner = 10, quiet = TRUE)))
+  narrow <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3,
+                                       sampler = sampler_control(n_draws = 100, n_inner = 10, quiet = TRUE)))
   sd_of <- function(fit) apply(as.matrix(fit$draws)[, fit$inputs], 2, stats::sd)
   expect_true(all(sd_of(wide) > sd_of(narrow)))
 })

@@ -89,7 +89,8 @@ test_that("the gasp_level engine gives valid emulators sharing parameters within
   withr::local_seed(6)
   field <- field_runs(list(site1 = t(replicate(3, pb$g(c(0.4, 0.5)) + stats::rnorm(length(pb$t), sd = 0.01)))),
                       pb$t)
-  fit <- suppressWarnings(calibrate(em, field, iu, n_draws = 40, n_inner = 5, chains = 1, seed = 1))
+  fit <- suppressWarnings(calibrate(em, field, iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 40, n_inner = 5)))
   expect_s3_class(fit, "wv_fit")
   r <- reality(fit)
   expect_true(all(r$lower <= r$upper))
@@ -114,8 +115,8 @@ band_coverage_case <- function(seed, engine, n_draws, n_inner) {
   runs <- tb$A$runs
   field <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = engine))
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1,
-                                    quiet = TRUE))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 2, seed = 1,
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE)))
   truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
   truth <- register_curves(truth, runs, tb$windows, knots_every = 2)
   r <- reality(fit)

@@ -24,8 +24,8 @@ test_that("example_fit() is a small calibrated fit, the same for the same seed",
   expect_identical(fit$seed, 1L)
   expect_identical(example_fit(seed = 1), fit)
   ex <- example_problem(seed = 2)
-  direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 200, n_inner = 20,
-                                       chains = 2, seed = 2, quiet = TRUE))
+  direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 2,
+                                       sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))
   expect_identical(example_fit(seed = 2), direct)
 })
 

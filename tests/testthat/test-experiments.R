@@ -103,25 +103,25 @@ test_that("a second experiment: sites, shared level variances, bands and where_f
   field2 <- ex$field
   field2$curves$site1 <- field2$curves$site1[1:2, , drop = FALSE]
   exps <- list(loaded = experiment(field2, change = c(x1 = 0.1)))
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 10, chains = 1,
-                                    seed = 3, burnin = 300, n_search = 20, quiet = TRUE, experiments = exps))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3, experiments = exps,
+                                    sampler = sampler_control(n_draws = 40, n_inner = 10, burnin = 300, n_search = 20, quiet = TRUE)))
   expect_identical(names(fit$wb), c("site1", "loaded/site1"))
   expect_identical(fit$experiments$experiment, c("base", "loaded"))
   expect_identical(unname(fit$shift[["loaded/site1"]]), c(0, 0.1))
   # one tau2 per level, shared: the second experiment adds no group
-  base <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 40, n_inner = 10, chains = 1,
-                                     seed = 3, burnin = 300, n_search = 20, quiet = TRUE))
+  base <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3,
+                                     sampler = sampler_control(n_draws = 40, n_inner = 10, burnin = 300, n_search = 20, quiet = TRUE)))
   expect_identical(fit$groups, base$groups)
   expect_identical(fit$bias_group[["loaded/site1"]], fit$bias_group$site1)
-  own <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps,
-                                    level_variances = "per_experiment"))
+  own <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3, experiments = exps,
+                                    bias = bias_control(level_variances = "per_experiment"),
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 100, n_search = 5, quiet = TRUE)))
   expect_equal(nrow(own$groups), 2 * nrow(base$groups))
   expect_true(all(startsWith(own$bias_group[["loaded/site1"]], "loaded/")))
   # one bias shared by the experiments: the same bias draws at both sites
-  shared <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                       seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps,
-                                       experiment_bias = "shared"))
+  shared <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3,
+                                       experiments = exps, bias = bias_control(experiment_bias = "shared"),
+                                       sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 100, n_search = 5, quiet = TRUE)))
   expect_identical(shared$wb[["loaded/site1"]], shared$wb$site1)
   expect_false(identical(shared$wM[["loaded/site1"]], shared$wM$site1))
   expect_output(print(shared), "one bias shared by the experiments")
@@ -160,8 +160,9 @@ test_that("experiments: classed errors before any sampling", {
                class = "wavevalid_error_experiment")
   expect_error(experiment(ex$field, change = 0.1), class = "wavevalid_error_experiment")
   expect_error(experiment(ex$field, change = c(x1 = NA)), class = "wavevalid_error_experiment")
-  run <- function(exps, ...) calibrate(ex$emulators, ex$field, ex$iu, n_draws = 5, n_inner = 2, chains = 1,
-                                       seed = 1, quiet = TRUE, experiments = exps, ...)
+  run <- function(exps, ...) calibrate(ex$emulators, ex$field, ex$iu, experiments = exps, bias = bias_control(...),
+                                       sampler = sampler_control(n_draws = 5, n_inner = 2, quiet = TRUE), chains = 1,
+                                       seed = 1)
   expect_error(run(experiment(ex$field, change = c(x1 = 0.1))), class = "wavevalid_error_experiment")
   expect_error(run(list(experiment(ex$field, change = c(x1 = 0.1)))), class = "wavevalid_error_experiment")
   expect_error(run(list(a = experiment(ex$field, change = c(x9 = 0.1)))), class = "wavevalid_error_experiment")
@@ -194,8 +195,9 @@ test_that("validate() registers an experiment without reference to the model wit
   dm <- tb$added_mass$delta
   exps <- list(added_mass = experiment(tb$added_mass$field, change = dm))
   msg <- expect_message(
-    fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, n_draws = 20, n_inner = 5,
-                                     chains = 1, seed = 1, burnin = 200, n_search = 10, experiments = exps)),
+    fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = 1, seed = 1,
+                                     experiments = exps,
+                                     sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200, n_search = 10))),
     class = "wavevalid_message")
   said <- function(m) gsub("\\s+", " ", conditionMessage(m))
   expect_match(said(msg), "\"added_mass\": the emulators at the runs' inputs changed by x1 +0.15", fixed = TRUE)
@@ -247,8 +249,8 @@ test_that("the report shows each experiment", {
   skip_if_not(rmarkdown::pandoc_available())
   ex <- example_problem(1)
   exps <- list(loaded = experiment(ex$field, change = c(x1 = 0.1)))
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 3, burnin = 100, n_search = 5, quiet = TRUE, experiments = exps))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3, experiments = exps,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 100, n_search = 5, quiet = TRUE)))
   out <- withr::local_tempfile(fileext = ".html")
   suppressWarnings(suppressMessages(validation_report(fit, file = out, quiet = TRUE)))
   html <- paste(readLines(out, warn = FALSE), collapse = "\n")

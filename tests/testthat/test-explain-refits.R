@@ -41,10 +41,12 @@ test_that("the Savage-Dickey Bayes factor of a re-validated model matches quadra
                 list(bump = 0, sigma2 = 0.02, tau2 = 0.004, upper = 2))
   for (cs in cases) {
     p <- refit_problem(cs$bump, cs$upper)
-    base <- calibrate(p$ex$emulators, p$ex$field, p$ex$iu, n_draws = 50, n_inner = 5, chains = 1, seed = 1,
-                      sigma2 = cs$sigma2, fix_tau2 = cs$tau2, quiet = TRUE)
-    after <- calibrate(p$em, p$ex$field, p$iu, n_draws = 400, n_inner = 5, chains = 1, seed = 2,
-                       sigma2 = cs$sigma2, fix_tau2 = cs$tau2, quiet = TRUE)
+    base <- calibrate(p$ex$emulators, p$ex$field, p$ex$iu, chains = 1, seed = 1,
+                      bias = bias_control(sigma2 = cs$sigma2, fix_tau2 = cs$tau2),
+                      sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE))
+    after <- calibrate(p$em, p$ex$field, p$iu, chains = 1, seed = 2,
+                       bias = bias_control(sigma2 = cs$sigma2, fix_tau2 = cs$tau2),
+                       sampler = sampler_control(n_draws = 400, n_inner = 5, quiet = TRUE))
     # the runs hold no model with the bump off: the weight rests on the
     # emulators' extrapolation, and the user is told
     expect_warning(ex <- explain_bias(base, list(bump = after), n_draws = 400),
@@ -60,17 +62,17 @@ test_that("the Savage-Dickey Bayes factor of a re-validated model matches quadra
 test_that("re-validated models: the missing bump is found, a misplaced one and nothing hidden are not", {
   withr::local_options(list(wavevalid.quiet = TRUE))
   p <- refit_problem(bump = 0.3)
-  base <- suppressWarnings(calibrate(p$ex$emulators, p$ex$field, p$ex$iu, n_draws = 150, n_inner = 10,
-                                     chains = 1, seed = 1, quiet = TRUE))
-  after <- suppressWarnings(calibrate(p$em, p$ex$field, p$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 2,
-                                      quiet = TRUE))
+  base <- suppressWarnings(calibrate(p$ex$emulators, p$ex$field, p$ex$iu, chains = 1, seed = 1,
+                                     sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
+  after <- suppressWarnings(calibrate(p$em, p$ex$field, p$iu, chains = 1, seed = 2,
+                                      sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
   # the same model with its bump late, where reality has none
   late <- function(u, x, s) p$model(u, x, 0) + s * 0.5 * exp(-((p$t - 0.8) / 0.05)^2)
   d <- p$em$design
   runs_late <- model_runs(d, t(apply(d, 1, function(z) late(z[1], z[2], z[3]))), p$t, site = "site1")
   em_late <- suppressWarnings(fit_emulators(runs_late, p$ex$emulators$basis))
-  after_late <- suppressWarnings(calibrate(em_late, p$ex$field, p$iu, n_draws = 150, n_inner = 10, chains = 1,
-                                           seed = 3, quiet = TRUE))
+  after_late <- suppressWarnings(calibrate(em_late, p$ex$field, p$iu, chains = 1, seed = 3,
+                                           sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
   ex <- suppressWarnings(explain_bias(base, list(late_bump = after_late, bump = after)))
   expect_s3_class(ex, "wv_explain")
   expect_named(ex, c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
@@ -87,12 +89,12 @@ test_that("re-validated models: the missing bump is found, a misplaced one and n
 
   # nothing hidden: neither claims
   q <- refit_problem(bump = 0)
-  base0 <- suppressWarnings(calibrate(q$ex$emulators, q$ex$field, q$ex$iu, n_draws = 150, n_inner = 10,
-                                      chains = 1, seed = 1, quiet = TRUE))
-  a0 <- suppressWarnings(calibrate(q$em, q$ex$field, q$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 2,
-                                   quiet = TRUE))
-  l0 <- suppressWarnings(calibrate(em_late, q$ex$field, q$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 3,
-                                   quiet = TRUE))
+  base0 <- suppressWarnings(calibrate(q$ex$emulators, q$ex$field, q$ex$iu, chains = 1, seed = 1,
+                                      sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
+  a0 <- suppressWarnings(calibrate(q$em, q$ex$field, q$iu, chains = 1, seed = 2,
+                                   sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
+  l0 <- suppressWarnings(calibrate(em_late, q$ex$field, q$iu, chains = 1, seed = 3,
+                                   sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
   ex0 <- suppressWarnings(explain_bias(base0, list(late_bump = l0, bump = a0)))
   expect_true(all(ex0$inclusion_prob < 0.5), label = paste(round(ex0$inclusion_prob, 3), collapse = ", "))
   sub <- attr(ex0, "subsets")
@@ -105,8 +107,8 @@ test_that("re-validated models: the missing bump is found, a misplaced one and n
   runs_on <- model_runs(p$em$design, t(apply(p$em$design, 1, function(z) p$model(z[1], z[2], z[3]))), p$t,
                         site = "site1")
   em_both <- suppressWarnings(fit_emulators(c(runs_off, runs_on), p$ex$emulators$basis))
-  both <- suppressWarnings(calibrate(em_both, p$ex$field, p$iu, n_draws = 150, n_inner = 10, chains = 1, seed = 2,
-                                     quiet = TRUE))
+  both <- suppressWarnings(calibrate(em_both, p$ex$field, p$iu, chains = 1, seed = 2,
+                                     sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
   expect_no_warning(ex_off <- explain_bias(base, list(bump = both)))
   expect_gt(ex_off$inclusion_prob[1], 0.99)
 })
@@ -114,29 +116,29 @@ test_that("re-validated models: the missing bump is found, a misplaced one and n
 test_that("re-validated models on another basis or field, without a strength, or mixed with curves are refused", {
   withr::local_options(list(wavevalid.quiet = TRUE))
   p <- refit_problem()
-  base <- suppressWarnings(calibrate(p$ex$emulators, p$ex$field, p$ex$iu, n_draws = 20, n_inner = 2, chains = 1,
-                                     seed = 1, quiet = TRUE))
-  after <- suppressWarnings(calibrate(p$em, p$ex$field, p$iu, n_draws = 20, n_inner = 2, chains = 1, seed = 1,
-                                      quiet = TRUE))
+  base <- suppressWarnings(calibrate(p$ex$emulators, p$ex$field, p$ex$iu, chains = 1, seed = 1,
+                                     sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
+  after <- suppressWarnings(calibrate(p$em, p$ex$field, p$iu, chains = 1, seed = 1,
+                                      sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_error(explain_bias(base, list(bump = after, wiggle = sin(6 * pi * p$t))), class = "wavevalid_error_input")
   expect_error(explain_bias(base, list(after)), class = "wavevalid_error_input")
   expect_error(explain_bias(base, list(same = base)), "one more", class = "wavevalid_error_input")
   other <- p$ex$field
   other$curves$site1 <- other$curves$site1 + 0.1
-  moved <- suppressWarnings(calibrate(p$em, other, p$iu, n_draws = 20, n_inner = 2, chains = 1, seed = 1,
-                                      quiet = TRUE))
+  moved <- suppressWarnings(calibrate(p$em, other, p$iu, chains = 1, seed = 1,
+                                      sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_error(explain_bias(base, list(bump = moved)), "field data", class = "wavevalid_error_input")
   runs <- model_runs(p$em$design, p$em$design[, 1:3] %*% matrix(rnorm(3 * 32), 3), p$t, site = "site1")
   b2 <- wavevalid:::basis_from_index(p$t, 1:8)
   em2 <- suppressWarnings(fit_emulators(runs, b2))
   f2 <- p$ex$field
-  expect_error(explain_bias(base, list(bump = suppressWarnings(calibrate(em2, f2, p$iu, n_draws = 20, n_inner = 2,
-                                                                          chains = 1, seed = 1, quiet = TRUE)))),
+  expect_error(explain_bias(base, list(bump = suppressWarnings(calibrate(em2, f2, p$iu, chains = 1, seed = 1,
+                                                                         sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE))))),
                "basis", class = "wavevalid_error_input")
   iu_var <- iu_map(c("u1", "x1", "s_bump"), c("calibration", "variation", "variation"),
                    lower = c(0, 0, 0), upper = c(1, 1, 1), nominal = c(0.5, 0.5, 0.5))
-  as_var <- suppressWarnings(calibrate(p$em, p$ex$field, iu_var, n_draws = 20, n_inner = 2, chains = 1, seed = 1,
-                                       quiet = TRUE))
+  as_var <- suppressWarnings(calibrate(p$em, p$ex$field, iu_var, chains = 1, seed = 1,
+                                       sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_error(explain_bias(base, list(bump = as_var)), "calibration input", class = "wavevalid_error_input")
 })
 

@@ -2,8 +2,9 @@ test_that("explain_bias weighs each coefficient by the tau2 of its group, pooled
   ex <- example_problem()
   lv <- sort(unique(ex$emulators$basis$level))
   pool <- lv[1:2]
-  fit <- calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1,
-                   pool_levels = pool, quiet = TRUE)
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                   bias = bias_control(pool_levels = pool),
+                   sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
   d <- as.matrix(fit$draws)
   V <- wavevalid:::bias_level_variances(fit, d)
   name <- sprintf("tau2[site1:%d-%d]", pool[1], pool[2])
@@ -27,7 +28,8 @@ test_that("candidates on the user's grid of a non-dyadic field are interpolated 
   reps <- t(replicate(3, model(0.4, 0.5) + 0.3 * bump(t480, 0.5) + stats::rnorm(480, sd = 0.01)))
   field <- suppressMessages(field_runs(reps, t480))
   iu <- iu_map(c("u", "x"), c("calibration", "variation"), c(0, 0), c(1, 1))
-  fit <- suppressWarnings(validate(runs, field, iu, n_draws = 40, n_inner = 5, chains = 1, seed = 1, quiet = TRUE))
+  fit <- suppressWarnings(validate(runs, field, iu, chains = 1, seed = 1,
+                                   sampler = sampler_control(n_draws = 40, n_inner = 5, quiet = TRUE)))
   tb <- fit$basis$t
   expect_length(tb, 512L)
 

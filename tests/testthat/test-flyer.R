@@ -61,14 +61,15 @@ test_that("the flyer plate validates with every default and its strength paramet
   skip_unless_slow()
   fl <- load_flyer()
   withr::local_options(list(wavevalid.quiet = TRUE))
-  fit <- suppressWarnings(validate(fl$runs, fl$field, fl$iu, n_draws = 1000, n_inner = 50, chains = 2, seed = 1))
+  fit <- suppressWarnings(validate(fl$runs, fl$field, fl$iu, chains = 2, seed = 1,
+                                   sampler = sampler_control(n_draws = 1000, n_inner = 50)))
   e <- fit$basis$error
   expect_lte(stats::median(e$rel_l2[e$source == "run"]), 0.01)
   expect_lte(max(e$rel_l2[e$source == "field"]), 0.02)
   expect_output(print(fit), "velocity: learned")
   iu <- iu_prior_joint(fl$iu, fl$prior$names, fl$prior$mean, fl$prior$cov, scale = fl$prior$scale)
-  fit_p <- suppressWarnings(calibrate(fit$emulators, fit$field, iu, n_draws = 1000, n_inner = 50, chains = 2,
-                                      seed = 1))
+  fit_p <- suppressWarnings(calibrate(fit$emulators, fit$field, iu, chains = 2, seed = 1,
+                                      sampler = sampler_control(n_draws = 1000, n_inner = 50)))
   k <- which(fl$prior$names == "kappa")
   z <- (mean(as.matrix(fit_p$draws)[, "kappa"]) - fl$prior$mean[[k]]) / sqrt(fl$prior$cov[k, k])
   expect_lt(abs(z), 3)

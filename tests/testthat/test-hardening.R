@@ -48,8 +48,8 @@ test_that("pipeline verbs refuse objects of the wrong class with classed errors"
 
 test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
   ex <- example_problem()
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 1, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE)))
   for (lev in list(-1, 0, 1, 2, NA, "a", c(0.5, 0.9), NULL)) {
     expect_classed(bias(fit, level = lev))
     expect_classed(reality(fit, level = lev))
@@ -57,8 +57,8 @@ test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
     expect_classed(predict(fit, level = lev))
   }
   for (n in list(0, -5, 2.5, NA, "10", Inf)) {
-    expect_classed(calibrate(ex$emulators, ex$field, ex$iu, n_draws = n))
-    expect_classed(calibrate(ex$emulators, ex$field, ex$iu, n_inner = n))
+    expect_classed(calibrate(ex$emulators, ex$field, ex$iu, sampler = sampler_control(n_draws = n)))
+    expect_classed(calibrate(ex$emulators, ex$field, ex$iu, sampler = sampler_control(n_inner = n)))
     expect_classed(calibrate(ex$emulators, ex$field, ex$iu, chains = n))
   }
   expect_classed(calibrate(ex$emulators, ex$field, ex$iu, seed = "a"))
@@ -75,8 +75,8 @@ test_that("fit-based verbs refuse out-of-range arguments with classed errors", {
 # argument that begins a formal's name is that argument, as in base R).
 test_that("fit-based verbs refuse unknown arguments with classed errors that name them", {
   ex <- example_problem()
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 1, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE)))
   expect_error(where_fails(fit, tolerence = 0.1), "tolerence", class = "wavevalid_error_input")
   expect_error(explain_bias(fit, list(), ndraws = 10), "ndraws", class = "wavevalid_error_input")
   expect_error(calibrate(ex$emulators, ex$field, ex$iu, ndraws = 10), "ndraws", class = "wavevalid_error_input")
@@ -90,14 +90,14 @@ test_that("fit-based verbs refuse unknown arguments with classed errors that nam
 # unique beginning of a choice picks it.
 test_that("choice arguments refuse values outside their choices with classed errors", {
   ex <- example_problem()
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 1, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE)))
   expect_error(predict(fit, type = "new_run"), "new_vehicle", class = "wavevalid_error_input")
   expect_error(predict(fit, bias = "additiv3"), "multiplicative", class = "wavevalid_error_input")
   expect_error(predict(fit, type = c("reality", "field_run")), "type", class = "wavevalid_error_input")
   expect_error(where_fails(fit, band = "curve"), "simultaneous", class = "wavevalid_error_input")
   expect_error(where_fails(fit, band = NA), "band", class = "wavevalid_error_input")
-  expect_error(calibrate(ex$emulators, ex$field, ex$iu, proposal = "gibbs"), "adaptive",
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, sampler = sampler_control(proposal = "gibbs")), "adaptive",
                class = "wavevalid_error_input")
   t <- seq(0, 1, length.out = 64)
   design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)

@@ -27,8 +27,8 @@ test_that("explicit uniform priors are the I/U map of before, and its draws are 
   # draws of the package before priors of calibration inputs existed, same seed and settings
   old <- readRDS(test_path("fixtures", "uniform-prior-draws.rds"))
   for (p in c("adaptive", "report")) {
-    fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 30, n_inner = 10, chains = 2,
-                                      seed = 7, proposal = p, burnin = 300, n_search = 20, quiet = TRUE))
+    fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 7,
+                                      sampler = sampler_control(n_draws = 30, n_inner = 10, proposal = p, burnin = 300, n_search = 20, quiet = TRUE)))
     expect_identical(as.matrix(fit$draws), old[[p]]$draws)
     expect_identical(fit$wb$site1[, 1:3], old[[p]]$wb)
   }
@@ -246,8 +246,8 @@ test_that("a fit states the prior of each input in print and summary", {
   ex <- example_problem(1)
   ex$iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), c(0, 0), c(1, 1), prior = "normal",
                   prior_mean = c(0.4, NA), prior_sd = c(0.2, NA))
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                    seed = 1, burnin = 200, n_search = 10, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE)))
   out <- capture.output(print(fit))
   expect_true(any(grepl("u1 +normal\\(0.4, sd 0.2\\) on \\[0, 1\\]", out)))
   expect_true(any(grepl("x1 +normal\\(0.5, sd 0.1667\\)", out)))

@@ -32,14 +32,17 @@ test_that("a one-replicate, non-dyadic problem validates end to end with the fin
   runs <- suppressMessages(model_runs(design, curves, t, site = "load"))
   field <- suppressMessages(field_runs(measured, t, site = "load"))
   # a bad sigma2 is refused before the emulators are fitted: the error comes from validate() itself
-  cnd <- rlang::catch_cnd(validate(runs, field, iu, sigma2 = "median", n_draws = 20, quiet = TRUE))
+  cnd <- rlang::catch_cnd(validate(runs, field, iu, bias = bias_control(sigma2 = "median"),
+                                   sampler = sampler_control(n_draws = 20, quiet = TRUE)))
   expect_s3_class(cnd, "wavevalid_error_input")
   expect_identical(as.character(cnd$call[[1]]), "validate")
-  expect_error(validate(runs, field, iu, sigma2 = list(other = 1), quiet = TRUE), class = "wavevalid_error_input")
+  expect_error(validate(runs, field, iu, bias = bias_control(sigma2 = list(other = 1)),
+                        sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_warning(
     # the bump that reality has and the model lacks may pull x1 to a bound: a warning of its own
-    fit <- suppressWarnings(suppressMessages(validate(runs, field, iu, sigma2 = "finest", n_draws = 60, n_inner = 10,
-                                                      chains = 1, seed = 1, quiet = TRUE)),
+    fit <- suppressWarnings(suppressMessages(validate(runs, field, iu, chains = 1, seed = 1,
+                                                      bias = bias_control(sigma2 = "finest"),
+                                                      sampler = sampler_control(n_draws = 60, n_inner = 10, quiet = TRUE))),
                             classes = "wavevalid_warning_boundary"),
     class = "wavevalid_warning_noise_estimate"
   )
@@ -122,8 +125,8 @@ test_that("how the noise was set is stored, printed and checked", {
   one <- ex$field
   one$curves$site1 <- one$curves$site1[1, , drop = FALSE]
   run <- function(field, ...) {
-    calibrate(ex$emulators, field, ex$iu, n_draws = 20, n_inner = 5, chains = 1, seed = 1, burnin = 200,
-              n_search = 10, quiet = TRUE, ...)
+    calibrate(ex$emulators, field, ex$iu, chains = 1, seed = 1, bias = bias_control(...),
+              sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE))
   }
   expect_message(fit <- suppressWarnings(run(one)), "learned", class = "wavevalid_message")
   expect_identical(fit$noise_setting, c(site1 = "learned"))
@@ -196,8 +199,8 @@ test_that("the noise learned from one curve with repeated time stamps recovers t
     withr::local_seed(seed)
     y <- f(t_obs, 0.4, 0.6) + rnorm(length(t_obs), sd = 0.05)
     field <- suppressMessages(field_runs(rbind(y), t_obs, grid = tg))
-    fit <- suppressWarnings(suppressMessages(validate(runs, field, iu, n_draws = 300, n_inner = 20, chains = 1,
-                                                      seed = seed, quiet = TRUE)))
+    fit <- suppressWarnings(suppressMessages(validate(runs, field, iu, chains = 1, seed = seed,
+                                                      sampler = sampler_control(n_draws = 300, n_inner = 20, quiet = TRUE))))
     ev <- fit$noise_evidence$site1
     sd_draws <- sqrt(fit$sigma2$site1[, 1] / ev$mult[1])
     expect_lt(abs(stats::median(sd_draws) / 0.05 - 1), 0.3)
@@ -212,8 +215,8 @@ test_that("on the flyer plate the learned noise agrees with the repeated measure
   expect_identical(nz$df, 34)
   pairs_sd <- sqrt(nz$ss / nz$df)
   expect_equal(pairs_sd, 4.3e-4, tolerance = 0.02)
-  fit <- suppressWarnings(suppressMessages(validate(fl$runs, fl$field, fl$iu, n_draws = 100, n_inner = 20,
-                                                    chains = 1, seed = 1, quiet = TRUE)))
+  fit <- suppressWarnings(suppressMessages(validate(fl$runs, fl$field, fl$iu, chains = 1, seed = 1,
+                                                    sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))))
   sd_draws <- sqrt(fit$sigma2$velocity[, 1] / fit$noise_evidence$velocity$mult[1])
   expect_lt(abs(log(stats::median(sd_draws) / pairs_sd)), log(2))
 })

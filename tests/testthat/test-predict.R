@@ -1,7 +1,7 @@
 example_fit <- function(seed = 3) {
   ex <- example_problem()
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 60, n_inner = 10, chains = 1,
-                                    seed = seed, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = seed,
+                                    sampler = sampler_control(n_draws = 60, n_inner = 10, quiet = TRUE)))
   list(fit = fit, ex = ex)
 }
 

@@ -35,8 +35,9 @@ test_that("the checks and their figures on a sound problem", {
   pw <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, windows = list(c(0.2, 0.8)))
   expect_identical(pw$status[pw$check == "windows"], "ok")
   # the counter sees the fits of a validation that passes
-  ok <- count_calls(suppressWarnings(validate(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, n_draws = 10, n_inner = 2,
-                                              chains = 1, burnin = 10, seed = 1, quiet = TRUE)))
+  ok <- count_calls(suppressWarnings(validate(pp$runs, pp$field, pp$iu, chains = 1, seed = 1,
+                                              bias = bias_control(sigma2 = 1e-4),
+                                              sampler = sampler_control(n_draws = 10, n_inner = 2, burnin = 10, quiet = TRUE))))
   expect_s3_class(ok$value, "wv_fit")
   expect_identical(unname(ok$calls), c(1L, 0L, 1L))
 })
@@ -48,12 +49,13 @@ test_that("one replicate without sigma2: the pre-flight warns, and validate() le
   expect_match(pf$figure[pf$check == "noise"], "learned in the posterior")
   expect_match(pf$fix[pf$check == "noise"], "sigma2")
   expect_warning(enforce_preflight(pf), class = "wavevalid_warning_noise")
-  fit <- suppressWarnings(suppressMessages(validate(pp$runs, pp$field, pp$iu, n_draws = 20, n_inner = 5, chains = 1,
-                                                    seed = 1, quiet = TRUE)))
+  fit <- suppressWarnings(suppressMessages(validate(pp$runs, pp$field, pp$iu, chains = 1, seed = 1,
+                                                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))))
   expect_s3_class(fit, "wv_fit")
   expect_identical(unname(fit$noise_setting), "learned")
   # a bad sigma2 stops before anything is registered or fitted
-  out <- count_calls(validate(pp$runs, pp$field, pp$iu, windows = list(c(0.2, 0.8)), sigma2 = -1, quiet = TRUE))
+  out <- count_calls(validate(pp$runs, pp$field, pp$iu, windows = list(c(0.2, 0.8)),
+                              bias = bias_control(sigma2 = -1), sampler = sampler_control(quiet = TRUE)))
   expect_s3_class(out$value, "wavevalid_error_input")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
   # the same problem with sigma2 passes every check
@@ -65,7 +67,8 @@ test_that("a bad grid and a basis too coarse are refused before any fit", {
   # a grid that is not dyadic, as an object not built by model_runs()
   odd <- new_wv_runs(pp$runs$design, pp$t[1:100], lapply(pp$runs$curves, function(m) m[, 1:100]))
   odd_field <- new_wv_field(pp$t[1:100], lapply(pp$field$curves, function(m) m[, 1:100, drop = FALSE]))
-  out <- count_calls(validate(odd, odd_field, pp$iu, sigma2 = 1e-4, quiet = TRUE))
+  out <- count_calls(validate(odd, odd_field, pp$iu, bias = bias_control(sigma2 = 1e-4),
+                              sampler = sampler_control(quiet = TRUE)))
   expect_s3_class(out$value, "wavevalid_error_grid")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
   pf <- preflight(odd, odd_field, pp$iu, sigma2 = 1e-4)
@@ -81,19 +84,20 @@ test_that("a bad grid and a basis too coarse are refused before any fit", {
   expect_identical(preflight(pp$runs, holed, pp$iu, sigma2 = 1)$status[1], "error")
 
   # the report's rule on a sharp rise: 10 coefficients miss 1% many times over
-  coarse <- list(retain = "report", keep_levels = 0:1, fraction = 0.01)
+  coarse <- list(retain = "report", whole_levels = 0:2, fraction = 0.01)
   pf <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, basis_args = coarse)
   expect_identical(pf$status[pf$check == "basis"], "error")
   med <- stats::median(attr(pf, "basis")$error$rel_l2[attr(pf, "basis")$error$source == "run"])
   expect_gt(med, 0.05)
-  out <- count_calls(validate(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, basis_args = coarse, quiet = TRUE))
+  out <- count_calls(validate(pp$runs, pp$field, pp$iu, basis_args = coarse,
+                              bias = bias_control(sigma2 = 1e-4), sampler = sampler_control(quiet = TRUE)))
   expect_s3_class(out$value, "wavevalid_error_basis")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
   # a basis that misses the tolerance only for some runs warns
   mild <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, tolerance = c(runs = med / 2))
   expect_identical(mild$status[mild$check == "basis"], "ok")
   mild <- preflight(pp$runs, pp$field, pp$iu, sigma2 = 1e-4, tolerance = c(runs = med / 2),
-                    basis_args = list(retain = "report", keep_levels = 0:1, fraction = 0.01))
+                    basis_args = list(retain = "report", whole_levels = 0:2, fraction = 0.01))
   expect_identical(mild$status[mild$check == "basis"], "warning")
 })
 
@@ -104,7 +108,8 @@ test_that("an input of the runs that the I/U map lacks stops validate() before a
   expect_identical(pf$status[pf$check == "inputs"], "error")
   expect_match(pf$figure[pf$check == "inputs"], "the design's input x is not in the I/U map")
   expect_match(pf$fix[pf$check == "inputs"], "iu_add()", fixed = TRUE)
-  out <- count_calls(validate(pp$runs, pp$field, short, sigma2 = 1, quiet = TRUE))
+  out <- count_calls(validate(pp$runs, pp$field, short, bias = bias_control(sigma2 = 1),
+                              sampler = sampler_control(quiet = TRUE)))
   expect_s3_class(out$value, "wavevalid_error_inputs")
   expect_match(conditionMessage(out$value), "x is not in the I/U map")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
@@ -118,7 +123,8 @@ test_that("an input of the I/U map that the runs lack stops validate() before an
   expect_identical(pf$status[pf$check == "inputs"], "error")
   expect_match(pf$figure[pf$check == "inputs"], "the I/U map's input x is not in the design of the runs")
   expect_match(pf$fix[pf$check == "inputs"], 'iu[iu$name != "x", ]', fixed = TRUE)
-  out <- count_calls(validate(runs_u, pp$field, pp$iu, sigma2 = 1, quiet = TRUE))
+  out <- count_calls(validate(runs_u, pp$field, pp$iu, bias = bias_control(sigma2 = 1),
+                              sampler = sampler_control(quiet = TRUE)))
   expect_s3_class(out$value, "wavevalid_error_inputs")
   expect_match(conditionMessage(out$value), "x is not in the design of the runs")
   expect_identical(unname(out$calls), c(0L, 0L, 0L))
@@ -137,14 +143,14 @@ test_that("an input of the I/U map that the runs lack stops validate() before an
 test_that("calibrate() wants the emulators' inputs and the I/U map's to be the same", {
   ex <- example_problem()
   more <- iu_add(ex$iu, "w", lower = 0, upper = 1)
-  err <- expect_error(calibrate(ex$emulators, ex$field, more, n_draws = 10, n_inner = 2, chains = 1, seed = 1,
-                                quiet = TRUE),
+  err <- expect_error(calibrate(ex$emulators, ex$field, more, chains = 1, seed = 1,
+                                sampler = sampler_control(n_draws = 10, n_inner = 2, quiet = TRUE)),
                       class = "wavevalid_error_inputs")
   expect_match(conditionMessage(err), "w is not in the inputs of the emulators")
   expect_match(conditionMessage(err), 'iu[iu$name != "w", ]', fixed = TRUE)
   less <- ex$iu[ex$iu$name != "x1", ]
-  err <- expect_error(calibrate(ex$emulators, ex$field, less, n_draws = 10, n_inner = 2, chains = 1, seed = 1,
-                                quiet = TRUE),
+  err <- expect_error(calibrate(ex$emulators, ex$field, less, chains = 1, seed = 1,
+                                sampler = sampler_control(n_draws = 10, n_inner = 2, quiet = TRUE)),
                       class = "wavevalid_error_inputs")
   expect_s3_class(err, "wavevalid_error_input")
   expect_match(conditionMessage(err), "x1 is not in the I/U map")

@@ -22,7 +22,8 @@ test_that("print and summary of every class are stable", {
   rc <- reconstruction_check(basis, pp$runs, reg)
   ep <- error_processes(basis, reg, seed = 1)
   em <- suppressWarnings(fit_emulators(pp$runs, basis))
-  fit <- suppressWarnings(calibrate(em, reg, pp$iu, n_draws = 60, n_inner = 5, chains = 1, seed = 1, quiet = TRUE))
+  fit <- suppressWarnings(calibrate(em, reg, pp$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 60, n_inner = 5, quiet = TRUE)))
   pr <- predict(fit, type = "field_run", seed = 1)
   wf <- where_fails(fit)
   ex <- explain_bias(fit, list(bump = exp(-((pp$t - 4) / 0.25)^2), wave = cos(pp$t)), positive = c(TRUE, FALSE),

@@ -188,8 +188,8 @@ test_that("landmarks in another order than the reference's are left out, with a 
 
 test_that("the print of a fit on a field registered with landmarks left out says which", {
   ex <- wavevalid:::example_calibration_inputs()
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, n_draws = 20, n_inner = 2, chains = 1, seed = 1,
-                                    quiet = TRUE))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_false(any(grepl("left out landmarks", utils::capture.output(print(fit)))))
   t <- grid()
   flipped <- field_runs(rbind(event_curve(t, at = c(5.2, 14.3)), -event_curve(t, at = c(5.2, 14.3))), t)
@@ -392,10 +392,13 @@ test_that("a shifted logistic rise is registered by its steepest point and by a 
                              refine = TRUE)$warps
   expect_lt(abs(quarter$t_after[1] - (5 + 0.25 * stats::qlogis(lv))), 1e-3)
   expect_lt(max(abs(quarter$t_before - quarter$t_after - shifts)), 0.02 * h)
-  level <- register_curves(field, list(site1 = ref), win, features = "cross", cross_level = 0.6,
+  level <- register_curves(field, list(site1 = ref), win, features = "cross", cross_value = 0.6,
                            refine = TRUE)$warps
   expect_lt(abs(level$t_after[1] - (5 + 0.25 * stats::qlogis(0.6))), 1e-3)
   expect_lt(max(abs(level$t_before - (5 + shifts))), 1e-3)
+  expect_warning(old <- register_curves(field, list(site1 = ref), win, features = "cross", cross_level = 0.6,
+                                        refine = TRUE)$warps, class = "wavevalid_warning_deprecated")
+  expect_identical(old, level)
   # a fall is the rise of the negated curves; several features are ordered by time
   down <- field_runs(-field$curves$site1, t)
   both <- register_curves(down, list(site1 = -ref), win, features = c("fall", "cross"), cross_fraction = 0.25,

@@ -67,8 +67,9 @@ test_that("calibrate() weighs the inputs' likelihood for shared errors by defaul
   withr::local_seed(13)
   gp <- shared_grid_problem()
   run <- function(lik) {
-    calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 3,
-              sigma2 = gp$sigma2, input_likelihood = lik, quiet = TRUE)
+    calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 3,
+              bias = bias_control(sigma2 = gp$sigma2, input_likelihood = lik),
+              sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   }
   ind <- run("independent")
   adj <- run("adjusted")
@@ -83,8 +84,9 @@ test_that("calibrate() weighs the inputs' likelihood for shared errors by defaul
   sd_of <- function(f) stats::sd(as.matrix(f$draws)[, "u1"])
   expect_gt(sd_of(adj), sd_of(ind))
   # the default is the adjusted likelihood, draw for draw
-  def <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, n_draws = 300, n_inner = 10, chains = 1, seed = 3,
-                   sigma2 = gp$sigma2, quiet = TRUE)
+  def <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 3,
+                   bias = bias_control(sigma2 = gp$sigma2),
+                   sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   expect_identical(as.matrix(def$draws), as.matrix(adj$draws))
   expect_error(run("pca"), class = "wavevalid_error_input")
 })

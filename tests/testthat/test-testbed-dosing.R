@@ -178,7 +178,8 @@ test_that("the package's verbs run on the dosing test bed", {
   basis <- wavelet_basis(tb$A$runs, field)
   expect_s3_class(basis, "wv_basis")
   em <- fit_emulators(tb$A$runs, basis, seed = 1)
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = 50, n_inner = 10, chains = 1, seed = 1))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 50, n_inner = 10)))
   expect_s3_class(fit, "wv_fit")
   draws <- as.matrix(fit$draws)
   expect_identical(nrow(draws), 50L)

@@ -71,7 +71,7 @@ test_that("Psi has orthonormal columns and matches wavethresh's inverse transfor
 test_that("I holds the whole kept levels and every curve's top coefficients, and nothing else", {
   withr::local_seed(4)
   bed <- small_bed()
-  b <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:2, fraction = 0.05, retain = "report")
+  b <- wavelet_basis(bed$runs, bed$field, whole_levels = 0:3, fraction = 0.05, retain = "report")
   expect_true(all(1:8 %in% b$index))
   expected <- 1:8
   for (s in c("s1", "s2")) {
@@ -88,7 +88,7 @@ test_that("I holds the whole kept levels and every curve's top coefficients, and
   expect_equal(b$index, sort(unique(unlist(b$by_site))))
   expect_true(all(lengths(b$by_site) <= length(b$index)))
   # with no thresholded coefficients, I is exactly the kept levels
-  b0 <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:3, fraction = 0, retain = "report")
+  b0 <- wavelet_basis(bed$runs, bed$field, whole_levels = 0:4, fraction = 0, retain = "report")
   expect_equal(b0$index, 1:16)
   expect_equal(b0$level, c(0L, 1L, 2L, 2L, rep(3L, 4), rep(4L, 8)))
 })
@@ -152,7 +152,12 @@ test_that("inputs are checked", {
   expect_error(wavelet_basis(bed$runs, short), class = cls)
   odd <- new_wv_runs(bed$runs$design, bed$runs$t[1:100], lapply(bed$runs$curves, function(m) m[, 1:100]))
   expect_error(wavelet_basis(odd), class = cls)
-  expect_error(wavelet_basis(bed$runs, keep_levels = 8), class = cls)
+  expect_error(wavelet_basis(bed$runs, whole_levels = 9), class = cls)
+  # the old numbering of wavethresh's detail levels still works, one level lower, with a warning
+  expect_warning(old <- wavelet_basis(bed$runs, bed$field, keep_levels = 0:1, retain = "report"),
+                 class = "wavevalid_warning_deprecated")
+  expect_identical(old$index, wavelet_basis(bed$runs, bed$field, whole_levels = 0:2, retain = "report")$index)
+  expect_error(wavelet_basis(bed$runs, keep_lvls = 0:2), class = cls)
   expect_error(wavelet_basis(bed$runs, fraction = 1.5), class = cls)
   expect_error(wavelet_basis(bed$runs, family = "Haar"), class = cls)
   other_site <- field_runs(list(zz = bed$field$curves$s1), bed$field$t)

@@ -1,0 +1,268 @@
+#' The statistical model of a calibration: noise, bias and likelihood
+#'
+#' `bias_control()` gathers the choices that change what [calibrate()] and
+#' [validate()] estimate: how the field noise is set, how the bias variances
+#' are grouped over wavelet levels, which levels inform the inputs, and how
+#' the inputs' likelihood counts the coefficients. Its defaults are the
+#' package's defaults; the method's report is
+#' `bias_control(input_likelihood = "independent")`. The arguments are checked
+#' here, once; what depends on the data (the sites of `sigma2`, the levels
+#' the basis holds, the groups of `fix_tau2`) is checked by [calibrate()].
+#'
+#' Wavelet levels are numbered as in [wavelet_basis()]: 0 for the scaling
+#' coefficient, `l + 1` for wavethresh's detail level `l`.
+#'
+#' @param sigma2 How the field noise variances are set (see the section
+#'   Field noise of [calibrate()]):
+#'   * `NULL` (default): from the replicates at sites with two or more (the
+#'     method's modular estimate), learned in the posterior with the default
+#'     [noise_prior()] at sites with one (with a message);
+#'   * a [noise_prior()]: learned in the posterior at every site, one variance
+#'     per site shared by all coefficients;
+#'   * fixed variances: a numeric vector (one value or one per coefficient)
+#'     for a single site, or a list of such vectors named by site (the sites
+#'     left out keep the default);
+#'   * `"finest"`: estimated once from the finest wavelet level of the field
+#'     curves with [field_noise()], with a warning. On a smoothed or
+#'     interpolated curve the finest level holds less than the noise, and
+#'     this underestimates it (the bands are then too narrow).
+#' @param pool_levels `NULL` (one bias variance per site and level, as in the
+#'   method) or two or more wavelet levels whose bias coefficients share one
+#'   variance at each site (group `"site:a-b"`). Levels 0 and 1 hold one
+#'   coefficient each, so their own variance is barely informed by the data;
+#'   `pool_levels = 0:3` shrinks them with the 8 coefficients of levels 0 to
+#'   3. See the section Bias variances of [calibrate()].
+#' @param inform_levels `NULL` (every level informs the inputs, as in the
+#'   method) or the wavelet levels whose coefficients inform the inputs; the
+#'   other levels get their `tau2` and bias given the inputs drawn. Levels
+#'   pooled by `pool_levels` must be all in or all out.
+#' @param input_likelihood `"adjusted"` (default): in the inputs' steps only,
+#'   the likelihood is raised to the magnitude adjustment of a composite
+#'   likelihood estimated from the data, for errors the coefficients share;
+#'   `"independent"`: the coefficients counted as independent, the method's
+#'   likelihood and posterior. See the section Errors the coefficients share
+#'   of [calibrate()].
+#' @param temper Power of the likelihood in (0, 1]: 1 (default) is the
+#'   method's posterior.
+#' @param registration_variance `TRUE` adds to the variance of the
+#'   registered field mean the variance that comes from registering to the
+#'   mean of the model runs (needs a field registered to `wv_runs`); `FALSE`
+#'   (default) is the method's. See the section Registration of
+#'   [calibrate()].
+#' @param fix_tau2 Optional fixed bias variances (one value, or a vector
+#'   named by group `"site:level"`); they are then not sampled. Mostly for
+#'   checks.
+#' @param level_variances With several experiments: `"shared"` (default), one
+#'   bias variance per resolution level across the experiments;
+#'   `"per_experiment"`, one per experiment.
+#' @param experiment_bias With several experiments: `"own"` (default), one
+#'   bias function per experiment and site; `"shared"`, one per site common to
+#'   every experiment (needs `level_variances = "shared"`).
+#' @return A `wv_bias_control` object: a list of the checked values.
+#' @seealso [sampler_control()] for the sampler's tuning, [calibrate()].
+#' @export
+#' @examples
+#' bias_control()
+#' bias_control(pool_levels = 0:3, input_likelihood = "independent")
+bias_control <- function(sigma2 = NULL, pool_levels = NULL, inform_levels = NULL,
+                         input_likelihood = c("adjusted", "independent"), temper = 1,
+                         registration_variance = FALSE, fix_tau2 = NULL,
+                         level_variances = c("shared", "per_experiment"),
+                         experiment_bias = c("own", "shared")) {
+  input_likelihood <- check_choice(input_likelihood)
+  level_variances <- check_choice(level_variances)
+  experiment_bias <- check_choice(experiment_bias)
+  check_number(temper, min = 0, max = 1)
+  if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
+  check_flag(registration_variance)
+  check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
+  check_levels_arg(inform_levels, "inform_levels", min_length = 1L)
+  if (!is.null(sigma2) && !identical(sigma2, "finest") && !inherits(sigma2, "wv_noise_prior")) {
+    vals <- if (is.list(sigma2)) sigma2 else list(sigma2)
+    ok <- all(vapply(vals, function(v) is.numeric(v) && length(v) && all(is.finite(v)) && all(v > 0), logical(1)))
+    if (!ok || (is.list(sigma2) && is.null(names(sigma2)))) {
+      wv_abort(c("{.arg sigma2} must be {.code NULL}, {.val finest}, a {.fn noise_prior}, positive numbers, or a list of them named by site.",
+                 "x" = "It is {.code {deparse(sigma2)}}."))
+    }
+  }
+  if (!is.null(fix_tau2) && (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0))) {
+    wv_abort("{.arg fix_tau2} must hold positive numbers.")
+  }
+  if (experiment_bias == "shared" && level_variances == "per_experiment") {
+    wv_abort(c("A bias shared by the experiments has one variance per level.",
+               "i" = "Use {.code level_variances = \"shared\"} with {.code experiment_bias = \"shared\"}."),
+             class = "experiment")
+  }
+  structure(list(sigma2 = sigma2, pool_levels = pool_levels, inform_levels = inform_levels,
+                 input_likelihood = input_likelihood, temper = temper,
+                 registration_variance = registration_variance, fix_tau2 = fix_tau2,
+                 level_variances = level_variances, experiment_bias = experiment_bias),
+            class = "wv_bias_control")
+}
+
+#' Tuning of the calibration's sampler
+#'
+#' `sampler_control()` gathers the settings of the Metropolis-Hastings
+#' sampler of [calibrate()] and [validate()]: how many draws, how they are
+#' thinned, the proposal, the burn-in, the start's search and the threads.
+#' They change how well the posterior is explored, not which posterior it is.
+#' The number of chains and the seed stay arguments of [calibrate()].
+#'
+#' @param n_draws Draws saved per chain.
+#' @param n_inner Metropolis-Hastings cycles between saved draws (the
+#'   thinning); `sigma2` is drawn anew every `n_inner` cycles.
+#' @param step Half-width of the local proposal as a fraction of each input's
+#'   range (the method's 0.05 on a coded range of about 0.5-0.75).
+#' @param proposal `"adaptive"` (default) or `"report"`; see the section
+#'   Proposals of [calibrate()].
+#' @param global_moves Probability, in `[0, 1)`, that a cycle of the
+#'   `"adaptive"` sampler makes an independence move; 0 (default) keeps the
+#'   report's mixture step as the global move, in a tenth of the cycles.
+#' @param burnin Cycles run before the first saved draw and discarded. `NULL`
+#'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
+#'   adapts during these cycles, and 0 for `"report"`.
+#' @param n_search Number of draws from the prior of the inputs searched,
+#'   with the nominal point, for the start of each chain's burn-in under
+#'   `"adaptive"` (the best by profile likelihood; 0 starts at the nominals).
+#'   Where the posterior has several modes, a wider search finds the better
+#'   one more often.
+#' @param threads Threads (OpenMP) sharing the emulator predictions of each
+#'   chain, default `getOption("wavevalid.threads", 1)`. The draws do not
+#'   depend on `threads`. No more threads are used than there are free cores
+#'   (or `getOption("wavevalid.free_cores")` when set); a message says when
+#'   `threads` is cut.
+#' @param quiet Suppress the progress bars and messages (default
+#'   `getOption("wavevalid.quiet", FALSE)`).
+#' @return A `wv_sampler_control` object: a list of the checked values.
+#' @seealso [bias_control()] for the statistical model's choices,
+#'   [calibrate()].
+#' @export
+#' @examples
+#' sampler_control()
+#' sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
+sampler_control <- function(n_draws = 1000, n_inner = 200, step = 0.1, proposal = c("adaptive", "report"),
+                            global_moves = 0, burnin = NULL, n_search = 200,
+                            threads = getOption("wavevalid.threads", 1L),
+                            quiet = getOption("wavevalid.quiet", FALSE)) {
+  check_number(n_draws, min = 1, integer = TRUE)
+  check_number(n_inner, min = 1, integer = TRUE)
+  check_number(step, min = 1e-6, max = 1)
+  proposal <- check_choice(proposal)
+  check_number(global_moves, min = 0, max = 0.99)
+  if (!is.null(burnin)) check_number(burnin, min = 0, max = .Machine$integer.max, integer = TRUE)
+  check_number(n_search, min = 0, max = 1e7, integer = TRUE)
+  check_number(threads, min = 1, max = 1024, integer = TRUE)
+  check_flag(quiet)
+  structure(list(n_draws = n_draws, n_inner = n_inner, step = step, proposal = proposal,
+                 global_moves = global_moves, burnin = burnin, n_search = n_search, threads = threads,
+                 quiet = quiet),
+            class = "wv_sampler_control")
+}
+
+#' @export
+print.wv_bias_control <- function(x, ...) {
+  cli::cat_line("<wv_bias_control>")
+  for (line in control_lines(x)) cli::cat_line("  ", line)
+  invisible(x)
+}
+
+#' @export
+print.wv_sampler_control <- function(x, ...) {
+  cli::cat_line("<wv_sampler_control>")
+  for (line in control_lines(x)) cli::cat_line("  ", line)
+  invisible(x)
+}
+
+# One line per setting, `name: value`.
+control_lines <- function(x) {
+  show <- function(v) {
+    if (is.null(v)) return("NULL")
+    if (inherits(v, "wv_noise_prior")) return("noise_prior()")
+    if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, show, "")), collapse = ", "))
+    if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
+    if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)), collapse = ", "))
+    paste(format(v, digits = 3), collapse = ", ")
+  }
+  vapply(names(x), function(nm) sprintf("%s: %s", nm, show(x[[nm]])), "", USE.NAMES = FALSE)
+}
+
+# Whole wavelet levels (0 for the scaling coefficient), or NULL.
+check_levels_arg <- function(x, arg, min_length = 1L, call = rlang::caller_env()) {
+  if (is.null(x)) return(invisible(x))
+  if (!is.numeric(x) || anyNA(x) || any(x != round(x)) || any(x < 0) || length(unique(x)) < min_length) {
+    wv_abort(c(
+      "{.arg {arg}} must be {if (min_length > 1L) 'two or more' else 'one or more'} whole wavelet levels (0 for the scaling coefficient), or NULL.",
+      "x" = "It is {.code {deparse(x)}}."
+    ), call = call)
+  }
+  invisible(x)
+}
+
+# The settings each control object holds, by the name they had as arguments
+# of calibrate() and validate() before the control objects.
+control_fields <- function() {
+  list(bias = names(formals(bias_control)), sampler = names(formals(sampler_control)))
+}
+
+# The control objects of a call of `fun`, with the settings it still names
+# the old way (in `...`) moved into them, each with a deprecation warning;
+# an unknown name is an error. Returns list(bias, sampler).
+resolve_controls <- function(bias, sampler, dots, fun, call = rlang::caller_env()) {
+  check_class(bias, "wv_bias_control", call = call)
+  check_class(sampler, "wv_sampler_control", call = call)
+  if (!length(dots)) return(list(bias = bias, sampler = sampler))
+  nm <- names(dots) %||% rep("", length(dots))
+  fields <- control_fields()
+  unknown <- nm[!nm %in% unlist(fields)]
+  if (length(unknown)) do.call(check_dots_none, c(dots[!nm %in% unlist(fields)], list(call = call)))
+  for (what in c("bias", "sampler")) {
+    mine <- nm[nm %in% fields[[what]]]
+    if (!length(mine)) next
+    ctor <- paste0(what, "_control")
+    shown <- paste0("`", mine, "`", collapse = ", ")
+    wv_warn(c("{if (length(mine) > 1L) 'The arguments' else 'The argument'} {shown} of {.fn {fun}} {if (length(mine) > 1L) 'are' else 'is'} deprecated.",
+              "i" = "Give {if (length(mine) > 1L) 'them' else 'it'} to {.code {what} = {ctor}(...)} instead."),
+            class = "deprecated")
+    obj <- if (what == "bias") bias else sampler
+    args <- unclass(obj)
+    for (m in mine) args[m] <- list(dots[[m]])
+    rebuilt <- do.call(ctor, args)
+    if (what == "bias") bias <- rebuilt else sampler <- rebuilt
+  }
+  list(bias = bias, sampler = sampler)
+}
+
+# The control objects a fit was made with; for a fit made before they were
+# stored, rebuilt from its settings.
+fit_controls <- function(fit) {
+  if (!is.null(fit$control)) return(fit$control)
+  st <- fit$settings
+  args <- fit$calibrate_args %||% list()
+  bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels, inform_levels = st$inform_levels,
+                       input_likelihood = st$input_likelihood %||% "independent", temper = st$temper %||% 1,
+                       registration_variance = isTRUE(st$registration_variance), fix_tau2 = args$fix_tau2,
+                       level_variances = st$level_variances %||% "shared",
+                       experiment_bias = st$experiment_bias %||% "own")
+  sampler <- sampler_control(n_draws = st$n_draws, n_inner = st$n_inner, step = st$step,
+                             proposal = st$proposal %||% "report", global_moves = st$global_moves %||% 0,
+                             burnin = st$burnin, n_search = st$n_search %||% 200L)
+  list(bias = bias, sampler = sampler)
+}
+
+# A control object as the call that makes it, naming only the settings away
+# from the defaults (and `always`, even at its default).
+control_call <- function(x, always = character(0)) {
+  ctor <- if (inherits(x, "wv_bias_control")) bias_control else sampler_control
+  name <- if (inherits(x, "wv_bias_control")) "bias_control" else "sampler_control"
+  defaults <- unclass(do.call(ctor, list()))
+  show <- function(v) {
+    if (inherits(v, "wv_noise_prior")) return("noise_prior(...)")
+    if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
+    out <- paste(deparse(v, width.cutoff = 500L), collapse = "")
+    if (nchar(out) > 60L) "..." else out
+  }
+  keep <- vapply(names(x), function(nm) nm %in% always || !identical(x[[nm]], defaults[[nm]]), logical(1))
+  keep[names(x) %in% c("quiet", "threads")] <- FALSE
+  args <- vapply(names(x)[keep], function(nm) paste(nm, "=", show(x[[nm]])), "")
+  paste0(name, "(", paste(args, collapse = ", "), ")")
+}
