@@ -1,78 +1,5 @@
-# Methods of wv_fit: convergence diagnostics and flags (R-hat, effective
-# sizes, inputs piled at a bound), print, summary, the coda conversion and
-# the figures.
-
-# --- diagnostics ---------------------------------------------------------------
-
-fit_diagnostics <- function(fit) {
-  inp <- fit$inputs
-  ess <- coda::effectiveSize(fit$draws)
-  rhat <- stats::setNames(rep(NA_real_, length(inp)), inp)
-  if (length(fit$draws) >= 2L) {
-    sub <- coda::mcmc.list(lapply(fit$draws, function(m) m[, inp, drop = FALSE]))
-    r <- tryCatch(coda::gelman.diag(sub, autoburnin = FALSE, multivariate = FALSE)$psrf[, 1],
-                  error = function(e) rep(NA_real_, length(inp)))
-    rhat[] <- r
-  }
-  list(rhat = rhat, ess = ess, flags = boundary_flags(fit, rhat))
-}
-
-# Inputs whose posterior piles at a bound (see piled_at_bound()), and inputs
-# with R-hat above 1.1.
-boundary_flags <- function(fit, rhat) {
-  X <- as.matrix(fit$draws)
-  pr <- fit$prior_iu
-  out <- data.frame(input = character(0), bound = character(0), posterior = numeric(0),
-                    prior = numeric(0), stringsAsFactors = FALSE)
-  for (k in seq_along(fit$inputs)) {
-    lo <- pr$lower[k]
-    hi <- pr$upper[k]
-    d <- 0.02 * (hi - lo)
-    x <- X[, fit$inputs[k]]
-    for (side in c("lower", "upper")) {
-      zone <- if (side == "lower") c(lo, lo + d) else c(hi - d, hi)
-      post <- mean(x >= zone[1] & x <= zone[2])
-      prior <- prior_mass(pr, k, zone)
-      if (piled_at_bound(post, prior)) {
-        out[nrow(out) + 1L, ] <- list(fit$inputs[k], side, post, prior)
-      }
-    }
-  }
-  list(boundary = out, rhat = names(rhat)[!is.na(rhat) & rhat > 1.1])
-}
-
-# The posterior of an input piles up at a bound when at least 10% of the
-# draws lie within 2% of the range from it and that share is at least four
-# times the prior's share there (a uniform prior puts 2% there, so 8% or more
-# of the draws flag it).
-piled_at_bound <- function(post, prior, share = 0.1, ratio = 4) {
-  post >= share & post >= ratio * prior
-}
-
-prior_mass <- function(pr, k, zone) {
-  if (is.null(pr$prior) && pr$type[k] == "variation") {
-    cdf <- function(v) stats::pnorm(v, pr$nominal[k], pr$prior_sd[k])
-    return((cdf(zone[2]) - cdf(zone[1])) / (cdf(pr$upper[k]) - cdf(pr$lower[k])))
-  }
-  iu_prior_mass(pr, k, zone[1], zone[2])
-}
-
-warn_fit_flags <- function(fit) {
-  f <- fit$flags
-  if (length(f$rhat)) {
-    wv_warn(c("The chains have not mixed: R-hat > 1.1 for {.val {f$rhat}}.",
-              "i" = "Run longer chains (larger {.arg n_draws} or {.arg n_inner})."), class = "mixing")
-  }
-  if (nrow(f$boundary)) {
-    msg <- sprintf("%s at its %s bound (%.0f%% of draws, prior %.0f%%)", f$boundary$input,
-                   f$boundary$bound, 100 * f$boundary$posterior, 100 * f$boundary$prior)
-    wv_warn(c("The posterior piles up at a bound of the range of {.val {unique(f$boundary$input)}}.",
-              stats::setNames(msg, rep("*", length(msg))),
-              "i" = "The input may be acting as a tuning knob for a missing effect; see {.fn where_fails}."),
-            class = "boundary")
-  }
-  invisible(fit)
-}
+# Methods of wv_fit: print, summary, the coda conversion and the figures. The
+# diagnostics they report are computed in fit-diagnostics.R.
 
 #' @importFrom coda as.mcmc.list
 #' @export
@@ -241,11 +168,6 @@ shared_error_lines <- function(x) {
   }
   sprintf("Inputs' likelihood: the coefficients' shared errors counted once, the likelihood raised to %s in the inputs' steps (%d inputs / %s, the magnitude adjustment of a composite likelihood; errors across %d coefficients from the emulators' leave-one-out errors and the replicates' scatter)",
           format(signif(se$weight, 3)), se$p, format(signif(se$trace, 3)), se$n_coef)
-}
-
-# The prior sd of each input (by simulation from the prior, prior_sample()).
-prior_sds <- function(iu, n = 20000L) {
-  apply(prior_sample(iu, n), 2L, stats::sd)
 }
 
 #' @export

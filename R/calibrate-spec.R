@@ -278,3 +278,37 @@ subset_field_sites <- function(field, sites) {
   field$curves <- field$curves[sites]
   field
 }
+
+# One value per tau2 group (`coef_level`: the wavelet level of each
+# coefficient): 1 when its coefficients inform the inputs (their
+# levels are all in inform_levels), 0 when they are cut off; NULL when every
+# level informs them.
+informing_groups <- function(inform_levels, coef_level, bias_group, groups, call = rlang::caller_env()) {
+  if (is.null(inform_levels)) return(NULL)
+  lv <- sort(unique(coef_level))
+  if (!is.numeric(inform_levels) || !length(inform_levels) || anyNA(inform_levels) ||
+      any(inform_levels != round(inform_levels))) {
+    wv_abort(c("{.arg inform_levels} must be whole wavelet levels (0 for the scaling coefficient), or NULL.",
+               "x" = "It is {.code {deparse(inform_levels)}}."), call = call)
+  }
+  absent <- setdiff(inform_levels, lv)
+  if (length(absent)) {
+    wv_abort(c("{.arg inform_levels} names level{?s} {absent} that the basis does not hold.",
+               "i" = "The basis holds levels {lv}."), call = call)
+  }
+  inside <- coef_level %in% inform_levels
+  out <- vapply(groups$name, function(g) {
+    k <- unlist(lapply(bias_group, function(b) b == g))
+    here <- unique(rep(inside, length(bias_group))[k])
+    if (length(here) > 1L) {
+      wv_abort(c("{.arg inform_levels} splits levels that share one bias variance.",
+                 "x" = "Group {.val {g}} holds levels both in and out of {.arg inform_levels}.",
+                 "i" = "Take all of {.arg pool_levels} in or out."), call = call)
+    }
+    as.integer(here)
+  }, integer(1))
+  if (!any(out == 1L)) {
+    wv_abort("{.arg inform_levels} leaves no coefficient to inform the inputs.", call = call)
+  }
+  unname(out)
+}

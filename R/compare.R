@@ -99,17 +99,6 @@ validation_metrics <- function(fit, level) {
   )
 }
 
-# Root mean square over sites and time of the posterior mean of the part of
-# the bias carried by the coefficients `keep`.
-part_rms <- function(fit, keep) {
-  Psi <- fit$basis$Psi[, keep, drop = FALSE]
-  sq <- vapply(names(fit$wb), function(s) {
-    m <- drop(Psi %*% colMeans(fit$wb[[s]][, keep, drop = FALSE]))
-    sum(m^2)
-  }, numeric(1))
-  sqrt(sum(sq) / (nrow(Psi) * length(sq)))
-}
-
 holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
   if (inherits(holdout, "wv_field")) {
     return(list(

@@ -186,16 +186,6 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   out
 }
 
-# The levels (the report's numbering) whose functions each span the whole
-# record: the scaling coefficient, and the detail levels whose wavelets'
-# support, (2N - 1) / 2^j of the record for Daubechies' wavelets with N
-# vanishing moments at wavethresh level j, is at least the record.
-record_wide_levels <- function(basis) {
-  N <- basis$settings$filter.number
-  j_max <- floor(log2(2 * N - 1))
-  0:(j_max + 1L)
-}
-
 # The bias band of the part of the bias carried by the coefficients `keep`.
 bias_part <- function(fit, keep, level) {
   do.call(rbind, lapply(names(fit$wb), function(s) {
@@ -319,41 +309,6 @@ bias_by_level <- function(fit, level) {
   }))
 }
 
-# Share of the posterior within 2% of the range from each bound, against the
-# prior's share there; flagged when the posterior piles up at a bound.
-boundary_check <- function(fit, margin = 0.02) {
-  d <- as.matrix(fit$draws)
-  iu <- fit$iu
-  inputs <- intersect(fit$emulators$inputs, iu$name)
-  do.call(rbind, lapply(inputs, function(p) {
-    k <- match(p, iu$name)
-    lo <- iu$lower[k]
-    hi <- iu$upper[k]
-    nom <- iu$nominal[k]
-    if (iu$type[k] == "variation" && !is.null(fit$x_nom) && p %in% names(fit$x_nom)) {
-      shift <- fit$x_nom[[p]] - nom
-      lo <- lo + shift
-      hi <- hi + shift
-    }
-    w <- hi - lo
-    x <- d[, p]
-    near_lo <- mean(x < lo + margin * w)
-    near_hi <- mean(x > hi - margin * w)
-    v <- seq(lo, hi, length.out = 2001)
-    dens <- iu_prior_density(iu, k, v - (lo - iu$lower[k]))
-    dens <- dens / sum(dens)
-    prior_lo <- sum(dens[v < lo + margin * w])
-    prior_hi <- sum(dens[v > hi - margin * w])
-    data.frame(
-      input = p, lower = lo, upper = hi,
-      near_lower = near_lo, near_upper = near_hi,
-      prior_near_lower = prior_lo, prior_near_upper = prior_hi,
-      flagged = piled_at_bound(near_lo, prior_lo) || piled_at_bound(near_hi, prior_hi),
-      stringsAsFactors = FALSE
-    )
-  }))
-}
-
 #' How much of a known effect does where_fails() flag?
 #'
 #' The share of the grid points where a known effect acts (its absolute value
@@ -412,4 +367,15 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
     c(share, mean(acts))
   }, numeric(2))
   structure(out[1L, ], acting = out[2L, ])
+}
+
+# Root mean square over sites and time of the posterior mean of the part of
+# the bias carried by the coefficients `keep`.
+part_rms <- function(fit, keep) {
+  Psi <- fit$basis$Psi[, keep, drop = FALSE]
+  sq <- vapply(names(fit$wb), function(s) {
+    m <- drop(Psi %*% colMeans(fit$wb[[s]][, keep, drop = FALSE]))
+    sum(m^2)
+  }, numeric(1))
+  sqrt(sum(sq) / (nrow(Psi) * length(sq)))
 }

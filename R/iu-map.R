@@ -273,23 +273,6 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
 # rejection sampling from the untruncated prior would be too slow.
 min_prior_mass <- 1e-4
 
-# Probability of [a, b] under the untruncated normal or log-normal prior of input k.
-univariate_prior_mass <- function(x, k, a, b) {
-  if (x$prior[k] == "lognormal") {
-    m <- log(x$prior_mean[k])
-    return(stats::pnorm(log(b), m, x$prior_sd[k]) - stats::pnorm(log(max(a, 0)), m, x$prior_sd[k]))
-  }
-  stats::pnorm(b, x$prior_mean[k], x$prior_sd[k]) - stats::pnorm(a, x$prior_mean[k], x$prior_sd[k])
-}
-
-# An I/U map made before priors of calibration inputs existed: uniform ones.
-iu_upgrade <- function(x) {
-  if (!is.null(x$prior)) return(x)
-  x$prior <- ifelse(x$type == "variation", "normal", "uniform")
-  x$prior_mean <- ifelse(x$type == "variation", x$nominal, NA_real_)
-  x
-}
-
 #' @export
 `[.wv_iu` <- function(x, i, j, ..., drop = TRUE) {
   out <- NextMethod()
@@ -372,4 +355,107 @@ autoplot.wv_iu <- function(object, ...) {
 plot.wv_iu <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
+}
+
+#' A joint Gaussian prior over calibration inputs
+#'
+#' Replaces the priors of several calibration inputs of an I/U map by one
+#' Gaussian with a full covariance, for instance a posterior from an earlier
+#' calibration. Each input enters on its own scale (`"identity"`: the input
+#' `x`; `"log"`: `log(x)`), and the Gaussian on those scales is truncated to
+#' the inputs' ranges `[lower, upper]`. With `y` the inputs on their scales,
+#' the prior density on the inputs in their own units is
+#' `exp(-(y - mean)' cov^-1 (y - mean) / 2) / prod(x[log scale])` inside the
+#' box, up to a constant: the factor `1 / x` of each log-scale input is the
+#' Jacobian of `log`.
+#'
+#' A Gaussian given on the scale `-log(x)` (as GPMSA's flyer-plate example
+#' does for the strength parameter `gamma`) is the Gaussian on `log(x)` with
+#' the sign of that entry of `mean` flipped, and the signs of that row and
+#' column of `cov` flipped (the diagonal entry keeps its sign).
+#'
+#' The prior must put at least a probability of 1e-4 in the box before
+#' truncation: draws of it (the sampler's start search, [testbed_suspension()]
+#' truths) are taken by rejection from the untruncated Gaussian.
+#'
+#' @param iu A `wv_iu` object ([iu_map()]).
+#' @param names Names of two or more calibration inputs of `iu` (one is
+#'   allowed too), none already under a joint prior.
+#' @param mean Mean of the Gaussian, one value per input of `names`, each on
+#'   the input's scale.
+#' @param cov Covariance matrix of the Gaussian (symmetric positive definite,
+#'   one row and column per input of `names`, in that order), on the inputs'
+#'   scales.
+#' @param scale `"identity"` or `"log"`: one value for every input, or one per
+#'   input of `names`. `"log"` needs a positive lower bound.
+#' @return `iu` with the joint prior: the inputs' column `prior` becomes
+#'   `"joint"` and the Gaussian is kept in the attribute `"joint"` (a list of
+#'   blocks with `names`, `mean`, `cov`, `scale`), which [iu_add()], printing
+#'   and saving keep.
+#' @seealso [iu_map()] for the priors of single inputs.
+#' @export
+#' @examples
+#' iu <- iu_map(c("a", "b", "x1"), c("calibration", "calibration", "variation"),
+#'              lower = c(0, 1e-6, 0), upper = c(1, 1e-3, 1))
+#' # a and log(b) jointly Gaussian, correlation 0.5
+#' iu <- iu_prior_joint(iu, c("a", "b"), mean = c(0.4, log(3e-5)),
+#'                      cov = matrix(c(0.01, 0.025, 0.025, 0.25), 2), scale = c("identity", "log"))
+#' iu
+iu_prior_joint <- function(iu, names, mean, cov, scale = "identity") {
+  check_class(iu, "wv_iu")
+  iu <- iu_upgrade(iu)
+  if (!is.character(names) || !length(names) || anyNA(names) || anyDuplicated(names)) {
+    wv_abort("{.arg names} must be distinct input names of {.arg iu}.", class = c("prior", "input"))
+  }
+  miss <- setdiff(names, iu$name)
+  if (length(miss)) {
+    wv_abort(c("{.arg names} must be inputs of {.arg iu}.",
+               "x" = "{.val {miss}} {?is/are} not in it; its inputs are {.val {iu$name}}."),
+             class = c("prior", "input"))
+  }
+  k <- match(names, iu$name)
+  notcal <- names[iu$type[k] != "calibration"]
+  if (length(notcal)) {
+    wv_abort(c("A joint prior is for calibration inputs only.",
+               "x" = "{.val {notcal}} {?has/have} manufacturing variation."),
+             class = c("prior", "input"))
+  }
+  taken <- names[iu$prior[k] == "joint"]
+  if (length(taken)) {
+    wv_abort(c("{.val {taken}} {?is/are} already under a joint prior.",
+               "i" = "Give all inputs of one Gaussian in one call."), class = c("prior", "input"))
+  }
+  d <- length(names)
+  if (!is.numeric(mean) || length(mean) != d || any(!is.finite(mean))) {
+    wv_abort(c("{.arg mean} must hold {d} finite number{?s}, one per input of {.arg names}.",
+               "x" = "It has length {length(mean)}."), class = c("prior", "input"))
+  }
+  if (is.numeric(cov) && length(cov) == 1L && d == 1L) cov <- matrix(cov, 1, 1)
+  if (!is.matrix(cov) || !is.numeric(cov) || any(dim(cov) != d)) {
+    wv_abort(c("{.arg cov} must be a {d} x {d} numeric matrix, one row and column per input of {.arg names}.",
+               "x" = "It is {if (is.matrix(cov)) paste(dim(cov), collapse = ' x ') else 'not a matrix'}."),
+             class = c("prior", "input"))
+  }
+  if (any(!is.finite(cov))) wv_abort("{.arg cov} must be finite.", class = c("prior", "input"))
+  if (!is.character(scale) || !length(scale) %in% c(1L, d) || !all(scale %in% c("identity", "log"))) {
+    wv_abort("{.arg scale} must be {.val identity} or {.val log}, one value or one per input ({d}).",
+             class = c("prior", "input"))
+  }
+  scale <- rep_len(scale, d)
+  badlog <- names[scale == "log" & iu$lower[k] <= 0]
+  if (length(badlog)) {
+    wv_abort(c("A prior on the log scale needs a positive lower bound.",
+               "x" = "{.val {badlog}} {cli::qty(length(badlog))}{?has a lower bound/have lower bounds} of zero or less.",
+               "i" = "Raise the lower bound, or use {.code scale = \"identity\"} for {cli::qty(length(badlog))}{?it/them}."),
+             class = c("prior", "input"))
+  }
+  cov <- unname(cov)
+  joint_chol(cov)
+  blocks <- c(attr(iu, "joint"), list(list(names = names, mean = unname(as.numeric(mean)), cov = cov,
+                                           scale = scale)))
+  iu$prior[k] <- "joint"
+  iu$prior_sd[k] <- NA_real_
+  iu$prior_mean[k] <- NA_real_
+  attr(iu, "joint") <- blocks
+  validate_wv_iu(iu)
 }

@@ -28,9 +28,9 @@ print.wv_basis <- function(x, ...) {
 
 basis_rule_text <- function(st) {
   wl <- st$whole_levels %||% c(0L, st$keep_levels + 1L)
-  lv <- if (length(wl) > 1L) paste0(" and all of levels ", paste(range(wl), collapse = "-"))
-        else ""
-  rule <- sprintf("scaling coefficient%s, plus each curve's top %s%% of coefficients", lv, format(100 * st$fraction))
+  lv <- if (length(wl) > 1L) sprintf("all of levels %s (0: the scaling coefficient)", paste(range(wl), collapse = "-"))
+        else "the scaling coefficient"
+  rule <- sprintf("%s, plus each curve's top %s%% of coefficients", lv, format(100 * st$fraction))
   if (identical(st$retain, "error")) {
     rule <- sprintf("%s, plus what the curves need for relative L2 errors within %s (median of the runs) and %s or the noise level (each field curve)",
                     rule, percent_text(st$tolerance[["runs"]]), percent_text(st$tolerance[["field"]]))

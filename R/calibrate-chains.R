@@ -1,0 +1,43 @@
+# Running the chains of calibrate(): one future per chain, each the C++
+# sampler, on as many threads as there are free cores.
+
+# Cores free for this process: the option wavevalid.free_cores when set, else
+# the cores R sees less the other processes the 1-minute load average counts
+# (this one counted once; Linux, elsewhere every core), at least 1.
+free_cores <- function() {
+  set <- getOption("wavevalid.free_cores")
+  if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
+  n <- suppressWarnings(parallel::detectCores())
+  if (is.na(n) || n < 1L) return(1L)
+  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE), " ")[[1L]][1L]),
+                   error = function(e) NA_real_, warning = function(w) NA_real_)
+  busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
+  as.integer(max(1, n - busy))
+}
+
+# One future per chain; debug_break (1: no proposal-density ratio of the
+# global moves, 2: no tau2 ratio, ...) exists only to show that the
+# simulation-based checks detect errors.
+run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
+                       quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1, p_indep = 0,
+                       n_search = 200L, threads = 1L) {
+  fix <- any(tau$fixed)
+  tau_init <- if (fix) unname(tau$values) else numeric(0)
+  chain_fun <- function(ch) {
+    progress <- NULL
+    if (!isTRUE(quiet)) {
+      id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
+      progress <- function(h) cli::cli_progress_update(id = id, set = h)
+    }
+    settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
+                     tau2_init = as.numeric(tau_init), fix_tau2 = fix, n_draws = as.integer(n_draws),
+                     n_inner = as.integer(n_inner), step = as.numeric(step), seed = as.numeric(seed),
+                     chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
+                     adaptive = identical(proposal, "adaptive"), burnin = as.integer(burnin),
+                     p_global = as.numeric(p_global), p_indep = as.numeric(p_indep), n_search = as.integer(n_search),
+                     threads = as.integer(threads), informs = as.integer(spec$informs %||% integer(0)),
+                     temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1))
+    calibrate_chain_cpp(spec$sites, spec$priors, settings)
+  }
+  future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
+}
