@@ -29,6 +29,17 @@ test_that("example_fit() is a small calibrated fit, the same for the same seed",
   expect_identical(example_fit(seed = 2), direct)
 })
 
+test_that("the example fit shipped with the package is what its calibration gives now", {
+  # example_fit() returns the stored fit at seed 1; a change to the calibration that moves it fails
+  # here (remake it with data-raw/make-example.R)
+  expect_equal(example_fit(), compute_example_fit(1))
+  ex <- example_problem(seed = 1)
+  direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1,
+                                       sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))
+  expect_identical(as.matrix(example_fit()$draws), as.matrix(direct$draws))
+  expect_identical(example_fit()$wb, direct$wb)
+})
+
 test_that("augment_emulators() and loo_residuals() take `emulators`; `object` is deprecated", {
   ex <- example_problem()
   em <- ex$emulators
