@@ -31,11 +31,9 @@ inputs_inside <- function(X, z_true, inputs) {
   }, logical(1))
 }
 
-# Longest flagged interval of a where_fails() table, in grid steps.
-longest_steps <- function(fails) {
-  t <- attr(fails, "bias")$t
-  if (nrow(fails)) round(max(fails$end - fails$start) / (t[2] - t[1])) else 0
-}
+# Longest flagged interval of a where_fails() table, in grid steps (as the
+# verdict of criterion 1 measures it).
+longest_steps <- function(fails) testbed_where_verdict(fails, "none")$longest
 
 # Values by site, two significant figures, joined by "/".
 by_site <- function(x) if (is.null(x)) NA_character_ else paste(formatC(x, digits = 2, format = "fg"), collapse = "/")
