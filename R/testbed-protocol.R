@@ -32,9 +32,10 @@
 #' the front. With the default likelihood (`input_likelihood = "adjusted"`)
 #' the short chain could settle with several inputs in conflict with their
 #' prior, and explain_bias() then claimed the tire lift-off with nothing
-#' hidden; the hidden mechanism reached 0.9 among the signature candidates in
-#' fewer cases; and the pooled flags of a hidden bump stop at the rear lay
-#' less often where it acts. `testbed_default_fit()` and
+#' hidden; among the signature candidates the hidden mechanism reached 0.9
+#' in only part of the hidden cases; and the pooled flags of a hidden bump
+#' stop at the rear were only a few times likelier than flags thrown at
+#' random to lie where it acts. `testbed_default_fit()` and
 #' `testbed_default_refits()` run the package's defaults instead.
 #'
 #' @section The steps:
