@@ -182,7 +182,7 @@
 #' testbed_where_verdict(where_fails(example_fit()), "none")$where_ok
 #' \donttest{
 #' field <- testbed_register(tb, tb$A$runs)
-#' # the model without any mechanism, validated and judged (a few minutes)
+#' # the model without any mechanism, validated and judged (about a minute)
 #' v <- testbed_validation("none", seed = 1)
 #' testbed_where_verdict(where_fails(v$fit), "none")
 #' ex <- explain_bias(v$fit, testbed_signatures(coef(v$fit)), n_draws = 50, seed = 1)
