@@ -1,8 +1,7 @@
 # Pieces shared by the studies, on the package's exported functions. Source
-# from the package's root after library(wavevalid); it sources the test bed
-# protocol the diagnosis tests use (tests/testthat/helper-testbed.R) and the
-# argument parser (studies/args.R).
-source("tests/testthat/helper-testbed.R")
+# from the package's root after library(wavevalid); it sources the argument
+# parser (studies/args.R). The test bed protocol the diagnosis tests use is
+# the package's (?testbed_protocol).
 source("studies/args.R")
 
 clock <- function() as.numeric(proc.time()[["elapsed"]])
@@ -32,40 +31,18 @@ inputs_inside <- function(X, z_true, inputs) {
   }, logical(1))
 }
 
-# Longest flagged interval of a where_fails() table, in grid steps.
-longest_steps <- function(fails) {
-  t <- attr(fails, "bias")$t
-  if (nrow(fails)) round(max(fails$end - fails$start) / (t[2] - t[1])) else 0
-}
+# Longest flagged interval of a where_fails() table, in grid steps (as the
+# verdict of criterion 1 measures it).
+longest_steps <- function(fails) testbed_where_verdict(fails, "none")$longest
 
 # Values by site, two significant figures, joined by "/".
 by_site <- function(x) if (is.null(x)) NA_character_ else paste(formatC(x, digits = 2, format = "fg"), collapse = "/")
 
-# The test bed's field noise: AR(1) with standard deviation `sd` and
-# coefficient `phi` (as testbed_suspension() draws it).
-testbed_noise <- function(n, sd = 0.03, phi = 0.95) {
-  e <- stats::rnorm(n, sd = sd * sqrt(1 - phi^2))
-  as.numeric(stats::filter(e, phi, method = "recursive", init = stats::rnorm(1, sd = sd)))
-}
-
-# Condition A's field data of test bed `tb` as a perfect registration would
-# leave them: the noise-free truth plus the same kind of noise as the
-# replicates (seeded by `seed`), one curve per replicate, no time warps. With
-# `warp` (knots t, w), the truth is first warped by it (monotone spline), as
-# every replicate by the same warp.
-unwarped_field <- function(tb, seed, warp = NULL) {
-  f <- tb$A$field
-  t <- f$t
-  reality <- tb$truth$reality
-  if (!is.null(warp)) {
-    at <- pmin(pmax(stats::splinefun(warp$t, warp$w, method = "monoH.FC")(t), t[1]), t[length(t)])
-    reality <- lapply(reality, function(y) stats::splinefun(t, y, method = "fmm")(at))
-  }
-  testbed_with_seed(seed, for (s in names(f$curves)) {
-    f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])), function(r) reality[[s]] + testbed_noise(length(t)),
-                              numeric(length(t))))
-  })
-  f
+# Evaluates `code` with R's random number generator (default kinds) seeded by
+# `seed`, restoring the caller's state.
+testbed_with_seed <- function(seed, code) {
+  withr::with_seed(seed, code, .rng_kind = "Mersenne-Twister", .rng_normal_kind = "Inversion",
+                   .rng_sample_kind = "Rejection")
 }
 
 # The field of condition A with every replicate warped by the mean of the
@@ -74,5 +51,5 @@ unwarped_field <- function(tb, seed, warp = NULL) {
 mean_warp_field <- function(tb, seed) {
   w <- tb$truth$warps
   w <- w[w$condition == "A", ]
-  unwarped_field(tb, seed, warp = stats::aggregate(w ~ t, data = w, FUN = mean))
+  testbed_unwarped_field(tb, seed, warp = stats::aggregate(w ~ t, data = w, FUN = mean))
 }

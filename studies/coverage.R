@@ -60,7 +60,7 @@ inputs_case <- function(seed) {
   field <- if (opt$field == "registered") {
     register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
   } else {
-    unwarped_field(tb, seed)
+    testbed_unwarped_field(tb, seed)
   }
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = opt$engine))
   check <- simulate_suspension(design_maximin(tb$iu, n_check, nominal = FALSE, seed = 9))

@@ -4,8 +4,8 @@
 # explain_bias() name the hidden mechanism? For each case (hidden mechanism,
 # seed) the model without any mechanism is validated on condition A as the
 # diagnosis tests validate it (66 runs, 150 x 20 draws, one chain; the field
-# registered to the runs' mean, testbed_validation() in
-# tests/testthat/helper-testbed.R), with calibrate()'s `pool_levels` and
+# registered to the runs' mean, testbed_validation(), see
+# ?testbed_protocol), with calibrate()'s `pool_levels` and
 # `registration_variance`. Printed per case (by site where it applies):
 #   recall     share of the grid points where the mechanism acts (its effect
 #              above 10% of its peak) that are flagged (flagged_share());
@@ -61,10 +61,10 @@ validate_case <- function(hidden, seed) {
     return(testbed_validation(hidden, seed, pool_levels = pool, registration_variance = rv))
   }
   tb <- testbed_suspension(seed = seed, hidden = hidden)
-  field <- switch(opt$field, registered = testbed_register(tb, tb$A$runs), unwarped = unwarped_field(tb, seed),
+  field <- switch(opt$field, registered = testbed_register(tb, tb$A$runs), unwarped = testbed_unwarped_field(tb, seed),
                   mean_warp = mean_warp_field(tb, seed))
   basis <- wavelet_basis(tb$A$runs, field)
-  em <- suppressWarnings(fit_emulators(tb$A$runs, basis, engine = testbed_engine))
+  em <- testbed_emulators(tb$A$runs, basis)
   if (rescale) em <- rescale_emulators(em, testbed_check_runs(tb$iu))
   fit <- testbed_calibrate(em, field, tb$iu, pool, registration_variance = rv && opt$field == "registered")
   list(tb = tb, field = field, basis = basis, emulators = em, fit = fit)

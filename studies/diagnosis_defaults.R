@@ -5,7 +5,7 @@
 #   fit        validate() with its defaults (registration with a knot every
 #              1/32 of the record, the default basis and emulators), the
 #              test bed's windows and the landmarks that mark when its events
-#              happen (testbed_beds in tests/testthat/helper-testbed.R:
+#              happen (testbed_beds(), ?testbed_protocol:
 #              suspension, the load's minimum and maximum; dosing, each
 #              dose's steepest rise), one chain of n_draws x n_inner.
 #   C1         where_fails(fit) (the record-wide part reported apart):
@@ -70,7 +70,7 @@ n_draws <- as.integer(args$n_draws)
 n_inner <- as.integer(args$n_inner)
 options(wavevalid.quiet = TRUE)
 
-bed <- testbed_beds
+bed <- testbed_beds()
 bed$suspension$features <- arg_names(args$suspension_features)
 bed$dosing$features <- arg_names(args$dosing_features)
 

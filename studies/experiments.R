@@ -47,7 +47,7 @@ n_draws <- as.integer(opt$n_draws)
 n_inner <- as.integer(opt$n_inner)
 options(wavevalid.quiet = TRUE)
 
-features <- testbed_beds$suspension$features
+features <- testbed_beds()$suspension$features
 flat <- function(curves) unlist(curves, use.names = FALSE)
 model_at <- function(z) flat(simulate_suspension(as.data.frame(t(z)))$curves)
 

@@ -3,8 +3,8 @@
 # mechanism ("before") and the model with it, its strength a calibration
 # input on [0, 1] ("after", its 66 runs the test bed's condition A design with
 # the strength spread over [0, 1]), are each validated and compared by
-# compare_validations() with condition B held out (testbed_loop() in
-# tests/testthat/helper-testbed.R: each model's runs at B registered to their
+# compare_validations() with condition B held out (testbed_loop(), see
+# ?testbed_protocol: each model's runs at B registered to their
 # mean, the after-model's strength spread over its 99% posterior interval).
 # The package's test (test-diagnose-loop.R) asks bias_rms to fall by more than
 # 70% and holdout_rmse to fall.
@@ -50,7 +50,7 @@ fit_model <- function(tb, runs, iu, mechanism) {
                             as.integer(opt$n_search))$fit)
   }
   field <- testbed_register(tb, runs, refine = TRUE)
-  testbed_calibrate(suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = testbed_engine)), field, iu, pool)
+  testbed_calibrate(testbed_emulators(runs, wavelet_basis(runs, field)), field, iu, pool)
 }
 
 # the share of a fit's bias energy at wavelet level 0 (an offset of the record), by site

@@ -65,14 +65,14 @@ register_to <- function(tb, x, reference) {
   register_curves(x, reference, tb$windows, features = features, knots_every = 2)
 }
 validate <- function(runs, field, iu, basis = wavelet_basis(runs, field)) {
-  testbed_calibrate(suppressWarnings(fit_emulators(runs, basis, engine = testbed_engine)), field, iu, pool)
+  testbed_calibrate(testbed_emulators(runs, basis), field, iu, pool)
 }
 
 # --- rounds: waves of runs at design_posterior() ----------------------------------
 rounds_case <- function(hidden, seed) {
   if (opt$reference == "posterior" && opt$field != "registered") stop("reference=posterior needs field=registered")
   tb <- testbed_suspension(seed = seed, hidden = hidden)
-  field <- if (opt$field == "unwarped") unwarped_field(tb, seed) else register_to(tb, tb$A$field, tb$A$runs)
+  field <- if (opt$field == "unwarped") testbed_unwarped_field(tb, seed) else register_to(tb, tb$A$field, tb$A$runs)
   runs <- tb$A$runs
   basis <- wavelet_basis(runs, field)
   truth <- true_inputs(tb)
@@ -127,7 +127,7 @@ refit_with <- function(tb, sw, m) {
     r <- c(off, r)
   }
   if (register_runs) r <- register_to(tb, r, sw$wave)
-  testbed_calibrate(suppressWarnings(fit_emulators(r, sw$fit$basis, engine = testbed_engine)), sw$fit$field, iu_m, pool)
+  testbed_calibrate(testbed_emulators(r, sw$fit$basis), sw$fit$field, iu_m, pool)
 }
 
 workflow_case <- function(hidden, seed) {

@@ -44,7 +44,7 @@ future::plan(future::sequential)
 
 
 one_case <- function(bed, seed, variant, hd) {
-  B <- testbed_beds[[bed]]
+  B <- testbed_beds()[[bed]]
   tb <- B$make(seed, hd)
   knots <- diff(range(tb$A$field$t)) / 32
   t0 <- clock()
@@ -83,7 +83,7 @@ one_case <- function(bed, seed, variant, hd) {
 
 rows <- list()
 for (bed in beds) for (hd in hidden) for (seed in seeds) for (variant in variants) {
-  if (hd != "none" && !hd %in% testbed_beds[[bed]]$mechanisms()) next
+  if (hd != "none" && !hd %in% testbed_beds()[[bed]]$mechanisms()) next
   x <- one_case(bed, seed, variant, hd)
   rows[[length(rows) + 1L]] <- x
   print(x, row.names = FALSE)

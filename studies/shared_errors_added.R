@@ -32,7 +32,7 @@ options(wavevalid.quiet = TRUE)
 future::plan(future::sequential)
 
 one_case <- function(bed, hd, seed) {
-  B <- testbed_beds[[bed]]
+  B <- testbed_beds()[[bed]]
   tb <- B$make(seed, hd)
   fit <- testbed_default_fit(tb, B$features, n_draws = 50L, n_inner = 5L)
   s_name <- paste0("s_", hd)
@@ -59,7 +59,7 @@ one_case <- function(bed, hd, seed) {
 
 rows <- list()
 for (bed in beds) for (hd in hidden) {
-  if (!hd %in% testbed_beds[[bed]]$mechanisms()) next
+  if (!hd %in% testbed_beds()[[bed]]$mechanisms()) next
   for (seed in seeds) {
     x <- one_case(bed, hd, seed)
     rows[[length(rows) + 1L]] <- x

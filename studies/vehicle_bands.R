@@ -26,7 +26,7 @@ basis <- wavelet_basis(tb$A$runs, field)
 xn <- names(tb$B$x_nom)
 vehicles <- function(nominal, vseed) {
   testbed_with_seed(vseed, {
-    d <- as.data.frame(wavevalid:::iu_prior_draws(tb$iu, n_veh, nominal = nominal))
+    d <- as.data.frame(iu_prior_sample(tb$iu, n_veh, nominal = nominal))
     d$u1 <- tb$truth$u[["u1"]]
     d$u2 <- tb$truth$u[["u2"]]
     curves <- simulate_suspension(d[c("u1", "u2", xn)])$curves

@@ -196,7 +196,7 @@ test_that("the package's verbs run on the dosing test bed", {
 # adding it cuts the bias by more than 70%.
 test_that("with its defaults the diagnosis claims nothing on the dosing test bed and names a hidden recycling", {
   skip_unless_slow()
-  bed <- testbed_beds$dosing
+  bed <- testbed_beds()$dosing
   for (seed in 1:3) {
     tb <- testbed_dosing(seed = seed)
     fit <- testbed_default_fit(tb, bed$features)
