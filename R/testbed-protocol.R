@@ -211,9 +211,10 @@ testbed_emulators <- function(runs, basis) {
 #' @export
 testbed_calibrate <- function(emulators, field, iu, pool_levels = NULL, n_draws = 150L, n_inner = 20L,
                               registration_variance = FALSE, n_search = 200L) {
-  suppressWarnings(calibrate(emulators, field, iu, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                             pool_levels = pool_levels, registration_variance = registration_variance,
-                             n_search = n_search, input_likelihood = "independent", quiet = TRUE))
+  suppressWarnings(calibrate(emulators, field, iu, chains = 1, seed = 1,
+                             bias = bias_control(pool_levels = pool_levels, registration_variance = registration_variance,
+                                                 input_likelihood = "independent"),
+                             sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, n_search = n_search, quiet = TRUE)))
 }
 
 #' @rdname testbed_protocol
@@ -379,7 +380,8 @@ testbed_beds <- function() {
 #' @export
 testbed_default_fit <- function(tb, features, n_draws = 150L, n_inner = 20L, ...) {
   suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, features = features,
-                            n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1, quiet = TRUE, ...))
+                            sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE),
+                            chains = 1, seed = 1, ...))
 }
 
 #' @rdname testbed_protocol
@@ -399,8 +401,9 @@ testbed_default_refits <- function(tb, fit, simulate, mechanisms, n_draws = 150L
     }
     em <- suppressWarnings(if (is.null(engine)) fit_emulators(runs, fit$basis) else
       fit_emulators(runs, fit$basis, engine = engine))
-    suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 1, seed = 1,
-                               pool_levels = fit$settings$pool_levels, quiet = TRUE))
+    suppressWarnings(calibrate(em, fit$field, iu_m, chains = 1, seed = 1,
+                               bias = bias_control(pool_levels = fit$settings$pool_levels),
+                               sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE)))
   })
   stats::setNames(fits, mechanisms)
 }

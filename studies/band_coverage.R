@@ -43,7 +43,8 @@ band_case <- function(seed, engine) {
   t0 <- clock()
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field), engine = engine))
   t1 <- clock()
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 2, seed = 1,
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = n_inner)))
   t2 <- clock()
   truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
   truth_reg <- register_curves(truth, reference, tb$windows, knots_every = 2)

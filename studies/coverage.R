@@ -70,8 +70,9 @@ inputs_case <- function(seed) {
   near_runs <- simulate_suspension(near)
   do.call(rbind, lapply(c("as fitted", "rescaled"), function(setting) {
     e <- if (setting == "rescaled") rescale_emulators(em, check) else em
-    fit <- suppressWarnings(calibrate(e, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                      seed = 1, inform_levels = inform_levels, quiet = TRUE))
+    fit <- suppressWarnings(calibrate(e, field, tb$iu, chains = 1, seed = 1,
+                                      bias = bias_control(inform_levels = inform_levels),
+                                      sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE)))
     d <- as.matrix(fit$draws)[, fit$inputs]
     m <- colMeans(d)
     s <- apply(d, 2, stats::sd)
@@ -111,7 +112,8 @@ if ("bands" %in% measure) {
   basis <- wavelet_basis(runs, field)
   em <- suppressWarnings(fit_emulators(runs, basis, engine = opt$engine))
   t1 <- clock()
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 2, seed = 1,
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = n_inner)))
   cat(sprintf("\n== bands: seed %d, hidden = %s; %s emulators; %d model runs; |I| = %d; emulators %.1f s; calibration %d x %d x 2 chains %.1f s\n",
               seeds[1], hidden, opt$engine, nrow(runs$design), length(basis$index), t1 - t0, n_draws, n_inner, clock() - t1))
   # the truth in registered time: the noise-free curve registered like the field data

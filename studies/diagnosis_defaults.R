@@ -80,7 +80,7 @@ run_case <- function(b, seed, hd) {
   tb <- B$make(seed = seed, hidden = hd)
   knots <- if (identical(knots_arg, "auto")) diff(range(tb$A$field$t)) / 32 else knots_arg
   fit <- testbed_default_fit(tb, B$features, n_draws, n_inner, knots_every = knots, engine = args$engine,
-                             pool_levels = pool_levels)
+                             bias = bias_control(pool_levels = pool_levels))
   # C1
   wf <- where_fails(fit)
   rw <- attr(wf, "record_wide")

@@ -90,8 +90,8 @@ if ("explain" %in% measure) {
     }
     basis <- wavelet_basis(tb$A$runs, field)
     em <- fit_emulators(tb$A$runs, basis, seed = 1)
-    fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = as.integer(args$n_draws),
-                                      n_inner = as.integer(args$n_inner), chains = 1, seed = 1, quiet = TRUE))
+    fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1,
+                                      sampler = sampler_control(n_draws = as.integer(args$n_draws), n_inner = as.integer(args$n_inner), quiet = TRUE)))
     zh <- coef(fit)
     ex <- explain_bias(fit, dosing_signatures(zh), n_draws = 100, seed = 1)
     ex <- as.data.frame(unclass(ex))

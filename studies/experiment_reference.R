@@ -126,7 +126,8 @@ one_seed <- function(seed) {
     reference <- switch(cond, "A+true_runs" = true_runs, "A+base_runs" = tb$A$runs, NULL)
     exps <- if (cond != "A") list(added_mass = experiment(tb$added_mass$field, change = dm, reference = reference))
     fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = chains,
-                                     n_draws = n_draws, n_inner = n_inner, seed = 1, experiments = exps))
+                                     seed = 1, experiments = exps,
+                                     sampler = sampler_control(n_draws = n_draws, n_inner = n_inner)))
     X <- as.matrix(fit$draws)[, fit$inputs]
     q <- apply(X, 2, stats::quantile, c(0.025, 0.975))
     zs <- z_star[fit$inputs]

@@ -86,8 +86,9 @@ one_case <- function(hd, seed) {
     t0 <- clock()
     exps <- if (cond == "A") NULL else list(added_mass = experiment(field_M, change = dm))
     eb <- if (cond == "A+added_mass_shared") "shared" else "own"
-    fit <- suppressWarnings(calibrate(em, field_A, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                      seed = 1, quiet = TRUE, experiments = exps, experiment_bias = eb))
+    fit <- suppressWarnings(calibrate(em, field_A, tb$iu, chains = 1, seed = 1, experiments = exps,
+                                      bias = bias_control(experiment_bias = eb),
+                                      sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE)))
     X <- as.matrix(fit$draws)[, fit$inputs]
     zhat <- colMeans(X)
     q <- apply(X, 2, stats::quantile, c(0.025, 0.975))
@@ -103,8 +104,9 @@ one_case <- function(hd, seed) {
                       p_hidden = NA_real_, top = NA_character_, other = NA_real_, p_none = NA_real_)
     if (with_explain) {
       refits <- lapply(refit_em, function(r) {
-        suppressWarnings(calibrate(r$em, field_A, r$iu, n_draws = n_draws, n_inner = n_inner, chains = 1,
-                                   seed = 1, quiet = TRUE, experiments = exps, experiment_bias = eb))
+        suppressWarnings(calibrate(r$em, field_A, r$iu, chains = 1, seed = 1, experiments = exps,
+                                   bias = bias_control(experiment_bias = eb),
+                                   sampler = sampler_control(n_draws = n_draws, n_inner = n_inner, quiet = TRUE)))
       })
       ex <- explain_bias(fit, refits)
       tab <- as.data.frame(unclass(ex))

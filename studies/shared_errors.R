@@ -56,8 +56,9 @@ one_case <- function(bed, seed, variant, hd) {
   }
   em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
   lik <- if (variant %in% c("adjusted", "reg_adjusted")) "adjusted" else "independent"
-  fit <- suppressWarnings(calibrate(em, field, tb$iu, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1,
-                                    input_likelihood = lik))
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 2, seed = 1,
+                                    bias = bias_control(input_likelihood = lik),
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = n_inner)))
   secs <- clock() - t0
   truth <- field_runs(lapply(tb$truth$reality, function(y) matrix(y, nrow = 1)), tb$A$field$t)
   truth_reg <- register_curves(truth, tb$A$runs, tb$windows, features = B$features, knots_every = knots)

@@ -44,8 +44,9 @@ one_case <- function(bed, hd, seed) {
   em <- suppressWarnings(fit_emulators(runs, fit$basis))
   z_true <- true_inputs(tb)
   do.call(rbind, lapply(c("independent", "adjusted"), function(lik) {
-    f <- suppressWarnings(calibrate(em, fit$field, iu_m, n_draws = n_draws, n_inner = n_inner, chains = 2, seed = 1,
-                                    input_likelihood = lik))
+    f <- suppressWarnings(calibrate(em, fit$field, iu_m, chains = 2, seed = 1,
+                                    bias = bias_control(input_likelihood = lik),
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = n_inner)))
     X <- as.matrix(f$draws)
     own <- setdiff(f$inputs, s_name)
     inside <- inputs_inside(X, z_true, own)
