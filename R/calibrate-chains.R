@@ -15,12 +15,13 @@ free_cores <- function() {
   as.integer(max(1, n - busy))
 }
 
-# One future per chain; debug_break (1: no proposal-density ratio of the
-# global moves, 2: no tau2 ratio, ...) exists only to show that the
-# simulation-based checks detect errors.
-run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_break = 0L,
-                       quiet = FALSE, proposal = "report", burnin = 0L, p_global = 0.1, p_indep = 0,
-                       n_search = 200L, threads = 1L) {
+# One future per chain. `sm`: the sampler's settings, a sampler_control()
+# with `burnin` and `threads` resolved (calibrate()). debug_break (1: no
+# proposal-density ratio of the global moves, 2: no tau2 ratio, ...) exists
+# only to show that the simulation-based checks detect errors.
+run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global = 0.1) {
+  n_draws <- sm$n_draws
+  quiet <- sm$quiet
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   chain_fun <- function(ch) {
@@ -31,11 +32,11 @@ run_chains <- function(spec, n_draws, n_inner, chains, seed, step, tau, debug_br
     }
     settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
                      tau2_init = as.numeric(tau_init), fix_tau2 = fix, n_draws = as.integer(n_draws),
-                     n_inner = as.integer(n_inner), step = as.numeric(step), seed = as.numeric(seed),
+                     n_inner = as.integer(sm$n_inner), step = as.numeric(sm$step), seed = as.numeric(seed),
                      chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
-                     adaptive = identical(proposal, "adaptive"), burnin = as.integer(burnin),
-                     p_global = as.numeric(p_global), p_indep = as.numeric(p_indep), n_search = as.integer(n_search),
-                     threads = as.integer(threads), informs = as.integer(spec$informs %||% integer(0)),
+                     adaptive = identical(sm$proposal, "adaptive"), burnin = as.integer(sm$burnin),
+                     p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
+                     n_search = as.integer(sm$n_search), threads = as.integer(sm$threads), informs = as.integer(spec$informs %||% integer(0)),
                      temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1))
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }

@@ -302,12 +302,10 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   spec$temper <- bias$temper
   shared <- NULL
   if (bias$input_likelihood == "adjusted") {
-    shared <- shared_error_weight(spec, field, tau, seed, sm$proposal, sm$burnin, sm$n_search, sm$threads)
+    shared <- shared_error_weight(spec, field, tau, seed, sm)
     spec$input_weight <- shared$weight
   }
-  runs <- run_chains(spec, sm$n_draws, sm$n_inner, chains, seed, sm$step, tau, debug_break = 0L, quiet = sm$quiet,
-                     proposal = sm$proposal, burnin = sm$burnin, p_indep = sm$global_moves, n_search = sm$n_search,
-                     threads = sm$threads)
+  runs <- run_chains(spec, sm, chains, seed, tau)
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = sm$n_draws, n_inner = sm$n_inner, chains = chains,
                                       step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,

@@ -22,10 +22,10 @@
 # The weight w and what it came from: a list with `weight`, `p` (the inputs
 # it counts), `trace` (tr(H^-1 J)), `n_coef` (the coefficients informing the
 # inputs), `at` (the inputs where it was taken).
-shared_error_weight <- function(spec, field, tau, seed, proposal, burnin, n_search, threads) {
-  pilot <- run_chains(spec, n_draws = 20L, n_inner = 5L, chains = 1L, seed = seed, step = 0.1, tau = tau,
-                      quiet = TRUE, proposal = proposal, burnin = min(burnin, 500L), n_search = n_search,
-                      threads = threads)[[1L]]
+shared_error_weight <- function(spec, field, tau, seed, sm) {
+  pilot_sm <- list(n_draws = 20L, n_inner = 5L, step = 0.1, quiet = TRUE, proposal = sm$proposal,
+                   burnin = min(sm$burnin, 500L), global_moves = 0, n_search = sm$n_search, threads = sm$threads)
+  pilot <- run_chains(spec, pilot_sm, chains = 1L, seed = seed, tau = tau)[[1L]]
   z <- colMeans(pilot$inputs)
   tau2 <- colMeans(pilot$tau2)
   sigma2 <- lapply(pilot$sigma2, colMeans)

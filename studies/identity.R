@@ -9,8 +9,16 @@ if (args[1] == "compare") {
   a <- readRDS(args[2]); b <- readRDS(args[3])
   # where_fails() kept its bias by wavelet level in attribute `levels` before
   # it was named `wavelet_levels`
+  attrs_sorted <- function(at) {
+    names(at)[names(at) == "levels"] <- "wavelet_levels"
+    at <- at[setdiff(names(at), c("class", "row.names", "names"))]
+    at[order(names(at))]
+  }
   rename <- function(x) {
-    if (is.list(x) && !is.null(x$fails_attrs$levels)) names(x$fails_attrs)[names(x$fails_attrs) == "levels"] <- "wavelet_levels"
+    if (!is.list(x) || is.null(x$fails_attrs)) return(x)
+    x$fails_attrs <- attrs_sorted(x$fails_attrs)
+    h <- x$fails_attrs$held$fails
+    if (!is.null(h)) x$fails_attrs$held$fails <- list(table = as.data.frame(unclass(h)), attrs = attrs_sorted(attributes(h)))
     x
   }
   a <- lapply(a, rename); b <- lapply(b, rename)

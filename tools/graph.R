@@ -22,14 +22,19 @@ called <- function(e) {
 }
 defs <- list()
 bodies <- list()
+sizes <- NULL
 for (f in files) {
-  exprs <- parse(f, keep.source = FALSE)
-  for (e in exprs) {
+  exprs <- parse(f, keep.source = TRUE)
+  refs <- attr(exprs, "srcref")
+  for (i in seq_along(exprs)) {
+    e <- exprs[[i]]
     if (is.call(e) && is.name(e[[1]]) && as.character(e[[1]]) %in% c("<-", "=") && is.name(e[[2]]) &&
         is.call(e[[3]]) && identical(e[[3]][[1]], as.name("function"))) {
       nm <- as.character(e[[2]])
       defs[[nm]] <- basename(f)
       bodies[[length(bodies) + 1]] <- list(file = basename(f), fun = nm, names = called(e[[3]]))
+      sizes <- rbind(sizes, data.frame(fun = nm, file = basename(f), lines = refs[[i]][3] - refs[[i]][1] + 1L,
+                                       args = length(e[[3]][[2]])))
     }
   }
 }
@@ -93,4 +98,10 @@ cat("Layers (each file calls only files of lower layers):\n")
 for (l in sort(unique(file_layer), decreasing = TRUE)) {
   cat(sprintf("  %2d: %s\n", l, paste(sort(names(file_layer)[file_layer == l]), collapse = ", ")))
 }
+cat("Largest functions (lines):\n")
+top <- sizes[order(-sizes$lines), ][1:5, ]
+cat(sprintf("  %-28s %-22s %4d\n", top$fun, top$file, top$lines), sep = "")
+cat("Longest argument lists:\n")
+top <- sizes[order(-sizes$args), ][1:5, ]
+cat(sprintf("  %-28s %-22s %4d\n", top$fun, top$file, top$args), sep = "")
 quit(status = if (length(circles)) 1L else 0L)

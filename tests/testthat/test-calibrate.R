@@ -121,8 +121,9 @@ grid_check <- function(proposal, n_draws, n_inner) {
 
   spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
   tau <- wavevalid:::resolve_fix_tau2(NULL, spec$groups)
-  broken <- wavevalid:::run_chains(spec, n_draws, n_inner, 1, 5, 0.1, tau, debug_break = 2L, quiet = TRUE,
-                                   proposal = proposal, burnin = fit$settings$burnin)[[1]]
+  sm <- sampler_control(n_draws = n_draws, n_inner = n_inner, proposal = proposal, burnin = fit$settings$burnin,
+                        quiet = TRUE)
+  broken <- wavevalid:::run_chains(spec, sm, 1, 5, tau, debug_break = 2L)[[1]]
   expect_lt(stats::ks.test(log(broken$tau2[, 1]), cdf_lt)$p.value, 0.01)
 }
 

@@ -26,8 +26,8 @@ test_that("with the inputs' weight and tau2 fixed, the sampler reproduces the gr
   spec$input_weight <- 0.2
   tau <- wavevalid:::resolve_fix_tau2(t2, spec$groups)
   run <- function(debug_break) {
-    wavevalid:::run_chains(spec, 1500, 30, 1, 5, 0.1, tau, debug_break = debug_break, quiet = TRUE,
-                           proposal = "adaptive", burnin = 5000)[[1]]$inputs[, 1]
+    sm <- sampler_control(n_draws = 1500, n_inner = 30, burnin = 5000, n_search = 200, quiet = TRUE)
+    wavevalid:::run_chains(spec, sm, 1, 5, tau, debug_break = debug_break)[[1]]$inputs[, 1]
   }
   ok <- run(0L)
   expect_gt(suppressWarnings(stats::ks.test(ok, post_cdf(0.2))$p.value), 0.01)
