@@ -52,17 +52,17 @@
 #'   the second half of the burn-in (weight 0.8), or from the uniform on the
 #'   inputs' box (weight 0.2, which keeps a way to regions the burn-in did not
 #'   visit), accepted with its Hastings ratio. Where the posterior is close to
-#'   that t it jumps across it in one step: on the suspension test bed (Site
-#'   1, 9 inputs) the slowest input needs 25 cycles per effective sample with
-#'   `global_moves = 0.5` against 105 with the default, on the dosing test bed
-#'   (6 inputs) 12-26 against 32-35. Where the posterior is far from it
-#'   (a curved ridge, several modes) it is rarely accepted and costs random
-#'   walk steps: on the flyer plate (10 inputs, a joint prior) it was accepted
-#'   at 0.08 and one of two seeds mixed worse (largest Rhat 1.07 against
-#'   1.01). Hence it is not the default. `fit$acceptance$global` and the print
-#'   give the acceptance of the global moves; a burn-in of fewer than `40 d`
-#'   cycles leaves too few points for the proposal, and the report's step is
-#'   used.
+#'   that t it jumps across it in one step, and the chains need fewer cycles
+#'   per effective sample. Where the posterior is far from it (a curved
+#'   ridge, several modes) it is rarely accepted and costs random walk steps.
+#'   On the package's test beds the independence moves cut the cycles per
+#'   effective sample of the slowest input, while on the flyer plate of
+#'   [load_flyer()] (a joint prior) they were seldom accepted and could mix
+#'   worse; the figures are in `studies/README.md` in the package's source
+#'   repository. Hence it is not the default. `fit$acceptance$global` and the
+#'   print give the acceptance of the global moves; a burn-in of fewer than
+#'   `40 d` cycles leaves too few points for the proposal, and the report's
+#'   step is used.
 #'
 #' `iu` holds the emulators' inputs and no others (else an error of class
 #' `wavevalid_error_inputs`). Variation inputs have prior
@@ -86,15 +86,15 @@
 #' the whole record. `pool_levels = 0:3` gives the coefficients of levels 0
 #' to 3 (the levels the basis keeps whole by default) one variance per site,
 #' with `mean(sigma2)` over them in its prior; the other levels keep their own.
-#' Pooling helps most after a second wave of runs at [design_posterior()]:
-#' on the suspension test bed with nothing hidden, the method's prior then
-#' let a level-0 offset flag the whole record at one seed of five, and
-#' `pool_levels = 0:3` cut the longest flagged interval to 24 grid steps or
-#' fewer while a hidden mechanism was still flagged where it acts in 17 of 20
-#' cases. Without a second wave, pooling kept level-0 offsets out of the bias
-#' and the flags where a hidden mechanism acts, but with nothing hidden
-#' [explain_bias()] then claimed a mechanism at three seeds of five (the
-#' studies in the package's source repository, folder `studies/`).
+#' Pooling helps most after a second wave of runs at [design_posterior()],
+#' where the method's prior can let a level-0 offset flag the whole record.
+#' Without a second wave, pooling keeps level-0 offsets out of the bias, but
+#' the re-validated mechanisms of [explain_bias()] are then more ready to
+#' claim one that is not there. On the package's suspension test bed with
+#' nothing hidden, pooling after a second wave kept the flagged intervals
+#' short while hidden mechanisms were still flagged where they act, and
+#' pooling without one led to claims of mechanisms that were not hidden; the
+#' figures are in `studies/README.md` in the package's source repository.
 #'
 #' @section Levels cut off the inputs:
 #' Every coefficient informs the inputs in the method. When some wavelet
@@ -107,11 +107,12 @@
 #' levels alone, and the other levels' `tau2` and bias coefficients from their
 #' conditional posterior given the inputs drawn. The bias of the levels cut
 #' off is then the discrepancy at inputs they did not choose, and their bands
-#' widen with the inputs' uncertainty. On the suspension test bed with
-#' nothing hidden, levels 0 to 5 alone put the true inputs inside the 90\%
-#' intervals for 80\% of them (29\% with every level), but the levels cut off
-#' then carry more bias, and [explain_bias()] read a mechanism into it more
-#' often. The cut is a sensitivity check on how far the fine levels move the
+#' widen with the inputs' uncertainty. On the package's suspension test bed
+#' with nothing hidden, the coarse levels alone put the true inputs inside
+#' their 90\% intervals far more often than every level did, but the levels
+#' cut off then carried more bias, and [explain_bias()] read a mechanism into
+#' it more often (`studies/README.md` in the package's source repository).
+#' The cut is a sensitivity check on how far the fine levels move the
 #' inputs, not a default.
 #'
 #' @section Tempered posterior:
@@ -129,12 +130,12 @@
 #' coefficients. The bias and model coefficients are still drawn from eq.
 #' (16)-(17) given the inputs, variances and field data.
 #'
-#' On the suspension test bed with nothing hidden, `temper = 0.1` put the
-#' true inputs inside the 90\% intervals for two thirds or more of them (a
-#' tenth to a half at `temper = 1`) and shortened the flagged intervals; but
-#' a hidden mechanism was then flagged where it acts in 7 of 20 cases,
-#' against 18 at `temper = 1`. It is a sensitivity option, not a default: with
-#' the likelihood tempered, the bias band flags less, wrongly and rightly.
+#' On the package's suspension test bed, `temper = 0.1` put the true inputs
+#' inside their 90\% intervals far more often and shortened the flagged
+#' intervals with nothing hidden, but a hidden mechanism was then flagged
+#' where it acts far less often (`studies/README.md` in the package's source
+#' repository). It is a sensitivity option, not a default: with the
+#' likelihood tempered, the bias band flags less, wrongly and rightly.
 #'
 #' The loop runs in C++. Each chain is one future
 #' (`future.apply::future_lapply()`), so `future::plan()` decides where chains

@@ -55,12 +55,12 @@ design_maximin <- function(iu, n, nominal = TRUE, seed = NULL) {
 #' fitting the emulators again on the same basis and calibrating again removes
 #' most of that error.
 #'
-#' On the suspension test bed with nothing hidden and replicates free of
-#' time warps, 30 runs added to 66 cut the error of the posterior mean inputs
-#' about tenfold, and the largest credible bias from about 0.1 kN to 0.005 kN
-#' or less where the first emulators' error had been flagged along the whole
-#' record (the studies in the package's source repository, folder
-#' `studies/`). The narrower band can then flag a small bias over longer
+#' On the package's suspension test bed with nothing hidden and replicates
+#' free of time warps, a second wave cut the error of the posterior mean
+#' inputs by about an order of magnitude, and left almost no credible bias
+#' where the first emulators' error had been flagged along the whole record
+#' (`studies/README.md` in the package's source repository,
+#' "second_wave.R"). The narrower band can then flag a small bias over longer
 #' intervals: a `tolerance` in [where_fails()] says how small a bias does
 #' not matter. With registered
 #' replicates, the second wave shows the registration's error at the events

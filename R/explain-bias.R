@@ -68,8 +68,9 @@
 #' credibly negative gets almost none. (Truncating each subset's g-prior and
 #' renormalising it instead would double the density of the amplitudes that
 #' remain and so up to double the evidence of a candidate of the right sign.)
-#' On the suspension test bed the constraint removed the false claim of a
-#' decoy whose amplitude was negative and made none. The shifts
+#' On the package's suspension test bed the constraint removed a false claim
+#' of a decoy whose amplitude was negative and made none of its own
+#' (`studies/README.md` in the package's source repository). The shifts
 #' `shift:<input>` stay free in sign: an input may move either way. Set
 #' `positive = FALSE` for candidates whose sign is arbitrary, such as a
 #' physical feature curve, or give one logical per candidate.
@@ -78,13 +79,13 @@
 #' calibration is likely using that input to make up for the missing effect,
 #' and the calibrated inputs can be far from the true ones. A mechanism's
 #' effect often depends on the inputs, so a candidate simulated at the
-#' posterior mean inputs can then differ from the effect the data carry (on
-#' the suspension test bed, the signature of a hidden digressive damper at the
-#' calibrated inputs held about 55\% of the energy of its true effect, at the
-#' nominal inputs 82\%). `print` says so; compare with candidates simulated
-#' at other inputs (the nominal ones, say) before concluding. Neither choice
-#' wins everywhere: on the test bed each found some hidden mechanisms more
-#' often than the other.
+#' posterior mean inputs can then differ from the effect the data carry.
+#' `print` says so; compare with candidates simulated at other inputs (the
+#' nominal ones, say) before concluding. Neither choice wins everywhere: on
+#' the package's suspension test bed the signature of a hidden digressive
+#' damper held less of its true effect at the calibrated inputs than at the
+#' nominal ones, yet each choice found some hidden mechanisms more often than
+#' the other.
 #'
 #' Rather than choose, give both: `effect` names, for each candidate, the
 #' effect it is a version of, so that a mechanism's signature simulated at the
@@ -95,27 +96,25 @@
 #' draws those of the version each draw includes. The result has one row per
 #' effect; the attribute `versions` gives each version's inclusion
 #' probability. A version identical to another adds nothing: the effect keeps
-#' the inclusion probability it had with one. On the suspension test bed, two
-#' versions of each of four mechanisms (at the posterior mean and at the
-#' nominal inputs) ranked the hidden one first with at least 0.9 in 16 of 20
-#' cases (15 and 14 with either version alone), and with nothing hidden no
-#' candidate reached 0.5. Keep the versions few and chosen for a reason: a
-#' mixture of many versions can fit what none of them explains alone (with
-#' three more versions of each mechanism, simulated at draws from the prior
-#' of the inputs, one passed 0.8 with nothing hidden).
+#' the inclusion probability it had with one. On the package's suspension
+#' test bed, two versions of each mechanism (at the posterior mean and at the
+#' nominal inputs) ranked the hidden one first more often than either version
+#' alone, without a claim when nothing was hidden (`studies/README.md` in the
+#' package's source repository). Keep the versions few and chosen for a
+#' reason: a mixture of many versions can fit what none of them explains
+#' alone, and then names a mechanism that is not there.
 #'
 #' Some effects the model's own inputs can mimic, and the calibration then
 #' takes up most of them before the bias is ever looked at. The attribute
 #' `absorbed` says, for each candidate, how much of its signature the
-#' parameter shifts span; `print` warns at 75\% and above. On the suspension
-#' test bed the shifts spanned from a sixth (strut friction) to seven tenths
-#' (digressive damper) of a mechanism's signature, and the best setting of
-#' the model's own inputs took up about nine tenths of a hidden damper's
-#' effect, leaving the bias a tenth of its energy to carry (the studies in
-#' the package's source repository, folder `studies/`). A low inclusion
-#' probability for a candidate that is mostly a parameter shift is weak
-#' evidence against it: re-validate the model with it instead (section
-#' "Re-validated models as candidates").
+#' parameter shifts span; `print` warns at 75\% and above. On the package's
+#' suspension test bed the shifts spanned from a small part of one
+#' mechanism's signature to most of another's, and the best setting of the
+#' model's own inputs took up most of a hidden damper's effect, leaving the
+#' bias little of it to carry (`studies/README.md` in the package's source
+#' repository, "absorption.R"). A low inclusion probability for a candidate
+#' that is mostly a parameter shift is weak evidence against it: re-validate
+#' the model with it instead (section "Re-validated models as candidates").
 #'
 #' @inheritParams bands
 #' @inheritParams calibrate

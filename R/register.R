@@ -29,11 +29,13 @@
 #'
 #' Near a sharp event a
 #' landmark off by a fraction of a grid step misaligns the steep flanks of the
-#' curves; the refinement removes most of that error (on the suspension test
-#' bed the landmark error falls from 0.006 to 0.0002 time units, a grid step
-#' being 0.016). It also makes the replicates agree more closely with each
-#' other, so the field variance estimated from them is smaller and
-#' differences of shape between the field data and the reference weigh more.
+#' curves; the refinement removes most of that error (on the package's
+#' suspension test bed it cuts the landmark error by more than an order of
+#' magnitude, to a small fraction of a grid step; `studies/README.md` in the
+#' package's source repository). It also makes the replicates agree more
+#' closely with each other, so the field variance estimated from them is
+#' smaller and differences of shape between the field data and the reference
+#' weigh more.
 #' The warp of a replicate maps its landmarks onto the reference's, is linear
 #' in between, and keeps the two ends of the grid fixed. The registered curve
 #' is the replicate evaluated at the inverse warp of the grid (linear
@@ -137,16 +139,16 @@
 #' puts model and field on one time axis: what is left between them is a
 #' difference of amplitude and shape, not of timing. The price is that the
 #' timing of the events no longer informs the calibration inputs. On the
-#' suspension test bed, after a second wave of runs at [design_posterior()],
-#' registering the runs too left fewer flags with nothing hidden and still
-#' found a hidden mechanism where it acts in 19 of 20 cases; but
-#' [explain_bias()] with re-validated mechanisms then over-claims, giving
-#' some mechanism an inclusion probability above 0.5 at every seed with
-#' nothing hidden (the studies in the package's source repository, folder
-#' `studies/`). Read an explanation of runs registered this way with that in
-#' mind. The runs are registered like replicates: `landmark_site` sets one
-#' warp per run for all sites, and a run whose landmarks come in another order
-#' than the reference's is refused.
+#' package's suspension test bed, after a second wave of runs at
+#' [design_posterior()], registering the runs too left fewer flags with
+#' nothing hidden and still flagged hidden mechanisms where they act, but
+#' [explain_bias()] with re-validated mechanisms then over-claimed, giving
+#' some mechanism an inclusion probability above 0.5 with nothing hidden
+#' (`studies/README.md` in the package's source repository,
+#' "second_wave.R"). Read an explanation of runs registered this way with
+#' that in mind. The runs are registered like replicates: `landmark_site`
+#' sets one warp per run for all sites, and a run whose landmarks come in
+#' another order than the reference's is refused.
 #' @export
 #' @examples
 #' t <- seq(0, 10, length.out = 256)

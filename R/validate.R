@@ -33,43 +33,32 @@
 #' happens, not those whose timing the model's own physics sets: the
 #' registration moves each landmark of a replicate onto the reference's, and
 #' a landmark the inputs move carries part of the model's error away with it,
-#' or adds one. On the dosing test bed ([testbed_dosing()]) with nothing
-#' hidden, registered on each dose's peak, whose time the absorption rate
-#' sets, `where_fails()` flagged up to 84 grid steps or a credible
-#' record-wide bias at 3 of 5 seeds, and re-validated mechanisms were claimed
-#' (0.77 to 1.00) at 4; registered on each dose's steepest rise, nothing
-#' was flagged and nothing claimed (largest 0.38) at any seed. The price:
-#' a mechanism that only delays an event (an absorption lag) is then aligned
-#' away with the timing jitter and cannot be found (0 of 5 seeds, 3 of 5
-#' registered on the peaks).
+#' or adds one. The price of landmarks that mark only when an event happens:
+#' a mechanism that only delays an event (an absorption lag) is aligned away
+#' with the timing jitter and cannot be found. On the package's dosing test
+#' bed ([testbed_dosing()]) with nothing hidden, registering on each dose's
+#' peak, whose time the absorption rate sets, left flagged intervals and
+#' claimed mechanisms where registering on each dose's steepest rise did not.
 #'
-#' Without the further knots the reality band of the suspension test bed
-#' ([testbed_suspension()]) covered the truth at about 70% of points instead
-#' of about 87%. Without the model's own runs among those of a re-validated
+#' Without the further knots the reality band covers the registered truth
+#' less well. Without the model's own runs among those of a re-validated
 #' model, the weighing of a mechanism against itself switched off rests on
-#' the emulators' extrapolation to the strength's lower bound, and on the
-#' dosing test bed a mechanism was then claimed with nothing hidden at 1 of
-#' 3 seeds (0.63), against none with them.
+#' the emulators' extrapolation to the strength's lower bound. On the
+#' package's test beds ([testbed_suspension()], [testbed_dosing()]) the band
+#' without the further knots fell well short of its level, and re-validated
+#' models without the model's own runs claimed a mechanism with nothing
+#' hidden where those with them did not.
 #'
-#' With these defaults on the dosing test bed (seeds 1-5), the re-validated
-#' models named a hidden saturable elimination, enterohepatic recycling or
-#' induction at 0.94 or more in all 15 cases and claimed nothing with nothing
-#' hidden; a hidden absorption lag was aligned away by the registration.
-#' Adding the named mechanism cut the bias by 52-95%, and the error on the
-#' held-out patient group fell in 10 of the 15 cases. On the suspension test
-#' bed (seeds 1-5) the re-validated models named each of four hidden
-#' mechanisms at 1.00, no other above 0.00, in all 20 cases, and a localised
-#' interval of `where_fails()` overlapped where the mechanism acts in 13: the
-#' two mechanisms the calibrated inputs mimic most (a digressive damper, a
-#' progressive bump stop) were missed where they act at 7 of 10 seeds: the
-#' inputs take the mechanism up there. With nothing hidden (seeds 1-5)
-#' `where_fails()` left localised intervals of 6 to 15 grid steps at every
-#' seed and a credible record-wide bias at three, and a mechanism was claimed
-#' at one seed. A credible offset of the whole record came with 15 of the 20
-#' hidden cases: the calibrated inputs trade it against the events, so after
-#' a change compare the localised part of the bias (`bias_rms_local` of
-#' [compare_validations()]). The figures by mechanism are in the package's
-#' source repository (`studies/README.md`, "diagnosis_defaults.R").
+#' The calibrated inputs can take up a mechanism they mimic where it acts
+#' (see the inputs in conflict that [where_fails()] reports, and the bias it
+#' reads with them held), and can trade a credible offset of the whole record
+#' against the events; after a change, compare the localised part of the bias
+#' (`bias_rms_local` of [compare_validations()]). With these defaults on the
+#' package's two test beds, the re-validated models name most hidden
+#' mechanisms first and seldom claim one with nothing hidden, while
+#' `where_fails()` with nothing hidden can leave short localised intervals
+#' at sharp events; the figures by mechanism are in the package's source
+#' repository (`studies/README.md`, "diagnosis_defaults.R").
 #'
 #' @inheritParams fit_emulators
 #' @inheritParams calibrate
@@ -100,12 +89,12 @@
 #'   one with its own `emulators`, the mean of their means at their own
 #'   design. The part of the curves the basis does not retain comes from
 #'   `runs`. A message says which reference each experiment was registered
-#'   to. On the suspension test bed with nothing hidden and four replicates
-#'   of an added mass (seeds 1-5), the true inputs were then inside their 95%
-#'   intervals 18 times of 45 (16 with condition A alone, 16 registered to
-#'   the simulator's runs with the change, 13 to condition A's runs), and the
-#'   posterior variances of the calibration inputs were 0.43 to 0.90 of
-#'   condition A's alone.
+#'   to. On the package's suspension test bed with nothing hidden and
+#'   replicates of an added mass, this put the true inputs inside their 95%
+#'   intervals at least as often as condition A alone and narrowed the
+#'   calibration inputs' posterior, where registering to condition A's runs
+#'   could pull them from the truth (`studies/README.md` in the package's
+#'   source repository, "experiment_reference.R").
 #' @param bias,sampler,chains,seed Passed to [calibrate()]: a
 #'   [bias_control()] (the field noise, the bias variances, the inputs'
 #'   likelihood), a [sampler_control()] (draws, thinning, proposal; its
