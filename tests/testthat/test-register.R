@@ -406,7 +406,7 @@ test_that("a shifted logistic rise is registered by its steepest point and by a 
   expect_identical(both$feature[both$replicate == 1], c("fall", "cross"))
   expect_lt(max(abs(both$t_before[both$feature == "fall"] - 5 - shifts)), 0.02 * h)
   # a level the curves never cross, and bad arguments
-  expect_error(register_curves(field, list(site1 = ref), win, features = "cross", cross_level = 3),
+  expect_error(register_curves(field, list(site1 = ref), win, features = "cross", cross_value = 3),
                class = "wavevalid_error_input")
   expect_error(register_curves(field, list(site1 = ref), win, features = "slope"), class = "wavevalid_error_input")
   expect_error(register_curves(field, list(site1 = ref), win, features = "cross", cross_fraction = 1),
