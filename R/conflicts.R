@@ -52,7 +52,9 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
     wv_abort(c("Inputs can be held only in a fit of one experiment.",
                "i" = "Hold them in the fit of each experiment on its own."), class = "experiment")
   }
-  cf <- input_conflicts(fit)
+  P <- prior_sample(fit$prior_iu)
+  colnames(P) <- fit$inputs
+  cf <- input_conflicts(fit, prior = P)
   if (is.null(inputs)) inputs <- cf$input[cf$conflict]
   if (!is.character(inputs) || !length(inputs) || anyNA(inputs) || anyDuplicated(inputs)) {
     wv_abort(c("{.arg inputs} must name one or more inputs of the fit.",
@@ -71,8 +73,6 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
              class = "input")
   }
   strata <- as.integer(strata)
-  P <- prior_sample(fit$prior_iu)
-  colnames(P) <- fit$inputs
   values <- vapply(seq_along(inputs), function(j) {
     ord <- (seq_len(strata) + j - 2L) %% strata + 1L
     stats::quantile(P[, inputs[j]], (ord - 0.5) / strata, names = FALSE)

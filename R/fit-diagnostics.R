@@ -112,7 +112,8 @@ boundary_check <- function(fit, margin = 0.02) {
   }))
 }
 
-# Each input's posterior against its prior: a data frame with one row per
+# Each input's posterior against its prior (`prior`: a sample of it from
+# prior_sample(), drawn here when NULL): a data frame with one row per
 # input. An input is in conflict when the data pull it where its prior says it
 # hardly is:
 # * `far`: the posterior median lies in the prior's tail beyond alpha / (2 p)
@@ -123,9 +124,9 @@ boundary_check <- function(fit, margin = 0.02) {
 #   from a bound, and at least four times the prior's share there.
 # Inputs already held (hold_inputs()) and inputs whose range is a point are
 # not judged.
-input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5) {
+input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5, prior = NULL) {
   X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
-  P <- prior_sample(fit$prior_iu)
+  P <- prior %||% prior_sample(fit$prior_iu)
   colnames(P) <- fit$inputs
   bd <- boundary_check(fit, margin)
   p <- length(fit$inputs)
