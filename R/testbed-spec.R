@@ -33,7 +33,7 @@ testbed_spec_of <- function(x) {
   testbed_specs()[[if (length(kind)) kind[1] else "suspension"]]()
 }
 
-new_wv_testbed <- function(x, kind = "suspension") {
+new_wv_testbed <- function(x, kind) {
   structure(x, class = c(paste0("wv_testbed_", kind), "wv_testbed"))
 }
 
@@ -153,7 +153,7 @@ spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, call =
   new_wv_runs(user, spec$grid, sim)
 }
 
-hidden_strength <- function(hidden, mechanisms = testbed_mechanisms()) {
+hidden_strength <- function(hidden, mechanisms) {
   matrix(as.numeric(mechanisms %in% hidden), 1L, length(mechanisms))
 }
 

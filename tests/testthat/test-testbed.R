@@ -105,7 +105,7 @@ test_that("the added-mass pair differs only in x1 and raises the static load", {
 test_that("RK4 with four sub-steps is converged well below the measurement noise", {
   coded <- as.matrix(truth_design(tb))
   p <- testbed_physical(coded)
-  s <- hidden_strength("tire_liftoff")
+  s <- hidden_strength("tire_liftoff", testbed_mechanisms())
   coarse <- suspension_simulate_cpp(p, s, grid, 4L)
   fine <- suspension_simulate_cpp(p, s, grid, 16L)
   for (site in sites) expect_lt(max(abs(coarse[[site]] - fine[[site]])), noise_sd / 3)
