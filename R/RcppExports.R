@@ -29,10 +29,6 @@ band_envelope_cpp <- function(val, idx, dropped, lower) {
     .Call(`_wavevalid_band_envelope_cpp`, val, idx, dropped, lower)
 }
 
-dosing_simulate_cpp <- function(params, strength, doses, dose_mg, t, nsub) {
-    .Call(`_wavevalid_dosing_simulate_cpp`, params, strength, doses, dose_mg, t, nsub)
-}
-
 gasp_loglik_cpp <- function(X, y, theta, nugget) {
     .Call(`_wavevalid_gasp_loglik_cpp`, X, y, theta, nugget)
 }
@@ -65,14 +61,6 @@ gasp_bank_predict_cpp <- function(bank, Z) {
     .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
 }
 
-cycle_limit_cpp <- function(n_exp, n_log, K, n_factors, n_dot, len, reps) {
-    .Call(`_wavevalid_cycle_limit_cpp`, n_exp, n_log, K, n_factors, n_dot, len, reps)
-}
-
-bank_stage_times_cpp <- function(bank, Z, reps) {
-    .Call(`_wavevalid_bank_stage_times_cpp`, bank, Z, reps)
-}
-
 gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
     .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
 }
@@ -91,5 +79,9 @@ suspension_simulate_cpp <- function(params, strength, t, nsub) {
 
 suspension_road_cpp <- function(x) {
     .Call(`_wavevalid_suspension_road_cpp`, x)
+}
+
+dosing_simulate_cpp <- function(params, strength, doses, dose_mg, t, nsub) {
+    .Call(`_wavevalid_dosing_simulate_cpp`, params, strength, doses, dose_mg, t, nsub)
 }
 

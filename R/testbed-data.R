@@ -1,99 +1,5 @@
-# The wv_testbed class (print, summary, plot), its storage as CSV files, and
-# its time grid and event windows.
-
-# --- class -------------------------------------------------------------------
-
-new_wv_testbed <- function(x) structure(x, class = "wv_testbed")
-
-validate_wv_testbed <- function(x, call = rlang::caller_env()) {
-  need <- list(c("iu"), c("A", "runs"), c("A", "field"), c("B", "runs"), c("B", "field"),
-               c("added_mass", "runs"), c("added_mass", "field"), c("truth", "u"),
-               c("truth", "delta"), c("truth", "reality"), c("truth", "reality_B"))
-  for (p in need) {
-    if (is.null(x[[p]])) wv_abort("The test bed lacks {.field {paste(p, collapse = '$')}}.", call = call)
-  }
-  check_class(x$iu, "wv_iu", "iu", call = call)
-  for (cond in c("A", "B", "added_mass")) {
-    check_class(x[[cond]]$runs, "wv_runs", paste0(cond, "$runs"), call = call)
-    check_class(x[[cond]]$field, "wv_field", paste0(cond, "$field"), call = call)
-  }
-  x
-}
-
-#' @export
-print.wv_testbed <- function(x, ...) {
-  hid <- paste(x$truth$hidden, collapse = ", ")
-  cli::cat_line(sprintf("<wv_testbed> suspension test bed (seed %s, hidden mechanism: %s)", x$truth$seed, hid))
-  cli::cat_line(sprintf("  %d inputs: %s; sites %s; %d time points in [0, 65)", nrow(x$iu),
-                        paste(x$iu$name, collapse = ", "), paste(names(x$A$runs$curves), collapse = ", "),
-                        length(x$A$runs$t)))
-  n_field <- function(f) nrow(f$curves[[1]])
-  cli::cat_line(sprintf("  A: %d model runs, %d field replicates", nrow(x$A$runs$design), n_field(x$A$field)))
-  cli::cat_line(sprintf("  B: %d model runs, %d held-out field replicates (new nominals)",
-                        nrow(x$B$runs$design), n_field(x$B$field)))
-  cli::cat_line(sprintf("  added mass: %d model runs, %d field replicate", nrow(x$added_mass$runs$design),
-                        n_field(x$added_mass$field)))
-  cli::cat_line("  event windows: ", paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]),
-                                                  character(1)), collapse = ", "))
-  invisible(x)
-}
-
-#' @export
-summary.wv_testbed <- function(object, ...) {
-  load_range <- function(cond) vapply(object[[cond]]$runs$curves, function(m) c(min = min(m), max = max(m)), numeric(2))
-  structure(list(
-    seed = object$truth$seed,
-    hidden = object$truth$hidden,
-    truth = c(object$truth$u, object$truth$delta),
-    delta_B = object$truth$delta_B,
-    x_nom_B = object$truth$x_nom_B,
-    runs = c(A = nrow(object$A$runs$design), B = nrow(object$B$runs$design),
-             added_mass = nrow(object$added_mass$runs$design)),
-    replicates = c(A = nrow(object$A$field$curves[[1]]), B = nrow(object$B$field$curves[[1]]),
-                   added_mass = nrow(object$added_mass$field$curves[[1]])),
-    load_range_A = load_range("A")
-  ), class = "summary_wv_testbed")
-}
-
-#' @export
-print.summary_wv_testbed <- function(x, ...) {
-  cli::cat_line(sprintf("Suspension test bed, seed %s, hidden mechanism: %s", x$seed,
-                        paste(x$hidden, collapse = ", ")))
-  print(data.frame(condition = names(x$runs), model_runs = x$runs, field_replicates = x$replicates,
-                   row.names = NULL), row.names = FALSE)
-  cli::cat_line("True u* and delta* (condition A):")
-  print(signif(x$truth, 3))
-  cli::cat_line("Nominal x and delta* of condition B:")
-  print(signif(rbind(x_nom_B = x$x_nom_B, delta_B = x$delta_B), 3))
-  cli::cat_line("Load range of the model runs of A (kN):")
-  print(signif(x$load_range_A, 4))
-  invisible(x)
-}
-
-#' Plot the test bed
-#'
-#' @param object A `wv_testbed`.
-#' @param condition `"A"`, `"B"` or `"added_mass"`.
-#' @param windows Time windows to zoom into (default the two event windows;
-#'   `NULL` for the whole record).
-#' @param ... Unused.
-#' @return A ggplot of the model runs (grey) and field replicates of that
-#'   condition.
-#' @export
-#' @examples
-#' tb <- testbed_suspension(seed = 2, hidden = "digressive_damper")
-#' autoplot(tb, "B")
-autoplot.wv_testbed <- function(object, condition = c("A", "B", "added_mass"),
-                                windows = object$windows, ...) {
-  condition <- check_choice(condition)
-  autoplot(object[[condition]]$runs, field = object[[condition]]$field, windows = windows)
-}
-
-#' @export
-plot.wv_testbed <- function(x, ...) {
-  print(autoplot(x, ...))
-  invisible(x)
-}
+# The suspension test bed's storage as CSV files (load_testbed()), its time
+# grid and event windows.
 
 # --- CSV storage ---------------------------------------------------------------
 
@@ -211,7 +117,7 @@ read_testbed <- function(dir) {
   am <- build_cond("added_mass", x_nom_m)
   am$delta <- dm
   rownames(warps) <- NULL
-  validate_wv_testbed(new_wv_testbed(list(
+  validate_wv_testbed(new_wv_testbed(kind = "suspension", list(
     iu = iu,
     A = build_cond("A", x_nom_A),
     B = B,

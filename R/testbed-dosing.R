@@ -44,7 +44,8 @@
 #' @inheritParams testbed_suspension
 #' @param hidden `"none"` or one or several of `dosing_mechanisms()`: what
 #'   reality has and the model lacks.
-#' @return A `wv_testbed_dosing` object (a list, layout above).
+#' @return A `wv_testbed_dosing` object, also of class `wv_testbed` (a list,
+#'   layout above).
 #' @seealso [simulate_dosing()] to run the model at other inputs,
 #'   [dosing_signatures()] for the mechanisms' effects.
 #' @export
@@ -54,8 +55,9 @@
 #' autoplot(tb, windows = NULL)
 testbed_dosing <- function(seed = 1, hidden = "none") {
   check_number(seed, "seed", integer = TRUE)
-  hidden <- check_dosing_hidden(hidden)
-  with_rng_seed(seed, build_dosing(seed, hidden))
+  spec <- dosing_spec()
+  hidden <- spec_check_hidden(spec, hidden)
+  with_rng_seed(seed, build_testbed_from_spec(spec, seed, hidden))
 }
 
 #' Names of the mechanisms the dosing model can lack
@@ -134,14 +136,7 @@ dosing_mechanisms <- function() {
 #' )
 #' autoplot(recycled)
 simulate_dosing <- function(design, mechanism = NULL, nominal = NULL) {
-  design <- check_dosing_design(design, mechanism, nominal)
-  sim <- dosing_coded(design$full, design$strength)
-  if (anyNA(sim$plasma)) {
-    return(model_runs(design$user, sim, dosing_grid()))
-  }
-  user <- design$user
-  rownames(user) <- NULL
-  new_wv_runs(user, dosing_grid(), sim)
+  spec_simulate(dosing_spec(), design, mechanism, nominal)
 }
 
 #' Signatures of the dosing mechanisms
@@ -160,28 +155,35 @@ simulate_dosing <- function(design, mechanism = NULL, nominal = NULL) {
 #' sig <- dosing_signatures(c(u1 = 0.5, u2 = 0.5), "absorption_lag")
 #' range(sig$absorption_lag$plasma)
 dosing_signatures <- function(inputs, mechanisms = dosing_mechanisms()) {
-  if (!is.numeric(inputs) || is.null(names(inputs)) || any(!is.finite(inputs))) {
-    wv_abort("{.arg inputs} must be a named numeric vector of coded input values.")
-  }
-  mechanisms <- setdiff(check_dosing_hidden(mechanisms), "none")
-  base <- as.data.frame(as.list(inputs))
-  off <- simulate_dosing(base)
-  out <- lapply(mechanisms, function(m) {
-    d <- base
-    d[[paste0("s_", m)]] <- 1
-    on <- simulate_dosing(d, mechanism = m)
-    Map(function(a, b) a[1, ] - b[1, ], on$curves, off$curves)
-  })
-  stats::setNames(out, mechanisms)
+  spec_signatures(dosing_spec(), inputs, mechanisms)
 }
 
-# --- building ----------------------------------------------------------------
+# --- specification ---------------------------------------------------------------
 
-dosing_grid <- function() 48 * (0:2047) / 2048
-
-dosing_times <- function() c(2, 14, 26)
-
-dosing_windows <- function() list(c(1.5, 5), c(13.5, 17), c(25.5, 29))
+dosing_spec <- function() {
+  doses <- c(2, 14, 26)
+  new_testbed_spec(
+    name = "dosing", iu = dosing_iu(),
+    mechanisms = dosing_mechanisms(), mechanisms_fn = "dosing_mechanisms",
+    physical = dosing_physical,
+    simulator = function(params, strength, t) dosing_simulate_cpp(params, strength, doses, 400, t, 4L),
+    grid = 48 * (0:2047) / 2048, windows = list(c(1.5, 5), c(13.5, 17), c(25.5, 29)),
+    designs = dosing_designs,
+    # condition B: heavier patients with a larger central volume and a lower
+    # bioavailability
+    nominal_B = c(x1 = 0.65, x2 = 0.35, x3 = 0.7, x4 = 0.5),
+    n_field = c(A = 6L, B = 6L),
+    # knots at the start, at each dose, between the doses and at the end;
+    # each dose is seen 0.03 to 0.12 hours off either way
+    warp = list(knots = c(0, 2, 8, 14, 20, 26, 37, 48), moved = c(2L, 4L, 6L), shift = c(0.03, 0.12),
+                scale = 1),
+    noise = c(sd = 0.04, phi = 0.9),
+    text = list(model = "dosing model", title = "Dosing test bed",
+                header = "<wv_testbed_dosing> dosing test bed", span = "[0, 48) h",
+                B = "another patient group", windows = "dose windows",
+                range = "Concentration range of the model runs of A (mg/L):")
+  )
+}
 
 dosing_iu <- function() {
   iu_map(
@@ -193,9 +195,16 @@ dosing_iu <- function() {
   )
 }
 
-# Nominal x of condition B: heavier patients with a larger central volume and
-# a lower bioavailability.
-dosing_nominal_B <- function() c(x1 = 0.65, x2 = 0.35, x3 = 0.7, x4 = 0.5)
+# A: design_maximin() on the I/U ranges (65 points and the nominal centre);
+# B: the same unit cube on the ranges moved to B's nominals.
+dosing_designs <- function(iu, nom_B, seed) {
+  nom_A <- stats::setNames(iu$nominal, iu$name)
+  iu_B <- iu
+  iu_B$lower <- iu$lower + nom_B - nom_A
+  iu_B$upper <- iu$upper + nom_B - nom_A
+  iu_B$nominal <- unname(nom_B)
+  list(A = design_maximin(iu, 66L, seed = seed), B = design_maximin(iu_B, 65L, nominal = FALSE, seed = seed))
+}
 
 # Physical parameters (K x 6, order of ParamIndex in dosing.h) of coded inputs.
 dosing_physical <- function(coded) {
@@ -204,231 +213,4 @@ dosing_physical <- function(coded) {
   cbind(cl = 5 * f(coded[, "u1"], 1.2) * w^0.75, ka = 1.5 * f(coded[, "u2"], 1.2),
         v = 40 * f(coded[, "x1"], 0.6) * w, f = 0.8 * f(coded[, "x2"], 0.4),
         q = 8 * f(coded[, "x4"], 1.2) * w^0.75, vp = 60 * w)
-}
-
-# Simulates a K x 6 matrix of coded inputs with a K x 4 matrix of strengths.
-dosing_coded <- function(coded, strength = NULL) {
-  coded <- as.matrix(coded)
-  if (is.null(strength)) strength <- matrix(0, nrow(coded), 4L)
-  params <- dosing_physical(coded)
-  if (any(!is.finite(params)) || any(params <= 0)) {
-    wv_abort("The coded inputs give non-positive physical parameters; keep them within about [-0.3, 1.3].")
-  }
-  dosing_simulate_cpp(params, as.matrix(strength), dosing_times(), 400, dosing_grid(), 4L)
-}
-
-check_dosing_hidden <- function(hidden, call = rlang::caller_env()) {
-  if (!is.character(hidden) || length(hidden) == 0L || anyNA(hidden)) {
-    wv_abort("{.arg hidden} must be {.val none} or names from {.fn dosing_mechanisms}.", call = call)
-  }
-  bad <- setdiff(hidden, c("none", dosing_mechanisms()))
-  if (length(bad)) {
-    wv_abort(c("Unknown hidden mechanism{?s} {.val {bad}}.",
-               "i" = "Choose {.val none} or among {.val {dosing_mechanisms()}}."), call = call)
-  }
-  if ("none" %in% hidden && length(hidden) > 1L) {
-    wv_abort("{.arg hidden} cannot combine {.val none} with mechanisms.", call = call)
-  }
-  unique(hidden)
-}
-
-# Checks a user design; returns the user's data frame, the full K x 6 coded
-# matrix and the K x 4 strength matrix.
-check_dosing_design <- function(design, mechanism, nominal, call = rlang::caller_env()) {
-  if (is.matrix(design) && !is.null(colnames(design))) design <- as.data.frame(design)
-  if (!is.data.frame(design) || nrow(design) == 0L) {
-    wv_abort("{.arg design} must be a data frame with one row per run and named input columns.", call = call)
-  }
-  inputs <- dosing_iu()$name
-  mechs <- dosing_mechanisms()
-  if (!is.null(mechanism)) {
-    bad <- setdiff(mechanism, mechs)
-    if (!is.character(mechanism) || length(bad)) {
-      wv_abort(c("{.arg mechanism} must be names from {.fn dosing_mechanisms}.",
-                 "x" = "Unknown: {.val {bad}}."), call = call)
-    }
-  }
-  scols <- if (length(mechanism)) paste0("s_", mechanism) else character()
-  extra <- setdiff(names(design), c(inputs, paste0("s_", mechs)))
-  if (length(extra)) {
-    wv_abort(c("{.arg design} has column{?s} {.val {extra}} the dosing model does not know.",
-               "i" = "Inputs are {.val {inputs}}; mechanism strengths are {.val {paste0('s_', mechs)}}."),
-             call = call)
-  }
-  unused <- setdiff(intersect(names(design), paste0("s_", mechs)), scols)
-  if (length(unused)) {
-    wv_abort(c("Strength column{?s} {.val {unused}} given but the mechanism is not switched on.",
-               "i" = "Name it in {.arg mechanism}, e.g. {.code mechanism = {.val {sub('^s_', '', unused[1])}}}."),
-             call = call)
-  }
-  lacking <- setdiff(scols, names(design))
-  if (length(lacking)) {
-    wv_abort(c("Every mechanism switched on needs its strength column in {.arg design}.",
-               "x" = "Missing {.val {lacking}}."), call = call)
-  }
-  nonnum <- !vapply(design, is.numeric, logical(1))
-  if (any(nonnum) || any(!vapply(design, function(v) all(is.finite(v)), logical(1)))) {
-    wv_abort("Every column of {.arg design} must be numeric and finite.", call = call)
-  }
-  for (s in scols) {
-    if (any(design[[s]] < 0 | design[[s]] > 1)) {
-      wv_abort("Strength {.val {s}} must lie in [0, 1] (1 = reality's strength).", call = call)
-    }
-  }
-  nom <- stats::setNames(rep(0.5, length(inputs)), inputs)
-  if (!is.null(nominal)) {
-    if (!is.numeric(nominal) || is.null(names(nominal)) || any(!names(nominal) %in% inputs) ||
-        any(!is.finite(nominal))) {
-      wv_abort("{.arg nominal} must be a named numeric vector over the inputs {.val {inputs}}.", call = call)
-    }
-    nom[names(nominal)] <- nominal
-  }
-  full <- matrix(nom, nrow(design), length(inputs), byrow = TRUE, dimnames = list(NULL, inputs))
-  for (v in intersect(inputs, names(design))) full[, v] <- design[[v]]
-  strength <- matrix(0, nrow(design), length(mechs))
-  for (j in seq_along(mechs)) {
-    if (mechs[j] %in% mechanism) strength[, j] <- design[[paste0("s_", mechs[j])]]
-  }
-  list(user = design, full = full, strength = strength)
-}
-
-# Smooth monotone time warp: knots at the start, at each dose, between the
-# doses and at the end; each dose is seen 0.03 to 0.12 hours off either way.
-draw_dosing_warp <- function() {
-  knots <- c(0, 2, 8, 14, 20, 26, 37, 48)
-  shift <- numeric(length(knots))
-  shift[c(2, 4, 6)] <- sample(c(-1, 1), 3, replace = TRUE) * stats::runif(3, 0.03, 0.12)
-  data.frame(t = knots, w = knots + shift)
-}
-
-# Field replicates of the noise-free curve `truth` (list(plasma = vector)).
-dosing_field <- function(truth, n_rep, x_nom, condition) {
-  t <- dosing_grid()
-  warps <- lapply(seq_len(n_rep), function(r) draw_dosing_warp())
-  curves <- lapply(truth, function(y) {
-    m <- vapply(warps, function(w) apply_warp(y, t, w) + ar1_noise(length(t), sd = 0.04, phi = 0.9),
-                numeric(length(t)))
-    t(matrix(m, ncol = n_rep))
-  })
-  knots <- do.call(rbind, lapply(seq_len(n_rep), function(r) {
-    cbind(data.frame(condition = condition, replicate = r), warps[[r]])
-  }))
-  list(field = new_wv_field(t, curves, x_nom), warps = knots)
-}
-
-dosing_reality <- function(coded, hidden) {
-  strength <- matrix(as.numeric(dosing_mechanisms() %in% hidden), 1L, 4L)
-  sim <- dosing_coded(matrix(coded, nrow = 1L, dimnames = list(NULL, names(coded))), strength)
-  lapply(sim, as.numeric)
-}
-
-build_dosing <- function(seed, hidden) {
-  iu <- dosing_iu()
-  t <- dosing_grid()
-  inputs <- iu$name
-  xn <- inputs[iu$type == "variation"]
-  nom_A <- stats::setNames(iu$nominal, inputs)
-  nom_B <- nom_A
-  nom_B[xn] <- dosing_nominal_B()[xn]
-  iu_B <- iu
-  iu_B$lower <- iu$lower + nom_B - nom_A
-  iu_B$upper <- iu$upper + nom_B - nom_A
-  iu_B$nominal <- unname(nom_B)
-  design_A <- design_maximin(iu, 66L, seed = seed)
-  design_B <- design_maximin(iu_B, 65L, nominal = FALSE, seed = seed)
-
-  truth_draw <- iu_prior_draws(iu, 1L)[1, ]
-  u_star <- truth_draw[c("u1", "u2")]
-  delta <- truth_draw[xn] - nom_A[xn]
-  reality <- dosing_reality(c(u_star, nom_A[xn] + delta), hidden)
-  field_A <- dosing_field(reality, 6L, nom_A[xn], "A")
-
-  delta_B <- iu_prior_draws(iu, 1L, nominal = nom_B[xn])[1, xn] - nom_B[xn]
-  reality_B <- dosing_reality(c(u_star, nom_B[xn] + delta_B), hidden)
-  field_B <- dosing_field(reality_B, 6L, nom_B[xn], "B")
-
-  as_runs <- function(d) new_wv_runs(d, t, dosing_coded(d))
-  new_wv_testbed_dosing(list(
-    iu = iu,
-    A = list(runs = as_runs(design_A), field = field_A$field),
-    B = list(runs = as_runs(design_B), field = field_B$field, x_nom = nom_B[xn]),
-    truth = list(u = u_star, delta = delta, delta_B = delta_B, x_nom_B = nom_B[xn],
-                 reality = reality, reality_B = reality_B,
-                 warps = rbind(field_A$warps, field_B$warps),
-                 hidden = hidden, seed = as.integer(seed)),
-    windows = dosing_windows()
-  ))
-}
-
-# --- class -------------------------------------------------------------------
-
-new_wv_testbed_dosing <- function(x) structure(x, class = "wv_testbed_dosing")
-
-#' @export
-print.wv_testbed_dosing <- function(x, ...) {
-  cli::cat_line(sprintf("<wv_testbed_dosing> dosing test bed (seed %s, hidden mechanism: %s)", x$truth$seed,
-                        paste(x$truth$hidden, collapse = ", ")))
-  cli::cat_line(sprintf("  %d inputs: %s; site %s; %d time points in [0, 48) h", nrow(x$iu),
-                        paste(x$iu$name, collapse = ", "), paste(names(x$A$runs$curves), collapse = ", "),
-                        length(x$A$runs$t)))
-  n_field <- function(f) nrow(f$curves[[1]])
-  cli::cat_line(sprintf("  A: %d model runs, %d field replicates", nrow(x$A$runs$design), n_field(x$A$field)))
-  cli::cat_line(sprintf("  B: %d model runs, %d held-out field replicates (another patient group)",
-                        nrow(x$B$runs$design), n_field(x$B$field)))
-  cli::cat_line("  dose windows: ", paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]),
-                                                 character(1)), collapse = ", "))
-  invisible(x)
-}
-
-#' @export
-summary.wv_testbed_dosing <- function(object, ...) {
-  structure(list(
-    seed = object$truth$seed,
-    hidden = object$truth$hidden,
-    truth = c(object$truth$u, object$truth$delta),
-    delta_B = object$truth$delta_B,
-    x_nom_B = object$truth$x_nom_B,
-    runs = c(A = nrow(object$A$runs$design), B = nrow(object$B$runs$design)),
-    replicates = c(A = nrow(object$A$field$curves[[1]]), B = nrow(object$B$field$curves[[1]])),
-    range_A = vapply(object$A$runs$curves, function(m) c(min = min(m), max = max(m)), numeric(2))
-  ), class = "summary_wv_testbed_dosing")
-}
-
-#' @export
-print.summary_wv_testbed_dosing <- function(x, ...) {
-  cli::cat_line(sprintf("Dosing test bed, seed %s, hidden mechanism: %s", x$seed,
-                        paste(x$hidden, collapse = ", ")))
-  print(data.frame(condition = names(x$runs), model_runs = x$runs, field_replicates = x$replicates,
-                   row.names = NULL), row.names = FALSE)
-  cli::cat_line("True u* and delta* (condition A):")
-  print(signif(x$truth, 3))
-  cli::cat_line("Nominal x and delta* of condition B:")
-  print(signif(rbind(x_nom_B = x$x_nom_B, delta_B = x$delta_B), 3))
-  cli::cat_line("Concentration range of the model runs of A (mg/L):")
-  print(signif(x$range_A, 4))
-  invisible(x)
-}
-
-#' Plot the dosing test bed
-#'
-#' @param object A `wv_testbed_dosing`.
-#' @param condition `"A"` or `"B"`.
-#' @param windows Time windows to zoom into (default the three dose windows;
-#'   `NULL` for the whole record).
-#' @param ... Unused.
-#' @return A ggplot of the model runs (grey) and field replicates of that
-#'   condition.
-#' @export
-#' @examples
-#' tb <- testbed_dosing(seed = 2, hidden = "absorption_lag")
-#' autoplot(tb, "B")
-autoplot.wv_testbed_dosing <- function(object, condition = c("A", "B"), windows = object$windows, ...) {
-  condition <- check_choice(condition)
-  autoplot(object[[condition]]$runs, field = object[[condition]]$field, windows = windows)
-}
-
-#' @export
-plot.wv_testbed_dosing <- function(x, ...) {
-  print(autoplot(x, ...))
-  invisible(x)
 }

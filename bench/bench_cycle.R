@@ -24,12 +24,21 @@
 # each stage of the prediction (distances, correlation vectors and means,
 # variances) measured alone on prior draws of the inputs.
 #
-# Run: R_LIBS=<lib> Rscript bench/bench_cycle.R [reps=3] [cycles=20000]
+# Run from the package root: R_LIBS=<lib> Rscript bench/bench_cycle.R
+# [reps=3] [cycles=20000]. The timing loops (bench/cpp/limit.cpp) are
+# compiled here against the package's headers in src/.
 library(wavevalid)
 options(wavevalid.quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 reps <- if (length(args) >= 1) as.integer(args[1]) else 3L
 n_cycles <- if (length(args) >= 2) as.integer(args[2]) else 20000L
+
+# the package's flags (src/Makevars); make expands $(SHLIB_OPENMP_CXXFLAGS)
+Sys.setenv(PKG_CPPFLAGS = paste0("-I", shQuote(normalizePath("src"))),
+           PKG_CXXFLAGS = paste("-DEIGEN_PERMANENTLY_DISABLE_STUPID_WARNINGS -DEIGEN_DONT_PARALLELIZE",
+                                "-Wno-ignored-attributes $(SHLIB_OPENMP_CXXFLAGS)"),
+           PKG_LIBS = "$(SHLIB_OPENMP_CXXFLAGS)")
+Rcpp::sourceCpp(file.path("bench", "cpp", "limit.cpp"))
 
 t0 <- proc.time()[["elapsed"]]
 tb <- testbed_suspension(seed = 1)
@@ -64,12 +73,12 @@ per_cycle <- function(em) {
 rows <- lapply(engines, function(e) {
   em <- emus[[e]]
   bank <- em$banks$site1
-  st <- wavevalid:::bank_stage_times_cpp(bank, Z, 5L)
+  st <- bank_stage_times_cpp(bank, Z, 5L)
   K <- st[["K"]]
   n <- st[["n"]]
   p <- st[["p"]]
   n_log <- K * p + 4 * n
-  lim <- wavevalid:::cycle_limit_cpp(st[["n_exp"]], n_log, K, st[["n_uniq"]], n * K, K, 20L)
+  lim <- cycle_limit_cpp(st[["n_exp"]], n_log, K, st[["n_uniq"]], n * K, K, 20L)
   limit <- sum(lim)
   cyc <- per_cycle(em)
   cat(sprintf("engine \"%s\": %d coefficients, %d distinct correlations; per cycle %.0f exp, %.0f log, %.2f MB of packed factors\n",

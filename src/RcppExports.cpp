@@ -107,22 +107,6 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// dosing_simulate_cpp
-Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, double dose_mg, const Rcpp::NumericVector& t, int nsub);
-RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type doses(dosesSEXP);
-    Rcpp::traits::input_parameter< double >::type dose_mg(dose_mgSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
-    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
-    rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub));
-    return rcpp_result_gen;
-END_RCPP
-}
 // gasp_loglik_cpp
 Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget);
 RcppExport SEXP _wavevalid_gasp_loglik_cpp(SEXP XSEXP, SEXP ySEXP, SEXP thetaSEXP, SEXP nuggetSEXP) {
@@ -237,36 +221,6 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// cycle_limit_cpp
-Rcpp::NumericVector cycle_limit_cpp(double n_exp, double n_log, int K, int n_factors, double n_dot, int len, int reps);
-RcppExport SEXP _wavevalid_cycle_limit_cpp(SEXP n_expSEXP, SEXP n_logSEXP, SEXP KSEXP, SEXP n_factorsSEXP, SEXP n_dotSEXP, SEXP lenSEXP, SEXP repsSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< double >::type n_exp(n_expSEXP);
-    Rcpp::traits::input_parameter< double >::type n_log(n_logSEXP);
-    Rcpp::traits::input_parameter< int >::type K(KSEXP);
-    Rcpp::traits::input_parameter< int >::type n_factors(n_factorsSEXP);
-    Rcpp::traits::input_parameter< double >::type n_dot(n_dotSEXP);
-    Rcpp::traits::input_parameter< int >::type len(lenSEXP);
-    Rcpp::traits::input_parameter< int >::type reps(repsSEXP);
-    rcpp_result_gen = Rcpp::wrap(cycle_limit_cpp(n_exp, n_log, K, n_factors, n_dot, len, reps));
-    return rcpp_result_gen;
-END_RCPP
-}
-// bank_stage_times_cpp
-Rcpp::NumericVector bank_stage_times_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Z, int reps);
-RcppExport SEXP _wavevalid_bank_stage_times_cpp(SEXP bankSEXP, SEXP ZSEXP, SEXP repsSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::List& >::type bank(bankSEXP);
-    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Z(ZSEXP);
-    Rcpp::traits::input_parameter< int >::type reps(repsSEXP);
-    rcpp_result_gen = Rcpp::wrap(bank_stage_times_cpp(bank, Z, reps));
-    return rcpp_result_gen;
-END_RCPP
-}
 // gasp_bank_predict_augmented_cpp
 Rcpp::List gasp_bank_predict_augmented_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Zstar, const Eigen::Map<Eigen::MatrixXd>& Wstar, const Eigen::Map<Eigen::MatrixXd>& Znew);
 RcppExport SEXP _wavevalid_gasp_bank_predict_augmented_cpp(SEXP bankSEXP, SEXP ZstarSEXP, SEXP WstarSEXP, SEXP ZnewSEXP) {
@@ -332,6 +286,22 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// dosing_simulate_cpp
+Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, double dose_mg, const Rcpp::NumericVector& t, int nsub);
+RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type doses(dosesSEXP);
+    Rcpp::traits::input_parameter< double >::type dose_mg(dose_mgSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
+    Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
+    rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub));
+    return rcpp_result_gen;
+END_RCPP
+}
 
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
@@ -341,7 +311,6 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
     {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},
-    {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 6},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
     {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 6},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
@@ -350,13 +319,12 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_vexp_identity_cpp", (DL_FUNC) &_wavevalid_vexp_identity_cpp, 2},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
-    {"_wavevalid_cycle_limit_cpp", (DL_FUNC) &_wavevalid_cycle_limit_cpp, 7},
-    {"_wavevalid_bank_stage_times_cpp", (DL_FUNC) &_wavevalid_bank_stage_times_cpp, 3},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
     {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
     {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
+    {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 6},
     {NULL, NULL, 0}
 };
 

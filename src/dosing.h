@@ -27,6 +27,8 @@
 #include <cmath>
 #include <cstddef>
 
+#include "rk4.h"
+
 namespace wavevalid {
 namespace dosing {
 
@@ -102,29 +104,13 @@ class Patient {
 inline bool simulate(const double* params, const Strength& s, const double* doses, int n_doses,
                      double dose_mg, const double* t, int nt, int nsub, double* conc,
                      std::ptrdiff_t stride) {
-  Patient pt(params, s, doses, n_doses, dose_mg);
-  const int n = Patient::NSTATE;
-  double y[n] = {0}, k1[n], k2[n], k3[n], k4[n], tmp[n];
-  conc[0] = pt.concentration(y);
-  for (int k = 1; k < nt; ++k) {
-    const double h = (t[k] - t[k - 1]) / nsub;
-    double tc = t[k - 1];
-    for (int j = 0; j < nsub; ++j) {
-      pt.rhs(tc, y, k1);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k1[i];
-      pt.rhs(tc + 0.5 * h, tmp, k2);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k2[i];
-      pt.rhs(tc + 0.5 * h, tmp, k3);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + h * k3[i];
-      pt.rhs(tc + h, tmp, k4);
-      for (int i = 0; i < n; ++i) y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-      tc += h;
-    }
+  const Patient pt(params, s, doses, n_doses, dose_mg);
+  return rk4_grid(pt, t, nt, nsub, 1.0, [&](int k, const double* y) {
     const double c = pt.concentration(y);
-    if (!std::isfinite(c)) return false;
+    if (k > 0 && !std::isfinite(c)) return false;
     conc[k * stride] = c;
-  }
-  return true;
+    return true;
+  });
 }
 
 }  // namespace dosing

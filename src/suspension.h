@@ -26,8 +26,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
+
+#include "rk4.h"
 
 namespace wavevalid {
 namespace suspension {
@@ -271,33 +274,15 @@ class HalfCar {
 // solution blew up (non-finite state).
 inline bool simulate(const double* params, const Strength& s, const double* t, int nt, int nsub,
                      double* front, double* rear, std::ptrdiff_t stride) {
-  HalfCar car(params, s);
-  const int n = HalfCar::NSTATE;
-  double y[n] = {0}, k1[n], k2[n], k3[n], k4[n], tmp[n], out[2];
-  car.loads(y, out);
-  front[0] = out[0];
-  rear[0] = out[1];
-  for (int k = 1; k < nt; ++k) {
-    const double dt = (t[k] - t[k - 1]) / nsub;  // course time
-    const double h = dt * TIME_SCALE;             // physical time
-    double tc = t[k - 1];
-    for (int j = 0; j < nsub; ++j) {
-      car.rhs(tc, y, k1);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k1[i];
-      car.rhs(tc + 0.5 * dt, tmp, k2);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + 0.5 * h * k2[i];
-      car.rhs(tc + 0.5 * dt, tmp, k3);
-      for (int i = 0; i < n; ++i) tmp[i] = y[i] + h * k3[i];
-      car.rhs(tc + dt, tmp, k4);
-      for (int i = 0; i < n; ++i) y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-      tc += dt;
-    }
+  const HalfCar car(params, s);
+  return rk4_grid(car, t, nt, nsub, TIME_SCALE, [&](int k, const double* y) {
+    double out[2];
     car.loads(y, out);
-    if (!std::isfinite(out[0]) || !std::isfinite(out[1])) return false;
+    if (k > 0 && (!std::isfinite(out[0]) || !std::isfinite(out[1]))) return false;
     front[k * stride] = out[0];
     rear[k * stride] = out[1];
-  }
-  return true;
+    return true;
+  });
 }
 
 }  // namespace suspension

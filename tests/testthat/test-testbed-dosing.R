@@ -28,7 +28,7 @@ test_that("building the dosing test bed leaves the caller's random stream alone"
 })
 
 test_that("the dosing test bed has the documented layout", {
-  expect_s3_class(tb, "wv_testbed_dosing")
+  expect_s3_class(tb, c("wv_testbed_dosing", "wv_testbed"), exact = TRUE)
   expect_named(tb, c("iu", "A", "B", "truth", "windows"))
   expect_s3_class(tb$iu, "wv_iu")
   expect_identical(tb$iu$name, c("u1", "u2", paste0("x", 1:4)))

@@ -28,7 +28,7 @@ test_that("building a test bed leaves the caller's random stream alone", {
 })
 
 test_that("the test bed has the documented layout", {
-  expect_s3_class(tb, "wv_testbed")
+  expect_s3_class(tb, c("wv_testbed_suspension", "wv_testbed"), exact = TRUE)
   expect_named(tb, c("iu", "A", "B", "added_mass", "truth", "windows"))
   expect_s3_class(tb$iu, "wv_iu")
   expect_identical(tb$iu$name, c("u1", "u2", paste0("x", 1:7)))
@@ -105,7 +105,7 @@ test_that("the added-mass pair differs only in x1 and raises the static load", {
 test_that("RK4 with four sub-steps is converged well below the measurement noise", {
   coded <- as.matrix(truth_design(tb))
   p <- testbed_physical(coded)
-  s <- hidden_strength("tire_liftoff")
+  s <- hidden_strength("tire_liftoff", testbed_mechanisms())
   coarse <- suspension_simulate_cpp(p, s, grid, 4L)
   fine <- suspension_simulate_cpp(p, s, grid, 16L)
   for (site in sites) expect_lt(max(abs(coarse[[site]] - fine[[site]])), noise_sd / 3)
@@ -204,7 +204,7 @@ test_that("print, summary and autoplot describe the test bed", {
 
 test_that("load_testbed() returns the shipped instance with the same layout", {
   shipped <- load_testbed()
-  expect_s3_class(shipped, "wv_testbed")
+  expect_s3_class(shipped, c("wv_testbed_suspension", "wv_testbed"), exact = TRUE)
   fresh <- testbed_suspension(seed = shipped$truth$seed, hidden = shipped$truth$hidden)
   expect_identical(shipped$truth$hidden, "progressive_bumpstop")
   expect_identical(names(shipped), names(fresh))

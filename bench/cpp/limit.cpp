@@ -3,10 +3,15 @@
 // same streaming of the packed Cholesky factors (with one multiply-add per
 // value, as the forward substitution does), each in a tight vectorised loop
 // (the exps with the widest vectors the processor has, as the sampler's).
+//
+// Compiled by bench/bench_cycle.R with Rcpp::sourceCpp() and the package's
+// src/ on the include path. The emulator bank's reader, bank_from_list(),
+// is defined in src/gasp_predict.cpp, so that file is compiled in here too.
 #include <RcppEigen.h>
 #include <chrono>
 #include <vector>
 #include "gasp_predict.h"
+#include "gasp_predict.cpp"
 
 // [[Rcpp::depends(RcppEigen)]]
 
@@ -71,10 +76,6 @@ Rcpp::NumericVector cycle_limit_cpp(double n_exp, double n_log, int K, int n_fac
   }
   return Rcpp::NumericVector::create(Rcpp::Named("exp") = t_exp, Rcpp::Named("log") = t_log,
                                      Rcpp::Named("stream") = t_stream, Rcpp::Named("dot") = t_dot);
-}
-
-namespace wavevalid {
-GaspBank bank_from_list(const Rcpp::List& b);
 }
 
 // Stages of the sampler's emulator predictions on one bank, each timed over

@@ -1,0 +1,299 @@
+# A test bed as a specification: the model's inputs (the I/U map), the
+# mechanisms reality can have and the model lacks, the simulator with its
+# grid and event windows, the designs of the model runs, the warps and noise
+# of the field replicates, and the held-out conditions. One builder, one
+# design check and one signature routine serve every test bed;
+# testbed_suspension() and testbed_dosing() are two specifications.
+
+# `physical(coded)` maps a K x p matrix of coded inputs to the simulator's
+# physical parameters; `simulator(params, strength, t)` runs them with a
+# K x m matrix of mechanism strengths and returns a named list by site of
+# K x T matrices (a row of NA for a run that blew up). `designs(iu, nom_B,
+# seed)` gives the designs of conditions A and B. `n_field` holds the number
+# of field replicates of A and B. `warp` moves the knots `moved` of
+# `knots` by a random sign times U(`shift`) times `scale`. `shifted` holds
+# the conditions met by moving the inputs of A (list of `shift`, a named
+# change of the coded inputs, `n_field` and `label`). `text` holds the words
+# of messages and prints.
+new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid, windows,
+                             designs, nominal_B, n_field, warp, noise, shifted = list(), text) {
+  structure(list(name = name, iu = iu, mechanisms = mechanisms, mechanisms_fn = mechanisms_fn,
+                 physical = physical, simulator = simulator, grid = grid, windows = windows,
+                 designs = designs, nominal_B = nominal_B, n_field = n_field, warp = warp,
+                 noise = noise, shifted = shifted, text = text),
+            class = "wv_testbed_spec")
+}
+
+testbed_specs <- function() list(suspension = suspension_spec, dosing = dosing_spec)
+
+# The specification of a built test bed (a bare "wv_testbed" is a suspension
+# test bed built before the beds had their own classes).
+testbed_spec_of <- function(x) {
+  kind <- intersect(sub("^wv_testbed_", "", class(x)), names(testbed_specs()))
+  testbed_specs()[[if (length(kind)) kind[1] else "suspension"]]()
+}
+
+new_wv_testbed <- function(x, kind) {
+  structure(x, class = c(paste0("wv_testbed_", kind), "wv_testbed"))
+}
+
+# The conditions of a test bed: "A", "B" and any shifted ones.
+testbed_conditions <- function(x) setdiff(names(x), c("iu", "truth", "windows"))
+
+# --- checks --------------------------------------------------------------------
+
+spec_check_hidden <- function(spec, hidden, call = rlang::caller_env()) {
+  mechs <- spec$mechanisms
+  if (!is.character(hidden) || length(hidden) == 0L || anyNA(hidden)) {
+    wv_abort("{.arg hidden} must be {.val none} or names from {.fn {spec$mechanisms_fn}}.", call = call)
+  }
+  bad <- setdiff(hidden, c("none", mechs))
+  if (length(bad)) {
+    wv_abort(c("Unknown hidden mechanism{?s} {.val {bad}}.",
+               "i" = "Choose {.val none} or among {.val {mechs}}."), call = call)
+  }
+  if ("none" %in% hidden && length(hidden) > 1L) {
+    wv_abort("{.arg hidden} cannot combine {.val none} with mechanisms.", call = call)
+  }
+  unique(hidden)
+}
+
+# Checks a user design; returns the user's data frame, the full K x p coded
+# matrix and the K x m strength matrix.
+spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::caller_env()) {
+  if (is.matrix(design) && !is.null(colnames(design))) design <- as.data.frame(design)
+  if (!is.data.frame(design) || nrow(design) == 0L) {
+    wv_abort("{.arg design} must be a data frame with one row per run and named input columns.", call = call)
+  }
+  inputs <- spec$iu$name
+  mechs <- spec$mechanisms
+  scols <- check_mechanism_columns(spec, design, mechanism, call)
+  nonnum <- !vapply(design, is.numeric, logical(1))
+  if (any(nonnum) || any(!vapply(design, function(v) all(is.finite(v)), logical(1)))) {
+    wv_abort("Every column of {.arg design} must be numeric and finite.", call = call)
+  }
+  for (s in scols) {
+    if (any(design[[s]] < 0 | design[[s]] > 1)) {
+      wv_abort("Strength {.val {s}} must lie in [0, 1] (1 = reality's strength).", call = call)
+    }
+  }
+  nom <- stats::setNames(rep(0.5, length(inputs)), inputs)
+  if (!is.null(nominal)) {
+    if (!is.numeric(nominal) || is.null(names(nominal)) || any(!names(nominal) %in% inputs) ||
+        any(!is.finite(nominal))) {
+      wv_abort("{.arg nominal} must be a named numeric vector over the inputs {.val {inputs}}.", call = call)
+    }
+    nom[names(nominal)] <- nominal
+  }
+  full <- matrix(nom, nrow(design), length(inputs), byrow = TRUE, dimnames = list(NULL, inputs))
+  for (v in intersect(inputs, names(design))) full[, v] <- design[[v]]
+  strength <- matrix(0, nrow(design), length(mechs))
+  for (j in seq_along(mechs)) {
+    if (mechs[j] %in% mechanism) strength[, j] <- design[[paste0("s_", mechs[j])]]
+  }
+  list(user = design, full = full, strength = strength)
+}
+
+# The mechanisms switched on against the columns of the design: returns the
+# strength columns of the mechanisms switched on.
+check_mechanism_columns <- function(spec, design, mechanism, call) {
+  inputs <- spec$iu$name
+  mechs <- spec$mechanisms
+  if (!is.null(mechanism)) {
+    bad <- setdiff(mechanism, mechs)
+    if (!is.character(mechanism) || length(bad)) {
+      wv_abort(c("{.arg mechanism} must be names from {.fn {spec$mechanisms_fn}}.",
+                 "x" = "Unknown: {.val {bad}}."), call = call)
+    }
+  }
+  scols <- if (length(mechanism)) paste0("s_", mechanism) else character()
+  extra <- setdiff(names(design), c(inputs, paste0("s_", mechs)))
+  if (length(extra)) {
+    wv_abort(c(paste0("{.arg design} has column{?s} {.val {extra}} the ", spec$text$model, " does not know."),
+               "i" = "Inputs are {.val {inputs}}; mechanism strengths are {.val {paste0('s_', mechs)}}."),
+             call = call)
+  }
+  unused <- setdiff(intersect(names(design), paste0("s_", mechs)), scols)
+  if (length(unused)) {
+    wv_abort(c("Strength column{?s} {.val {unused}} given but the mechanism is not switched on.",
+               "i" = "Name it in {.arg mechanism}, e.g. {.code mechanism = {.val {sub('^s_', '', unused[1])}}}."),
+             call = call)
+  }
+  lacking <- setdiff(scols, names(design))
+  if (length(lacking)) {
+    wv_abort(c("Every mechanism switched on needs its strength column in {.arg design}.",
+               "x" = "Missing {.val {lacking}}."), call = call)
+  }
+  scols
+}
+
+# --- simulating ------------------------------------------------------------------
+
+# Simulates a K x p matrix of coded inputs with a K x m matrix of strengths.
+spec_simulate_coded <- function(spec, coded, strength = NULL, call = rlang::caller_env()) {
+  coded <- as.matrix(coded)
+  if (is.null(strength)) strength <- matrix(0, nrow(coded), length(spec$mechanisms))
+  params <- spec$physical(coded)
+  if (any(!is.finite(params)) || any(params <= 0)) {
+    wv_abort("The coded inputs give non-positive physical parameters; keep them within about [-0.3, 1.3].",
+             call = call)
+  }
+  spec$simulator(params, as.matrix(strength), spec$grid)
+}
+
+# The model runs of a user design (simulate_suspension(), simulate_dosing()).
+spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, call = rlang::caller_env()) {
+  design <- spec_check_design(spec, design, mechanism, nominal, call = call)
+  sim <- spec_simulate_coded(spec, design$full, design$strength, call = call)
+  if (anyNA(sim[[1L]])) {
+    return(model_runs(design$user, sim, spec$grid))
+  }
+  user <- design$user
+  rownames(user) <- NULL
+  new_wv_runs(user, spec$grid, sim)
+}
+
+hidden_strength <- function(hidden, mechanisms) {
+  matrix(as.numeric(mechanisms %in% hidden), 1L, length(mechanisms))
+}
+
+spec_reality <- function(spec, coded, hidden) {
+  coded <- matrix(coded, nrow = 1L, dimnames = list(NULL, names(coded)))
+  lapply(spec_simulate_coded(spec, coded, hidden_strength(hidden, spec$mechanisms)), as.numeric)
+}
+
+# The change of each site's output when a mechanism is switched on at full
+# strength at the coded `inputs` (testbed_signatures(), dosing_signatures()).
+spec_signatures <- function(spec, inputs, mechanisms, call = rlang::caller_env()) {
+  if (!is.numeric(inputs) || is.null(names(inputs)) || any(!is.finite(inputs))) {
+    wv_abort("{.arg inputs} must be a named numeric vector of coded input values.", call = call)
+  }
+  mechanisms <- setdiff(spec_check_hidden(spec, mechanisms, call = call), "none")
+  base <- as.data.frame(as.list(inputs))
+  off <- spec_simulate(spec, base, call = call)
+  out <- lapply(mechanisms, function(m) {
+    d <- base
+    d[[paste0("s_", m)]] <- 1
+    on <- spec_simulate(spec, d, mechanism = m, call = call)
+    Map(function(a, b) a[1, ] - b[1, ], on$curves, off$curves)
+  })
+  stats::setNames(out, mechanisms)
+}
+
+# --- building --------------------------------------------------------------------
+
+# Builds a test bed from its specification with the RNG already seeded:
+# the designs, the true inputs of A, reality and the field of A, then those
+# of B, then the shifted conditions.
+build_testbed_from_spec <- function(spec, seed, hidden) {
+  iu <- spec$iu
+  inputs <- iu$name
+  xn <- inputs[iu$type == "variation"]
+  nom_A <- stats::setNames(iu$nominal, inputs)
+  nom_B <- nom_A
+  nom_B[xn] <- spec$nominal_B[xn]
+  designs <- spec$designs(iu, nom_B, seed)
+
+  truth_draw <- iu_prior_draws(iu, 1L)[1, ]
+  u_star <- truth_draw[inputs[iu$type == "calibration"]]
+  delta <- truth_draw[xn] - nom_A[xn]
+  x_star <- c(u_star, nom_A[xn] + delta)
+  reality <- spec_reality(spec, x_star, hidden)
+  field_A <- make_field(spec, reality, spec$n_field[["A"]], nom_A[xn], "A")
+
+  delta_B <- iu_prior_draws(iu, 1L, nominal = nom_B[xn])[1, xn] - nom_B[xn]
+  reality_B <- spec_reality(spec, c(u_star, nom_B[xn] + delta_B), hidden)
+  field_B <- make_field(spec, reality_B, spec$n_field[["B"]], nom_B[xn], "B")
+
+  shifted <- Map(function(cd, sh) shifted_condition(spec, cd, sh, nom_A, x_star, hidden),
+                 names(spec$shifted), spec$shifted)
+  as_runs <- function(d) {
+    rownames(d) <- NULL
+    d <- as.data.frame(d)
+    new_wv_runs(d, spec$grid, spec_simulate_coded(spec, d))
+  }
+  conditions <- c(
+    list(A = list(runs = as_runs(designs$A), field = field_A$field),
+         B = list(runs = as_runs(designs$B), field = field_B$field, x_nom = nom_B[xn])),
+    lapply(shifted, function(s) list(runs = as_runs(s$design), field = s$field, delta = s$delta))
+  )
+  truth <- c(
+    list(u = u_star, delta = delta, delta_B = delta_B, x_nom_B = nom_B[xn], reality = reality,
+         reality_B = reality_B),
+    stats::setNames(lapply(shifted, `[[`, "reality"), sprintf("reality_%s", names(shifted))),
+    list(warps = do.call(rbind, c(list(field_A$warps, field_B$warps), unname(lapply(shifted, `[[`, "warps")))),
+         hidden = hidden, seed = as.integer(seed))
+  )
+  new_wv_testbed(c(list(iu = iu), conditions, list(truth = truth, windows = spec$windows)), spec$name)
+}
+
+# A condition met by moving the inputs of A by `sh$shift`: the nominal run and
+# the moved one, reality at the moved true inputs and its field replicates.
+shifted_condition <- function(spec, condition, sh, nom_A, x_star, hidden) {
+  dm <- sh$shift
+  xn <- spec$iu$name[spec$iu$type == "variation"]
+  design <- rbind(nom_A, nom_A)
+  design[2L, names(dm)] <- design[2L, names(dm)] + dm
+  x_star[names(dm)] <- x_star[names(dm)] + dm
+  reality <- spec_reality(spec, x_star, hidden)
+  x_nom <- nom_A[xn]
+  x_nom[names(dm)] <- x_nom[names(dm)] + dm
+  field <- make_field(spec, reality, sh$n_field, x_nom, condition)
+  list(design = design, field = field$field, warps = field$warps, delta = dm, reality = reality)
+}
+
+# --- field replicates ----------------------------------------------------------------
+
+# Smooth monotone time warp: the knots `moved` are shifted either way by
+# U(shift) times their `scale`.
+draw_warp <- function(warp) {
+  m <- length(warp$moved)
+  shift <- numeric(length(warp$knots))
+  shift[warp$moved] <- sample(c(-1, 1), m, replace = TRUE) * stats::runif(m, warp$shift[1], warp$shift[2]) *
+    warp$scale
+  data.frame(t = warp$knots, w = warp$knots + shift)
+}
+
+apply_warp <- function(y, t, warp) {
+  w <- stats::splinefun(warp$t, warp$w, method = "monoH.FC")(t)
+  stats::splinefun(t, y, method = "fmm")(pmin(pmax(w, t[1]), t[length(t)]))
+}
+
+ar1_noise <- function(n, sd = 0.03, phi = 0.95) {
+  e <- stats::rnorm(n, sd = sd * sqrt(1 - phi^2))
+  as.numeric(stats::filter(e, phi, method = "recursive", init = stats::rnorm(1, sd = sd)))
+}
+
+spec_noise <- function(spec, n) ar1_noise(n, sd = spec$noise[["sd"]], phi = spec$noise[["phi"]])
+
+# Field replicates of noise-free curves `truth` (named list by site of
+# vectors): one warp per replicate shared by the sites, independent noise.
+make_field <- function(spec, truth, n_rep, x_nom, condition) {
+  t <- spec$grid
+  warps <- lapply(seq_len(n_rep), function(r) draw_warp(spec$warp))
+  curves <- lapply(truth, function(y) {
+    t(vapply(warps, function(w) apply_warp(y, t, w) + spec_noise(spec, length(t)), numeric(length(t))))
+  })
+  knots <- do.call(rbind, lapply(seq_len(n_rep), function(r) {
+    cbind(data.frame(condition = condition, replicate = r), warps[[r]])
+  }))
+  list(field = new_wv_field(t, curves, x_nom), warps = knots)
+}
+
+# The field data of condition A of a test bed `tb` as a perfect registration
+# would leave them: reality plus the same kind of noise as the replicates, one
+# curve for each replicate, no time warps. With `warp` (a table of knots
+# `t`, `w` as draw_warp() gives), reality is warped by it before the noise,
+# the same warp for every replicate. For checks of what the registration
+# costs.
+unwarped_field <- function(tb, seed, warp = NULL) {
+  spec <- testbed_spec_of(tb)
+  f <- tb$A$field
+  reality <- if (is.null(warp)) tb$truth$reality else lapply(tb$truth$reality, apply_warp, t = f$t, warp = warp)
+  with_rng_seed(seed, for (s in names(f$curves)) {
+    f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])),
+                              function(r) reality[[s]] + spec_noise(spec, length(f$t)),
+                              numeric(length(f$t))))
+  })
+  f
+}
