@@ -62,8 +62,8 @@ Z <- t(replicate(200, prior$lower + stats::runif(nrow(prior)) * (prior$upper - p
 
 per_cycle <- function(em) {
   run <- function(n_draws) {
-    system.time(calibrate(em, field, iu, n_draws = n_draws, n_inner = 100, chains = 1, seed = 1, burnin = 1000,
-                          threads = 1, quiet = TRUE))[["elapsed"]]
+    system.time(calibrate(em, field, iu, chains = 1, seed = 1,
+                          sampler = sampler_control(n_draws = n_draws, n_inner = 100, burnin = 1000, threads = 1, quiet = TRUE)))[["elapsed"]]
   }
   extra <- n_cycles %/% 100L
   d <- vapply(seq_len(reps), function(r) run(5L + extra) - run(5L), 0)
