@@ -41,6 +41,7 @@
 #' * **windows** (when given): the event windows of the registration.
 #'
 #' @inheritParams validate
+#' @inheritParams bias_control
 #' @param tolerance The relative L2 reconstruction errors checked, as in
 #'   [wavelet_basis()]: `c(runs = 0.01, field = 0.02)` unless `basis_args`
 #'   sets one.
