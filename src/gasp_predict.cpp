@@ -75,6 +75,7 @@ Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen:
 // [[Rcpp::export]]
 Rcpp::List gasp_bank_predict_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Z) {
   wavevalid::GaspBank g = wavevalid::bank_from_list(bank);
+  g.find_shared();
   const int N = Z.rows(), n = g.n_coef();
   if (Z.cols() != g.n_inputs()) Rcpp::stop("Z must have one column per input");
   Eigen::MatrixXd M(N, n), V(N, n);

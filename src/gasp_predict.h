@@ -95,7 +95,10 @@ struct GaspBank {
     logd.array() = d1.array().log();  // log(0) = -inf gives exp(-inf) = 0 as wanted
   }
 
-  // Predictive means m and variances v (length n) at raw input z.
+  // Predictive means m and variances v (length n) at raw input z. After
+  // find_shared(), coefficients that share their correlation (exactly: the
+  // same beta, alpha, nugget and Cholesky factor) share one correlation
+  // vector and one triangular solve, which give the same numbers as their own.
   void predict(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
                bool want_var = true) const {
     const int n = n_coef();
@@ -104,6 +107,27 @@ struct GaspBank {
     m.resize(n);
     if (want_var) v.resize(n);
     Eigen::VectorXd r;
+    if (static_cast<int>(rep.size()) == n) {
+      std::vector<Eigen::VectorXd> ru(uniq.size());
+      std::vector<double> qu(uniq.size(), 0.0);
+      std::vector<char> done(uniq.size(), 0);
+      for (int i = 0; i < n; ++i) {
+        const int u = slot[i];
+        if (!done[u]) {
+          corr_vector(rep[i], d1, d2, logd, ru[u]);
+          if (want_var) {
+            r = ru[u];
+            L[rep[i]].triangularView<Eigen::Lower>().solveInPlace(r);
+            const double q = 1.0 - r.squaredNorm();
+            qu[u] = q > 0.0 ? q : 0.0;
+          }
+          done[u] = 1;
+        }
+        m(i) = mu(i) + ru[u].dot(weights.col(i));
+        if (want_var) v(i) = qu[u] / lambda(i);
+      }
+      return;
+    }
     for (int i = 0; i < n; ++i) {
       corr_vector(i, d1, d2, logd, r);
       m(i) = mu(i) + r.dot(weights.col(i));
