@@ -169,13 +169,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
 bias_groups <- function(coef_level, pool_levels = NULL, call = rlang::caller_env()) {
   lv <- sort(unique(coef_level))
   if (!is.null(pool_levels)) {
-    if (!is.numeric(pool_levels) || anyNA(pool_levels) || any(pool_levels != round(pool_levels)) ||
-        any(pool_levels < 0) || length(unique(pool_levels)) < 2L) {
-      wv_abort(c(
-        "{.arg pool_levels} must be two or more whole levels (0 for the scaling coefficient).",
-        "x" = "It is {.code {deparse(pool_levels)}}."
-      ), call = call)
-    }
+    check_levels_arg(pool_levels, "pool_levels", min_length = 2L, call = call)
     pool_levels <- sort(unique(as.integer(pool_levels)))
     absent <- setdiff(pool_levels, lv)
     if (length(absent)) {
@@ -286,11 +280,7 @@ subset_field_sites <- function(field, sites) {
 informing_groups <- function(inform_levels, coef_level, bias_group, groups, call = rlang::caller_env()) {
   if (is.null(inform_levels)) return(NULL)
   lv <- sort(unique(coef_level))
-  if (!is.numeric(inform_levels) || !length(inform_levels) || anyNA(inform_levels) ||
-      any(inform_levels != round(inform_levels))) {
-    wv_abort(c("{.arg inform_levels} must be whole wavelet levels (0 for the scaling coefficient), or NULL.",
-               "x" = "It is {.code {deparse(inform_levels)}}."), call = call)
-  }
+  check_levels_arg(inform_levels, "inform_levels", min_length = 1L, call = call)
   absent <- setdiff(inform_levels, lv)
   if (length(absent)) {
     wv_abort(c("{.arg inform_levels} names level{?s} {absent} that the basis does not hold.",

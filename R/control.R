@@ -77,14 +77,7 @@ bias_control <- function(sigma2 = NULL, pool_levels = NULL, inform_levels = NULL
   check_flag(registration_variance)
   check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
   check_levels_arg(inform_levels, "inform_levels", min_length = 1L)
-  if (!is.null(sigma2) && !identical(sigma2, "finest") && !inherits(sigma2, "wv_noise_prior")) {
-    vals <- if (is.list(sigma2)) sigma2 else list(sigma2)
-    ok <- all(vapply(vals, function(v) is.numeric(v) && length(v) && all(is.finite(v)) && all(v > 0), logical(1)))
-    if (!ok || (is.list(sigma2) && is.null(names(sigma2)))) {
-      wv_abort(c("{.arg sigma2} must be {.code NULL}, {.val finest}, a {.fn noise_prior}, positive numbers, or a list of them named by site.",
-                 "x" = "It is {.code {deparse(sigma2)}}."))
-    }
-  }
+  check_sigma2(sigma2)
   if (!is.null(fix_tau2) && (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0))) {
     wv_abort("{.arg fix_tau2} must hold positive numbers.")
   }
@@ -161,29 +154,23 @@ sampler_control <- function(n_draws = 1000, n_inner = 200, step = 0.1, proposal 
 
 #' @export
 print.wv_bias_control <- function(x, ...) {
-  cli::cat_line("<wv_bias_control>")
-  for (line in control_lines(x)) cli::cat_line("  ", line)
+  cli::cat_line("<", class(x)[1], ">")
+  for (nm in names(x)) cli::cat_line("  ", nm, ": ", control_value_text(x[[nm]]))
   invisible(x)
 }
 
 #' @export
-print.wv_sampler_control <- function(x, ...) {
-  cli::cat_line("<wv_sampler_control>")
-  for (line in control_lines(x)) cli::cat_line("  ", line)
-  invisible(x)
-}
+print.wv_sampler_control <- print.wv_bias_control
 
-# One line per setting, `name: value`.
-control_lines <- function(x) {
-  show <- function(v) {
-    if (is.null(v)) return("NULL")
-    if (inherits(v, "wv_noise_prior")) return("noise_prior()")
-    if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, show, "")), collapse = ", "))
-    if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
-    if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)), collapse = ", "))
-    paste(format(v, digits = 3), collapse = ", ")
-  }
-  vapply(names(x), function(nm) sprintf("%s: %s", nm, show(x[[nm]])), "", USE.NAMES = FALSE)
+# A setting of a control object as text: a run of whole numbers as `a:b`, a
+# noise prior by its constructor, named values as `name = value`.
+control_value_text <- function(v) {
+  if (is.null(v)) return("NULL")
+  if (inherits(v, "wv_noise_prior")) return("noise_prior()")
+  if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, control_value_text, "")), collapse = ", "))
+  if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
+  if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)), collapse = ", "))
+  paste(format(v, digits = 3), collapse = ", ")
 }
 
 # Whole wavelet levels (0 for the scaling coefficient), or NULL.
@@ -252,9 +239,8 @@ fit_controls <- function(fit) {
 # A control object as the call that makes it, naming only the settings away
 # from the defaults (and `always`, even at its default).
 control_call <- function(x, always = character(0)) {
-  ctor <- if (inherits(x, "wv_bias_control")) bias_control else sampler_control
-  name <- if (inherits(x, "wv_bias_control")) "bias_control" else "sampler_control"
-  defaults <- unclass(do.call(ctor, list()))
+  name <- sub("^wv_", "", class(x)[1])
+  defaults <- unclass(do.call(name, list()))
   show <- function(v) {
     if (inherits(v, "wv_noise_prior")) return("noise_prior(...)")
     if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))

@@ -144,20 +144,22 @@ print.wv_noise_prior <- function(x, ...) {
 
 # The form of `sigma2` in calibrate() and validate(), checked before anything
 # is computed.
-check_sigma2 <- function(sigma2, sites, call = rlang::caller_env()) {
+check_sigma2 <- function(sigma2, sites = NULL, call = rlang::caller_env()) {
   if (is.null(sigma2) || identical(sigma2, "finest")) return(invisible(sigma2))
   if (inherits(sigma2, "wv_noise_prior")) {
     sc <- sigma2$scale
-    if (length(sc) > 1L && !setequal(names(sc), sites)) {
+    if (!is.null(sites) && length(sc) > 1L && !setequal(names(sc), sites)) {
       wv_abort("The noise prior's {.arg scale} must be named by every site: {.val {sites}}.", call = call)
     }
     return(invisible(sigma2))
   }
   msg <- c("{.arg sigma2} must be {.code NULL}, {.val finest}, a {.fn noise_prior}, positive numbers, or a list of them named by site.",
-           "i" = "The sites are {.val {sites}}.")
+           "i" = if (!is.null(sites)) "The sites are {.val {sites}}.")
   if (is.character(sigma2)) wv_abort(c(msg, "x" = "It is {.val {sigma2}}."), call = call)
   vals <- if (is.list(sigma2)) sigma2 else list(sigma2)
-  if (is.list(sigma2) && (is.null(names(sigma2)) || !all(names(sigma2) %in% sites))) wv_abort(msg, call = call)
+  if (is.list(sigma2) && (is.null(names(sigma2)) || (!is.null(sites) && !all(names(sigma2) %in% sites)))) {
+    wv_abort(msg, call = call)
+  }
   for (v in vals) {
     if (!is.numeric(v) || !length(v) || any(!is.finite(v)) || any(v <= 0)) {
       wv_abort(c(msg, "x" = "It holds {.code {deparse(v)}}."), call = call)

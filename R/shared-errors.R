@@ -23,8 +23,9 @@
 # it counts), `trace` (tr(H^-1 J)), `n_coef` (the coefficients informing the
 # inputs), `at` (the inputs where it was taken).
 shared_error_weight <- function(spec, field, tau, seed, sm) {
-  pilot_sm <- list(n_draws = 20L, n_inner = 5L, step = 0.1, quiet = TRUE, proposal = sm$proposal,
-                   burnin = min(sm$burnin, 500L), global_moves = 0, n_search = sm$n_search, threads = sm$threads)
+  pilot_sm <- sampler_control(n_draws = 20L, n_inner = 5L, step = 0.1, proposal = sm$proposal,
+                              burnin = min(sm$burnin, 500L), global_moves = 0, n_search = sm$n_search,
+                              threads = sm$threads, quiet = TRUE)
   pilot <- run_chains(spec, pilot_sm, chains = 1L, seed = seed, tau = tau)[[1L]]
   z <- colMeans(pilot$inputs)
   tau2 <- colMeans(pilot$tau2)

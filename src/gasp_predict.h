@@ -98,44 +98,35 @@ struct GaspBank {
   // Predictive means m and variances v (length n) at raw input z. After
   // find_shared(), coefficients that share their correlation (exactly: the
   // same beta, alpha, nugget and Cholesky factor) share one correlation
-  // vector and one triangular solve, which give the same numbers as their own.
+  // vector and one triangular solve, which give the same numbers as their own;
+  // before it, each coefficient is its own representative.
   void predict(const Eigen::VectorXd& z, Eigen::VectorXd& m, Eigen::VectorXd& v,
                bool want_var = true) const {
     const int n = n_coef();
+    const bool shared = static_cast<int>(rep.size()) == n;
+    const std::size_t n_rep = shared ? uniq.size() : static_cast<std::size_t>(n);
     Eigen::MatrixXd d1, d2, logd;
     distances(z, d1, d2, logd);
     m.resize(n);
     if (want_var) v.resize(n);
     Eigen::VectorXd r;
-    if (static_cast<int>(rep.size()) == n) {
-      std::vector<Eigen::VectorXd> ru(uniq.size());
-      std::vector<double> qu(uniq.size(), 0.0);
-      std::vector<char> done(uniq.size(), 0);
-      for (int i = 0; i < n; ++i) {
-        const int u = slot[i];
-        if (!done[u]) {
-          corr_vector(rep[i], d1, d2, logd, ru[u]);
-          if (want_var) {
-            r = ru[u];
-            L[rep[i]].triangularView<Eigen::Lower>().solveInPlace(r);
-            const double q = 1.0 - r.squaredNorm();
-            qu[u] = q > 0.0 ? q : 0.0;
-          }
-          done[u] = 1;
-        }
-        m(i) = mu(i) + ru[u].dot(weights.col(i));
-        if (want_var) v(i) = qu[u] / lambda(i);
-      }
-      return;
-    }
+    std::vector<Eigen::VectorXd> ru(n_rep);
+    std::vector<double> qu(n_rep, 0.0);
+    std::vector<char> done(n_rep, 0);
     for (int i = 0; i < n; ++i) {
-      corr_vector(i, d1, d2, logd, r);
-      m(i) = mu(i) + r.dot(weights.col(i));
-      if (want_var) {
-        L[i].triangularView<Eigen::Lower>().solveInPlace(r);
-        double q = 1.0 - r.squaredNorm();
-        v(i) = (q > 0.0 ? q : 0.0) / lambda(i);
+      const int u = shared ? slot[i] : i, ri = shared ? rep[i] : i;
+      if (!done[u]) {
+        corr_vector(ri, d1, d2, logd, ru[u]);
+        if (want_var) {
+          r = ru[u];
+          L[ri].triangularView<Eigen::Lower>().solveInPlace(r);
+          const double q = 1.0 - r.squaredNorm();
+          qu[u] = q > 0.0 ? q : 0.0;
+        }
+        done[u] = 1;
       }
+      m(i) = mu(i) + ru[u].dot(weights.col(i));
+      if (want_var) v(i) = qu[u] / lambda(i);
     }
   }
 
