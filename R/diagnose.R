@@ -131,7 +131,8 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   rows <- lapply(unique(b$site), function(s) {
     bs <- b[b$site == s, ]
     rs <- r[r$site == s, ]
-    excl <- gap[b$site == s] > tol[[s]]
+    gs <- gap[b$site == s]
+    excl <- gs > tol[[s]]
     runs <- rle(excl)
     ends <- cumsum(runs$lengths)
     starts <- ends - runs$lengths + 1L
@@ -142,7 +143,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
       ib <- sum(abs(bs$mean[idx])) * dt
       data.frame(
         site = s, start = bs$t[starts[k]], end = bs$t[ends[k]] + dt,
-        peak_abs_bias = max(abs(bs$mean[idx])),
+        peak_abs_bias = max(abs(bs$mean[idx])), credible = max(gs[idx]),
         integrated_abs_bias = ib,
         share_of_signal = ib / max(sum(abs(rs$mean[idx])) * dt, .Machine$double.eps),
         sign = if (mean(bs$mean[idx]) > 0) "reality above model" else "reality below model",
@@ -150,28 +151,13 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
       )
     }))
   })
-  out <- do.call(rbind, rows)
-  if (is.null(out)) {
-    out <- data.frame(site = character(), start = numeric(), end = numeric(), peak_abs_bias = numeric(),
-                      integrated_abs_bias = numeric(), share_of_signal = numeric(), sign = character(),
-                      stringsAsFactors = FALSE)
+  intervals <- do.call(rbind, rows)
+  if (is.null(intervals)) {
+    intervals <- data.frame(site = character(), start = numeric(), end = numeric(), peak_abs_bias = numeric(),
+                            credible = numeric(), integrated_abs_bias = numeric(), share_of_signal = numeric(),
+                            sign = character(), stringsAsFactors = FALSE)
   }
-  out <- out[order(-out$integrated_abs_bias), , drop = FALSE]
-  rownames(out) <- NULL
-  attr(out, "wavelet_levels") <- bias_by_level(fit, level)
-  attr(out, "boundary") <- boundary_check(fit)
-  attr(out, "bias") <- b
-  attr(out, "bias_whole") <- b_whole
-  attr(out, "scales") <- scales
-  attr(out, "record_wide") <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
-  attr(out, "level") <- level
-  attr(out, "band") <- band
-  attr(out, "tolerance") <- tol
-  attr(out, "credible") <- credible_bias(b, gap)
-  attr(out, "pooled_level0") <- 0 %in% fit$settings$pool_levels
-  attr(out, "experiments") <- fit$experiments
   cf <- input_conflicts(fit)
-  attr(out, "conflicts") <- cf
   held <- NULL
   if (hold && any(cf$conflict) && is.null(fit$experiments)) {
     hf <- reread_held(fit, cf$input[cf$conflict])
@@ -180,8 +166,13 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
     held <- list(inputs = hf$held$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
-  attr(out, "held") <- held
-  attr(out, "holds") <- fit$held
+  rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
+  out <- findings_table(intervals, rw, held, cf, r, fit$experiments)
+  att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
+              bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
+              tolerance = tol, credible = credible_bias(b, gap), pooled_level0 = 0 %in% fit$settings$pool_levels,
+              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held)
+  for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out
 }
@@ -219,26 +210,8 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
 
 #' @export
 as.data.frame.wv_fails <- function(x, row.names = NULL, optional = FALSE, ...) {
-  cols <- c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias", "share_of_signal", "sign")
-  out <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
-  out$scale <- rep("local", nrow(out))
-  rw <- attr(x, "record_wide")
-  if (!is.null(rw) && any(rw$credible)) {
-    rw <- rw[rw$credible, , drop = FALSE]
-    out <- rbind(data.frame(site = rw$site, start = rw$start, end = rw$end, peak_abs_bias = rw$peak_abs_bias,
-                            integrated_abs_bias = rw$integrated_abs_bias, share_of_signal = NA_real_,
-                            sign = ifelse(rw$offset > 0, "reality above model", "reality below model"),
-                            scale = "record", stringsAsFactors = FALSE), out)
-  }
-  hd <- attr(x, "held", exact = TRUE)
-  if (!is.null(hd) && nrow(hd$fails)) {
-    h <- as.data.frame(unclass(hd$fails)[cols], stringsAsFactors = FALSE)
-    h$scale <- "held"
-    out <- rbind(out, h)
-  }
-  if (!is.null(hd)) out$covered_by <- ifelse(out$scale == "held", paste(hd$inputs, collapse = ","), NA_character_)
-  ex <- attr(x, "experiments")
-  if (!is.null(ex)) out$experiment <- ex$experiment[match(out$site, ex$site)]
+  out <- as.data.frame(unclass(x)[names(x)], stringsAsFactors = FALSE)
+  if (!is.null(attr(x, "held", exact = TRUE))) out$covered_by <- ifelse(out$scale == "held", out$inputs, NA_character_)
   rownames(out) <- row.names
   out
 }
@@ -345,6 +318,7 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
   check_number(threshold, min = 0, max = 1)
   of <- check_choice(of)
   b <- attr(fails, "bias")
+  intervals <- finding_rows(fails, "interval")
   sites <- unique(b$site)
   if (!is.list(effect) || is.null(names(effect)) || !all(names(effect) %in% sites)) {
     wv_abort(c("{.arg effect} must be a list of curves named by site.",
@@ -360,7 +334,7 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
     peak <- max(abs(y))
     if (peak == 0) return(c(NA_real_, 0))
     acts <- abs(y) > threshold * peak
-    w <- fails[fails$site == s, , drop = FALSE]
+    w <- intervals[intervals$site == s, , drop = FALSE]
     flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                       rep(FALSE, length(t)))
     share <- if (of == "effect") mean(flagged[acts]) else if (any(flagged)) mean(acts[flagged]) else NA_real_

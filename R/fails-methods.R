@@ -3,6 +3,7 @@
 
 #' @export
 print.wv_fails <- function(x, ...) {
+  cli::cat_line(top_finding(x))
   lev <- attr(x, "level")
   tol <- attr(x, "tolerance")
   what <- if (is.null(tol) || all(tol == 0)) {
@@ -12,13 +13,16 @@ print.wv_fails <- function(x, ...) {
   } else {
     sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
   }
-  cli::cat_line(sprintf("<wv_fails> %d interval%s where the %g%% %s band of the %sbias %s",
-                        nrow(x), if (nrow(x) == 1) "" else "s", 100 * lev,
+  iv <- finding_rows(x, "interval")
+  cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|); %d interval%s where the %g%% %s band of the %sbias %s",
+                        nrow(x), if (nrow(x) == 1) "" else "s", nrow(iv), if (nrow(iv) == 1) "" else "s", 100 * lev,
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
-    df <- as.data.frame(unclass(x)[c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
-                                      "share_of_signal", "sign")], stringsAsFactors = FALSE)
+    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "sign", "inputs",
+                        "experiment"), names(x))
+    df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
+    if (all(is.na(df$inputs))) df$inputs <- NULL
     num <- vapply(df, is.numeric, logical(1))
     df[num] <- lapply(df[num], signif, digits = 3)
     print(utils::head(df, 10), row.names = FALSE)
@@ -26,16 +30,10 @@ print.wv_fails <- function(x, ...) {
   }
   rw <- attr(x, "record_wide")
   if (!is.null(rw)) {
-    txt <- vapply(seq_len(nrow(rw)), function(i) {
-      r <- rw[i, ]
-      sprintf("%s: mean %s [%s, %s], %s", r$site, format(signif(r$offset, 3)), format(signif(r$offset_lower, 3)),
-              format(signif(r$offset_upper, 3)),
-              if (r$credible) sprintf("credibly at least %s at t = %s", format(signif(r$credible_bias, 3)),
-                                      format(signif(r$t, 4)))
-              else "not credibly non-zero")
-    }, character(1))
-    cli::cat_line(sprintf("Record-wide bias (levels %s, an offset or a slow trend; the intervals above are what is left): ",
-                          rw$levels[1]), paste(txt, collapse = "; "))
+    txt <- sprintf("%s %s [%s, %s]%s", rw$site, format(signif(rw$offset, 3)), format(signif(rw$offset_lower, 3)),
+                   format(signif(rw$offset_upper, 3)), ifelse(rw$credible, "", " (not credibly non-zero)"))
+    cli::cat_line(sprintf("Record-wide part (levels %s, an offset or a slow trend), its time average: ", rw$levels[1]),
+                  paste(txt, collapse = "; "))
   }
   levs <- attr(x, "wavelet_levels")
   if (!is.null(levs)) {
@@ -89,7 +87,7 @@ held_lines <- function(x) {
   }
   who <- paste(hd$inputs, collapse = ", ")
   rms <- signif(hd$bias_rms_local, 3)
-  hw <- hd$fails
+  hw <- finding_rows(hd$fails, "interval")
   pull <- hd$pull
   k <- which.max(abs(pull$shift))
   pull_txt <- sprintf("%s [%s, %s] (by %s at t = %s)", pull$site[k], format(signif(pull$start[k], 4)),
@@ -100,20 +98,19 @@ held_lines <- function(x) {
                    who, format(rms[["held"]]), format(rms[["fitted"]]), pull_txt,
                    if (length(hd$inputs) == 1L) "it" else "they", if (length(hd$inputs) == 1L) "s" else ""))
   }
-  top <- utils::head(as.data.frame(unclass(hw)[c("site", "start", "end", "peak_abs_bias")]), 5)
-  c(sprintf("With %s held to the prior, the model fails at (the misfit %s covered; localised bias root mean square %s, %s as fitted; the pull moves the model most at %s):",
-            who, if (length(hd$inputs) == 1L) "it" else "they", format(rms[["held"]]), format(rms[["fitted"]]), pull_txt),
-    sprintf("  %s [%s, %s], peak |bias| %s", top$site, format(signif(top$start, 4)), format(signif(top$end, 4)),
-            format(signif(top$peak_abs_bias, 3))),
-    if (nrow(hw) > 5) sprintf("  ... and %d more", nrow(hw) - 5))
+  sprintf("With %s held to the prior, the localised bias's band excludes zero in %d interval%s (the findings of kind \"covered\"; localised bias root mean square %s, %s as fitted); the pull moves the model most at %s.",
+          who, nrow(hw), if (nrow(hw) == 1L) "" else "s", format(rms[["held"]]), format(rms[["fitted"]]), pull_txt)
 }
 
 #' @export
 summary.wv_fails <- function(object, ...) {
+  iv <- finding_rows(object, "interval")
   structure(list(
-    n = nrow(object),
-    by_site = if (nrow(object)) tapply(object$integrated_abs_bias, object$site, sum) else numeric(),
-    total_length = sum(object$end - object$start),
+    top = top_finding(object),
+    kinds = table(factor(object$kind, levels = c("record-wide", "interval", "covered", "input"))),
+    n = nrow(iv),
+    by_site = if (nrow(iv)) tapply(iv$integrated_abs_bias, iv$site, sum) else numeric(),
+    total_length = sum(iv$end - iv$start),
     wavelet_levels = attr(object, "wavelet_levels"),
     boundary = attr(object, "boundary"),
     credible = attr(object, "credible")
@@ -122,6 +119,8 @@ summary.wv_fails <- function(object, ...) {
 
 #' @export
 print.summary_wv_fails <- function(x, ...) {
+  cli::cat_line(x$top)
+  cli::cat_line("Findings by kind: ", paste(sprintf("%s %d", names(x$kinds), x$kinds), collapse = ", "))
   cli::cat_line(sprintf("%d failure intervals covering %.3g time units", x$n, x$total_length))
   if (length(x$by_site)) {
     cli::cat_line("Integrated absolute bias by site: ",
@@ -157,7 +156,7 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
       ggplot2::theme_bw())
   }
   b <- band_limits(attr(object, "bias"), attr(object, "band") %||% "simultaneous")
-  regions <- as.data.frame(unclass(object)[c("site", "start", "end")])
+  regions <- as.data.frame(unclass(finding_rows(object, "interval"))[c("site", "start", "end")])
   split <- identical(attr(object, "scales"), "split") && !is.null(attr(object, "bias_whole"))
   if (split) {
     rw <- attr(object, "record_wide")
@@ -180,7 +179,7 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     b <- rbind(b[names(hb)], hb)
     b$part <- factor(b$part, levels = lev)
     if (nrow(regions)) regions$part <- factor(if (split) "localised" else "bias", levels = lev)
-    held_regions <- as.data.frame(unclass(hd$fails)[c("site", "start", "end")])
+    held_regions <- as.data.frame(unclass(finding_rows(hd$fails, "interval"))[c("site", "start", "end")])
     held_regions$part <- factor(rep(lab, nrow(held_regions)), levels = lev)
     pull <- hd$pull
     pull$part <- factor(rep(lab, nrow(pull)), levels = lev)

@@ -287,7 +287,8 @@ testbed_check_runs <- function(iu, mechanism = NULL, n = 30L) {
 testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
   check_class(fails, "wv_fails")
   t <- attr(fails, "bias")$t
-  longest <- if (nrow(fails)) round(max(fails$end - fails$start) / (t[2] - t[1])) else 0
+  iv <- finding_rows(fails, "interval")
+  longest <- if (nrow(iv)) round(max(iv$end - iv$start) / (t[2] - t[1])) else 0
   if (identical(hidden, "none")) {
     ok <- longest <= max_steps
     return(list(longest = longest, recall = NULL, precision = NULL, base = NULL, where_ok = ok, localised = ok))

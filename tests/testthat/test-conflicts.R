@@ -40,9 +40,9 @@ test_that("an input that absorbs what the model lacks is a conflict, and held to
   expect_equal(as.matrix(hf$draws)[, "x1"], as.matrix(fit$draws)[, "x1"])
   expect_lt(abs(mean(as.matrix(hf$draws)[, "u1"]) - 0.3), 0.03)
   # the held bias places the bump u1 covered, and the pull moves the model most there
-  hw <- hd$fails
+  hw <- hd$fails[hd$fails$kind == "interval", ]
   expect_gt(nrow(hw), 0)
-  # the leading interval (by integrated bias) holds the bump
+  # the leading interval (by size) holds the bump
   expect_true(hw$start[1] <= 0.6 && hw$end[1] >= 0.6)
   expect_true(hd$pull$start <= 0.6 && hd$pull$end >= 0.6)
   expect_gt(hd$bias_rms_local[["held"]], 2 * hd$bias_rms_local[["fitted"]])
@@ -51,7 +51,13 @@ test_that("an input that absorbs what the model lacks is a conflict, and held to
   expect_true(all(is.na(df$covered_by[df$scale != "held"])))
   out <- capture.output(print(wf))
   expect_true(any(grepl("u1 in its prior's upper tail", out, fixed = TRUE)))
-  expect_true(any(grepl("With u1 held to the prior, the model fails at", out, fixed = TRUE)))
+  expect_true(any(grepl("With u1 held to the prior, the localised bias's band excludes zero", out, fixed = TRUE)))
+  # the misfit u1 covered is a finding, the largest here, and the print leads with it
+  expect_identical(wf$kind[1], "covered")
+  expect_identical(wf$inputs[1], "u1")
+  expect_true(wf$start[1] <= 0.6 && wf$end[1] >= 0.6)
+  expect_equal(sort(wf$size[wf$kind == "covered"], decreasing = TRUE), hw$size)
+  expect_match(out[1], "^Top finding \\(1 of [0-9]+\\), a misfit covered by u1, site1 \\[")
   expect_s3_class(autoplot(wf), "ggplot")
   # the re-read fit is a fit: its own where_fails() says what it holds, and holds nothing more
   wh <- where_fails(hf)
@@ -100,7 +106,9 @@ test_that("with the model right no input is in conflict and nothing is held", {
   wf <- where_fails(fit)
   expect_false(any(attr(wf, "conflicts")$conflict))
   expect_null(attr(wf, "held"))
-  expect_false(any(grepl("conflict", capture.output(print(wf)))))
+  out <- capture.output(print(wf))
+  expect_false(any(grepl("Inputs in conflict|an input in conflict", out)))
+  expect_false(any(wf$kind %in% c("input", "covered")))
 })
 
 test_that("a variation pulled far into its prior's tail is a conflict", {

@@ -2,12 +2,15 @@ test_that("where_fails finds the interval where the missing bump acts", {
   d <- diag_setup()
   wf <- where_fails(d$fit)
   expect_s3_class(wf, "wv_fails")
-  expect_named(wf, c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias", "share_of_signal", "sign"))
+  expect_named(wf, c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal",
+                     "sign", "inputs", "peak_abs_bias", "scale"))
   expect_gt(nrow(wf), 0L)
   top <- wf[1, ]
+  expect_identical(top$kind, "interval")
   expect_true(top$start <= 0.3 && top$end >= 0.2)
   expect_equal(top$sign, "reality above model")
-  expect_true(all(diff(wf$integrated_abs_bias) <= 0))
+  expect_true(all(diff(wf$size) <= 0))
+  expect_identical(wf$peak_abs_bias, wf$size)
   lv <- attr(wf, "wavelet_levels")
   expect_equal(sum(lv$share), 1)
   expect_s3_class(attr(wf, "boundary"), "data.frame")
@@ -25,6 +28,8 @@ test_that("where_fails with a tolerance reports only where the band lies beyond 
   b0 <- attr(wf0, "bias")
   tol <- 0.9 * max(pmax(b0$lower_curve, -b0$upper_curve))
   wf <- where_fails(d$fit, tolerance = tol)
+  wf <- wf[wf$kind == "interval", ]
+  wf0 <- wf0[wf0$kind == "interval", ]
   expect_gt(nrow(wf), 0L)
   expect_lt(sum(wf$end - wf$start), sum(wf0$end - wf0$start))
   # the missing bump is still found
@@ -77,14 +82,18 @@ test_that("where_fails reports an offset of the record as one record-wide findin
   expect_true(rw$credible)
   expect_equal(rw$offset, 0.3, tolerance = 0.15)
   expect_true(rw$offset_lower > 0)
-  expect_identical(nrow(wf), 0L)
+  expect_identical(sum(wf$kind == "interval"), 0L)
   # one table of the findings: the record-wide part spans the record
   df <- as.data.frame(wf)
+  expect_identical(df$kind, "record-wide")
   expect_identical(df$scale, "record")
+  expect_equal(df$size, rw$peak_abs_bias)
+  expect_equal(df$credible, rw$credible_bias)
   expect_identical(df$sign, "reality above model")
   expect_equal(df$end - df$start, 1, tolerance = 0.01)
   expect_identical(unique(as.data.frame(where_fails(f, scales = "whole"))$scale), "local")
-  expect_output(print(wf), "Record-wide bias \\(levels 0-2")
+  expect_output(print(wf), "Record-wide part \\(levels 0-2")
+  expect_match(capture.output(print(wf))[1], "^Top finding \\(1 of 1\\), a record-wide bias")
   expect_output(print(wf), "mean of the record \\(level 0\\) is credibly off at site1")
   # the record-wide part and the localised part add up to the whole bias
   whole <- attr(wf, "bias_whole")
@@ -105,7 +114,10 @@ test_that("without a missing effect the whole-curve band flags (almost) nothing,
   ex <- example_problem()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2)
-  steps <- function(wf) sum(round((wf$end - wf$start) / diff(t[1:2])))
+  steps <- function(wf) {
+    wf <- wf[wf$kind == "interval", ]
+    sum(round((wf$end - wf$start) / diff(t[1:2])))
+  }
   flagged <- vapply(1:20, function(r) {
     ex$field$curves$site1 <- withr::with_seed(100 + r, t(replicate(4, truth + rnorm(length(t), sd = 0.03))))
     fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = r,
@@ -299,6 +311,7 @@ test_that("on the test bed without a hidden mechanism, nothing is flagged or exp
   expect_false(any(attr(d$fails, "record_wide")$credible))
   # the whole bias, read as in the method's report
   whole <- where_fails(d$fit, scales = "whole")
+  whole <- whole[whole$kind == "interval", ]
   steps <- (whole$end - whole$start) / dt
   expect_true(all(steps <= 3), label = paste(round(steps), collapse = ", "))
 })
@@ -414,7 +427,7 @@ test_that("flagged_share counts the flagged points where an effect acts", {
   fails <- where_fails(d$fit)
   t <- d$t
   bump <- exp(-((t - 0.25) / 0.05)^2)
-  w <- fails[fails$site == "site1", ]
+  w <- fails[fails$site == "site1" & fails$kind == "interval", ]
   flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                     rep(FALSE, length(t)))
   expect_equal(c(flagged_share(fails, list(site1 = bump))), c(site1 = mean(flagged[bump > 0.1])))

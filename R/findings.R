@@ -1,0 +1,119 @@
+# The findings of where_fails() as one table ranked by size, the sentence
+# that says the first of them (print, summary() of a fit, the report), and
+# the rows of one kind that the interval readings use.
+
+# The ranked table of findings: the localised `intervals` (with their
+# `credible` gap), the credible record-wide parts of `record_wide`, the
+# intervals of the bias read with the inputs in conflict held (`held`), or
+# where there are none the inputs' pull, and inputs in conflict not read
+# again. `r`: reality's pointwise mean (share of signal of the record-wide
+# part); `experiments`: the experiment of each site, or NULL.
+findings_table <- function(intervals, record_wide, held, conflicts, r, experiments) {
+  cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
+            "inputs")
+  row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs) {
+    data.frame(kind = kind, site = site, start = start, end = end, size = size, credible = credible,
+               integrated_abs_bias = integrated, share_of_signal = share, sign = sign, inputs = inputs,
+               stringsAsFactors = FALSE)
+  }
+  local <- function(x, kind, inputs) {
+    if (!nrow(x)) return(NULL)
+    row(kind, x$site, x$start, x$end, x$peak_abs_bias, x$credible, x$integrated_abs_bias, x$share_of_signal,
+        x$sign, inputs)
+  }
+  parts <- list(local(intervals, "interval", NA_character_))
+  if (!is.null(record_wide) && any(record_wide$credible)) {
+    rw <- record_wide[record_wide$credible, , drop = FALSE]
+    signal <- vapply(rw$site, function(s) sum(abs(r$mean[r$site == s])) * diff(r$t[1:2]), numeric(1))
+    parts <- c(parts, list(row("record-wide", rw$site, rw$start, rw$end, rw$peak_abs_bias, rw$credible_bias,
+                               rw$integrated_abs_bias, rw$integrated_abs_bias / pmax(signal, .Machine$double.eps),
+                               ifelse(rw$offset > 0, "reality above model", "reality below model"), NA_character_)))
+  }
+  conflicted <- if (is.null(conflicts)) character() else conflicts$input[conflicts$conflict]
+  if (!is.null(held)) {
+    who <- paste(held$inputs, collapse = ", ")
+    covered <- finding_rows(held$fails, "interval")
+    if (nrow(covered)) {
+      parts <- c(parts, list(local(covered, "covered", who)))
+    } else {
+      p <- held$pull[which.max(abs(held$pull$shift)), , drop = FALSE]
+      parts <- c(parts, list(row("input", p$site, p$start, p$end, abs(p$shift), NA_real_, NA_real_, NA_real_,
+                                 if (p$shift > 0) "reality above model" else "reality below model", who)))
+    }
+  } else if (length(conflicted)) {
+    parts <- c(parts, list(row("input", NA_character_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_,
+                               NA_character_, paste(conflicted, collapse = ", "))))
+  }
+  out <- do.call(rbind, parts)
+  if (is.null(out)) {
+    out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
+               character(), character())
+  }
+  out <- out[order(-out$size, na.last = TRUE), cols, drop = FALSE]
+  if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
+  out$peak_abs_bias <- out$size
+  out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held")[out$kind]
+  rownames(out) <- NULL
+  out
+}
+
+# The rows of a where_fails() table of the given kinds (all its attributes
+# kept); a table made before findings had kinds is all intervals.
+finding_rows <- function(x, kinds = "interval") {
+  if (is.null(x$kind)) return(x)
+  x[x$kind %in% kinds, , drop = FALSE]
+}
+
+#' The first finding, in a sentence
+#'
+#' The sentence with which the print of [where_fails()], `summary()` of a fit
+#' and [validation_report()] begin: the largest finding (the first row of
+#' the `where_fails()` table), with its kind, site, place, size, credible
+#' size and the inputs that covered it, or, with no finding, that the bias
+#' band holds zero everywhere and no input is in conflict with its prior.
+#'
+#' @param x A `wv_fails` table ([where_fails()]) or a `wv_fit` (whose
+#'   `where_fails()` is read with its defaults).
+#' @param ... Must be empty: an unknown argument is an error.
+#' @return One string.
+#' @export
+#' @examples
+#' fit <- example_fit()
+#' top_finding(where_fails(fit))
+#' # a tolerance above every credible bias leaves no finding
+#' top_finding(where_fails(fit, tolerance = 1))
+top_finding <- function(x, ...) {
+  check_dots_none(...)
+  if (inherits(x, "wv_fit")) x <- where_fails(x)
+  check_class(x, "wv_fails")
+  f <- function(v, d = 3) format(signif(v, d))
+  if (is.null(x$kind) || !nrow(x)) return(no_finding_text(x))
+  r <- x[1L, ]
+  n <- nrow(x)
+  place <- sprintf("%s [%s, %s]", r$site, f(r$start, 4), f(r$end, 4))
+  what <- switch(r$kind,
+    interval = sprintf("an interval, %s: the localised bias peaks at |bias| %s and is credibly at least %s (%s)",
+                       place, f(r$size), f(r$credible), r$sign),
+    `record-wide` = sprintf("a record-wide bias (an offset or a slow trend), %s: it peaks at |bias| %s and is credibly at least %s (%s)",
+                            r$site, f(r$size), f(r$credible), r$sign),
+    covered = sprintf("a misfit covered by %s, %s: with %s held to the prior the localised bias peaks at |bias| %s and is credibly at least %s (%s)",
+                      r$inputs, place, r$inputs, f(r$size), f(r$credible), r$sign),
+    input = if (is.na(r$site)) {
+      sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
+              r$inputs)
+    } else {
+      sprintf("an input in conflict with its prior, %s: held to it the bias band still holds zero, and its pull moves the model most at %s, by %s",
+              r$inputs, place, f(r$size))
+    })
+  sprintf("Top finding (1 of %d), %s", n, what)
+}
+
+# The first line when there is no finding.
+no_finding_text <- function(x) {
+  tol <- attr(x, "tolerance")
+  band <- sprintf("%g%% %s band", 100 * (attr(x, "level") %||% 0.9),
+                  if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve")
+  within <- if (is.null(tol) || all(tol == 0)) "holds zero everywhere" else "lies beyond the tolerance nowhere"
+  sprintf("No finding: the %s of the bias %s%s, and no input is in conflict with its prior",
+          band, within, if (identical(attr(x, "scales"), "split")) " (the record-wide part and the localised part)" else "")
+}
