@@ -184,12 +184,14 @@ summary.wv_fit <- function(object, ...) {
                  experiments = experiment_lines(object), tau2 = tau,
                  acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,
-                 n_coef = ncol(object$basis$Psi), sites = names(object$wb)),
+                 n_coef = ncol(object$basis$Psi), sites = names(object$wb),
+                 top_finding = top_finding(where_fails(object))),
             class = "summary_wv_fit")
 }
 
 #' @export
 print.summary_wv_fit <- function(x, ...) {
+  if (!is.null(x$top_finding)) cli::cat_line(x$top_finding)
   cli::cat_line("Calibration of ", x$n_coef, " coefficients at ", length(x$sites), " site(s): ",
                 paste(x$sites, collapse = ", "))
   cli::cat_line(x$settings$chains, " chain(s) of ", x$settings$n_draws, " draws, ",

@@ -206,14 +206,19 @@
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
                          n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, t = NULL,
-                         ...) {
+                         finding = NULL, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
   check_number(max_size, min = 1, max = 8, integer = TRUE)
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
-  if (candidates_are_fits(candidates)) return(explain_refits(fit, candidates, n_draws, level))
+  scope <- if (!is.null(finding)) finding_scope(fit, finding)
+  if (candidates_are_fits(candidates)) {
+    if (!is.null(scope)) wv_abort("{.arg finding} restricts a regression on candidate curves; re-validated models are weighed on the whole bias.")
+    return(explain_refits(fit, candidates, n_draws, level))
+  }
+  if (!is.null(scope)) fit <- scope$fit
   cand <- candidate_coefficients(fit, candidates, t)
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
@@ -236,8 +241,11 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   Wt <- 1 / (rs$variance + bias_level_variances(fit, draws))
   seed <- resolve_seed(seed)
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
-  res <- with_rng_seed(seed, bias_regression(Y, cand, Wt, max_size = max_size, level = level,
-                                             cluster = cluster, positive = pos, group = group))
+  use <- scope$use %||% rep(TRUE, ncol(Y))
+  if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
+  res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE], Wt[, use, drop = FALSE],
+                                             max_size = max_size, level = level, cluster = cluster[use],
+                                             positive = pos, group = group))
   out <- res$table
   attr(out, "subsets") <- res$subsets
   attr(out, "versions") <- res$versions
@@ -247,8 +255,10 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   attr(out, "curves") <- explain_curves(fit, lead, out)
   attr(out, "boundary") <- unique(fit$flags$boundary$input)
   if (isTRUE(shifts)) {
-    attr(out, "absorbed") <- shift_absorption(user, sh, colMeans(Wt))
+    attr(out, "absorbed") <- shift_absorption(user[use, , drop = FALSE], sh[use, , drop = FALSE],
+                                              colMeans(Wt[, use, drop = FALSE]))
   }
+  attr(out, "finding") <- scope$label
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")
   out

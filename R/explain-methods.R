@@ -4,6 +4,7 @@
 #' @export
 print.wv_explain <- function(x, ...) {
   cli::cat_line("<wv_explain> candidate effects ranked by posterior inclusion probability")
+  if (!is.null(attr(x, "finding"))) cli::cat_line("Explaining one finding of where_fails(): ", attr(x, "finding"))
   cols <- intersect(c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
                       "share_explained", "share_of_bias"), names(x))
   df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)

@@ -117,3 +117,48 @@ no_finding_text <- function(x) {
   sprintf("No finding: the %s of the bias %s%s, and no input is in conflict with its prior",
           band, within, if (identical(attr(x, "scales"), "split")) " (the record-wide part and the localised part)" else "")
 }
+
+# What explain_bias() regresses for the first row of the where_fails() table
+# `finding`: the fit (the held re-reading for a misfit an input covered or an
+# input in conflict) and which coefficients, all sites stacked in the order
+# of fit$wb (`use`; NULL for all): for an interval, those of its site whose
+# basis function's support overlaps it (the localised levels only when the
+# table read the bias by scale); for a record-wide bias, the record-wide
+# levels of its site.
+finding_scope <- function(fit, finding, call = rlang::caller_env()) {
+  if (!inherits(finding, "wv_fails") || is.null(finding$kind) || !nrow(finding)) {
+    wv_abort(c("{.arg finding} must be a row of a {.fn where_fails} table, such as {.code where_fails(fit)[2, ]}.",
+               "i" = if (inherits(finding, "wv_fails")) "The table has no finding." else
+                 "It is {.obj_type_friendly {finding}}."), call = call)
+  }
+  r <- finding[1L, ]
+  label <- if (is.na(r$site)) sprintf("%s (%s)", r$kind, r$inputs) else
+    sprintf("%s at %s [%s, %s]", r$kind, r$site, format(signif(r$start, 4)), format(signif(r$end, 4)))
+  if (r$kind %in% c("covered", "input")) {
+    hd <- attr(finding, "held", exact = TRUE)
+    if (is.null(hd)) {
+      wv_abort(c("The finding {label} has no re-reading with {r$inputs} held to the prior to explain.",
+                 "i" = "Read it with {.code where_fails(fit, hold = TRUE)}."), call = call)
+    }
+    fit <- hd$fit
+    if (r$kind == "input") return(list(fit = fit, use = NULL, label = label))
+  }
+  sites <- names(fit$wb)
+  b <- attr(finding, "bias")
+  if (!r$site %in% sites || length(unique(b$t)) != length(fit$basis$t)) {
+    wv_abort(c("The finding {label} is not one of {.arg fit}'s.",
+               "i" = "Give the fit whose {.fn where_fails} table it comes from; its sites are {.val {sites}}."),
+             call = call)
+  }
+  wide <- fit$basis$level %in% record_wide_levels(fit$basis)
+  coef <- if (r$kind == "record-wide") wide else {
+    t <- fit$basis$t
+    dt <- diff(t[1:2])
+    P <- abs(fit$basis$Psi)
+    inside <- t >= r$start - dt / 2 & t < r$end - dt / 2
+    overlap <- colSums(sweep(P[inside, , drop = FALSE], 2L, 1e-10 * apply(P, 2L, max), `>`)) > 0
+    overlap & (!wide | !identical(attr(finding, "scales"), "split"))
+  }
+  use <- unlist(lapply(sites, function(s) coef & s == r$site), use.names = FALSE)
+  list(fit = fit, use = use, label = sprintf("%s, %d coefficient%s", label, sum(coef), if (sum(coef) == 1L) "" else "s"))
+}

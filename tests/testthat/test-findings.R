@@ -1,0 +1,167 @@
+# where_fails() as one table of findings ranked by size, the sentence that
+# leads the prints, and explain_bias() of one finding.
+
+# u1 mimics reality's higher bump at 0.6 and reality has a bump at 0.25 the
+# model lacks: covered misfit, record-wide part and intervals in one table
+mixed_fit <- function() {
+  t <- example_problem()$field$t
+  ex <- suppressMessages(conflict_problem(u = 0.9, extra = 0.3 * exp(-((t - 0.25) / 0.05)^2)))
+  conflict_fit(ex)
+}
+
+test_that("the findings of every kind are ranked by size, largest first", {
+  wf <- where_fails(mixed_fit())
+  expect_true(all(c("covered", "record-wide", "interval") %in% wf$kind))
+  expect_true(all(diff(wf$size) <= 0))
+  expect_identical(wf$peak_abs_bias, wf$size)
+  expect_identical(unname(wf$scale), unname(c(interval = "local", `record-wide` = "record", covered = "held")[wf$kind]))
+  # every kind keeps its own size: the record-wide part's peak, the intervals'
+  # and the covered intervals' peaks of the localised bias
+  rw <- attr(wf, "record_wide")
+  expect_equal(wf$size[wf$kind == "record-wide"], rw$peak_abs_bias[rw$credible])
+  expect_equal(wf$credible[wf$kind == "record-wide"], rw$credible_bias[rw$credible])
+  held <- attr(wf, "held")$fails
+  expect_equal(sort(wf$size[wf$kind == "covered"]), sort(held$size[held$kind == "interval"]))
+  expect_true(all(wf$inputs[wf$kind == "covered"] == "u1"))
+  expect_true(all(is.na(wf$inputs[wf$kind != "covered"])))
+  # the credible size is the largest distance of the band from zero over the finding
+  b <- attr(wf, "bias")
+  gap <- pmax(b$lower_curve, -b$upper_curve, 0)
+  iv <- wf[wf$kind == "interval", ]
+  for (k in seq_len(nrow(iv))) {
+    inside <- b$t >= iv$start[k] - 1e-9 & b$t < iv$end[k] - 1e-9
+    expect_equal(iv$credible[k], max(gap[inside]))
+    expect_equal(iv$size[k], max(abs(b$mean[inside])))
+  }
+  # the print leads with the first row and ranks the table the same way
+  out <- capture.output(print(wf))
+  expect_match(out[1], sprintf("^Top finding \\(1 of %d\\), ", nrow(wf)))
+  phrase <- c(covered = "a misfit covered by u1", interval = "an interval", `record-wide` = "a record-wide bias")
+  expect_match(out[1], phrase[[wf$kind[1]]], fixed = TRUE)
+  expect_match(out[1], sprintf("%s [%s, %s]", wf$site[1], signif(wf$start[1], 4), signif(wf$end[1], 4)), fixed = TRUE)
+  expect_identical(top_finding(wf), out[1])
+})
+
+test_that("an input in conflict whose held reading flags no interval is a finding at its pull", {
+  fit <- conflict_fit(suppressMessages(conflict_problem(u = 0.9)))
+  # a tolerance above every credible bias leaves the input alone
+  wf <- where_fails(fit, tolerance = 10)
+  expect_identical(wf$kind, "input")
+  pull <- attr(wf, "held")$pull
+  expect_identical(wf$inputs, "u1")
+  expect_identical(wf$site, pull$site)
+  expect_equal(c(wf$start, wf$end), c(pull$start, pull$end))
+  expect_equal(wf$size, abs(pull$shift))
+  expect_identical(wf$scale, "held")
+  expect_match(top_finding(wf), "an input in conflict with its prior, u1: held to it")
+  # not read again: the input is still a finding, without a place
+  nh <- where_fails(fit, hold = FALSE)
+  expect_identical(nh$kind, "input")
+  expect_true(is.na(nh$site))
+  expect_match(capture.output(print(nh))[1], "u1, not read again held to it")
+  expect_error(explain_bias(fit, finding = nh), class = "wavevalid_error_input")
+})
+
+test_that("the print, summary() of a fit and top_finding() lead with the first row, or say there is none", {
+  fit <- example_fit()
+  wf <- where_fails(fit)
+  first <- top_finding(wf)
+  expect_match(first, sprintf("^Top finding \\(1 of %d\\), an interval, site1 \\[0\\.25, 0\\.2812\\]: the localised bias peaks at \\|bias\\| %s and is credibly at least %s",
+                              nrow(wf), signif(wf$size[1], 3), signif(wf$credible[1], 3)))
+  expect_identical(capture.output(print(wf))[1], first)
+  expect_identical(capture.output(print(summary(fit)))[1], first)
+  expect_identical(capture.output(print(summary(wf)))[1], first)
+  expect_identical(top_finding(fit), first)
+  none <- where_fails(fit, tolerance = 1)
+  expect_identical(nrow(none), 0L)
+  expect_match(capture.output(print(none))[1], "^No finding: the 90% whole-curve band of the bias lies beyond the tolerance nowhere")
+  expect_match(top_finding(where_fails(fit, scales = "whole", tolerance = 1)), "^No finding")
+  expect_error(top_finding(data.frame()), class = "wavevalid_error_input")
+})
+
+test_that("on example_fit() the intervals, their columns and flagged_share() keep their numbers", {
+  fit <- example_fit()
+  wf <- where_fails(fit)
+  iv <- as.data.frame(wf)[wf$kind == "interval", ]
+  iv <- iv[order(-iv$integrated_abs_bias), c("site", "start", "end", "peak_abs_bias", "integrated_abs_bias",
+                                              "share_of_signal", "sign")]
+  rownames(iv) <- NULL
+  # the table where_fails() gave before it held findings of every kind
+  before <- data.frame(site = c("site1", "site1"), start = c(0.25, 0.125), end = c(0.28125, 0.15625),
+                       peak_abs_bias = c(0.0242163492191544, 0.0116439187450755),
+                       integrated_abs_bias = c(0.000756760913098577, 0.000363872460783609),
+                       share_of_signal = c(0.0179489493097337, 0.0127129591801856),
+                       sign = c("reality above model", "reality below model"), stringsAsFactors = FALSE)
+  expect_equal(iv, before, tolerance = 1e-10)
+  t <- fit$field$t
+  bump <- list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2))
+  expect_equal(c(flagged_share(wf, bump)), c(site1 = 0.2))
+  expect_equal(c(flagged_share(wf, bump, of = "flags")), c(site1 = 0.5))
+  # a record-wide row does not count as a flag of the intervals
+  with_record <- wf
+  with_record[nrow(wf) + 1L, ] <- wf[1, ]
+  with_record$kind[nrow(with_record)] <- "record-wide"
+  with_record$start[nrow(with_record)] <- 0
+  with_record$end[nrow(with_record)] <- 1
+  expect_equal(c(flagged_share(with_record, bump)), c(site1 = 0.2))
+  expect_identical(testbed_where_verdict(with_record, "none")$longest, testbed_where_verdict(wf, "none")$longest)
+})
+
+test_that("explain_bias() of an interval regresses only the coefficients of its site that overlap it", {
+  fit <- example_fit()
+  t <- fit$field$t
+  cand <- list(bump_early = exp(-((t - 0.25) / 0.05)^2), bump_late = exp(-((t - 0.75) / 0.05)^2))
+  wf <- where_fails(fit)
+  one <- explain_bias(fit, cand, seed = 1, finding = wf[1, ])
+  expect_identical(unclass(explain_bias(fit, cand, seed = 1, finding = wf)), unclass(one))
+  scope <- wavevalid:::finding_scope(fit, wf[1, ])
+  # the support of each coefficient kept overlaps the interval, of the others not
+  inside <- t >= wf$start[1] - 1e-9 & t < wf$end[1] - 1e-9
+  wide <- fit$basis$level %in% wavevalid:::record_wide_levels(fit$basis)
+  touches <- colSums(abs(fit$basis$Psi[inside, , drop = FALSE])) > 0
+  expect_identical(scope$use, touches & !wide)
+  # field data changed outside those coefficients change nothing, inside they do
+  out <- fit
+  out$wbar$site1[!scope$use] <- out$wbar$site1[!scope$use] + 5
+  expect_equal(unclass(explain_bias(out, cand, seed = 1, finding = wf[1, ])), unclass(one))
+  inn <- fit
+  inn$wbar$site1[scope$use] <- inn$wbar$site1[scope$use] + 0.05
+  expect_false(isTRUE(all.equal(explain_bias(inn, cand, seed = 1, finding = wf[1, ])$amplitude, one$amplitude)))
+  # without a finding, the whole bias as before
+  whole <- explain_bias(fit, cand, seed = 1)
+  expect_null(attr(whole, "finding"))
+  expect_false(isTRUE(all.equal(whole$inclusion_prob, one$inclusion_prob)))
+  expect_match(capture.output(print(one))[2], "Explaining one finding of where_fails\\(\\): interval at site1")
+  # a record-wide finding regresses the record-wide levels
+  rw <- wf[1, ]
+  rw$kind <- "record-wide"
+  expect_identical(wavevalid:::finding_scope(fit, rw)$use, wide)
+  expect_error(explain_bias(fit, cand, finding = data.frame(kind = "interval")), class = "wavevalid_error_input")
+  expect_error(explain_bias(fit, cand, finding = where_fails(fit, tolerance = 1)), class = "wavevalid_error_input")
+})
+
+test_that("explain_bias() of a covered misfit or an input explains the held re-reading", {
+  fit <- conflict_fit(suppressMessages(conflict_problem(u = 0.9)))
+  t <- fit$basis$t
+  cand <- list(bump = exp(-((t - 0.6) / 0.08)^2))
+  wf <- where_fails(fit)
+  expect_identical(wf$kind[1], "covered")
+  hf <- attr(wf, "held")$fit
+  # covered: the held fit, restricted to the interval
+  scope <- wavevalid:::finding_scope(fit, wf[1, ])
+  expect_identical(scope$fit, hf)
+  got <- explain_bias(fit, cand, seed = 1, finding = wf[1, ])
+  ref <- hf
+  ref$wbar$site1[!scope$use] <- ref$wbar$site1[!scope$use] - 3
+  expect_equal(unclass(explain_bias(ref, cand, seed = 1, finding = wf[1, ])), unclass(got))
+  # input: the whole held fit, as explain_bias(attr(wf, "held")$fit) gives it
+  inp <- where_fails(fit, tolerance = 10)
+  a <- explain_bias(fit, cand, seed = 1, finding = inp)
+  b <- explain_bias(hf, cand, seed = 1)
+  attr(a, "finding") <- NULL
+  expect_identical(unclass(a), unclass(b))
+  # what u1 covered, the bump, is there to explain only in the held reading
+  plain <- explain_bias(fit, cand, seed = 1)
+  expect_gt(a$amplitude[a$candidate == "bump"], 5 * plain$amplitude[plain$candidate == "bump"])
+  expect_gt(got$amplitude[got$candidate == "bump"], 5 * plain$amplitude[plain$candidate == "bump"])
+})
