@@ -1,6 +1,7 @@
 #' An HTML validation report
 #'
-#' Renders every figure and table of a validation into one HTML file: the
+#' Renders every figure and table of a validation into one HTML file,
+#' headed by the largest finding of [where_fails()] ([top_finding()]): the
 #' inputs and their posteriors, emulator quality, the bias and the
 #' bias-corrected prediction with their bands, where the model fails, and,
 #' when given, the ranking of candidate effects, predictions in new settings
@@ -47,6 +48,8 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   file.copy(template, rmd)
   env <- new.env(parent = globalenv())
   env$fit <- fit
+  env$fails <- where_fails(fit)
+  env$headline <- top_finding(env$fails)
   prior_iu <- fit$prior_iu %||% fit$iu
   iu_table <- signif_table(as.data.frame(prior_iu)[c("name", "type", "lower", "upper", "nominal")])
   iu_table$prior <- prior_labels(prior_iu)

@@ -23,4 +23,9 @@ test_that("the report renders for a fit whose emulators were given their paramet
   html <- readLines(out, warn = FALSE)
   expect_true(any(grepl("Field noise", html, fixed = TRUE)))
   expect_true(any(grepl("uniform", html, fixed = TRUE)))
+  # the report leads with the largest finding, as the print does
+  lead <- sub(",.*", "", top_finding(fit))
+  first <- grep("Top finding|No finding", html)
+  expect_true(length(first) > 0L && any(grepl(lead, html[first[1]], fixed = TRUE)))
+  expect_lt(first[1], grep("The fit</h2>", html, fixed = TRUE)[1])
 })
