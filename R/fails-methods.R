@@ -19,7 +19,7 @@ print.wv_fails <- function(x, ...) {
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
-    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "sign", "inputs",
+    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs",
                         "experiment"), names(x))
     df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
     if (all(is.na(df$inputs))) df$inputs <- NULL
