@@ -119,13 +119,14 @@ test_that("explain_bias() of an interval regresses only the coefficients of its 
   inside <- t >= wf$start[1] - 1e-9 & t < wf$end[1] - 1e-9
   wide <- fit$basis$level %in% wavevalid:::record_wide_levels(fit$basis)
   touches <- colSums(abs(fit$basis$Psi[inside, , drop = FALSE])) > 0
-  expect_identical(scope$use, touches & !wide)
+  kept <- touches & !wide
+  expect_identical(scope$use, kept)
   # field data changed outside those coefficients change nothing, inside they do
   out <- fit
-  out$wbar$site1[!scope$use] <- out$wbar$site1[!scope$use] + 5
+  out$wbar$site1[!kept] <- out$wbar$site1[!kept] + 5
   expect_equal(unclass(explain_bias(out, cand, seed = 1, finding = wf[1, ])), unclass(one))
   inn <- fit
-  inn$wbar$site1[scope$use] <- inn$wbar$site1[scope$use] + 0.05
+  inn$wbar$site1[kept] <- inn$wbar$site1[kept] + 0.05
   expect_false(isTRUE(all.equal(explain_bias(inn, cand, seed = 1, finding = wf[1, ])$amplitude, one$amplitude)))
   # without a finding, the whole bias as before
   whole <- explain_bias(fit, cand, seed = 1)
