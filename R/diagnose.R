@@ -1,10 +1,21 @@
 #' Where does the model fail?
 #'
-#' Finds the time intervals where the tolerance band of the bias excludes
-#' zero, ranked by how much bias they carry, and tells at which wavelet levels
-#' (time scales) the bias lives and which inputs have a posterior piled up at a
-#' bound of their range (an input used as a tuning knob, like the report's
-#' `x5`).
+#' Lists every finding of a validation in one table ranked by size, the
+#' largest first: a credible record-wide bias, the time intervals where the
+#' band of the (localised) bias excludes zero, the misfit that inputs in
+#' conflict with their prior covered, and such inputs when holding them flags
+#' no interval. It also tells at which wavelet levels (time scales) the bias
+#' lives and which inputs have a posterior piled up at a bound of their range
+#' (an input used as a tuning knob, like the report's `x5`).
+#'
+#' Every finding has one size in the units of the curves, the peak of the
+#' absolute posterior mean bias over it, so that kinds compare: an offset of
+#' 0.3 over the record outranks an interval whose bias peaks at 0.05. Its
+#' `credible` size is the largest distance of its band from zero (the bias
+#' is credibly at least that large there). The print's first line, `summary()`
+#' of a fit and [validation_report()] lead with the first row
+#' ([top_finding()]); [explain_bias()] takes a row (`finding = x[k, ]`) to
+#' explain that finding alone.
 #'
 #' The bias is read by scale. Its record-wide part, carried by the wavelet
 #' levels whose functions each span the whole record (the scaling
@@ -40,13 +51,13 @@
 #' conflict drawn from their prior and the others at their posterior draws
 #' (the emulators conditioned on the fit's model coefficients, as for a new
 #' vehicle). The difference is the bias of the model without the inputs'
-#' pull; its intervals are reported as the misfit the inputs covered
-#' (attribute `held`; in `as.data.frame()`, rows of `scale` `"held"` with the
-#' inputs in `covered_by`), and, when its band excludes zero nowhere, the
-#' print still places the pull: where it moves the model most (`pull`, the
-#' stretch where the model moves by at least half its largest move). Give
-#' `attr(x, "held")$fit` to [explain_bias()] to ask which effect is missing
-#' there. The other inputs keep the values they took beside the pull;
+#' pull; its intervals are the findings of kind `"covered"` (the inputs in
+#' column `inputs`; also attribute `held`), and, when its band excludes zero
+#' nowhere, the inputs are a finding of kind `"input"` placed at their pull:
+#' where it moves the model most (`pull`, the stretch where the model moves
+#' by at least half its largest move), sized by that largest move. Give the
+#' row to [explain_bias()] (`finding =`), or `attr(x, "held")$fit`, to ask
+#' which effect is missing there. The other inputs keep the values they took beside the pull;
 #' [hold_inputs()] calibrates them again with the inputs held (where they
 #' may take up part of the misfit in turn).
 #'
@@ -68,12 +79,26 @@
 #'   conflict with their prior held to it (see the section Inputs that cover a
 #'   misfit). Fits of several experiments report their conflicts without it.
 #' @param ... Must be empty: an unknown argument is an error.
-#' @return A `wv_fails` data frame with one row per interval: `site`, `start`,
-#'   `end`, `peak_abs_bias`, `integrated_abs_bias` (integral of the absolute
-#'   posterior mean bias over the interval), `share_of_signal` (that integral
-#'   over the integral of the absolute predicted reality there), `sign`
-#'   (whether the model is above or below reality), ranked by
-#'   `integrated_abs_bias`. Attributes: `wavelet_levels` (bias energy by site and
+#' @return A `wv_fails` data frame with one row per finding, ranked by
+#'   `size` (decreasing; an input in conflict not read again, which has no
+#'   size, last): `kind` (`"record-wide"`: a credible record-wide part, one
+#'   row per site, spanning the record; `"interval"`: an interval where the
+#'   band of the localised bias excludes zero, or lies beyond the tolerance;
+#'   `"covered"`: such an interval of the bias read with the inputs in
+#'   conflict held to their prior; `"input"`: inputs in conflict whose held
+#'   reading flags no interval, placed where their pull moves the model most,
+#'   or with no place when the bias was not read again), `site`, `start`,
+#'   `end`, `size` (the peak of the absolute posterior mean bias over the
+#'   finding, in the curves' units; for an `"input"`, the largest move of
+#'   the model), `credible` (the largest distance of the finding's band from
+#'   zero), `integrated_abs_bias` (integral of the absolute posterior mean
+#'   bias over it), `share_of_signal` (that integral over the integral of the
+#'   absolute predicted reality there), `sign` (whether the model is above or
+#'   below reality), `inputs` (the inputs that covered it, `NA` otherwise),
+#'   for a fit of several experiments `experiment`, and, as before the kinds,
+#'   `peak_abs_bias` (equal to `size`) and `scale` (`"record"`, `"local"`,
+#'   `"held"`). Code that wants the intervals alone keeps the rows of kind
+#'   `"interval"`, as [flagged_share()] does. Attributes: `wavelet_levels` (bias energy by site and
 #'   wavelet level), `boundary` (inputs and the share of their posterior near
 #'   each bound, within 2% of the range from it; `flagged` when it piles up
 #'   there: at least 10% of the draws, and at least four times the prior's
@@ -87,26 +112,29 @@
 #'   distance of its whole-curve band from zero, and `credible`, whether that
 #'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
 #'   `start` and `end`), `bias_whole` (the band of the whole bias) and, for a
-#'   fit of several experiments, `experiments` (the experiment of each site;
-#'   `as.data.frame()` then adds a column `experiment`), `conflicts` (one row
+#'   fit of several experiments, `experiments` (the experiment of each site),
+#'   `conflicts` (one row
 #'   per input: its posterior `median`, the prior's `prior_mean` and
 #'   `prior_sd`, `prior_sds` (the median's distance from the prior mean in
 #'   prior sd), the `side`, `prior_tail` (the prior's mass beyond the
 #'   median), `share_at_bound` and `prior_share_at_bound` on that side, and
 #'   `far`, `piled`, `conflict`) and `held` (when inputs were held: their
-#'   names `inputs`, the re-read `fit`, its `fails`, the `pull` (by site,
+#'   names `inputs`, the re-read `fit`, its `fails` (its own table), the
+#'   `pull` (by site,
 #'   where the inputs' pull moves the model's localised part most: `start`,
 #'   `end`, `t` and the largest `shift`) and `bias_rms_local`, the localised
 #'   bias's root mean square as fitted and held).
-#'   `as.data.frame()` gives one table of the findings with a column `scale`:
-#'   `"record"` for a credible record-wide part (one row per site, spanning
-#'   the record) and `"local"` for the intervals.
+#'   `as.data.frame()` gives the table as a plain data frame, with a column
+#'   `covered_by` (the inputs of the `"held"` rows) when inputs were held.
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks
 #' fit <- example_fit()
 #' wf <- where_fails(fit)
 #' wf
+#' top_finding(wf)
+#' # the intervals alone
+#' wf[wf$kind == "interval", ]
 #' attr(wf, "wavelet_levels")
 #' # only where the bias is credibly larger than 0.1
 #' where_fails(fit, tolerance = 0.1)
@@ -286,7 +314,7 @@ bias_by_level <- function(fit, level) {
 #'
 #' The share of the grid points where a known effect acts (its absolute value
 #' above `threshold` times its peak) that lie in an interval flagged by
-#' [where_fails()], by site. On a test bed, with the effect of the hidden
+#' [where_fails()] (its rows of kind `"interval"`), by site. On a test bed, with the effect of the hidden
 #' mechanism at the true inputs (from [testbed_signatures()]), it says
 #' whether the diagnosis looks in the right place.
 #'

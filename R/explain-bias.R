@@ -116,6 +116,22 @@
 #' that is mostly a parameter shift is weak evidence against it: re-validate
 #' the model with it instead (section "Re-validated models as candidates").
 #'
+#' @section One finding:
+#' With `finding`, the regression is restricted to what that finding of
+#' [where_fails()] carries. An `"interval"`: the coefficients of its site
+#' whose basis function's support overlaps the interval (of the localised
+#' levels when the table read the bias by scale, as it does by default), so
+#' that the field data elsewhere, at other sites and in the record-wide
+#' levels leave the result unchanged. A `"record-wide"` bias: the record-wide
+#' levels ([where_fails()]) of its site. A `"covered"` misfit: the fit read
+#' again with the inputs in conflict held to their prior
+#' (`attr(where_fails(fit), "held")$fit`), restricted to the interval as
+#' above. An `"input"` in conflict: that held fit, whole. Give the `fit`
+#' whose table the row comes from. The tempering and the prior over subsets
+#' are as without `finding`, on fewer coefficients, so the evidence is
+#' weaker than the whole bias would give. The result's attribute `finding`
+#' says which was explained.
+#'
 #' @inheritParams bands
 #' @inheritParams calibrate
 #' @param candidates A named list of candidate curves: each a numeric vector
@@ -147,6 +163,11 @@
 #'   `fit$basis$t` but more than `N / 2` (a grid that [model_runs()] would
 #'   have interpolated to `fit$basis$t`), is taken as equally spaced over its
 #'   interval and interpolated likewise. Not used with re-validated models.
+#' @param finding `NULL` (default: the whole bias) or one finding of
+#'   [where_fails()] to explain: a row of its table, `where_fails(fit)[k, ]`
+#'   (a `wv_fails` table is explained by its first row, the largest
+#'   finding). See the section "One finding". Not used with re-validated
+#'   models.
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_explain` data frame ranked by `inclusion_prob`, with columns
 #'   `candidate`, `inclusion_prob`, `amplitude` (posterior mean coefficient of
@@ -185,6 +206,8 @@
 #' ex_b <- explain_bias(fit, candidates, seed = 1)
 #' ex_b
 #' autoplot(ex_b)
+#' # the second finding of where_fails() alone
+#' explain_bias(fit, candidates, seed = 1, finding = where_fails(fit)[2, ])
 #' # the early bump in two versions (the second a little late), weighed as one
 #' # effect
 #' versions <- c(candidates, list(bump_early_2 = exp(-((t - 0.3) / 0.05)^2)))

@@ -157,7 +157,7 @@ if ("bands" %in% measure) {
   cat(sprintf("added-mass field run inside the 90%% added_load band (D from the emulators at each draw): %s\n",
               pct(cover(pE$summary, fM$curves))))
   wf <- where_fails(fit)
-  cat(sprintf("where_fails: %d intervals; longest %d grid steps\n", nrow(wf), as.integer(longest_steps(wf))))
+  cat(sprintf("where_fails: %d intervals; longest %d grid steps\n", sum(wf$kind == "interval"), as.integer(longest_steps(wf))))
   if (hidden != "none") {
     # where the mechanism acts: the difference it makes to reality
     eff <- testbed_signatures(true_in, hidden)[[1]]

@@ -79,7 +79,7 @@ site_stats <- function(fails, sig) {
   vapply(names(sig), function(s) {
     acts <- abs(sig[[s]]) > 0.1 * max(abs(sig[[s]]))
     m <- abs(b$mean[b$site == s])
-    w <- fails[fails$site == s, , drop = FALSE]
+    w <- fails[fails$site %in% s & fails$kind == "interval", , drop = FALSE]
     c(flagged = sum(w$end - w$start) / (length(m) * dt), lift = mean(m[acts]) / mean(m[!acts]),
       level0 = lv$share[lv$site == s & lv$level == 0])
   }, numeric(3))

@@ -82,10 +82,12 @@ coverage <- function(pred, field) {
 summary_lines <- c(
   sprintf("wavevalid demo on the shipped test bed (hidden mechanism: %s)", paste(tb$truth$hidden, collapse = ", ")),
   sprintf("retained wavelet coefficients: %d", length(fit$basis$index)),
-  if (nrow(fails)) {
-    sprintf("localised failure intervals: %d; the first at %s t in [%.2f, %.2f], %s", nrow(fails), fails$site[1],
-            fails$start[1], fails$end[1],
-            if (any(vapply(windows, function(w) fails$start[1] < w[2] && fails$end[1] > w[1], logical(1)))) {
+  top_finding(fails),
+  if (any(fails$kind == "interval")) {
+    iv <- fails[fails$kind == "interval", ]
+    sprintf("localised failure intervals: %d; the largest at %s t in [%.2f, %.2f], %s", nrow(iv), iv$site[1],
+            iv$start[1], iv$end[1],
+            if (any(vapply(windows, function(w) iv$start[1] < w[2] && iv$end[1] > w[1], logical(1)))) {
               "in an event window"
             } else {
               "outside the event windows"
@@ -102,9 +104,9 @@ summary_lines <- c(
       "inputs in conflict with their prior: none"
     }
   },
-  if (!is.null(held) && nrow(held$fails)) {
-    h <- held$fails
-    sprintf("with %s held to the prior, the top finding: %s t in [%.2f, %.2f], %s, the misfit %s covered",
+  if (!is.null(held) && any(held$fails$kind == "interval")) {
+    h <- held$fails[held$fails$kind == "interval", ]
+    sprintf("with %s held to the prior, the largest interval: %s t in [%.2f, %.2f], %s, the misfit %s covered",
             paste(held$inputs, collapse = ", "), h$site[1], h$start[1], h$end[1],
             if (any(vapply(windows, function(w) h$start[1] < w[2] && h$end[1] > w[1], logical(1)))) {
               "in an event window"
@@ -128,6 +130,7 @@ summary_lines <- c(
             as.integer(comparison$before[comparison$metric == "inputs_in_conflict"]), m[["bias_rms_local"]],
             m[["holdout_rmse_model"]], m[["holdout_rmse"]])
   },
+  sprintf("with %s added: %s", lead, top_finding(fails_m)),
   sprintf("elapsed: %.1f minutes", as.numeric(difftime(Sys.time(), started, units = "mins")))
 )
 writeLines(summary_lines, file.path(out, "summary.txt"))
