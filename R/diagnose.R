@@ -57,8 +57,8 @@
 #' where it moves the model most (`pull`, the stretch where the model moves
 #' by at least half its largest move), sized by that largest move. Give the
 #' row to [explain_bias()] (`finding =`), or `attr(x, "held")$fit`, to ask
-#' which effect is missing there. The other inputs keep the values they took beside the pull;
-#' [hold_inputs()] calibrates them again with the inputs held (where they
+#' which effect is missing there. The other inputs keep the values they took
+#' beside the pull; [hold_inputs()] calibrates them again with the inputs held (where they
 #' may take up part of the misfit in turn).
 #'
 #' @inheritParams bands
@@ -98,8 +98,8 @@
 #'   for a fit of several experiments `experiment`, and, as before the kinds,
 #'   `peak_abs_bias` (equal to `size`) and `scale` (`"record"`, `"local"`,
 #'   `"held"`). Code that wants the intervals alone keeps the rows of kind
-#'   `"interval"`, as [flagged_share()] does. Attributes: `wavelet_levels` (bias energy by site and
-#'   wavelet level), `boundary` (inputs and the share of their posterior near
+#'   `"interval"`, as [flagged_share()] does. Attributes: `wavelet_levels`
+#'   (bias energy by site and wavelet level), `boundary` (inputs and the share of their posterior near
 #'   each bound, within 2% of the range from it; `flagged` when it piles up
 #'   there: at least 10% of the draws, and at least four times the prior's
 #'   share there), `bias` (the bias band),
@@ -113,15 +113,13 @@
 #'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
 #'   `start` and `end`), `bias_whole` (the band of the whole bias) and, for a
 #'   fit of several experiments, `experiments` (the experiment of each site),
-#'   `conflicts` (one row
-#'   per input: its posterior `median`, the prior's `prior_mean` and
+#'   `conflicts` (one row per input: its posterior `median`, the prior's `prior_mean` and
 #'   `prior_sd`, `prior_sds` (the median's distance from the prior mean in
 #'   prior sd), the `side`, `prior_tail` (the prior's mass beyond the
 #'   median), `share_at_bound` and `prior_share_at_bound` on that side, and
 #'   `far`, `piled`, `conflict`) and `held` (when inputs were held: their
 #'   names `inputs`, the re-read `fit`, its `fails` (its own table), the
-#'   `pull` (by site,
-#'   where the inputs' pull moves the model's localised part most: `start`,
+#'   `pull` (by site, where the inputs' pull moves the model's localised part most: `start`,
 #'   `end`, `t` and the largest `shift`) and `bias_rms_local`, the localised
 #'   bias's root mean square as fitted and held).
 #'   `as.data.frame()` gives the table as a plain data frame, with a column
@@ -314,8 +312,8 @@ bias_by_level <- function(fit, level) {
 #'
 #' The share of the grid points where a known effect acts (its absolute value
 #' above `threshold` times its peak) that lie in an interval flagged by
-#' [where_fails()] (its rows of kind `"interval"`), by site. On a test bed, with the effect of the hidden
-#' mechanism at the true inputs (from [testbed_signatures()]), it says
+#' [where_fails()] (its rows of kind `"interval"`), by site. On a test bed,
+#' with the effect of the hidden mechanism at the true inputs (from [testbed_signatures()]), it says
 #' whether the diagnosis looks in the right place.
 #'
 #' Flags that cover the whole record cover the effect too. `of = "flags"`

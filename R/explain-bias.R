@@ -238,7 +238,10 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   check_level(level)
   scope <- if (!is.null(finding)) finding_scope(fit, finding)
   if (candidates_are_fits(candidates)) {
-    if (!is.null(scope)) wv_abort("{.arg finding} restricts a regression on candidate curves; re-validated models are weighed on the whole bias.")
+    if (!is.null(scope)) {
+      wv_abort(c("{.arg finding} restricts the regression on candidate curves.",
+                 "i" = "Re-validated models are weighed on the whole bias: drop {.arg finding}."))
+    }
     return(explain_refits(fit, candidates, n_draws, level))
   }
   if (!is.null(scope)) fit <- scope$fit
@@ -266,8 +269,8 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   use <- scope$use %||% rep(TRUE, ncol(Y))
   if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
-  res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE], Wt[, use, drop = FALSE],
-                                             max_size = max_size, level = level, cluster = cluster[use],
+  res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],
+                                             Wt[, use, drop = FALSE], max_size = max_size, level = level, cluster = cluster[use],
                                              positive = pos, group = group))
   out <- res$table
   attr(out, "subsets") <- res$subsets

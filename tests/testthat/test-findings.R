@@ -138,6 +138,10 @@ test_that("explain_bias() of an interval regresses only the coefficients of its 
   rw$kind <- "record-wide"
   expect_identical(wavevalid:::finding_scope(fit, rw)$use, wide)
   expect_error(explain_bias(fit, cand, finding = data.frame(kind = "interval")), class = "wavevalid_error_input")
+  expect_error(explain_bias(fit, list(same = fit), finding = wf), class = "wavevalid_error_input")
+  elsewhere <- wf[1, ]
+  elsewhere$site <- "site9"
+  expect_error(explain_bias(fit, cand, finding = elsewhere), class = "wavevalid_error_input")
   expect_error(explain_bias(fit, cand, finding = where_fails(fit, tolerance = 1)), class = "wavevalid_error_input")
 })
 
