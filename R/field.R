@@ -68,7 +68,25 @@
 #' f <- field_runs(rbind(y), t_obs, grid = seq(0, 1, length.out = 128))
 #' f
 #' f$noise$site1$detail_sd
-field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
+field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL, replicate = NULL) {
+  if (is_long_form(curves, t)) {
+    long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate", strict = FALSE)
+    curves <- long$curves
+    t <- long$t
+    site <- NULL
+  } else if (!is.null(y) || !is.null(replicate)) {
+    wv_abort(c("{.arg y} and {.arg replicate} name columns of a long data frame.",
+               "i" = "Give the data frame as {.arg curves} and the column of the times as {.arg t}, e.g. {.code field_runs(data, t = \"strain\", y = \"stress\")}."),
+             class = c("column", "input"))
+  }
+  check_x_nom(x_nom)
+  if (is.list(t)) {
+    pts <- own_points(curves, t, site, strict = FALSE, what = "field")
+    t <- common_times(pts)
+    if (is.null(t)) return(field_on_own_points(pts, x_nom, grid))
+    curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
+    site <- NULL
+  }
   t <- check_stamps(t)
   curves <- as_site_list(curves, site, NULL, length(t), what = "field")
   for (s in names(curves)) {
@@ -82,11 +100,6 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
       ), class = "input")
     }
   }
-  if (!is.null(x_nom)) {
-    if (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom))) {
-      wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.")
-    }
-  }
   stamps <- unique(t)
   if (length(stamps) < 8L) {
     wv_abort("{.arg t} must have at least 8 distinct time points; it has {length(stamps)}.", class = "input")
@@ -97,6 +110,7 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
     regridded <- to_dyadic(t, curves)
     noise <- if (identical(regridded$t, t)) NULL else
       lapply(curves, function(m) measurement_noise(m, t, stamps, regridded$t))
+    noise <- interpolated_evidence(noise, curves, t, regridded$t)
     return(validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise)))
   }
   noise <- lapply(curves, function(m) measurement_noise(m, t, stamps, grid %||% dyadic_grid(stamps)))
@@ -111,7 +125,56 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
     nz$averaged <- NULL
     nz
   })
+  if (!repeats) noise <- interpolated_evidence(noise, curves, t, regridded$t)
   validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise))
+}
+
+# Field curves each on their own times (own_points()), onto one grid: each
+# curve's values averaged by time, its noise evidence, then interpolated.
+field_on_own_points <- function(pts, x_nom, grid, call = rlang::caller_env()) {
+  for (s in names(pts)) {
+    for (r in seq_along(pts[[s]])) {
+      y <- pts[[s]][[r]]$y
+      if (any(!is.finite(y))) {
+        wv_abort(c("Field curves must be complete: site {.val {s}}, replicate {r} has {sum(!is.finite(y))} missing or non-finite value{?s}.",
+                   "x" = "The first is at t = {signif(pts[[s]][[r]]$t[which(!is.finite(y))[1]], 5)}.",
+                   "i" = "Drop the missing values (each curve is on its own times) or remove the replicate."),
+                 class = "input", call = call)
+      }
+    }
+  }
+  grid <- own_points_grid(pts, grid, call = call)
+  evs <- lapply(pts, function(p) lapply(p, function(cv) curve_evidence(cv$y, cv$t, grid)))
+  curves <- lapply(names(pts), function(s) {
+    do.call(rbind, lapply(seq_along(pts[[s]]), function(r) {
+      stats::approx(unique(pts[[s]][[r]]$t), evs[[s]][[r]]$averaged[1, ], xout = grid, rule = 2)$y
+    }))
+  })
+  names(curves) <- names(pts)
+  noise <- report_interpolated(lapply(evs, site_evidence))
+  validate_wv_field(new_wv_field(grid, curves, x_nom, noise = noise))
+}
+
+# The noise evidence of sites whose curves (rows, at the distinct stamps t)
+# are piecewise linear, each curve's from its own points or from those
+# recovered as measured (curve_evidence()), in place of `noise` (that of the
+# curves as given; NULL by site when there is none).
+interpolated_evidence <- function(noise, curves, t, grid) {
+  for (s in names(curves)) {
+    m <- curves[[s]]
+    if (!any(apply(m, 1L, function(y) !is.null(interpolation_knots(t, y))))) next
+    if (is.null(noise)) noise <- stats::setNames(vector("list", length(curves)), names(curves))
+    noise[[s]] <- site_evidence(lapply(seq_len(nrow(m)), function(r) curve_evidence(m[r, ], t, grid)))
+  }
+  if (!is.null(noise)) report_interpolated(noise)
+  noise
+}
+
+check_x_nom <- function(x_nom, call = rlang::caller_env()) {
+  if (!is.null(x_nom) && (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom)))) {
+    wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.", call = call)
+  }
+  invisible(x_nom)
 }
 
 # The time stamps of field data: finite, non-decreasing (a stamp may repeat).
@@ -150,55 +213,6 @@ check_field_grid <- function(grid, stamps, call = rlang::caller_env()) {
              class = "grid", call = call)
   }
   grid
-}
-
-# The noise evidence of one site's curves (rows) measured at `t` (stamps may
-# repeat) and put on `grid`: the values averaged by stamp, their scatter (ss,
-# df), the difference-based noise sd of the averaged curves on the stamps, and
-# the linear map from the stamps to `grid` (interpolation, held at the ends) with
-# the variance factor 1 / (number of values) of each stamp.
-measurement_noise <- function(m, t, stamps, grid) {
-  k <- match(t, stamps)
-  n_at <- tabulate(k, length(stamps))
-  averaged <- t(apply(m, 1L, function(y) as.vector(rowsum(y, k, reorder = TRUE)) / n_at))
-  if (nrow(m) == 1L) averaged <- matrix(averaged, nrow = 1L)
-  ss <- sum((m - averaged[, k, drop = FALSE])^2)
-  df <- as.numeric(nrow(m) * (length(t) - length(stamps)))
-  lo <- findInterval(grid, stamps, all.inside = TRUE)
-  w <- (grid - stamps[lo]) / (stamps[lo + 1L] - stamps[lo])
-  w <- pmin(pmax(w, 0), 1)
-  list(averaged = averaged, ss = ss, df = df, n_stamps = length(stamps), n_repeated = sum(n_at > 1L),
-       detail_sd = detail_noise_sd(averaged, stamps, 1 / n_at),
-       map = list(lo = lo, w = w, var = 1 / n_at))
-}
-
-# The noise sd of curves (rows) at unequally spaced times, from each inner
-# point's deviation from the line through its neighbours, scaled by its
-# variance under white noise (`var`: each point's variance in units of
-# sigma2), robustly: MAD / 0.6745, the mean over rows.
-detail_noise_sd <- function(Y, t, var) {
-  n <- length(t)
-  i <- seq(2L, n - 1L)
-  a <- (t[i + 1L] - t[i]) / (t[i + 1L] - t[i - 1L])
-  b <- 1 - a
-  f <- var[i] + a^2 * var[i - 1L] + b^2 * var[i + 1L]
-  mean(apply(Y, 1L, function(y) {
-    e <- (y[i] - a * y[i - 1L] - b * y[i + 1L]) / sqrt(f)
-    stats::mad(e, center = 0)
-  }))
-}
-
-# The noise variance of each retained coefficient of a curve resampled by
-# `map` (measurement_noise()), in units of the variance of one measurement:
-# diag(Psi' A D A' Psi), A the interpolation, D the stamps' variance factors.
-resampled_noise_multipliers <- function(map, Psi) {
-  n_s <- length(map$var)
-  B <- rowsum(Psi * (1 - map$w), map$lo, reorder = TRUE)
-  hi <- rowsum(Psi * map$w, map$lo + 1L, reorder = TRUE)
-  A_t_Psi <- matrix(0, n_s, ncol(Psi))
-  A_t_Psi[as.integer(rownames(B)), ] <- B
-  A_t_Psi[as.integer(rownames(hi)), ] <- A_t_Psi[as.integer(rownames(hi)), ] + hi
-  colSums(A_t_Psi^2 * map$var)
 }
 
 new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL) {

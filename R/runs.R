@@ -24,7 +24,23 @@
 #' curves <- t(sapply(design$a, function(a) sin(2 * pi * t * (1 + a))))
 #' runs <- model_runs(design, curves, t)
 #' runs
-model_runs <- function(design, curves, t, site = NULL) {
+model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, run = NULL) {
+  if (is_long_form(curves, t)) {
+    long <- long_curves(curves, list(t = t, y = y, site = site, run = run), "run", strict = TRUE)
+    by_run <- design_by_run(design, long$ids, run)
+    design <- by_run$design
+    t <- curves <- list()
+    for (s in names(long$t)) {
+      k <- by_run$index[[s]]
+      t[[s]] <- lapply(k, function(i) long$t[[s]][[if (is.na(i)) k[!is.na(k)][1] else i]])
+      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j])) rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
+    }
+    site <- NULL
+  } else if (!is.null(y) || !is.null(run)) {
+    wv_abort(c("{.arg y} and {.arg run} name columns of a long data frame.",
+               "i" = "Give the data frame as {.arg curves} and the column of the times as {.arg t}, e.g. {.code model_runs(design, data, t = \"time\", y = \"load\", run = \"run\")}."),
+             class = c("column", "input"))
+  }
   if (is.matrix(design)) {
     if (is.null(colnames(design))) {
       wv_abort("{.arg design} must have column names, one per input.")
@@ -45,8 +61,33 @@ model_runs <- function(design, curves, t, site = NULL) {
     wv_abort("{.arg design} must not contain NA or infinite values.")
   }
   check_names(names(design), "design")
+  if (is.list(t)) {
+    pts <- own_points(curves, t, site, strict = TRUE, what = "runs")
+    for (s in names(pts)) {
+      if (length(pts[[s]]) != nrow(design)) {
+        wv_abort(c("{.arg curves} must hold one curve per run of {.arg design}.",
+                   "x" = "Site {.val {s}} has {length(pts[[s]])} and {.arg design} has {nrow(design)} rows."))
+      }
+    }
+    t <- common_times(pts)
+    if (is.null(t)) {
+      t <- own_points_grid(pts, grid)
+      curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) {
+        if (any(!is.finite(cv$y))) rep(NA_real_, length(t)) else stats::approx(cv$t, cv$y, xout = t, rule = 2)$y
+      })))
+      grid <- NULL
+    } else {
+      curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
+    }
+    site <- NULL
+  }
   t <- check_grid(t)
   curves <- as_site_list(curves, site, nrow(design), length(t), what = "runs")
+  if (!is.null(grid)) {
+    grid <- check_field_grid(grid, t)
+    curves <- interpolate_curves(t, curves, grid, rule = 2)
+    t <- grid
+  }
   rownames(design) <- NULL
 
   failed <- Reduce(`|`, lapply(curves, function(m) apply(m, 1L, function(r) any(!is.finite(r)))))
@@ -64,6 +105,39 @@ model_runs <- function(design, curves, t, site = NULL) {
   }
   regridded <- to_dyadic(t, curves)
   validate_wv_runs(new_wv_runs(design, regridded$t, regridded$curves))
+}
+
+# The design of runs given in long form: the rows of `design` matched to the
+# runs' ids (by site) through its column `run` when it has one (then dropped),
+# else by position when the ids are 1, ..., K. Returns the design and, by
+# site, the index of each design row among the site's runs (NA: no curve, a
+# failed run).
+design_by_run <- function(design, ids, run, call = rlang::caller_env()) {
+  if (is.matrix(design)) design <- as.data.frame(design)
+  if (!is.data.frame(design)) {
+    wv_abort("{.arg design} must be a data frame with one row per run, not {.obj_type_friendly {design}}.", call = call)
+  }
+  all_ids <- unique(unlist(ids, use.names = FALSE))
+  if (!is.null(run) && run %in% names(design)) {
+    key <- as.character(design[[run]])
+    if (anyNA(key) || anyDuplicated(key)) {
+      wv_abort("Column {.val {run}} of {.arg design} must name each run once.", class = c("column", "input"), call = call)
+    }
+    design <- design[setdiff(names(design), run)]
+  } else if (setequal(all_ids, as.character(seq_len(nrow(design))))) {
+    key <- as.character(seq_len(nrow(design)))
+  } else {
+    wv_abort(c("{.arg design} must tell which row is which run.",
+               "x" = "It has no column {.val {run %||% 'run'}}, and the runs are not numbered 1 to {nrow(design)}.",
+               "i" = "Add the run of each row to {.arg design} as a column named as in {.arg data}{if (is.null(run)) ', and name it with `run`' else ''}."),
+             class = c("column", "input"), call = call)
+  }
+  extra <- setdiff(all_ids, key)
+  if (length(extra)) {
+    wv_abort(c("The data hold run{?s} {.val {extra}} that {.arg design} does not.",
+               "i" = "Give every run its inputs in {.arg design}."), class = c("column", "input"), call = call)
+  }
+  list(design = design, index = lapply(ids, function(v) match(key, v)))
 }
 
 new_wv_runs <- function(design, t, curves) {
