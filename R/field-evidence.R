@@ -61,14 +61,27 @@ resampled_noise_multipliers <- function(map, Psi) {
 # --- curves interpolated before they came in ---------------------------------
 
 # A curve is read as linearly interpolated when its second differences vanish
-# (relative to its largest value) at this many of its inner points, at least
-# 3: measured noise never puts three values exactly on a line.
+# (relative to its largest value) on a slope (not on a flat stretch) at this
+# share of its inner points, and at least 3: measured noise never puts three
+# values exactly on a line, and a flat stretch may have been measured so (a
+# saturated sensor, a record before the load).
 interpolated_share <- 0.05
 # ... and as exactly on a line within this tolerance, relative to max |y|
-# (rounding of the interpolation and of a file written with 7 digits).
-interpolated_tol <- 1e-6
-# The fewest residuals of measured points that estimate their noise.
-interpolated_min_residuals <- 6L
+# (the rounding of the interpolation and of a file written with 10 digits; a
+# smooth curve on a fine grid has second differences well above it but near
+# its inflections).
+interpolated_tol <- 1e-9
+# A point is on a slope when its neighbours differ by more than this, relative
+# to max |y|: a thousand times the tolerance, so that the tail of a smooth
+# curve that levels off (second differences tiny, but a fixed share of the
+# first) is not read as a line.
+interpolated_slope <- 1e-6
+# The fewest residuals of measured points that estimate their noise, and the
+# least share of the points read as measured that must be told exactly (where
+# measured points lie closer than about two grid steps, the curve on the grid
+# has lost them).
+interpolated_min_residuals <- 8L
+interpolated_min_exact <- 0.5
 
 # The points of a curve (y at the increasing times x) that a linear
 # interpolation went through, or NULL when the curve is not piecewise linear.
@@ -85,8 +98,10 @@ interpolation_knots <- function(x, y) {
   i <- seq(2L, n - 1L)
   a <- (x[i + 1L] - x[i]) / (x[i + 1L] - x[i - 1L])
   e <- y[i] - a * y[i - 1L] - (1 - a) * y[i + 1L]
-  on_line <- c(FALSE, abs(e) <= interpolated_tol * max(abs(y)), FALSE)
-  if (sum(on_line) < max(3, interpolated_share * (n - 2))) return(NULL)
+  tol <- interpolated_tol * max(abs(y))
+  on_line <- c(FALSE, abs(e) <= tol, FALSE)
+  sloped <- c(FALSE, abs(y[i + 1L] - y[i - 1L]) > interpolated_slope * max(abs(y)), FALSE)
+  if (sum(on_line & sloped) < max(3, interpolated_share * (n - 2))) return(NULL)
   bp <- which(!on_line)
   long <- which(diff(bp) >= 2L)
   slope <- function(k) (y[bp[k + 1L]] - y[bp[k]]) / (x[bp[k + 1L]] - x[bp[k]])
@@ -97,7 +112,7 @@ interpolation_knots <- function(x, y) {
   add <- function(px, py, ex) {
     kx <<- c(kx, px)
     ky <<- c(ky, py)
-    exact <<- c(exact, ex)
+    exact <<- c(exact, rep_len(ex, length(px)))
   }
   for (j in seq_along(long)[-1L]) {
     p <- bp[long[j - 1L] + 1L]
@@ -125,9 +140,11 @@ interpolation_knots <- function(x, y) {
 
 # The difference-based noise sd (as detail_noise_sd(), one curve, each value
 # measured once) from the residuals of the points that are exact together
-# with both neighbours; 0 when fewer than interpolated_min_residuals.
+# with both neighbours; 0 when fewer than interpolated_min_residuals, or
+# fewer than interpolated_min_exact of the points are exact.
 knots_noise_sd <- function(kn) {
   n <- length(kn$x)
+  if (mean(kn$exact) < interpolated_min_exact) return(0)
   i <- seq(2L, n - 1L)
   i <- i[kn$exact[i] & kn$exact[i - 1L] & kn$exact[i + 1L]]
   if (length(i) < interpolated_min_residuals) return(0)
