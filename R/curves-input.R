@@ -46,7 +46,7 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
     v <- data[[col]]
     if (anyNA(v)) wv_abort("Column {.val {col}} must not hold NA; row {which(is.na(v))[1]} does.",
                            class = c("column", "input"), call = call)
-    lev <- if (is.factor(v)) levels(droplevels(v)) else unique(as.character(v))
+    lev <- if (is.factor(v)) levels(droplevels(v)) else as.character(sort(unique(v)))
     list(values = lev, index = match(as.character(v), lev))
   }
   site <- key(cols$site)
@@ -62,7 +62,7 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
       tt <- data[[cols$t]][rows]
       if (anyDuplicated(tt) && (strict || is.unsorted(tt))) {
         d <- tt[duplicated(tt)][1]
-        who <- paste0("site ", site$values[k], if (!is.null(cols[[id_arg]])) paste0(", ", id_arg, " ", ids[[k]][r]))
+        who <- paste0("Site ", site$values[k], if (!is.null(cols[[id_arg]])) paste0(", ", id_arg, " ", ids[[k]][r]))
         wv_abort(c("{who}: the time {signif(d, 6)} appears {sum(tt == d)} times.",
                    "x" = if (strict) "A model run has one value per time." else
                      "Its rows are not in time order, so these are not read as repeated measurements.",
@@ -162,6 +162,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
   curves <- unlist(pts, recursive = FALSE)
   lo <- max(vapply(curves, function(cv) cv$t[1], numeric(1)))
   hi <- min(vapply(curves, function(cv) cv$t[length(cv$t)], numeric(1)))
+  n_range <- range(vapply(curves, function(cv) length(unique(cv$t)), integer(1)))
   if (!is.null(grid)) {
     for (s in names(pts)) {
       for (r in seq_along(pts[[s]])) {
@@ -172,6 +173,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
         })
       }
     }
+    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_range[1]} to {n_range[2]} per curve) to the {length(grid)} points of {.arg grid}."))
     return(grid)
   }
   if (!(hi > lo)) {
@@ -179,8 +181,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
                "i" = "Give the grid to put them on with {.arg grid}, or leave out the curves that do not overlap."),
              class = "grid", call = call)
   }
-  n <- max(vapply(curves, function(cv) length(unique(cv$t)), integer(1)))
-  grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n)))
-  wv_inform(c("i" = "The curves were linearly interpolated from their own times ({min(lengths(lapply(curves, function(cv) unique(cv$t))))} to {n} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
+  grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n_range[2])))
+  wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_range[1]} to {n_range[2]} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
   grid
 }
