@@ -67,6 +67,11 @@ test_that("where too few measured points can be told the noise is not learned fr
   expect_warning(f <- suppressMessages(field_runs(rbind(stats::approx(xs, gentle(xs) + stats::rnorm(40, sd = 2), xout = g)$y), g)),
                  class = "wavevalid_warning_interpolated")
   expect_identical(f$noise$site1$detail_sd, 0)
+  # enough residuals of exact points, but most points read as measured are not exact
+  kn <- list(x = seq(0, 1, length.out = 40), y = stats::rnorm(40), exact = rep(c(TRUE, FALSE), c(15, 25)))
+  expect_identical(wavevalid:::knots_noise_sd(kn), 0)
+  kn$exact[] <- TRUE
+  expect_gt(wavevalid:::knots_noise_sd(kn), 0)
 })
 
 test_that("the noise learned from a curve interpolated by the user does not collapse", {
