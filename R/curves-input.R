@@ -163,6 +163,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
   lo <- max(vapply(curves, function(cv) cv$t[1], numeric(1)))
   hi <- min(vapply(curves, function(cv) cv$t[length(cv$t)], numeric(1)))
   n_range <- range(vapply(curves, function(cv) length(unique(cv$t)), integer(1)))
+  n_text <- if (n_range[1] == n_range[2]) n_range[1] else paste(n_range, collapse = " to ")
   if (!is.null(grid)) {
     for (s in names(pts)) {
       for (r in seq_along(pts[[s]])) {
@@ -173,7 +174,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
         })
       }
     }
-    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_range[1]} to {n_range[2]} per curve) to the {length(grid)} points of {.arg grid}."))
+    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to the {length(grid)} points of {.arg grid}."))
     return(grid)
   }
   if (!(hi > lo)) {
@@ -182,6 +183,6 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
              class = "grid", call = call)
   }
   grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n_range[2])))
-  wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_range[1]} to {n_range[2]} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
+  wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
   grid
 }

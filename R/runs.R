@@ -9,12 +9,40 @@
 #' linearly interpolated to the next dyadic grid on the same interval, with a
 #' message.
 #'
+#' Runs may come each on their own times (a simulator with adaptive time
+#' steps): `t` a list by site, each a vector (every run on it) or a list with
+#' one vector of increasing times per run, and `curves` a list by site of
+#' lists of vectors (one per run, in the design's order) or matrices. Each
+#' run is then linearly interpolated onto `grid` (the field's `field$t`, say)
+#' or, without it, onto 2^k equally spaced points on the range that every
+#' run covers, 2^k the next power of two of the most times of any run. When
+#' every run has the same times the result is that of the one-`t` form.
+#'
+#' Runs in a long data frame (one row per output value, one file per run read
+#' and stacked): `model_runs(design = design, data, t = "time", y = "load",
+#' site = "channel", run = "run")`. The design has one row per run; its rows
+#' are matched to the runs by its column named as `run` (then dropped from
+#' the inputs) or, without such a column, by position when the runs are
+#' numbered 1 to K. A run of the design without rows in the data is a failed
+#' run (dropped with a warning); a run of the data missing from the design, a
+#' misspelt column or a design that cannot be matched is an error of class
+#' `wavevalid_error_column`.
+#'
 #' @param design A data frame (or matrix with column names) with one row per
-#'   run and one numeric column per input.
+#'   run and one numeric column per input (in the long form, also the column
+#'   of runs, or rows in the order of runs numbered 1 to K).
 #' @param curves A K x T matrix of outputs (one site) or a named list of such
-#'   matrices, one per site.
-#' @param t The time grid, T increasing values.
-#' @param site Site name(s) when `curves` is a matrix or an unnamed list.
+#'   matrices, one per site; with `t` a list, a list by site of runs on their
+#'   own times; or a long data frame (with `t` a column name).
+#' @param t The time grid, T increasing values; or a list by site of each
+#'   run's times; or, with a data frame as `curves`, the name of its column of
+#'   times.
+#' @param site Site name(s) when `curves` is a matrix or an unnamed list; with
+#'   a data frame as `curves`, the name of its column of sites (optional).
+#' @param grid Optional dyadic grid to interpolate the runs onto; it must lie
+#'   within every run's times up to one step at either end.
+#' @param y,run With a data frame as `curves`: the names of its column of
+#'   output values and of runs.
 #' @return A `wv_runs` object: a list with `design` (data frame, K rows),
 #'   `t` (grid) and `curves` (named list of K x T matrices, one per site).
 #' @export
@@ -24,6 +52,15 @@
 #' curves <- t(sapply(design$a, function(a) sin(2 * pi * t * (1 + a))))
 #' runs <- model_runs(design, curves, t)
 #' runs
+#'
+#' # the same runs in long form, the design matched by its column `run`
+#' long <- data.frame(run = rep(1:5, each = 64), time = rep(t, 5), y = as.vector(t(curves)))
+#' model_runs(design = cbind(run = 1:5, design), long, t = "time", y = "y", run = "run")
+#'
+#' # each run on its own times, onto a 64-point grid
+#' own <- lapply(design$a, function(a) sort(c(0, 1, runif(40))))
+#' out <- lapply(seq_along(own), function(k) sin(2 * pi * own[[k]] * (1 + design$a[k])))
+#' model_runs(design, list(out), list(own), grid = t)
 model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, run = NULL) {
   if (is_long_form(curves, t)) {
     long <- long_curves(curves, list(t = t, y = y, site = site, run = run), "run", strict = TRUE)
