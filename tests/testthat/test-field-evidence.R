@@ -60,6 +60,10 @@ test_that("where too few measured points can be told the noise is not learned fr
                                                      bias = bias_control(sigma2 = noise_prior(scale = 0.03)),
                                                      sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))))
   expect_s3_class(fit, "wv_fit")
+  # preflight() says so before anything is fitted
+  reps <- c(site1 = 1L)
+  expect_false(wavevalid:::describe_noise(NULL, reps, field$noise)$ok[["site1"]])
+  expect_true(wavevalid:::describe_noise(noise_prior(scale = 0.03), reps, field$noise)$ok[["site1"]])
   # 40 points on a 64-point grid: measured points closer than two grid steps cannot be told apart
   g <- seq(0, 1, length.out = 64)
   withr::local_seed(2)
