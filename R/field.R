@@ -39,23 +39,94 @@
 #'   registration ([register_curves()]).
 #'
 #' On a dyadic `t` without repeated stamps there is nothing to keep: the
-#' noise is then learned from the curve on its own grid, as in the method.
+#' noise is then learned from the curve on its own grid, as in the method
+#' (unless the curve was interpolated before it came in, below).
+#'
+#' @section Curves each on their own times:
+#' Give `t` as a list by site, each element a vector (every replicate of the
+#' site on it) or a list with one vector per replicate, and `curves` as a list
+#' by site of vectors (one replicate), lists of vectors (one per replicate,
+#' of any lengths) or matrices. Each curve keeps its own noise evidence, as
+#' above, on its own times: the scatter of its repeated stamps (summed over
+#' the site's curves), its difference-based sd (averaged over them) and its
+#' resampling onto the grid (each coefficient's noise multiplier averaged over
+#' the replicates, the noise of their mean). The curves then go onto the grid
+#' by linear interpolation: `grid` when given (it must lie within every
+#' curve's times up to one step of that curve), else 2^k equally spaced
+#' points on the range that every curve covers, 2^k the next power of two of
+#' the most times of any curve. To put them on the model runs' grid, give
+#' `grid = runs$t`. When every curve has the same times, the result is that
+#' of the one-`t` form.
+#'
+#' @section Long data frames:
+#' `field_runs(data, t = "strain", y = "stress", site = "temperature",
+#' replicate = "rep")`: a data frame as `curves`, and `t`, `y` and optionally
+#' `site` and `replicate` the names of its columns (one row per measured
+#' value). Sites and replicates come in sorted order (a factor's levels'
+#' order), the rows of each curve in time order. Repeated times within one
+#' curve are repeated measurements only when the curve's rows are in time
+#' order; otherwise they are refused (a missing `replicate` column is the
+#' usual cause). A misspelt column is an error of class
+#' `wavevalid_error_column` that lists the columns; a curve with fewer than 8
+#' distinct times, or times out of order, one of class `wavevalid_error_stamps`.
+#'
+#' @section A curve interpolated before it came in:
+#' A curve that someone linearly interpolated onto a grid (from digitised or
+#' sparse measurements) is a straight line between the measured points: its
+#' finest wavelet details hold nothing, and a noise learned from them is
+#' close to zero. `field_runs()` reads a curve as interpolated when, at 5% of
+#' its inner points and at least 3, it lies on the line through its two
+#' neighbours within 1e-9 of its largest value while rising or falling by
+#' more than 1e-6 of it (a flat stretch, a measured baseline, is not taken as
+#' evidence; measured noise never puts three values exactly on a line). It
+#' then says so (a message of class `wavevalid_message_interpolated`) and
+#' finds the points that were measured: where two linear pieces meet, the
+#' breakpoint they share or the crossing of their lines. These points are
+#' the curve's own time stamps for the noise evidence above (its
+#' difference-based sd, the prior scale of [noise_prior()], and its
+#' resampling onto the grid). They are found exactly when the grid has about
+#' three or more points per measured interval (20 to 40 points on 128 or 512
+#' grid points in the tests); where measured points lie closer than about two
+#' grid steps the grid has lost them. When fewer than half of the points are
+#' found exactly, or fewer than 8 of them have both neighbours found exactly,
+#' the curve's noise cannot be told: `field_runs()` warns (class
+#' `wavevalid_warning_interpolated`) and keeps a difference-based sd of 0, so
+#' that a noise learned with the default prior scale is refused by
+#' [calibrate()] (an error of class `wavevalid_error_numeric`) until the scale
+#' is given, `bias_control(sigma2 = noise_prior(scale = ))`. An error rather
+#' than a floor: the curve holds no noise below its own resolution, and any
+#' floor would be a number made up. Better still, give the measured points
+#' themselves (curves on their own times, above).
 #'
 #' @param curves An R x T matrix of replicate curves (one site) or a named list
-#'   of such matrices, one column per element of `t`.
+#'   of such matrices, one column per element of `t`; with `t` a list, a list
+#'   by site of curves on their own times; or a long data frame (with `t` a
+#'   column name).
 #' @param t The time of each column of `curves`, non-decreasing; a time stamp
 #'   may repeat (repeated measurements, see the section on noise evidence).
-#' @param site Optional site names (one per matrix of `curves`).
+#'   Or a list by site of the times of each curve (see "Curves each on their
+#'   own times"), or, with a data frame as `curves`, the name of its column
+#'   of times.
+#' @param site Optional site names (one per matrix of `curves`); with a data
+#'   frame as `curves`, the name of its column of sites (optional).
+#' @param y,replicate With a data frame as `curves`: the names of its column
+#'   of values and (optional) of replicates.
 #' @param x_nom Optional named numeric vector of nominal input values of the
 #'   tested system (defaults to the nominals of the I/U map at calibration).
 #' @param grid Optional dyadic time grid to put the curves on (the model runs'
-#'   `runs$t`); it must lie within the range of `t` up to one step of `t` at
-#'   either end, where the curves are held at their first and last values.
-#'   `NULL`: `t` when it is dyadic without repeats, else 2^k equally spaced
-#'   points on the range of `t`.
+#'   `runs$t`); it must lie within the range of `t` (of each curve's times)
+#'   up to one step at either end, where the curves are held at their first
+#'   and last values. `NULL`: `t` when it is dyadic without repeats, else 2^k
+#'   equally spaced points on the range of `t` (on the range every curve
+#'   covers).
 #' @return A `wv_field` object: a list with `t`, `curves` (named list of R x T
 #'   matrices), `x_nom`, and `noise` (by site, the noise evidence kept from
-#'   the measurements, `NULL` when the curves are on their own dyadic grid).
+#'   the measurements, `NULL` when the curves are on their own dyadic grid):
+#'   `ss`, `df` (repeated stamps), `n_stamps`, `n_repeated`, `detail_sd`,
+#'   `map` (the resampling onto the grid; a list of them when the curves had
+#'   their own times) and, for curves read as interpolated, `interpolated`
+#'   (`n_points`, `n_breakpoints`, `n_measured`: the points read as measured,
+#'   `n_exact`: those found exactly, `resolved`).
 #' @export
 #' @examples
 #' t <- seq(0, 1, length.out = 64)
@@ -68,7 +139,47 @@
 #' f <- field_runs(rbind(y), t_obs, grid = seq(0, 1, length.out = 128))
 #' f
 #' f$noise$site1$detail_sd
-field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
+#'
+#' # two test temperatures, each curve on its own strains, from a long data frame
+#' tests <- do.call(rbind, lapply(c(20, 300), function(temp) {
+#'   strain <- sort(runif(25, 0, 0.1))
+#'   data.frame(temperature = temp, strain = strain,
+#'              stress = 200 * (1 - exp(-strain / (0.01 + temp / 1e4))) + rnorm(25, sd = 2))
+#' }))
+#' f <- field_runs(tests, t = "strain", y = "stress", site = "temperature")
+#' f
+#' sapply(f$noise, function(nz) nz$detail_sd)
+#'
+#' # the same curves as a list by site
+#' by_site <- split(tests, tests$temperature)
+#' field_runs(lapply(by_site, function(d) d$stress), lapply(by_site, function(d) d$strain))
+#'
+#' # a curve someone interpolated onto 256 points from 30 measured ones: the
+#' # noise evidence is taken from the 30 points found again
+#' x <- c(0, (1:28 - runif(28, 0.2, 0.8)) / 28, 1)
+#' grid <- seq(0, 1, length.out = 256)
+#' y <- approx(x, 100 + 20 * sin(2 * pi * x) + rnorm(30, sd = 1), xout = grid)$y
+#' f <- field_runs(rbind(y), grid)
+#' f$noise$site1[c("detail_sd", "n_stamps")]
+field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL, replicate = NULL) {
+  if (is_long_form(curves, t)) {
+    long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate", strict = FALSE)
+    curves <- long$curves
+    t <- long$t
+    site <- NULL
+  } else if (!is.null(y) || !is.null(replicate)) {
+    wv_abort(c("{.arg y} and {.arg replicate} name columns of a long data frame.",
+               "i" = "Give the data frame as {.arg curves} and the column of the times as {.arg t}, e.g. {.code field_runs(data, t = \"strain\", y = \"stress\")}."),
+             class = c("column", "input"))
+  }
+  check_x_nom(x_nom)
+  if (is.list(t)) {
+    pts <- own_points(curves, t, site, strict = FALSE, what = "field")
+    t <- common_times(pts)
+    if (is.null(t)) return(field_on_own_points(pts, x_nom, grid))
+    curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
+    site <- NULL
+  }
   t <- check_stamps(t)
   curves <- as_site_list(curves, site, NULL, length(t), what = "field")
   for (s in names(curves)) {
@@ -82,11 +193,6 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
       ), class = "input")
     }
   }
-  if (!is.null(x_nom)) {
-    if (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom))) {
-      wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.")
-    }
-  }
   stamps <- unique(t)
   if (length(stamps) < 8L) {
     wv_abort("{.arg t} must have at least 8 distinct time points; it has {length(stamps)}.", class = "input")
@@ -97,6 +203,7 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
     regridded <- to_dyadic(t, curves)
     noise <- if (identical(regridded$t, t)) NULL else
       lapply(curves, function(m) measurement_noise(m, t, stamps, regridded$t))
+    noise <- interpolated_evidence(noise, curves, t, regridded$t)
     return(validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise)))
   }
   noise <- lapply(curves, function(m) measurement_noise(m, t, stamps, grid %||% dyadic_grid(stamps)))
@@ -111,7 +218,56 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL) {
     nz$averaged <- NULL
     nz
   })
+  if (!repeats) noise <- interpolated_evidence(noise, curves, t, regridded$t)
   validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise))
+}
+
+# Field curves each on their own times (own_points()), onto one grid: each
+# curve's values averaged by time, its noise evidence, then interpolated.
+field_on_own_points <- function(pts, x_nom, grid, call = rlang::caller_env()) {
+  for (s in names(pts)) {
+    for (r in seq_along(pts[[s]])) {
+      y <- pts[[s]][[r]]$y
+      if (any(!is.finite(y))) {
+        wv_abort(c("Field curves must be complete: site {.val {s}}, replicate {r} has {sum(!is.finite(y))} missing or non-finite value{?s}.",
+                   "x" = "The first is at t = {signif(pts[[s]][[r]]$t[which(!is.finite(y))[1]], 5)}.",
+                   "i" = "Drop the missing values (each curve is on its own times) or remove the replicate."),
+                 class = "input", call = call)
+      }
+    }
+  }
+  grid <- own_points_grid(pts, grid, call = call)
+  evs <- lapply(pts, function(p) lapply(p, function(cv) curve_evidence(cv$y, cv$t, grid)))
+  curves <- lapply(names(pts), function(s) {
+    do.call(rbind, lapply(seq_along(pts[[s]]), function(r) {
+      stats::approx(unique(pts[[s]][[r]]$t), evs[[s]][[r]]$averaged[1, ], xout = grid, rule = 2)$y
+    }))
+  })
+  names(curves) <- names(pts)
+  noise <- report_interpolated(lapply(evs, site_evidence))
+  validate_wv_field(new_wv_field(grid, curves, x_nom, noise = noise))
+}
+
+# The noise evidence of sites whose curves (rows, at the distinct stamps t)
+# are piecewise linear, each curve's from its own points or from those
+# recovered as measured (curve_evidence()), in place of `noise` (that of the
+# curves as given; NULL by site when there is none).
+interpolated_evidence <- function(noise, curves, t, grid) {
+  for (s in names(curves)) {
+    m <- curves[[s]]
+    if (!any(apply(m, 1L, function(y) !is.null(interpolation_knots(t, y))))) next
+    if (is.null(noise)) noise <- stats::setNames(vector("list", length(curves)), names(curves))
+    noise[[s]] <- site_evidence(lapply(seq_len(nrow(m)), function(r) curve_evidence(m[r, ], t, grid)))
+  }
+  if (!is.null(noise)) report_interpolated(noise)
+  noise
+}
+
+check_x_nom <- function(x_nom, call = rlang::caller_env()) {
+  if (!is.null(x_nom) && (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom)))) {
+    wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.", call = call)
+  }
+  invisible(x_nom)
 }
 
 # The time stamps of field data: finite, non-decreasing (a stamp may repeat).
@@ -152,55 +308,6 @@ check_field_grid <- function(grid, stamps, call = rlang::caller_env()) {
   grid
 }
 
-# The noise evidence of one site's curves (rows) measured at `t` (stamps may
-# repeat) and put on `grid`: the values averaged by stamp, their scatter (ss,
-# df), the difference-based noise sd of the averaged curves on the stamps, and
-# the linear map from the stamps to `grid` (interpolation, held at the ends) with
-# the variance factor 1 / (number of values) of each stamp.
-measurement_noise <- function(m, t, stamps, grid) {
-  k <- match(t, stamps)
-  n_at <- tabulate(k, length(stamps))
-  averaged <- t(apply(m, 1L, function(y) as.vector(rowsum(y, k, reorder = TRUE)) / n_at))
-  if (nrow(m) == 1L) averaged <- matrix(averaged, nrow = 1L)
-  ss <- sum((m - averaged[, k, drop = FALSE])^2)
-  df <- as.numeric(nrow(m) * (length(t) - length(stamps)))
-  lo <- findInterval(grid, stamps, all.inside = TRUE)
-  w <- (grid - stamps[lo]) / (stamps[lo + 1L] - stamps[lo])
-  w <- pmin(pmax(w, 0), 1)
-  list(averaged = averaged, ss = ss, df = df, n_stamps = length(stamps), n_repeated = sum(n_at > 1L),
-       detail_sd = detail_noise_sd(averaged, stamps, 1 / n_at),
-       map = list(lo = lo, w = w, var = 1 / n_at))
-}
-
-# The noise sd of curves (rows) at unequally spaced times, from each inner
-# point's deviation from the line through its neighbours, scaled by its
-# variance under white noise (`var`: each point's variance in units of
-# sigma2), robustly: MAD / 0.6745, the mean over rows.
-detail_noise_sd <- function(Y, t, var) {
-  n <- length(t)
-  i <- seq(2L, n - 1L)
-  a <- (t[i + 1L] - t[i]) / (t[i + 1L] - t[i - 1L])
-  b <- 1 - a
-  f <- var[i] + a^2 * var[i - 1L] + b^2 * var[i + 1L]
-  mean(apply(Y, 1L, function(y) {
-    e <- (y[i] - a * y[i - 1L] - b * y[i + 1L]) / sqrt(f)
-    stats::mad(e, center = 0)
-  }))
-}
-
-# The noise variance of each retained coefficient of a curve resampled by
-# `map` (measurement_noise()), in units of the variance of one measurement:
-# diag(Psi' A D A' Psi), A the interpolation, D the stamps' variance factors.
-resampled_noise_multipliers <- function(map, Psi) {
-  n_s <- length(map$var)
-  B <- rowsum(Psi * (1 - map$w), map$lo, reorder = TRUE)
-  hi <- rowsum(Psi * map$w, map$lo + 1L, reorder = TRUE)
-  A_t_Psi <- matrix(0, n_s, ncol(Psi))
-  A_t_Psi[as.integer(rownames(B)), ] <- B
-  A_t_Psi[as.integer(rownames(hi)), ] <- A_t_Psi[as.integer(rownames(hi)), ] + hi
-  colSums(A_t_Psi^2 * map$var)
-}
-
 new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL) {
   structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise), class = "wv_field")
 }
@@ -221,7 +328,15 @@ print.wv_field <- function(x, ...) {
   cli::cat_line(sprintf("<wv_field> field data on %d time points in [%s, %s]%s", length(x$t),
                         format(signif(min(x$t), 4)), format(signif(max(x$t), 4)),
                         if (!is.null(x$warps)) ", registered" else ""))
-  for (s in names(n)) cli::cat_line(sprintf("  %s: %d replicate%s", s, n[[s]], if (n[[s]] == 1) "" else "s"))
+  for (s in names(n)) {
+    interp <- x$noise[[s]]$interpolated
+    if (!is.null(interp$n_points)) interp <- list(interp)
+    interp <- interp[!vapply(interp, is.null, logical(1))]
+    cli::cat_line(sprintf("  %s: %d replicate%s%s", s, n[[s]], if (n[[s]] == 1) "" else "s",
+                          if (length(interp)) sprintf(" (%d read as interpolated, noise evidence from %s measured points%s)",
+                                                      length(interp), sum(vapply(interp, function(z) z$n_measured, integer(1))),
+                                                      if (x$noise[[s]]$detail_sd > 0) "" else " that cannot tell it") else ""))
+  }
   if (!is.null(x$x_nom)) {
     cli::cat_line("  nominal inputs: ", paste(sprintf("%s = %s", names(x$x_nom), format(signif(x$x_nom, 4))),
                                                 collapse = ", "))

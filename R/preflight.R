@@ -206,6 +206,17 @@ describe_noise <- function(sigma2, reps, evidence = NULL) {
       else sprintf("variances fixed by sigma2 (%s to %s)", format(signif(min(v), 3)), format(signif(max(v), 3)))
     }, "")
   }
+  # a curve read as interpolated whose measured points cannot tell its noise,
+  # learned with the default scale: calibrate() refuses it
+  blind <- learn & kept & is.null((prior %||% noise_prior())$scale) &
+    vapply(sites, function(s) identical(evidence[[s]]$detail_sd, 0), logical(1))
+  if (any(blind)) {
+    how[blind] <- "read as interpolated before it came in, too few measured points to tell its noise"
+    return(list(how = stats::setNames(how, sites), ok = stats::setNames(!blind, sites),
+                weak = stats::setNames(rep(FALSE, length(sites)), sites),
+                fix = sprintf("Give the noise of site%s %s: noise_prior(scale = ) with the instrument's noise sd, or sigma2; or the measured points themselves (field_runs() with the curves on their own times).",
+                              if (sum(blind) == 1L) "" else "s", paste(sites[blind], collapse = ", "))))
+  }
   # one replicate and the noise learned: weakly identified against the bias
   weak <- reps < 2L & learn & repeated == 0
   list(how = stats::setNames(how, sites), ok = stats::setNames(rep(TRUE, length(sites)), sites),

@@ -9,12 +9,40 @@
 #' linearly interpolated to the next dyadic grid on the same interval, with a
 #' message.
 #'
+#' Runs may come each on their own times (a simulator with adaptive time
+#' steps): `t` a list by site, each a vector (every run on it) or a list with
+#' one vector of increasing times per run, and `curves` a list by site of
+#' lists of vectors (one per run, in the design's order) or matrices. Each
+#' run is then linearly interpolated onto `grid` (the field's `field$t`, say)
+#' or, without it, onto 2^k equally spaced points on the range that every
+#' run covers, 2^k the next power of two of the most times of any run. When
+#' every run has the same times the result is that of the one-`t` form.
+#'
+#' Runs in a long data frame (one row per output value, one file per run read
+#' and stacked): `model_runs(design = design, data, t = "time", y = "load",
+#' site = "channel", run = "run")`. The design has one row per run; its rows
+#' are matched to the runs by its column named as `run` (then dropped from
+#' the inputs) or, without such a column, by position when the runs are
+#' numbered 1 to K. A run of the design without rows in the data is a failed
+#' run (dropped with a warning); a run of the data missing from the design, a
+#' misspelt column or a design that cannot be matched is an error of class
+#' `wavevalid_error_column`.
+#'
 #' @param design A data frame (or matrix with column names) with one row per
-#'   run and one numeric column per input.
+#'   run and one numeric column per input (in the long form, also the column
+#'   of runs, or rows in the order of runs numbered 1 to K).
 #' @param curves A K x T matrix of outputs (one site) or a named list of such
-#'   matrices, one per site.
-#' @param t The time grid, T increasing values.
-#' @param site Site name(s) when `curves` is a matrix or an unnamed list.
+#'   matrices, one per site; with `t` a list, a list by site of runs on their
+#'   own times; or a long data frame (with `t` a column name).
+#' @param t The time grid, T increasing values; or a list by site of each
+#'   run's times; or, with a data frame as `curves`, the name of its column of
+#'   times.
+#' @param site Site name(s) when `curves` is a matrix or an unnamed list; with
+#'   a data frame as `curves`, the name of its column of sites (optional).
+#' @param grid Optional dyadic grid to interpolate the runs onto; it must lie
+#'   within every run's times up to one step at either end.
+#' @param y,run With a data frame as `curves`: the names of its column of
+#'   output values and of runs.
 #' @return A `wv_runs` object: a list with `design` (data frame, K rows),
 #'   `t` (grid) and `curves` (named list of K x T matrices, one per site).
 #' @export
@@ -24,7 +52,32 @@
 #' curves <- t(sapply(design$a, function(a) sin(2 * pi * t * (1 + a))))
 #' runs <- model_runs(design, curves, t)
 #' runs
-model_runs <- function(design, curves, t, site = NULL) {
+#'
+#' # the same runs in long form, the design matched by its column `run`
+#' long <- data.frame(run = rep(1:5, each = 64), time = rep(t, 5), y = as.vector(t(curves)))
+#' model_runs(design = cbind(run = 1:5, design), long, t = "time", y = "y", run = "run")
+#'
+#' # each run on its own times, onto a 64-point grid
+#' own <- lapply(design$a, function(a) sort(c(0, 1, runif(40))))
+#' out <- lapply(seq_along(own), function(k) sin(2 * pi * own[[k]] * (1 + design$a[k])))
+#' model_runs(design, list(out), list(own), grid = t)
+model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, run = NULL) {
+  if (is_long_form(curves, t)) {
+    long <- long_curves(curves, list(t = t, y = y, site = site, run = run), "run", strict = TRUE)
+    by_run <- design_by_run(design, long$ids, run)
+    design <- by_run$design
+    t <- curves <- list()
+    for (s in names(long$t)) {
+      k <- by_run$index[[s]]
+      t[[s]] <- lapply(k, function(i) long$t[[s]][[if (is.na(i)) k[!is.na(k)][1] else i]])
+      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j])) rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
+    }
+    site <- NULL
+  } else if (!is.null(y) || !is.null(run)) {
+    wv_abort(c("{.arg y} and {.arg run} name columns of a long data frame.",
+               "i" = "Give the data frame as {.arg curves} and the column of the times as {.arg t}, e.g. {.code model_runs(design, data, t = \"time\", y = \"load\", run = \"run\")}."),
+             class = c("column", "input"))
+  }
   if (is.matrix(design)) {
     if (is.null(colnames(design))) {
       wv_abort("{.arg design} must have column names, one per input.")
@@ -45,8 +98,33 @@ model_runs <- function(design, curves, t, site = NULL) {
     wv_abort("{.arg design} must not contain NA or infinite values.")
   }
   check_names(names(design), "design")
+  if (is.list(t)) {
+    pts <- own_points(curves, t, site, strict = TRUE, what = "runs")
+    for (s in names(pts)) {
+      if (length(pts[[s]]) != nrow(design)) {
+        wv_abort(c("{.arg curves} must hold one curve per run of {.arg design}.",
+                   "x" = "Site {.val {s}} has {length(pts[[s]])} and {.arg design} has {nrow(design)} rows."))
+      }
+    }
+    t <- common_times(pts)
+    if (is.null(t)) {
+      t <- own_points_grid(pts, grid)
+      curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) {
+        if (any(!is.finite(cv$y))) rep(NA_real_, length(t)) else stats::approx(cv$t, cv$y, xout = t, rule = 2)$y
+      })))
+      grid <- NULL
+    } else {
+      curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
+    }
+    site <- NULL
+  }
   t <- check_grid(t)
   curves <- as_site_list(curves, site, nrow(design), length(t), what = "runs")
+  if (!is.null(grid)) {
+    grid <- check_field_grid(grid, t)
+    curves <- interpolate_curves(t, curves, grid, rule = 2)
+    t <- grid
+  }
   rownames(design) <- NULL
 
   failed <- Reduce(`|`, lapply(curves, function(m) apply(m, 1L, function(r) any(!is.finite(r)))))
@@ -64,6 +142,39 @@ model_runs <- function(design, curves, t, site = NULL) {
   }
   regridded <- to_dyadic(t, curves)
   validate_wv_runs(new_wv_runs(design, regridded$t, regridded$curves))
+}
+
+# The design of runs given in long form: the rows of `design` matched to the
+# runs' ids (by site) through its column `run` when it has one (then dropped),
+# else by position when the ids are 1, ..., K. Returns the design and, by
+# site, the index of each design row among the site's runs (NA: no curve, a
+# failed run).
+design_by_run <- function(design, ids, run, call = rlang::caller_env()) {
+  if (is.matrix(design)) design <- as.data.frame(design)
+  if (!is.data.frame(design)) {
+    wv_abort("{.arg design} must be a data frame with one row per run, not {.obj_type_friendly {design}}.", call = call)
+  }
+  all_ids <- unique(unlist(ids, use.names = FALSE))
+  if (!is.null(run) && run %in% names(design)) {
+    key <- as.character(design[[run]])
+    if (anyNA(key) || anyDuplicated(key)) {
+      wv_abort("Column {.val {run}} of {.arg design} must name each run once.", class = c("column", "input"), call = call)
+    }
+    design <- design[setdiff(names(design), run)]
+  } else if (setequal(all_ids, as.character(seq_len(nrow(design))))) {
+    key <- as.character(seq_len(nrow(design)))
+  } else {
+    wv_abort(c("{.arg design} must tell which row is which run.",
+               "x" = "It has no column {.val {run %||% 'run'}}, and the runs are not numbered 1 to {nrow(design)}.",
+               "i" = "Add the run of each row to {.arg design} as a column named as in {.arg data}{if (is.null(run)) ', and name it with `run`' else ''}."),
+             class = c("column", "input"), call = call)
+  }
+  extra <- setdiff(all_ids, key)
+  if (length(extra)) {
+    wv_abort(c("The data hold run{?s} {.val {extra}} that {.arg design} does not.",
+               "i" = "Give every run its inputs in {.arg design}."), class = c("column", "input"), call = call)
+  }
+  list(design = design, index = lapply(ids, function(v) match(key, v)))
 }
 
 new_wv_runs <- function(design, t, curves) {

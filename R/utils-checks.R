@@ -33,9 +33,10 @@ renamed_arg <- function(call, old, new, fun) {
   call
 }
 
-wv_inform <- function(message, ..., .envir = parent.frame()) {
+wv_inform <- function(message, ..., class = NULL, .envir = parent.frame()) {
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
-    cli::cli_inform(message, class = "wavevalid_message", ..., .envir = .envir)
+    cli::cli_inform(message, class = c(if (!is.null(class)) paste0("wavevalid_message_", class), "wavevalid_message"),
+                    ..., .envir = .envir)
   }
 }
 

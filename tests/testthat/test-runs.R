@@ -62,7 +62,8 @@ test_that("a non-dyadic grid is interpolated to the next dyadic grid with a mess
   expect_equal(range(f$t), c(2, 7))
   # linear interpolation reproduces a linear curve exactly
   lin <- rbind(3 * t + 1)
-  f2 <- suppressMessages(field_runs(lin, t))
+  # (a straight line holds no noise: read as interpolated from its two ends, with a warning)
+  expect_warning(f2 <- suppressMessages(field_runs(lin, t)), class = "wavevalid_warning_interpolated")
   expect_equal(f2$curves$site1[1, ], 3 * f2$t + 1)
   # a dyadic grid stays untouched
   td <- 65 * (0:63) / 64
