@@ -81,8 +81,11 @@ experiment_prediction <- function(fit, x, level, seed, call) {
   post <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
   em <- x$emulators
   zbar <- matrix(colMeans(post)[em$inputs], 1L)
+  Ms <- stats::setNames(lapply(sites, function(s) {
+    gasp_bank_predict_cpp(em$banks[[s]], post[, em$inputs, drop = FALSE])$mean
+  }), sites)
   rows <- with_rng_seed(seed, lapply(sites, function(s) {
-    M <- gasp_bank_predict_cpp(em$banks[[s]], post[, em$inputs, drop = FALSE])$mean
+    M <- Ms[[s]]
     W <- M + fit$wb[[s]] + sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
     band <- band_frame(tcrossprod(W, fit$basis$Psi), fit$basis$t, s, level)
     band$model <- drop(tcrossprod(gasp_bank_predict_cpp(em$banks[[s]], zbar)$mean, fit$basis$Psi))
@@ -90,9 +93,7 @@ experiment_prediction <- function(fit, x, level, seed, call) {
   }))
   pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive", level = level,
                          seed = seed), class = "wv_prediction")
-  dW <- stats::setNames(lapply(sites, function(s) {
-    gasp_bank_predict_cpp(em$banks[[s]], post[, em$inputs, drop = FALSE])$mean - fit$wM[[s]]
-  }), sites)
+  dW <- stats::setNames(lapply(sites, function(s) Ms[[s]] - fit$wM[[s]]), sites)
   list(field = field, pred = pred, draws = fit_draws(fit, sites, dW))
 }
 

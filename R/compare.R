@@ -66,7 +66,9 @@
 #'   interval over the paired resamples); its attributes `resampling`
 #'   (`"replicates"`, `"moving_block"` or `"mixed"`), `block` (the block
 #'   length in time points), `n_boot` and `n_draws` (the posterior draws
-#'   paired). The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
+#'   paired). The attribute `holdout_field` holds the held-out field data as
+#'   each model saw them (`before`, `after`: registered to its runs when the
+#'   fit registered its own). The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
 #'   change"` (`NA` without a holdout).
 #'
 #' @section The verdict:
@@ -143,6 +145,7 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
   attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
   attr(out, "conflicts") <- conflicts
   attr(out, "holdout_ratio") <- ratio
+  attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
   attr(out, "verdict") <- holdout_verdict(ratio)
   class(out) <- c("wv_comparison", "data.frame")
   out

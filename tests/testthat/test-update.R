@@ -64,3 +64,26 @@ test_that("update() of a calibrate() fit says to validate first", {
   expect_error(update(example_fit()), class = "wavevalid_error_update")
   expect_error(update(example_fit()), "made by `calibrate()`", fixed = TRUE)
 })
+
+test_that("the loop in three calls: validate(), update(), compare_validations() at a held-out experiment", {
+  p <- update_problem()
+  fit <- update_validate(p, seed = 3)
+  d <- p$runs$design
+  withr::local_seed(2)
+  d$s <- (sample(nrow(d)) - stats::runif(nrow(d))) / nrow(d)
+  t <- p$runs$t
+  runs2 <- model_runs(d, p$runs$curves$site1 + outer(0.2 * d$s, exp(-((t - 0.62) / 0.06)^2)), t, site = "site1")
+  fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu_add(p$ex$iu, "s", lower = 0, upper = 1, nominal = 0.5)))
+  held <- experiment(p$ex$field, change = c(x1 = 0.2))
+  cmp <- compare_validations(fit, fit2, holdout = held, seed = 1)
+  expect_true(attr(cmp, "verdict") %in% c("helped", "worse", "no clear change"))
+  # the held-out field data are registered to each model in the experiment's condition, as validate() registers
+  hf <- attr(cmp, "holdout_field")
+  for (m in c("before", "after")) {
+    f <- list(before = fit, after = fit2)[[m]]
+    direct <- register_experiments(list(h = held), f$emulators, f$call_args$runs, p$windows, knots_every = NULL,
+                                   quiet = TRUE)$h$field
+    expect_identical(hf[[m]]$curves, direct$curves)
+  }
+  expect_false(identical(hf$before$curves, held$field$curves))
+})
