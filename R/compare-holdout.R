@@ -40,11 +40,14 @@ holdout_predictions <- function(before, after, holdout, level, seed, call = rlan
 # Centred coefficient draws of a fit's model (plus `dW`, a change of the
 # model coefficients draw by draw) and of its bias-corrected prediction.
 fit_draws <- function(fit, sites, dW = NULL) {
+  # the Gram matrix of the basis: the identity (NULL) for the orthonormal
+  # columns of wavelet_basis()'s transforms
+  G <- if (is.null(fit$basis$settings)) crossprod(fit$basis$Psi)
   stats::setNames(lapply(sites, function(s) {
     M <- fit$wM[[s]]
     if (!is.null(dW)) M <- M + dW[[s]]
     W <- M + fit$wb[[s]]
-    list(Psi = fit$basis$Psi, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+    list(Psi = fit$basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
   }), sites)
 }
 
@@ -129,21 +132,23 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
     time = if (any(n_rep < 2L)) t(replicate(n_boot, moving_blocks(n_t, block)))
   ))
   sse <- array(0, c(n_boot, 2L, 2L), dimnames = list(NULL, c("before", "after"), c("model", "corrected")))
-  n_pts <- 0
   for (s in sites) {
     R <- n_rep[[s]]
-    n_pts <- n_pts + R * n_t
+    # the resampled data: counts of each replicate, or the block-resampled
+    # residuals of the single curve about the bias-corrected mean
+    counts <- if (R >= 2L) t(apply(idx$rows[[s]], 1L, tabulate, nbins = R))
     for (m in c("before", "after")) {
       p <- parts[[m]][[s]]
       y <- p$y[seq_len(R), , drop = FALSE]
+      d <- p$draws
+      if (R < 2L) {
+        e <- y[1, ] - p$corrected
+        E <- matrix(e[idx$time], n_boot)
+        PE <- if (is.null(d$Psi)) E else E %*% d$Psi
+      }
       for (kind in c("model", "corrected")) {
-        center <- p[[kind]]
-        dev <- draw_deviations(p$draws, kind, idx$h)
-        for (b in seq_len(n_boot)) {
-          yb <- if (R >= 2L) y[idx$rows[[s]][b, ], , drop = FALSE] else matrix(p$corrected + (y[1, ] - p$corrected)[idx$time[b, ]], 1L)
-          pb <- if (is.null(dev)) center else center + dev[b, ]
-          sse[b, m, kind] <- sse[b, m, kind] + sum(sweep(yb, 2L, pb)^2)
-        }
+        sse[, m, kind] <- sse[, m, kind] + resampled_sse(y, p[[kind]], p$corrected, counts, if (R < 2L) E,
+                                                         if (R < 2L) PE, d, kind, idx$h)
       }
     }
   }
@@ -161,10 +166,30 @@ moving_blocks <- function(n, L) {
   as.vector(outer(seq_len(L) - 1L, starts, `+`))[seq_len(n)]
 }
 
-# Deviations from the point prediction of the draws idx (n_boot x T), or
-# NULL when the prediction has no draws of that kind.
-draw_deviations <- function(d, kind, idx) {
-  if (is.null(d) || is.null(d[[kind]]) || is.null(idx)) return(NULL)
-  X <- d[[kind]][idx, , drop = FALSE]
-  if (is.null(d$Psi)) X else tcrossprod(X, d$Psi)
+# Sum of squared errors of the prediction `center` plus draw h's deviation
+# (Psi d_h, or the curve deviation d_h when Psi is NULL) against each
+# resample of the data: the replicates of `y` taken `counts` times (n_boot x
+# R), or `corrected` plus the block-resampled residuals `E` (n_boot x T,
+# projected `PE`).
+# With G = Psi'Psi (d$G, NULL for the identity), ||r - Psi d||^2 = ||r||^2 - 2 (Psi'r).d + d'G d, so that
+# the curves of the draws are never built.
+resampled_sse <- function(y, center, corrected, counts, E, PE, d, kind, h) {
+  Psi <- d$Psi
+  proj <- function(X) if (is.null(Psi)) X else X %*% Psi
+  if (is.null(E)) {
+    r <- sweep(y, 2L, center)
+    A <- drop(counts %*% rowSums(r^2))
+    P <- counts %*% proj(r)
+    n_rep <- nrow(y)
+  } else {
+    shift <- corrected - center
+    A <- rowSums(sweep(E, 2L, shift, `+`)^2)
+    P <- sweep(PE, 2L, drop(proj(matrix(shift, 1L))), `+`)
+    n_rep <- 1L
+  }
+  D <- if (!is.null(d) && !is.null(d[[kind]]) && !is.null(h)) d[[kind]][h, , drop = FALSE]
+  if (is.null(D)) return(A)
+  G <- d$G
+  quad <- if (is.null(G)) rowSums(D^2) else rowSums((D %*% G) * D)
+  A - 2 * rowSums(P * D) + n_rep * quad
 }

@@ -135,3 +135,40 @@ test_that("a held-out experiment is checked against each model", {
   expect_error(compare_validations(fit, fit, holdout = held), class = "wavevalid_error_experiment")
   expect_error(compare_validations(fit, fit, holdout = list(before = 1)), class = "wavevalid_error_input")
 })
+
+test_that("the resampled errors of the draws equal those of the curves built in full", {
+  withr::local_seed(5)
+  basis <- example_problem()$emulators$basis
+  n_t <- nrow(basis$Psi)
+  k <- ncol(basis$Psi)
+  y <- matrix(stats::rnorm(3 * n_t), 3)
+  center <- stats::rnorm(n_t)
+  corrected <- center + 0.1
+  d <- list(Psi = basis$Psi, G = crossprod(basis$Psi), model = matrix(stats::rnorm(20 * k, sd = 0.1), 20))
+  h <- sample.int(20, 50, replace = TRUE)
+  rows <- matrix(sample.int(3, 150, replace = TRUE), 50)
+  counts <- t(apply(rows, 1, tabulate, nbins = 3))
+  brute <- vapply(1:50, function(b) {
+    sum(sweep(y[rows[b, ], ], 2, center + drop(basis$Psi %*% d$model[h[b], ]))^2)
+  }, numeric(1))
+  expect_equal(resampled_sse(y, center, corrected, counts, NULL, NULL, d, "model", h), brute)
+  # one curve: block-resampled residuals about the bias-corrected mean
+  tm <- t(replicate(50, moving_blocks(n_t, 6)))
+  e <- y[1, ] - corrected
+  E <- matrix(e[tm], 50)
+  brute1 <- vapply(1:50, function(b) {
+    sum((corrected + e[tm[b, ]] - center - drop(basis$Psi %*% d$model[h[b], ]))^2)
+  }, numeric(1))
+  expect_equal(resampled_sse(y[1, , drop = FALSE], center, corrected, NULL, E, E %*% basis$Psi, d, "model", h), brute1)
+  # curve draws without a basis
+  dc <- list(Psi = NULL, corrected = matrix(stats::rnorm(20 * n_t, sd = 0.1), 20))
+  brute2 <- vapply(1:50, function(b) sum(sweep(y[rows[b, ], ], 2, corrected + dc$corrected[h[b], ])^2), numeric(1))
+  expect_equal(resampled_sse(y, corrected, corrected, counts, NULL, NULL, dc, "corrected", h), brute2)
+  expect_length(moving_blocks(n_t, 6), n_t)
+  # wavelet_basis()'s columns are orthonormal: its Gram matrix is taken as the identity
+  runs <- model_runs(as.data.frame(example_problem()$emulators$design),
+                     example_problem()$emulators$banks$site1$y %*% t(basis$Psi), example_problem()$field$t)
+  wb <- wavelet_basis(runs)
+  expect_false(is.null(wb$settings))
+  expect_equal(crossprod(wb$Psi), diag(ncol(wb$Psi)), ignore_attr = TRUE)
+})
