@@ -9,9 +9,11 @@
 #' Each fit is judged against its own field data (`fit$field`). The field
 #' data are registered to a reference made of the model's runs, so a model
 #' that lacks a mechanism which moves the peaks of an event also moves the
-#' landmarks of the registered field; after adding the mechanism, register the
-#' raw field data again to the new model's runs and give each fit its own
-#' registration (and, for held-out data, its own registered held-out field).
+#' landmarks of the registered field; after adding the mechanism, the raw
+#' field data are registered again to the new model's runs, as
+#' `update(fit, runs = , iu = )` ([update.wv_fit()]) does, and each fit
+#' keeps its own registration. A held-out [experiment()] is registered to
+#' each model in the same way.
 #'
 #' @param before,after `wv_fit` objects fitted to the same field data (each
 #'   possibly registered to its own model's runs), e.g. `fit` and
