@@ -9,19 +9,45 @@
 #' Each fit is judged against its own field data (`fit$field`). The field
 #' data are registered to a reference made of the model's runs, so a model
 #' that lacks a mechanism which moves the peaks of an event also moves the
-#' landmarks of the registered field; after adding the mechanism, register the
-#' raw field data again to the new model's runs and give each fit its own
-#' registration (and, for held-out data, its own registered held-out field).
+#' landmarks of the registered field; after adding the mechanism, the raw
+#' field data are registered again to the new model's runs, as
+#' `update(fit, runs = , iu = )` ([update.wv_fit()]) does, and each fit
+#' keeps its own registration. A held-out [experiment()] is registered to
+#' each model in the same way.
 #'
 #' @param before,after `wv_fit` objects fitted to the same field data (each
-#'   possibly registered to its own model's runs).
-#' @param holdout Optional held-out field data: a `wv_field` of the same
-#'   system (predicted as new field runs of each fit), or a list with `field`
-#'   and `before`, `after`: `wv_prediction` objects of each fit for that field
-#'   data (e.g. `predict(fit, type = "new_nominal", ...)` for a system with
-#'   other nominal inputs). `field` is a `wv_field`, or a list of two,
-#'   `before` and `after`, when each model's held-out field is registered to
-#'   that model's runs.
+#'   possibly registered to its own model's runs), e.g. `fit` and
+#'   `update(fit, runs = , iu = )` ([update.wv_fit()]).
+#' @param holdout Optional held-out condition, in one of these forms:
+#'   * an [experiment()] with `change` (another load, mass or dose: the same
+#'     unit with a known change of some inputs): each model predicts it
+#'     itself, at the posterior draws of its inputs plus the change through
+#'     its emulators, plus its bias (as `predict(fit, type = "added_load",
+#'     delta = change)`); the change must name inputs of both models;
+#'   * a list of two experiments, `before` and `after`, one for each model:
+#'     with their own `change` (when the models name the changed input
+#'     differently) or their own `emulators`, fitted to each model's runs at
+#'     that condition on that model's basis (`fit_emulators(runs_m,
+#'     fit$basis)`), through which each model predicts it at its posterior
+#'     draws, plus its bias;
+#'   * a `wv_field` of the same system, predicted as new field runs of each
+#'     fit (the fitted condition: an input that absorbs a missing effect can
+#'     predict it as well as the fix);
+#'   * a list with `field` and `before`, `after`: `wv_prediction` objects of
+#'     each fit for that field data (e.g. `predict(fit, type = "new_nominal",
+#'     ...)`); `field` is a `wv_field`, or a list of two, `before` and
+#'     `after`, when each model's held-out field is registered to that
+#'     model's runs. Predictions made with `keep_draws = TRUE` (best with
+#'     `noise = FALSE`) carry their uncertainty into the verdict.
+#'
+#'   The held-out field data of an experiment are registered to each model
+#'   as the fit registered its own: for a fit of [validate()] with
+#'   `windows`, to the model in the experiment's condition (see the argument
+#'   `experiments` of [validate()]); a fit of [calibrate()] takes them as
+#'   given.
+#' @param n_boot Number of paired resamples behind the verdict's intervals.
+#' @param seed `NULL` or a whole number: the seed of the predictions and of
+#'   the resampling.
 #' @inheritParams bands
 #' @return A `wv_comparison` data frame with columns `metric`, `before`,
 #'   `after`, `change` (relative change, after / before - 1) and rows
@@ -35,17 +61,45 @@
 #'   [where_fails()] judges them: an input that mimics a missing effect) and,
 #'   with a holdout, `holdout_rmse` (the bias-corrected prediction),
 #'   `holdout_rmse_model` (the model alone, the prediction's `model` column)
-#'   and `holdout_coverage`. The print ends with a verdict: whether the
-#'   conflicts were resolved and, with a holdout, whether the model alone and
-#'   the bias-corrected prediction err less there; at a held-out condition an
-#'   input that absorbs the missing effect cannot fake an improvement. When the bias grows
-#'   but its localised part falls, the print says so: the calibrated inputs
-#'   can trade an offset of the whole record against the events.
+#'   and `holdout_coverage`. With a holdout, the attribute `holdout_ratio` is
+#'   a data frame with rows `model` and `corrected` and columns `prediction`,
+#'   `ratio` (after / before of the held-out RMSE at the posterior mean
+#'   predictions on the data as observed), `lower` and `upper` (its 90%
+#'   interval over the paired resamples); its attributes `resampling`
+#'   (`"replicates"`, `"moving_block"` or `"mixed"`), `block` (the block
+#'   length in time points), `n_boot` and `n_draws` (the posterior draws
+#'   paired). The attribute `holdout_field` holds the held-out field data as
+#'   each model saw them (`before`, `after`: registered to its runs when the
+#'   fit registered its own). The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
+#'   change"` (`NA` without a holdout).
+#'
+#' @section The verdict:
+#' The print ends with a verdict: whether the conflicts were resolved and,
+#' with a holdout, whether the change helped at the held-out condition, where
+#' an input that absorbs the missing effect cannot fake an improvement. The
+#' rule is a paired comparison. Each of `n_boot` resamples takes one
+#' posterior draw index h (draw h of `before` and draw h of `after`) and one
+#' resample of the held-out data, the same for both models: its replicates
+#' drawn with replacement when a site has two or more, else a moving-block
+#' bootstrap over time of the single curve's residuals about each model's
+#' bias-corrected mean prediction, in blocks of `ceiling(sqrt(T))` time
+#' points (T the grid's length). For each it computes the ratio after /
+#' before of the held-out RMSE of the model alone and of the bias-corrected
+#' prediction. The change **helped** when the model-alone ratio's 90%
+#' interval lies below 1 and the bias-corrected ratio's lower limit is not
+#' above 1.05 (not credibly worse); it is **worse** when the model-alone
+#' ratio's lower limit is above 1; otherwise there is **no clear change**:
+#' the fall or rise is within what the held-out data's noise and the
+#' predictions' uncertainty produce. Predictions given by the user without
+#' draws contribute only the data's resampling. When the bias grows but its
+#' localised part falls, the print says so: the calibrated inputs can trade
+#' an offset of the whole record against the events.
 #' @export
 #' @examples
 #' before <- example_fit()
 #' ex <- example_problem()
-#' # in practice `after` is the model with the added effect (see
+#' # in practice `after` is the model with the added effect, validated again
+#' # with update(before, runs = , iu = ) (see
 #' # vignette("missing-effect", package = "wavevalid")); here the same model
 #' # with the bias variances held small, to show the layout
 #' after <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1, bias = bias_control(fix_tau2 = 1e-4),
@@ -53,10 +107,18 @@
 #' cmp <- compare_validations(before, after)
 #' cmp
 #' autoplot(cmp)
-compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
+#'
+#' # judged at a held-out condition: x1 raised by 0.2 (here its field data
+#' # are the fitted ones moved by the model's own change, for the layout)
+#' moved <- ex$field
+#' moved$curves$site1 <- sweep(moved$curves$site1, 2, 0.1 * sin(2 * pi * moved$t), `+`)
+#' compare_validations(before, after, holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
+compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_boot = 1000, seed = NULL) {
   check_class(before, "wv_fit")
   check_class(after, "wv_fit")
   check_level(level)
+  check_number(n_boot, min = 100, integer = TRUE)
+  seed <- resolve_seed(seed)
   if (!identical(names(before$wb), names(after$wb))) {
     wv_abort("{.arg before} and {.arg after} must have the same sites.")
   }
@@ -66,19 +128,45 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9) {
   conflicts <- list(before = input_conflicts(before), after = input_conflicts(after))
   m_before <- c(validation_metrics(before, level), inputs_in_conflict = sum(conflicts$before$conflict))
   m_after <- c(validation_metrics(after, level), inputs_in_conflict = sum(conflicts$after$conflict))
+  ratio <- NULL
   if (!is.null(holdout)) {
-    preds <- holdout_predictions(before, after, holdout, level)
-    m_before <- c(m_before, holdout_metrics(preds$before, preds$field$before))
-    m_after <- c(m_after, holdout_metrics(preds$after, preds$field$after))
+    ho <- holdout_predictions(before, after, holdout, level, seed)
+    m_before <- c(m_before, holdout_metrics(ho$before$pred, ho$before$field))
+    m_after <- c(m_after, holdout_metrics(ho$after$pred, ho$after$field))
+    ratio <- holdout_margin(ho, n_boot, seed)
+    ratio$ratio <- c(m_after[["holdout_rmse_model"]] / m_before[["holdout_rmse_model"]],
+                     m_after[["holdout_rmse"]] / m_before[["holdout_rmse"]])
+    kept <- attributes(ratio)[c("resampling", "block", "n_boot", "n_draws", "interval")]
+    ratio <- ratio[c("prediction", "ratio", "lower", "upper")]
+    rownames(ratio) <- NULL
+    attributes(ratio)[names(kept)] <- kept
   }
   out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
                     stringsAsFactors = FALSE)
   out$change <- ifelse(out$before == 0 & out$after == 0, 0, out$after / out$before - 1)
   attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
   attr(out, "conflicts") <- conflicts
+  attr(out, "holdout_ratio") <- ratio
+  attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
+  attr(out, "verdict") <- holdout_verdict(ratio)
   class(out) <- c("wv_comparison", "data.frame")
   out
 }
+
+# "helped", "worse" or "no clear change" from the ratios' intervals (NA
+# without a holdout); the rule of the help page's section "The verdict".
+holdout_verdict <- function(ratio) {
+  if (is.null(ratio)) return(NA_character_)
+  m <- ratio[ratio$prediction == "model", ]
+  cc <- ratio[ratio$prediction == "corrected", ]
+  if (m$upper < 1 && cc$lower <= 1.05) "helped" else if (m$lower > 1) "worse" else "no clear change"
+}
+
+verdict_rule <- paste(
+  "Rule: helped when the model-alone ratio (after / before of the held-out RMSE) has its 90% interval below 1",
+  "and the bias-corrected ratio's lower limit is not above 1.05; worse when the model-alone ratio's lower limit",
+  "is above 1; else no clear change (intervals over paired posterior draws and resamples of the held-out data)."
+)
 
 validation_metrics <- function(fit, level) {
   b <- bias(fit, level)
@@ -97,28 +185,6 @@ validation_metrics <- function(fit, level) {
     band_width = mean(r$upper - r$lower),
     model_rmse = sqrt(mean((mp$mean - mp$y)^2))
   )
-}
-
-holdout_predictions <- function(before, after, holdout, level, call = rlang::caller_env()) {
-  if (inherits(holdout, "wv_field")) {
-    return(list(
-      field = list(before = holdout, after = holdout),
-      before = stats::predict(before, type = "field_run", level = level),
-      after = stats::predict(after, type = "field_run", level = level)
-    ))
-  }
-  fld <- if (is.list(holdout)) holdout$field
-  if (inherits(fld, "wv_field")) fld <- list(before = fld, after = fld)
-  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") && inherits(fld$after, "wv_field") &&
-    inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
-  if (!ok) {
-    wv_abort(c(
-      "{.arg holdout} must be a {.cls wv_field} or a list with {.field field}, {.field before} and {.field after}.",
-      "i" = "{.field before} and {.field after} are predictions of each fit for the held-out system.",
-      "i" = "{.field field} is a {.cls wv_field}, or a list of two ({.field before}, {.field after}) when each model registers the held-out data to its own runs."
-    ), call = call)
-  }
-  list(field = fld[c("before", "after")], before = holdout$before, after = holdout$after)
 }
 
 # RMSE of the prediction mean against each held-out replicate, and the share
@@ -178,20 +244,9 @@ comparison_verdict <- function(x) {
                               else ""))
   }
   ratio <- function(m) v[[m]] / b[[m]]
-  if ("holdout_rmse_model" %in% names(v)) {
-    rm <- ratio("holdout_rmse_model")
-    rc <- ratio("holdout_rmse")
-    verdict <- if (rm < 1 && rc <= 1.05) {
-      "the change helped: the model alone predicts the held-out data better, and the bias-corrected prediction is no worse"
-    } else if (rm < 1) {
-      "the model alone predicts the held-out data better, but the bias-corrected prediction is worse: the calibration compensates elsewhere (see the inputs' posteriors of each fit)"
-    } else if (rc < 1) {
-      "the model alone does not predict the held-out data better; only the bias correction does"
-    } else {
-      "the change did not help at the held-out condition"
-    }
-    lines <- c(lines, sprintf("At the held-out condition the model alone errs %s times as much as before and the bias-corrected prediction %s times: %s.",
-                              format(round(rm, 2), nsmall = 2), format(round(rc, 2), nsmall = 2), verdict))
+  hr <- attr(x, "holdout_ratio")
+  if (!is.null(hr)) {
+    lines <- c(lines, holdout_lines(hr, attr(x, "verdict") %||% holdout_verdict(hr)))
   } else {
     lines <- c(lines, sprintf("The localised bias is %s times what it was. Without a held-out condition this rests on the fitted data, where an input that absorbs the effect can fake a fall: give holdout = (another experiment, load or dose).",
                               format(round(ratio("bias_rms_local"), 2), nsmall = 2)))
@@ -199,17 +254,57 @@ comparison_verdict <- function(x) {
   lines
 }
 
+# The verdict at the held-out condition, its ratios with their intervals,
+# how they were resampled, and the rule.
+holdout_lines <- function(hr, verdict) {
+  m <- hr[hr$prediction == "model", ]
+  cc <- hr[hr$prediction == "corrected", ]
+  why <- switch(verdict,
+    helped = paste("the change helped: the model alone predicts the held-out data better by more than the data's",
+                   "noise and the predictions' uncertainty produce, and the bias-corrected prediction is not credibly worse"),
+    worse = "the change did not help at the held-out condition: the model alone predicts the held-out data credibly worse",
+    if (m$upper < 1) {
+      paste("no clear change: the model alone predicts the held-out data better, but the bias-corrected prediction",
+            "is credibly worse: the calibration compensates elsewhere (see the inputs' posteriors of each fit)")
+    } else if (cc$upper < 1) {
+      "no clear change: the model alone does not predict the held-out data credibly better; only the bias correction does"
+    } else {
+      "no clear change: the difference is within what the held-out data's noise and the predictions' uncertainty produce"
+    })
+  f <- function(z) format(round(z, 2), nsmall = 2)
+  how <- switch(attr(hr, "resampling") %||% "replicates",
+                replicates = "the held-out replicates resampled",
+                moving_block = sprintf("a moving-block bootstrap of the held-out curve's residuals, blocks of %d time points",
+                                       attr(hr, "block")),
+                mixed = sprintf("replicates resampled, single curves by moving blocks of %d time points", attr(hr, "block")))
+  c(sprintf("At the held-out condition the model alone errs %s times as much as before [90%%: %s, %s] and the bias-corrected prediction %s times [%s, %s]: %s.",
+            f(m$ratio), f(m$lower), f(m$upper), f(cc$ratio), f(cc$lower), f(cc$upper), why),
+    sprintf("(%d paired resamples: %s; %d posterior draw pairs.)", attr(hr, "n_boot"), how, attr(hr, "n_draws")),
+    verdict_rule)
+}
+
 #' @export
 summary.wv_comparison <- function(object, ...) {
   structure(list(table = as.data.frame(unclass(object)[c("metric", "before", "after", "change")]),
                  improved = object$metric[ifelse(object$metric == "holdout_coverage",
-                                                 object$after > object$before, object$after < object$before)]),
+                                                 object$after > object$before, object$after < object$before)],
+                 verdict = attr(object, "verdict") %||% NA_character_, holdout_ratio = attr(object, "holdout_ratio")),
             class = "summary_wv_comparison")
 }
 
 #' @export
 print.summary_wv_comparison <- function(x, ...) {
   cli::cat_line("Improved after the change: ", if (length(x$improved)) paste(x$improved, collapse = ", ") else "nothing")
+  hr <- x$holdout_ratio
+  if (!is.null(hr)) {
+    f <- function(z) format(round(z, 2), nsmall = 2)
+    cli::cat_line(sprintf("At the held-out condition: %s (after / before, model alone %s [%s, %s], bias-corrected %s [%s, %s]).",
+                          x$verdict, f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1]), f(hr$ratio[2]), f(hr$lower[2]),
+                          f(hr$upper[2])))
+    cli::cat_line(verdict_rule)
+  } else {
+    cli::cat_line("No held-out condition: no verdict (give holdout = an experiment() of another load, mass or dose).")
+  }
   invisible(x)
 }
 

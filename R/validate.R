@@ -104,7 +104,14 @@
 #'   `sampler_control()` named here (`n_draws = 200`, `sigma2 = ...`,
 #'   `quiet = TRUE`) work for this version, with a warning of class
 #'   `wavevalid_warning_deprecated`.
-#' @return A `wv_fit` object (see [calibrate()]).
+#' @return A `wv_fit` object (see [calibrate()]). It keeps the arguments
+#'   of the pipeline in `call_args` (`runs`, the `field` as given, before its
+#'   registration, `windows`, `reference`, `knots_every`, `features`,
+#'   `basis_args`, `engine`, the `experiments` as given, `chains`), so that
+#'   [update()][update.wv_fit] validates again with the same settings and
+#'   [compare_validations()] registers held-out data as the fit registered
+#'   its own.
+#' @seealso [update.wv_fit()] to validate again with new runs.
 #' @export
 #' @examples
 #' \donttest{
@@ -135,6 +142,9 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   sigma2 <- bias$sigma2
   check_sigma2(sigma2, names(field$curves))
   enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
+  raw_field <- field
+  raw_experiments <- experiments
+  knots_every_arg <- knots_every
   if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
   if (!is.null(experiments)) check_experiment_list(experiments)
   if (!is.null(windows)) {
@@ -149,6 +159,10 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
                                           knots_every = knots_every, quiet = quiet)
     }
   }
-  calibrate(emulators, field, iu, experiments = experiments, bias = bias, sampler = sampler, chains = chains,
-            seed = seed)
+  fit <- calibrate(emulators, field, iu, experiments = experiments, bias = bias, sampler = sampler, chains = chains,
+                   seed = seed)
+  fit$call_args <- list(runs = runs, field = raw_field, windows = windows, reference = reference,
+                        knots_every = knots_every_arg, features = features, basis_args = basis_args, engine = engine,
+                        experiments = raw_experiments, chains = chains)
+  fit
 }

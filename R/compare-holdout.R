@@ -1,0 +1,195 @@
+# The held-out condition of compare_validations(): each model's prediction of
+# it (made here for a wv_field or an experiment(), given by the user
+# otherwise), its held-out field data registered to that model's runs, the
+# draws of its predictions, and the paired resampling behind the verdict.
+
+# A list `before`, `after`, each with `field` (the held-out data for that
+# model), `pred` (a wv_prediction whose summary has `mean` and `model`) and
+# `draws` (by site: `Psi` and centred coefficient draws `model`, `corrected`,
+# or `Psi = NULL` and centred curve draws; NULL when the prediction has none).
+holdout_predictions <- function(before, after, holdout, level, seed, call = rlang::caller_env()) {
+  fits <- list(before = before, after = after)
+  if (inherits(holdout, "wv_field")) {
+    return(lapply(fits, function(f) {
+      pred <- stats::predict(f, type = "field_run", level = level, seed = seed)
+      list(field = holdout, pred = pred, draws = fit_draws(f, unique(pred$summary$site)))
+    }))
+  }
+  if (inherits(holdout, "wv_experiment")) holdout <- list(before = holdout, after = holdout)
+  if (is.list(holdout) && inherits(holdout$before, "wv_experiment") && inherits(holdout$after, "wv_experiment")) {
+    return(stats::setNames(lapply(c("before", "after"), function(m) {
+      experiment_prediction(fits[[m]], holdout[[m]], level, seed, call)
+    }), c("before", "after")))
+  }
+  fld <- if (is.list(holdout)) holdout$field
+  if (inherits(fld, "wv_field")) fld <- list(before = fld, after = fld)
+  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") && inherits(fld$after, "wv_field") &&
+    inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
+  if (!ok) {
+    wv_abort(c(
+      "{.arg holdout} must be an {.fn experiment}, a list of two ({.field before}, {.field after}), a {.cls wv_field} or a list with {.field field}, {.field before} and {.field after}.",
+      "i" = "An {.fn experiment} with {.arg change} is predicted by each model at its inputs plus the change.",
+      "i" = "With predictions: {.field before} and {.field after} are {.cls wv_prediction}s of each fit for the held-out system, {.field field} a {.cls wv_field} or a list of two."
+    ), call = call)
+  }
+  lapply(c(before = "before", after = "after"), function(m) {
+    list(field = fld[[m]], pred = holdout[[m]], draws = prediction_draws(holdout[[m]]))
+  })
+}
+
+# Centred coefficient draws of a fit's model (plus `dW`, a change of the
+# model coefficients draw by draw) and of its bias-corrected prediction.
+fit_draws <- function(fit, sites, dW = NULL) {
+  # the Gram matrix of the basis: the identity (NULL) for the orthonormal
+  # columns of wavelet_basis()'s transforms
+  G <- if (is.null(fit$basis$settings)) crossprod(fit$basis$Psi)
+  stats::setNames(lapply(sites, function(s) {
+    M <- fit$wM[[s]]
+    if (!is.null(dW)) M <- M + dW[[s]]
+    W <- M + fit$wb[[s]]
+    list(Psi = fit$basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+  }), sites)
+}
+
+# The curve draws a user's prediction kept (keep_draws = TRUE), centred; the
+# model alone has none.
+prediction_draws <- function(pred) {
+  if (is.null(pred$draws)) return(NULL)
+  lapply(pred$draws, function(D) list(Psi = NULL, model = NULL, corrected = sweep(D, 2L, colMeans(D))))
+}
+
+# One model's prediction of a held-out experiment: its field data registered
+# as the fit registered its own (validate() with windows: to the model in the
+# experiment's condition, see register_experiments()), and the prediction at
+# the posterior draws of the inputs plus the change (predict(type =
+# "added_load", delta = change)) or through the experiment's own emulators.
+experiment_prediction <- function(fit, x, level, seed, call) {
+  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), call = call)$holdout
+  miss <- setdiff(names(x$field$curves), base_sites(fit))
+  if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
+  args <- fit$call_args
+  field <- x$field
+  if (!is.null(args$windows)) {
+    ke <- args$knots_every
+    if (identical(ke, "auto")) ke <- diff(range(fit$basis$t)) / 32
+    field <- register_experiments(list(holdout = x), fit$emulators, args$runs, args$windows,
+                                  features = args$features, knots_every = ke, quiet = TRUE)$holdout$field
+  }
+  sites <- names(field$curves)
+  if (!is.null(x$change)) {
+    pred <- stats::predict(fit, type = "added_load", delta = x$change, level = level, seed = seed)
+    dW <- added_load_emulated(fit, x$change, call = call)$Dw
+    return(list(field = field, pred = pred, draws = fit_draws(fit, sites, dW)))
+  }
+  post <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
+  em <- x$emulators
+  zbar <- matrix(colMeans(post)[em$inputs], 1L)
+  Ms <- stats::setNames(lapply(sites, function(s) {
+    gasp_bank_predict_cpp(em$banks[[s]], post[, em$inputs, drop = FALSE])$mean
+  }), sites)
+  rows <- with_rng_seed(seed, lapply(sites, function(s) {
+    M <- Ms[[s]]
+    W <- M + fit$wb[[s]] + sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
+    band <- band_frame(tcrossprod(W, fit$basis$Psi), fit$basis$t, s, level)
+    band$model <- drop(tcrossprod(gasp_bank_predict_cpp(em$banks[[s]], zbar)$mean, fit$basis$Psi))
+    band
+  }))
+  pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive", level = level,
+                         seed = seed), class = "wv_prediction")
+  dW <- stats::setNames(lapply(sites, function(s) Ms[[s]] - fit$wM[[s]]), sites)
+  list(field = field, pred = pred, draws = fit_draws(fit, sites, dW))
+}
+
+# The paired comparison behind the verdict. Each of n_boot resamples takes
+# one draw index h (the same for both fits: draw h of before and of after)
+# and one resample of the held-out data (the same for both): its replicates
+# drawn with replacement when a site has two or more, else a moving-block
+# bootstrap over time of the single curve's residuals about each model's
+# bias-corrected mean prediction (the same blocks for both), blocks of
+# ceiling(sqrt(T)) time points. The ratio after / before of the RMSE, for the
+# model alone and for the bias-corrected prediction; its interval holds the
+# central `interval` share of the resamples.
+holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
+  sites <- Reduce(intersect, list(unique(ho$before$pred$summary$site), unique(ho$after$pred$summary$site),
+                                  names(ho$before$field$curves), names(ho$after$field$curves)))
+  n_t <- length(ho$before$field$t)
+  block <- ceiling(sqrt(n_t))
+  parts <- lapply(ho, function(h) {
+    lapply(stats::setNames(sites, sites), function(s) {
+      ps <- h$pred$summary[h$pred$summary$site == s, , drop = FALSE]
+      list(y = h$field$curves[[s]], model = ps$model, corrected = ps$mean, draws = h$draws[[s]])
+    })
+  })
+  n_rep <- vapply(sites, function(s) min(nrow(parts$before[[s]]$y), nrow(parts$after[[s]]$y)), integer(1))
+  n_draws <- vapply(c("before", "after"), function(m) {
+    d <- parts[[m]][[sites[1]]]$draws
+    if (is.null(d)) NA_integer_ else nrow(d$corrected)
+  }, integer(1))
+  H <- if (all(is.na(n_draws))) 0L else min(n_draws, na.rm = TRUE)
+  idx <- with_rng_seed(seed, list(
+    h = if (H > 0L) sample.int(H, n_boot, replace = TRUE),
+    rows = lapply(n_rep, function(R) if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot)),
+    time = if (any(n_rep < 2L)) t(replicate(n_boot, moving_blocks(n_t, block)))
+  ))
+  sse <- array(0, c(n_boot, 2L, 2L), dimnames = list(NULL, c("before", "after"), c("model", "corrected")))
+  for (s in sites) {
+    R <- n_rep[[s]]
+    # the resampled data: counts of each replicate, or the block-resampled
+    # residuals of the single curve about the bias-corrected mean
+    counts <- if (R >= 2L) t(apply(idx$rows[[s]], 1L, tabulate, nbins = R))
+    for (m in c("before", "after")) {
+      p <- parts[[m]][[s]]
+      y <- p$y[seq_len(R), , drop = FALSE]
+      d <- p$draws
+      if (R < 2L) {
+        e <- y[1, ] - p$corrected
+        E <- matrix(e[idx$time], n_boot)
+        PE <- if (is.null(d$Psi)) E else E %*% d$Psi
+      }
+      for (kind in c("model", "corrected")) {
+        sse[, m, kind] <- sse[, m, kind] + resampled_sse(y, p[[kind]], p$corrected, counts, if (R < 2L) E,
+                                                         if (R < 2L) PE, d, kind, idx$h)
+      }
+    }
+  }
+  ratio <- sqrt(sse[, "after", ] / sse[, "before", ])
+  a <- (1 - interval) / 2
+  q <- apply(ratio, 2L, stats::quantile, probs = c(a, 1 - a), names = FALSE)
+  structure(data.frame(prediction = c("model", "corrected"), lower = q[1, ], upper = q[2, ], stringsAsFactors = FALSE),
+            resampling = if (all(n_rep >= 2L)) "replicates" else if (all(n_rep < 2L)) "moving_block" else "mixed",
+            block = if (any(n_rep < 2L)) block, n_boot = n_boot, n_draws = H, interval = interval)
+}
+
+# Indices of a moving-block bootstrap of n points in blocks of length L.
+moving_blocks <- function(n, L) {
+  starts <- sample.int(n - L + 1L, ceiling(n / L), replace = TRUE)
+  as.vector(outer(seq_len(L) - 1L, starts, `+`))[seq_len(n)]
+}
+
+# Sum of squared errors of the prediction `center` plus draw h's deviation
+# (Psi d_h, or the curve deviation d_h when Psi is NULL) against each
+# resample of the data: the replicates of `y` taken `counts` times (n_boot x
+# R), or `corrected` plus the block-resampled residuals `E` (n_boot x T,
+# projected `PE`).
+# With G = Psi'Psi (d$G, NULL for the identity), ||r - Psi d||^2 = ||r||^2 - 2 (Psi'r).d + d'G d, so that
+# the curves of the draws are never built.
+resampled_sse <- function(y, center, corrected, counts, E, PE, d, kind, h) {
+  Psi <- d$Psi
+  proj <- function(X) if (is.null(Psi)) X else X %*% Psi
+  if (is.null(E)) {
+    r <- sweep(y, 2L, center)
+    A <- drop(counts %*% rowSums(r^2))
+    P <- counts %*% proj(r)
+    n_rep <- nrow(y)
+  } else {
+    shift <- corrected - center
+    A <- rowSums(sweep(E, 2L, shift, `+`)^2)
+    P <- sweep(PE, 2L, drop(proj(matrix(shift, 1L))), `+`)
+    n_rep <- 1L
+  }
+  D <- if (!is.null(d) && !is.null(d[[kind]]) && !is.null(h)) d[[kind]][h, , drop = FALSE]
+  if (is.null(D)) return(A)
+  G <- d$G
+  quad <- if (is.null(G)) rowSums(D^2) else rowSums((D %*% G) * D)
+  A - 2 * rowSums(P * D) + n_rep * quad
+}

@@ -1,0 +1,89 @@
+# example_problem()'s runs, as validate() takes them, and a fit of them
+# registered on the bump's window.
+update_problem <- function() {
+  ex <- example_problem()
+  runs <- model_runs(as.data.frame(ex$emulators$design),
+                     ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
+  list(ex = ex, runs = runs, windows = list(c(0.4, 0.8)))
+}
+
+update_validate <- function(p, ...) {
+  suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, windows = p$windows, knots_every = NULL, chains = 1,
+                            sampler = sampler_control(n_draws = 40, n_inner = 5, quiet = TRUE), ...))
+}
+
+test_that("update() with the fit's own runs reproduces validate() with the same settings, draw for draw", {
+  p <- update_problem()
+  fit <- update_validate(p, seed = 3)
+  withr::local_seed(99)
+  again <- suppressWarnings(update(fit))
+  expect_identical(again$seed, 3L)
+  expect_identical(as.matrix(again$draws), as.matrix(fit$draws))
+  expect_identical(again$wb, fit$wb)
+  expect_identical(again$field$curves, fit$field$curves)
+  expect_identical(again$control, fit$control)
+  expect_identical(again$call_args$windows, p$windows)
+  # the raw field is kept, registered afresh (not the registered curves registered again)
+  expect_identical(fit$call_args$field, p$ex$field)
+  expect_false(identical(fit$field$curves, p$ex$field$curves))
+})
+
+test_that("update() registers the raw field to the new runs, and its arguments override the fit's", {
+  p <- update_problem()
+  fit <- update_validate(p, seed = 3)
+  # a model with an added effect: a further input, its strength, moving the bump
+  d <- p$runs$design
+  withr::local_seed(2)
+  d$s <- (sample(nrow(d)) - stats::runif(nrow(d))) / nrow(d)
+  t <- p$runs$t
+  curves <- p$runs$curves$site1 + outer(0.2 * d$s, exp(-((t - 0.62) / 0.06)^2))
+  runs2 <- model_runs(d, curves, t, site = "site1")
+  iu2 <- iu_add(p$ex$iu, "s", lower = 0, upper = 1, nominal = 0.5)
+  # the runs' new input without the I/U map that names it: stopped before any fit
+  expect_error(update(fit, runs = runs2), class = "wavevalid_error_update")
+  expect_error(update(fit, runs = runs2), "I/U map lacks")
+  fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu2))
+  expect_true("s" %in% fit2$inputs)
+  direct <- register_curves(p$ex$field, runs2, p$windows, knots_every = NULL)
+  expect_identical(fit2$field$curves, direct$curves)
+  expect_identical(fit2$field$warps, direct$warps)
+  expect_identical(fit2$call_args$runs, runs2)
+  # overrides: the sampler, the chains and the seed
+  fit3 <- suppressWarnings(update(fit, sampler = sampler_control(n_draws = 30, n_inner = 5, quiet = TRUE),
+                                  chains = 2, seed = 4))
+  expect_identical(coda::nchain(fit3$draws), 2L)
+  expect_identical(nrow(fit3$draws[[1]]), 30L)
+  expect_identical(fit3$seed, 4L)
+  direct <- suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, windows = p$windows, knots_every = NULL, chains = 2,
+                                      seed = 4, sampler = sampler_control(n_draws = 30, n_inner = 5, quiet = TRUE)))
+  expect_identical(as.matrix(fit3$draws), as.matrix(direct$draws))
+  expect_error(update(fit, n_draws = 10), class = "wavevalid_error_update")
+})
+
+test_that("update() of a calibrate() fit says to validate first", {
+  expect_error(update(example_fit()), class = "wavevalid_error_update")
+  expect_error(update(example_fit()), "made by `calibrate()`", fixed = TRUE)
+})
+
+test_that("the loop in three calls: validate(), update(), compare_validations() at a held-out experiment", {
+  p <- update_problem()
+  fit <- update_validate(p, seed = 3)
+  d <- p$runs$design
+  withr::local_seed(2)
+  d$s <- (sample(nrow(d)) - stats::runif(nrow(d))) / nrow(d)
+  t <- p$runs$t
+  runs2 <- model_runs(d, p$runs$curves$site1 + outer(0.2 * d$s, exp(-((t - 0.62) / 0.06)^2)), t, site = "site1")
+  fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu_add(p$ex$iu, "s", lower = 0, upper = 1, nominal = 0.5)))
+  held <- experiment(p$ex$field, change = c(x1 = 0.2))
+  cmp <- compare_validations(fit, fit2, holdout = held, seed = 1)
+  expect_true(attr(cmp, "verdict") %in% c("helped", "worse", "no clear change"))
+  # the held-out field data are registered to each model in the experiment's condition, as validate() registers
+  hf <- attr(cmp, "holdout_field")
+  for (m in c("before", "after")) {
+    f <- list(before = fit, after = fit2)[[m]]
+    direct <- register_experiments(list(h = held), f$emulators, f$call_args$runs, p$windows, knots_every = NULL,
+                                   quiet = TRUE)$h$field
+    expect_identical(hf[[m]]$curves, direct$curves)
+  }
+  expect_false(identical(hf$before$curves, held$field$curves))
+})
