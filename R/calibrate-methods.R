@@ -52,16 +52,7 @@ print.wv_fit <- function(x, ...) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
   }
-  if (!is.null(x$registration_var)) {
-    share <- vapply(names(x$registration_var), function(s) {
-      e <- colMeans(x$sigma2[[s]]) / x$n_rep[[s]]
-      r <- x$registration_var[[s]]
-      sum(r) / sum(r + e)
-    }, numeric(1))
-    cli::cat_line("Registration variance added to the field mean: ",
-                  paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "),
-                  " of its variance")
-  }
+  for (line in registration_lines(x)) cli::cat_line(line)
   lo <- if (!is.null(x$field$warps)) attr(x$field$warps, "left_out")
   if (!is.null(lo) && nrow(lo)) {
     cli::cat_line("! Registration left out landmarks in another order than the reference's: ",
@@ -130,7 +121,27 @@ noise_lines <- function(fit) {
                         f(stats::quantile(sd_draws, 0.05, names = FALSE)),
                         f(stats::quantile(sd_draws, 0.95, names = FALSE)), measured_noise_text(ev)))
   }, character(1))
-  c("Field noise:", paste0("  ", lines))
+  c("Field noise:", paste0("  ", lines), registration_lines(fit))
+}
+
+# The variance the registration adds to the field mean, and where it comes
+# from (bias_control(registration_variance =)).
+registration_lines <- function(fit) {
+  if (is.null(fit$registration_var)) return(character())
+  share <- vapply(names(fit$registration_var), function(s) {
+    e <- colMeans(fit$sigma2[[s]]) / fit$n_rep[[s]]
+    r <- fit$registration_var[[s]]
+    sum(r) / sum(r + e)
+  }, numeric(1))
+  src <- if (identical(fit$settings$registration_variance, "check")) {
+    n <- nrow(fit$field$registration_check[[1L]] %||% matrix(0, 0, 0))
+    sprintf("the registration's own error (what it changed in the %d model run%s nearest the field)", n,
+            if (n == 1L) "" else "s")
+  } else {
+    "the spread of the reference's landmarks over the model runs"
+  }
+  sprintf("Registration: %s added to the variance of the field mean, %s of it", src,
+          paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "))
 }
 
 # What the learned noise took from the measurements on their own time stamps

@@ -122,9 +122,12 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     ), class = "noise_estimate")
   }
   sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
+  if (identical(pool_levels, "coarse")) pool_levels <- coarse_levels(basis)
   tau_group <- bias_groups(basis$level, pool_levels, call = call)
   extra <- NULL
-  if (registration_variance) {
+  if (identical(registration_variance, "check")) {
+    extra <- registration_check_variance(field, basis)
+  } else if (isTRUE(registration_variance)) {
     extra <- registration_extra_variance(field, basis)
     if (is.null(extra)) {
       wv_abort(c(
@@ -159,6 +162,21 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
        s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise,
        noise_evidence = noise_evidence_summary(field, sites[noise_setting == "learned"], site_data))
+}
+
+# The levels whose bias coefficients share one variance under
+# `pool_levels = "coarse"`: the record-wide levels (their functions span the
+# whole record) and the finer levels after them until the group holds more
+# than four coefficients, so that the posterior of its variance (about an
+# inverse gamma of shape n / 2 from n coefficients) has a finite variance.
+# NULL when that leaves fewer than two levels.
+coarse_levels <- function(basis) {
+  lv <- sort(unique(basis$level))
+  n <- as.vector(table(factor(basis$level, levels = lv)))
+  j <- max(c(intersect(record_wide_levels(basis), lv), min(lv)))
+  while (sum(n[lv <= j]) <= 4L && j < max(lv)) j <- lv[lv > j][1L]
+  out <- lv[lv <= j]
+  if (length(out) < 2L) NULL else out
 }
 
 # The bias-variance groups of the coefficients of a basis: one per level, or

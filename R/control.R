@@ -3,9 +3,10 @@
 #' `bias_control()` gathers the choices that change what [calibrate()] and
 #' [validate()] estimate: how the field noise is set, how the bias variances
 #' are grouped over wavelet levels, which levels inform the inputs, and how
-#' the inputs' likelihood counts the coefficients. Its defaults are the
-#' package's defaults; the method's report is
-#' `bias_control(input_likelihood = "independent")`. The arguments are checked
+#' the inputs' likelihood counts the coefficients, and what the registration
+#' adds to the field's variance. Its defaults are the package's defaults; the
+#' method's report is `bias_control(pool_levels = NULL, input_likelihood =
+#' "independent", registration_variance = FALSE)`. The arguments are checked
 #' here, once; what depends on the data (the sites of `sigma2`, the levels
 #' the basis holds, the groups of `fix_tau2`) is checked by [calibrate()].
 #'
@@ -26,12 +27,17 @@
 #'     curves with [field_noise()], with a warning. On a smoothed or
 #'     interpolated curve the finest level holds less than the noise, and
 #'     this underestimates it (the bands are then too narrow).
-#' @param pool_levels `NULL` (one bias variance per site and level, as in the
-#'   method) or two or more wavelet levels whose bias coefficients share one
-#'   variance at each site (group `"site:a-b"`). Levels 0 and 1 hold one
-#'   coefficient each, so their own variance is barely informed by the data;
-#'   `pool_levels = 0:3` shrinks them with the 8 coefficients of levels 0 to
-#'   3. See the section Bias variances of [calibrate()].
+#' @param pool_levels `"coarse"` (default): the coarsest levels' bias
+#'   coefficients share one variance at each site: the record-wide levels
+#'   (whose functions span the whole record, see [where_fails()]) and the
+#'   finer levels after them until the group holds more than four
+#'   coefficients (levels 0 to 3 for the default basis), so that the data
+#'   inform that variance; `NULL`, one bias variance per site and level, as
+#'   in the method; or two or more wavelet levels whose bias coefficients
+#'   share one variance at each site (group `"site:a-b"`). Under the method's
+#'   prior a level of one coefficient (levels 0 and 1) has a nearly free bias,
+#'   which takes whatever offset of the whole record the calibrated inputs
+#'   create. See the section Bias variances of [calibrate()].
 #' @param inform_levels `NULL` (every level informs the inputs, as in the
 #'   method) or the wavelet levels whose coefficients inform the inputs; the
 #'   other levels get their `tau2` and bias given the inputs drawn. Levels
@@ -44,11 +50,13 @@
 #'   of [calibrate()].
 #' @param temper Power of the likelihood in (0, 1]: 1 (default) is the
 #'   method's posterior.
-#' @param registration_variance `TRUE` adds to the variance of the
-#'   registered field mean the variance that comes from registering to the
-#'   mean of the model runs (needs a field registered to `wv_runs`); `FALSE`
-#'   (default) is the method's. See the section Registration of
-#'   [calibrate()].
+#' @param registration_variance What the registration of the field adds to
+#'   the variance of the registered field mean (see the section
+#'   Registration of [calibrate()]): `"check"` (default), the registration's
+#'   own error, measured by [register_curves()] on the model runs nearest
+#'   the field (nothing is added when the field was not registered to model
+#'   runs); `TRUE`, a first-order variance from the spread of the
+#'   reference's landmarks over the runs; `FALSE`, nothing (the method's).
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector
 #'   named by group `"site:level"`); they are then not sampled. Mostly for
 #'   checks.
@@ -63,10 +71,11 @@
 #' @export
 #' @examples
 #' bias_control()
-#' bias_control(pool_levels = 0:3, input_likelihood = "independent")
-bias_control <- function(sigma2 = NULL, pool_levels = NULL, inform_levels = NULL,
+#' # the method's report
+#' bias_control(pool_levels = NULL, input_likelihood = "independent", registration_variance = FALSE)
+bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = NULL,
                          input_likelihood = c("adjusted", "independent"), temper = 1,
-                         registration_variance = FALSE, fix_tau2 = NULL,
+                         registration_variance = "check", fix_tau2 = NULL,
                          level_variances = c("shared", "per_experiment"),
                          experiment_bias = c("own", "shared")) {
   input_likelihood <- check_choice(input_likelihood)
@@ -74,8 +83,10 @@ bias_control <- function(sigma2 = NULL, pool_levels = NULL, inform_levels = NULL
   experiment_bias <- check_choice(experiment_bias)
   check_number(temper, min = 0, max = 1)
   if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
-  check_flag(registration_variance)
-  check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
+  if (!(isTRUE(registration_variance) || isFALSE(registration_variance) || identical(registration_variance, "check"))) {
+    wv_abort("{.arg registration_variance} must be {.val check}, {.code TRUE} or {.code FALSE}.")
+  }
+  if (!identical(pool_levels, "coarse")) check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
   check_levels_arg(inform_levels, "inform_levels", min_length = 1L)
   check_sigma2(sigma2)
   if (!is.null(fix_tau2) && (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0))) {
@@ -227,7 +238,7 @@ fit_controls <- function(fit) {
   args <- fit$calibrate_args %||% list()
   bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels, inform_levels = st$inform_levels,
                        input_likelihood = st$input_likelihood %||% "independent", temper = st$temper %||% 1,
-                       registration_variance = isTRUE(st$registration_variance), fix_tau2 = args$fix_tau2,
+                       registration_variance = st$registration_variance %||% FALSE, fix_tau2 = args$fix_tau2,
                        level_variances = st$level_variances %||% "shared",
                        experiment_bias = st$experiment_bias %||% "own")
   sampler <- sampler_control(n_draws = st$n_draws, n_inner = st$n_inner, step = st$step,

@@ -69,3 +69,19 @@ grid_slope <- function(y, t) {
   d[n] <- (y[n] - y[n - 1L]) / (t[n] - t[n - 1L])
   d
 }
+
+# The variance of the registered field mean from the registration's own error
+# (register_curves()'s `registration_check`: what registering changed in the
+# model runs nearest the field): by site, the mean square of the change's
+# coefficients, over the checked runs and the coefficients of `basis`, for
+# every coefficient. NULL when the field carries no check.
+registration_check_variance <- function(field, basis) {
+  chk <- field$registration_check
+  if (is.null(chk)) return(NULL)
+  sites <- names(field$curves)
+  if (!all(sites %in% names(chk))) return(NULL)
+  stats::setNames(lapply(sites, function(s) {
+    E <- basis_coef(basis, chk[[s]])
+    rep(mean(E^2), ncol(E))
+  }), sites)
+}
