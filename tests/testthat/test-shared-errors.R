@@ -75,18 +75,47 @@ test_that("calibrate() weighs the inputs' likelihood for shared errors by defaul
   adj <- run("adjusted")
   expect_null(ind$shared_errors)
   w <- adj$shared_errors$weight
-  expect_true(w > 0 && w <= 1)
   expect_identical(adj$settings$input_likelihood, "adjusted")
   expect_true(any(grepl("taken as independent", capture.output(print(ind)))))
   expect_true(any(grepl(sprintf("raised to %s", format(signif(w, 3))), capture.output(print(adj)), fixed = TRUE)))
   expect_true(any(grepl("sd_ratio", capture.output(print(adj)))))
-  # the weight widens the inputs' posterior
-  sd_of <- function(f) stats::sd(as.matrix(f$draws)[, "u1"])
-  expect_gt(sd_of(adj), sd_of(ind))
   # the default is the adjusted likelihood, draw for draw
   def <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 3,
                    bias = bias_control(sigma2 = gp$sigma2),
                    sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   expect_identical(as.matrix(def$draws), as.matrix(adj$draws))
   expect_error(run("pca"), class = "wavevalid_error_input")
+})
+
+test_that("errors the coefficients share bring the weight well below 1 and widen the inputs' posterior at every seed", {
+  for (s in 1:3) {
+    withr::local_seed(100 + s)
+    sp <- shift_problem()
+    ind <- shift_draws(sp, "independent", seed = s)
+    adj <- shift_draws(sp, "adjusted", seed = s)
+    # a shift of the whole record is one error repeated by the 8 coefficients: the weight is near 1 / 3
+    expect_lt(adj$weight, 0.5)
+    # the posterior sd grows by about 1 / sqrt(weight) (1.4 at weight 0.5)
+    expect_gt(stats::sd(adj$u1) / stats::sd(ind$u1), 1.3, label = sprintf("seed %d sd ratio", s))
+  }
+})
+
+test_that("with errors the coefficients share, the adjusted inputs' 95% intervals cover the truth near the nominal rate, the independent ones clearly less", {
+  skip_unless_slow()
+  # theory: the independent likelihood's sd is too small by about sqrt(w) ~ 0.55, its 95% interval covers
+  # 2 pnorm(1.96 * 0.55) - 1 ~ 0.72; the adjusted one near 0.95 less what 8 replicates' covariance costs
+  cover <- vapply(1:60, function(r) {
+    withr::local_seed(1000 + r)
+    u <- stats::runif(1, 0.2, 0.8)
+    sp <- shift_problem(u)
+    inside <- function(d) {
+      q <- stats::quantile(d, c(0.025, 0.975))
+      u >= q[[1]] && u <= q[[2]]
+    }
+    c(independent = inside(shift_draws(sp, "independent", r, 400)$u1),
+      adjusted = inside(shift_draws(sp, "adjusted", r, 400)$u1))
+  }, logical(2))
+  rate <- rowMeans(cover)
+  expect_gte(rate[["adjusted"]], 0.8)
+  expect_lt(rate[["independent"]], 0.8)
 })
