@@ -119,3 +119,50 @@ test_that("with errors the coefficients share, the adjusted inputs' 95% interval
   expect_gte(rate[["adjusted"]], 0.8)
   expect_lt(rate[["independent"]], 0.8)
 })
+
+test_that("the weight counts the emulators' errors of two sites that share a design as correlated across the sites", {
+  withr::local_seed(14)
+  pb <- small_problem(two_inputs = FALSE, level = 4L, K = 7)
+  n <- length(pb$basis$index)
+  design <- pb$emulators$design
+  # site2's model: nearly site1's, so its emulators err where site1's do
+  f2 <- function(u) 0.8 * pb$f(u) + 0.1 * u
+  banks <- list(site1 = pb$emulators$banks$site1,
+                site2 = make_bank(design, t(vapply(design[, 1], f2, numeric(n))), beta = 3, alpha = 0))
+  emu <- make_emulators(banks, pb$basis, design)
+  R <- 3
+  W <- list(site1 = matrix(pb$f(0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.01), R, n),
+            site2 = matrix(f2(0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.01), R, n))
+  field <- wavevalid:::new_wv_field(pb$basis$t, lapply(W, function(w) w %*% t(pb$basis$Psi)))
+  spec <- wavevalid:::calibration_spec(emu, field, pb$iu, sigma2 = list(site1 = 0.01^2, site2 = 0.01^2))
+  z <- 0.33
+  tau2 <- 1e-4
+  expect_identical(nrow(spec$groups), 2L)
+  sigma2 <- list(site1 = rep(0.01^2, n), site2 = rep(0.01^2, n))
+  got <- wavevalid:::composite_weight(spec, field, z, c(tau2, tau2), sigma2)
+  # dense: the studentised leave-one-out errors of both sites (same runs) give one correlation matrix
+  h <- 1e-4
+  parts <- lapply(names(banks), function(s) {
+    P <- wavevalid:::gasp_bank_predict_cpp(banks[[s]], matrix(c(z, z + h, z - h), ncol = 1))
+    list(G = (P$mean[2, ] - P$mean[3, ]) / (2 * h), v = P$var[1, ], E = wavevalid:::bank_loo_errors(banks[[s]]),
+         S = stats::cov(W[[s]]) / R)
+  })
+  G <- unlist(lapply(parts, `[[`, "G"))
+  v <- unlist(lapply(parts, `[[`, "v"))
+  d <- v + 0.01^2 / R + tau2
+  dense_weight <- function(E) {
+    C <- crossprod(E) / nrow(E)
+    C <- C / sqrt(outer(diag(C), diag(C)))
+    C[!is.finite(C)] <- 0
+    S <- matrix(0, 2 * n, 2 * n)
+    S[1:n, 1:n] <- parts[[1]]$S
+    S[n + 1:n, n + 1:n] <- parts[[2]]$S
+    Sigma <- diag(sqrt(v)) %*% C %*% diag(sqrt(v)) + diag(tau2, 2 * n) + S
+    sum(G^2 / d) / drop(t(G / d) %*% Sigma %*% (G / d))
+  }
+  E <- cbind(parts[[1]]$E, parts[[2]]$E)
+  expect_equal(got$weight, min(1, dense_weight(E)), tolerance = 1e-6)
+  # the sites' errors taken as independent would count the same error twice as evidence: a larger weight
+  E_apart <- rbind(cbind(parts[[1]]$E, 0 * parts[[2]]$E), cbind(0 * parts[[1]]$E, parts[[2]]$E))
+  expect_lt(got$weight, min(1, dense_weight(E_apart)) - 0.05)
+})
