@@ -100,7 +100,10 @@ test_that("SBC of the learned noise at a small size, and not without the Jacobia
 })
 
 test_that("SBC of the learned noise of a resampled curve with repeated measurements, and not without its multipliers", {
-  mult <- c(0.15, 1.8, 1.2, 0.4, 2.5, 0.8, 1.5, 0.3)
+  # the first coefficient's multiplier is 1, so its reported variance is the learned variance of one
+  # measurement with or without the multipliers: the broken run fails by what it learns, not by how
+  # it reports (without them the other coefficients' larger noise is taken as that of one measurement)
+  mult <- c(1, 1.8, 1.2, 2.4, 2.5, 0.8, 1.5, 2.2)
   withr::local_seed(4405)
   p_ok <- sbc_noise_pvalues(400, mult = mult, df = 6)
   expect_true(all(p_ok > 0.01), label = paste(signif(p_ok, 3), collapse = ", "))
@@ -221,5 +224,9 @@ test_that("on the flyer plate the learned noise agrees with the repeated measure
   fit <- suppressWarnings(suppressMessages(validate(fl$runs, fl$field, fl$iu, chains = 1, seed = 1,
                                                     sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))))
   sd_draws <- sqrt(fit$sigma2$velocity[, 1] / fit$noise_evidence$velocity$mult[1])
-  expect_lt(abs(log(stats::median(sd_draws) / pairs_sd)), log(2))
+  # the 34 repeats carry most of the evidence (the posterior sd of log sd is 0.13, 1 / sqrt(2 * 34) = 0.12),
+  # so the posterior median departs from their sd only by the median's Monte Carlo error over 100
+  # draws (about 0.03) and the prior's pull: within 10%. Without the repeats in the likelihood it is
+  # 2.9 times theirs.
+  expect_lt(abs(log(stats::median(sd_draws) / pairs_sd)), 0.1)
 })
