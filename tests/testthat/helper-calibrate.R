@@ -120,3 +120,25 @@ sbc_setup <- function(R, sigma2, iu = NULL, two_inputs = FALSE) {
 sbc_rank_pvalues <- function(ranks, n_kept) {
   apply(ranks, 2, function(x) stats::chisq.test(tabulate(x %/% ((n_kept + 1) / 10) + 1, 10))$p.value)
 }
+
+# small_problem() with one input and one bias level, and R field replicates
+# whose errors the coefficients share: replicate r is the model at
+# u_true + d_r, d_r ~ N(0, s_u^2) (a random shift of the whole record, as a
+# registration error or a test's own jitter), plus white noise. The replicates'
+# mean carries the shift's mean, an error of sd s_u / sqrt(R) in u that every
+# coefficient repeats. Draws from R's RNG (set the seed first).
+shift_problem <- function(u_true = 0.4, R = 8, s_u = 0.04, noise = 0.02) {
+  pb <- small_problem(two_inputs = FALSE, level = 4L)
+  n <- length(pb$basis$index)
+  W <- t(vapply(u_true + stats::rnorm(R, 0, s_u), pb$f, numeric(n))) + matrix(stats::rnorm(R * n, 0, noise), R, n)
+  list(pb = pb, field = field_from_coef(pb$basis, W), u = u_true)
+}
+
+# The draws of u1 of calibrate() on a shift_problem() with the inputs'
+# likelihood `lik`.
+shift_draws <- function(sp, lik, seed, n_draws = 300) {
+  fit <- suppressWarnings(calibrate(sp$pb$emulators, sp$field, sp$pb$iu, chains = 1, seed = seed,
+                                    bias = bias_control(input_likelihood = lik),
+                                    sampler = sampler_control(n_draws = n_draws, n_inner = 10, quiet = TRUE)))
+  list(u1 = as.matrix(fit$draws)[, "u1"], weight = fit$shared_errors$weight %||% 1)
+}

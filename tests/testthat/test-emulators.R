@@ -316,3 +316,30 @@ test_that("the wide-vector kernels give Eigen's results to the bit", {
   v <- wavevalid:::vexp_identity_cpp(e, matrix(0.5, 2, 1))$values
   expect_true(all(abs(v - exp(e)) <= 2 * .Machine$double.eps * exp(e)))
 })
+
+test_that("coefficients that share one correlation predict to the bit what one-coefficient banks predict", {
+  withr::local_seed(31)
+  X <- cbind(a = stats::runif(12), b = stats::runif(12))
+  Y <- sin(3 * X[, 1]) + X[, 2]^2 + matrix(stats::rnorm(12 * 6, 0, 0.3), 12, 6)
+  # coefficients 1, 2, 4, 6 share one correlation and 3, 5 another (not next to each other), as the
+  # emulators fitted per level do
+  shared <- c(1, 1, 2, 1, 2, 1)
+  beta <- rbind(c(2, 1), c(6, 0.5))[shared, ]
+  alpha <- rbind(c(0.2, 0), c(0, 0.5))[shared, ]
+  bank <- make_bank(X, Y, beta, alpha, nugget = 1e-6)
+  one <- function(i) {
+    b <- bank
+    for (f in c("beta", "alpha")) b[[f]] <- b[[f]][i, , drop = FALSE]
+    for (f in c("mu", "lambda", "nugget")) b[[f]] <- b[[f]][i]
+    for (f in c("weights", "y")) b[[f]] <- b[[f]][, i, drop = FALSE]
+    b$chol <- b$chol[, , i, drop = FALSE]
+    b
+  }
+  Z <- cbind(stats::runif(40), stats::runif(40))
+  all <- wavevalid:::gasp_bank_predict_cpp(bank, Z)
+  for (i in seq_along(shared)) {
+    own <- wavevalid:::gasp_bank_predict_cpp(one(i), Z)
+    expect_identical(all$mean[, i], own$mean[, 1], label = sprintf("mean of coefficient %d", i))
+    expect_identical(all$var[, i], own$var[, 1], label = sprintf("variance of coefficient %d", i))
+  }
+})

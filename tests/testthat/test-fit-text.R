@@ -1,8 +1,20 @@
 test_that("fit_assumptions() gives the lines print() gives for each part of a fit", {
   fit <- example_fit()
-  expect_identical(fit_assumptions(fit), prior_lines(fit$prior_iu))
-  expect_identical(fit_assumptions(fit, "noise"), noise_lines(fit))
-  expect_identical(fit_assumptions(fit, "likelihood"), shared_error_lines(fit))
+  # the example's I/U map: u1 uniform on [0, 1], x1 normal about its nominal 0.5 with sd 1/6
+  expect_identical(fit_assumptions(fit), c("Priors:", "  u1  uniform on [0, 1]", "  x1  normal(0.5, sd 0.1667) on [0, 1]"))
+  # the noise of the example's four replicates, with the median sd of the fit's variance draws
+  sd_med <- format(signif(stats::median(sqrt(fit$sigma2$site1)), 3))
+  expect_identical(fit_assumptions(fit, "noise"), c(
+    "Field noise:",
+    paste0("  site1: from 4 replicates, one variance per coefficient (the method's estimate); median sd ", sd_med)
+  ))
+  # the likelihood's weight and what it came from, as stored in the fit
+  lik <- fit_assumptions(fit, "likelihood")
+  se <- fit$shared_errors
+  expect_length(lik, 1L)
+  expect_match(lik, sprintf("raised to %s in the inputs' steps (%d inputs / %s", format(signif(se$weight, 3)), se$p,
+                            format(signif(se$trace, 3))), fixed = TRUE)
+  expect_match(lik, sprintf("errors across %d coefficients", se$n_coef), fixed = TRUE)
   expect_identical(fit_assumptions(fit, "experiments"), character(0))
   expect_identical(fit_assumptions(fit, "joint_prior"), character(0))
   printed <- utils::capture.output(print(fit))
