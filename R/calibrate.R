@@ -81,19 +81,18 @@
 #' coarsest levels hold very few coefficients (level 0, the scaling
 #' coefficient, is the mean of the curve; level 1 is one coefficient too), so
 #' the data say little about their `tau2_j`: under the prior above a bias
-#' coefficient there is nearly unshrunk. The bias can then absorb a shift of
-#' the whole record while the inputs fit the events, and the bias band flags
-#' the whole record. `pool_levels = 0:3` gives the coefficients of levels 0
-#' to 3 (the levels the basis keeps whole by default) one variance per site,
-#' with `mean(sigma2)` over them in its prior; the other levels keep their own.
-#' Pooling helps most after a second wave of runs at [design_posterior()],
-#' where the method's prior can let a level-0 offset flag the whole record.
-#' Without a second wave, pooling keeps level-0 offsets out of the bias, but
-#' the re-validated mechanisms of [explain_bias()] are then more ready to
-#' claim one that is not there. On the package's suspension test bed with
-#' nothing hidden, pooling after a second wave kept the flagged intervals
-#' short while hidden mechanisms were still flagged where they act, and
-#' pooling without one led to claims of mechanisms that were not hidden; the
+#' coefficient there is nearly unshrunk, and it takes whatever offset of the
+#' whole record the calibrated inputs create while they fit the events. By
+#' default (`bias_control(pool_levels = "coarse")`) the record-wide levels
+#' and the finer levels after them share one variance per site until the
+#' group holds more than four coefficients (levels 0 to 3 for the default
+#' basis, 8 coefficients), with `mean(sigma2)` over them in its prior; the
+#' other levels keep their own. A bias that truly spans the record (a rate
+#' that drifts, an elimination that saturates) is still found: it is large in
+#' every coefficient of the group. `pool_levels = NULL` is the method's prior
+#' by level. On the package's two test beds with nothing hidden, pooling took
+#' the credible record-wide offsets from 1 of 10 fits to none, and mechanisms
+#' that act on the whole record were still reported as record-wide; the
 #' figures are in `studies/README.md` in the package's source repository.
 #'
 #' @section Levels cut off the inputs:
@@ -234,18 +233,29 @@
 #' a matrix of ones). With one experiment the fit is the same as without `experiments`
 #' (same seed, same draws).
 #' @section Registration:
-#' The field curves are registered to the mean of the model runs, whose
-#' landmarks sit where the average run puts them. Near a sharp event a
-#' fraction of a grid step between that time and the time at which the model
-#' at the true inputs has its landmark is a large difference between the
-#' registered field data and that model, which the field variance, estimated
-#' from the replicates' scatter about each other, does not cover. The
-#' landmark times of the runs show how far the landmark can move with the
-#' inputs; with `registration_variance = TRUE` that spread `sd_k` of each
-#' landmark `k` enters the variance of each coefficient of the field mean as
-#' `r_i = sum_k sd_k^2 (Psi' (h_k ybar'))_i^2`, `h_k` the hat function of the
-#' warp at the landmark and `ybar'` the slope of the registered field mean.
-#' This goes beyond the method's report.
+#' The field curves are registered to the mean of the model runs. Every
+#' replicate is warped onto that one reference, so whatever the registration
+#' changes in a curve's shape it changes alike in every replicate: the
+#' registered field mean carries an error that the replicates' scatter
+#' about each other does not show, and which the likelihood would otherwise
+#' read as signal (the inputs are pulled to fit it, and the bias band then
+#' flags intervals where the model at those inputs misses). By default
+#' (`registration_variance = "check"`) that error is measured on the model
+#' itself: [register_curves()] registers the model runs nearest the field
+#' like a replicate, and the mean square of what it changed in them, by
+#' wavelet level, is added to the variance of each coefficient of the field
+#' mean (the print says how much of that variance it is). A field not
+#' registered to model runs gets nothing added. On the suspension test bed
+#' with nothing hidden the registered field mean was 2 to 6 times further
+#' from reality than its sampling error; with this variance no localised
+#' interval and no input in conflict was left at five seeds of five (see
+#' `studies/README.md`). The price is power at the events: an effect no
+#' larger than what the registration itself changes there is not flagged.
+#' `registration_variance = TRUE` is a first-order alternative: the spread
+#' `sd_k` of each landmark `k` over the runs enters the variance of each
+#' coefficient as `r_i = sum_k sd_k^2 (Psi' (h_k ybar'))_i^2`, `h_k` the hat
+#' function of the warp at the landmark and `ybar'` the slope of the
+#' registered field mean. `FALSE` is the method's.
 #' @seealso [bias()], [reality()], [model_prediction()], [validate()].
 #' @export
 #' @examples

@@ -45,7 +45,7 @@ print.wv_fails <- function(x, ...) {
     if (length(off) && !isTRUE(attr(x, "pooled_level0"))) {
       cli::cat_line("The mean of the record (level 0) is credibly off at ", paste(off, collapse = ", "),
                     ". One coefficient barely informs its bias variance, so the calibrated inputs may trade",
-                    " that offset against the events; compare with bias_control(pool_levels = 0:3)")
+                    " that offset against the events; compare with bias_control(pool_levels = \"coarse\"), the default")
     }
   }
   cr <- attr(x, "credible")
