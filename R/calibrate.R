@@ -242,10 +242,11 @@
 #' flags intervals where the model at those inputs misses). By default
 #' (`registration_variance = "check"`) that error is measured on the model
 #' itself: [register_curves()] registers the model runs nearest the field
-#' like a replicate, and the mean square of what it changed in them, by
-#' wavelet level, is added to the variance of each coefficient of the field
-#' mean (the print says how much of that variance it is). A field not
-#' registered to model runs gets nothing added. On the suspension test bed
+#' like a replicate, and the mean square of what it changed in their
+#' wavelet coefficients (one number per site) is added to the variance of
+#' every coefficient of the field mean; the print says how much of the field
+#' mean's variance it is. A field not registered to model runs gets nothing
+#' added. On the suspension test bed
 #' with nothing hidden the registered field mean was 2 to 6 times further
 #' from reality than its sampling error; with this variance no localised
 #' interval and no input in conflict was left at five seeds of five (see

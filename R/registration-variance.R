@@ -82,8 +82,6 @@ registration_check_variance <- function(field, basis) {
   if (!all(sites %in% names(chk))) return(NULL)
   stats::setNames(lapply(sites, function(s) {
     E <- basis_coef(basis, chk[[s]])
-    if (identical(getOption("wavevalid.registration_by"), "flat")) return(rep(mean(E^2), ncol(E)))
-    v <- tapply(colMeans(E^2), basis$level, mean)
-    as.numeric(v[as.character(basis$level)])
+    rep(mean(E^2), ncol(E))
   }), sites)
 }
