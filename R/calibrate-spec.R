@@ -127,6 +127,13 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   extra <- NULL
   if (identical(registration_variance, "check")) {
     extra <- registration_check_variance(field, basis)
+    if (is.null(extra)) {
+      wv_abort(c(
+        "{.code registration_variance = \"check\"} needs the registration's own error, measured on model runs.",
+        "x" = "{.arg field} carries no {.field registration_check}.",
+        "i" = "Register it with {.code register_curves(field, runs, windows, check_runs = 5)}, or call {.fn validate} with {.arg windows}."
+      ), class = "registration", call = call)
+    }
   } else if (isTRUE(registration_variance)) {
     extra <- registration_extra_variance(field, basis)
     if (is.null(extra)) {

@@ -6,7 +6,7 @@
 #' the inputs' likelihood counts the coefficients, and what the registration
 #' adds to the field's variance. Its defaults are the package's defaults; the
 #' method's report is `bias_control(pool_levels = NULL, input_likelihood =
-#' "independent", registration_variance = FALSE)`. The arguments are checked
+#' "independent")`. The arguments are checked
 #' here, once; what depends on the data (the sites of `sigma2`, the levels
 #' the basis holds, the groups of `fix_tau2`) is checked by [calibrate()].
 #'
@@ -52,11 +52,12 @@
 #'   method's posterior.
 #' @param registration_variance What the registration of the field adds to
 #'   the variance of the registered field mean (see the section
-#'   Registration of [calibrate()]): `"check"` (default), the registration's
-#'   own error, measured by [register_curves()] on the model runs nearest
-#'   the field (nothing is added when the field was not registered to model
-#'   runs); `TRUE`, a first-order variance from the spread of the
-#'   reference's landmarks over the runs; `FALSE`, nothing (the method's).
+#'   Registration of [calibrate()]): `FALSE` (default), nothing (the
+#'   method's); `"check"`, the registration's own error, measured by
+#'   [register_curves()] on the model runs nearest the field (nothing is
+#'   added when the field was not registered to model runs); `TRUE`, a
+#'   first-order variance from the spread of the reference's landmarks over
+#'   the runs.
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector
 #'   named by group `"site:level"`); they are then not sampled. Mostly for
 #'   checks.
@@ -72,10 +73,12 @@
 #' @examples
 #' bias_control()
 #' # the method's report
-#' bias_control(pool_levels = NULL, input_likelihood = "independent", registration_variance = FALSE)
+#' bias_control(pool_levels = NULL, input_likelihood = "independent")
+#' # the registration's own error in the field mean's variance
+#' bias_control(registration_variance = "check")
 bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = NULL,
                          input_likelihood = c("adjusted", "independent"), temper = 1,
-                         registration_variance = "check", fix_tau2 = NULL,
+                         registration_variance = FALSE, fix_tau2 = NULL,
                          level_variances = c("shared", "per_experiment"),
                          experiment_bias = c("own", "shared")) {
   input_likelihood <- check_choice(input_likelihood)

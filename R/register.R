@@ -117,7 +117,9 @@
 #'   nearest the field data (by the mean square distance of each run from the
 #'   registered field mean) are registered like a replicate, to measure what
 #'   the registration does to a curve of the model itself (see the section
-#'   The registration's own error). 0 skips it.
+#'   The registration's own error); 0 (default) skips it. [validate()]
+#'   registers 5 when its `bias_control()` asks for
+#'   `registration_variance = "check"`.
 #' @return A registered `wv_field`: the same object with registered curves and
 #'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
 #'   window, feature) and columns `site` (the site whose curve set the
@@ -145,8 +147,8 @@
 #' registered like a replicate; what the registration changes in them
 #' (`registration_check`, by site a matrix of the registered run less the
 #' run) is the registration's error on a curve like the field's, which
-#' [calibrate()] adds to the variance of the registered field mean (see
-#' `registration_variance` in [bias_control()]).
+#' [calibrate()] adds to the variance of the registered field mean with
+#' `bias_control(registration_variance = "check")`.
 #'
 #' @section Registering the model runs:
 #' The field replicates are registered to the mean of the model runs, whose
@@ -217,7 +219,7 @@ register_curves.wv_runs <- function(field, reference, windows, ...) {
 register_curves.wv_field <- function(field, reference, windows, landmark_site = 1L,
                                      features = c("min", "max"), knots_every = NULL, refine = FALSE,
                                      knots_to = c("reference", "replicates"), cross_fraction = 0.5,
-                                     cross_value = NULL, check_runs = 5L, ...) {
+                                     cross_value = NULL, check_runs = 0L, ...) {
   if (...length()) {
     call <- renamed_arg(sys.call(), "cross_level", "cross_value", "register_curves")
     if (!is.null(call)) return(eval(call, parent.frame()))

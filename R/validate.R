@@ -148,7 +148,8 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
   if (!is.null(experiments)) check_experiment_list(experiments)
   if (!is.null(windows)) {
-    field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every)
+    field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every,
+                             check_runs = if (identical(bias$registration_variance, "check")) 5L else 0L)
   }
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)

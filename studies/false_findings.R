@@ -14,6 +14,16 @@
 #   reg_share       the share of the field mean's variance the registration
 #                   adds (averaged over sites)
 #   top             the kind of the first finding
+# With `c3=TRUE`, for a hidden mechanism, the loop of the user: the mechanism
+# added to the model (its strength a new input on [0, 1], the fit's runs at
+# strength 0 and 66 more), validated again with update(), and compared with
+# compare_validations() at a held-out condition (the suspension's added-mass
+# run; the dosing bed's condition B as a change of the nominal inputs):
+#   after_false     a false finding after the fix (a localised interval over
+#                   5 steps, a credible record-wide part or an input in conflict)
+#   model_ratio, corrected_ratio  the held-out error after / before of the
+#                   model alone and of the bias-corrected prediction
+#   verdict         compare_validations()'s verdict
 # With `truth=TRUE` (suspension only) it also prints, for nothing hidden, the
 # registered field mean's error against reality and the sampling error the
 # replicates' scatter gives it.
@@ -24,7 +34,7 @@ suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 args <- study_args(list(beds = "suspension,dosing", seeds = "1:5", hidden = "none,all", pool_levels = "coarse",
                         registration_variance = "check", n_draws = "150", n_inner = "20", chains = "1",
-                        out = "false_findings.csv", truth = "FALSE"))
+                        out = "false_findings.csv", truth = "FALSE", c3 = "FALSE"))
 options(wavevalid.quiet = TRUE)
 pool <- if (args$pool_levels == "coarse") "coarse" else arg_value(args$pool_levels)
 rv <- if (args$registration_variance == "check") "check" else arg_flag(args$registration_variance)
@@ -32,6 +42,31 @@ bed <- testbed_beds()
 steps <- function(wf, dt) {
   wf <- wf[wf$kind %in% c("interval", "covered"), ]
   if (!nrow(wf)) 0 else max(round((wf$end - wf$start) / dt))
+}
+
+# The mechanism added and validated again; the comparison at the held-out
+# condition.
+loop_after <- function(tb, fit, b, hd, dt) {
+  s_name <- paste0("s_", hd)
+  iu2 <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
+  off <- tb$A$runs$design
+  off[[s_name]] <- 0
+  runs2 <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t),
+             bed[[b]]$simulate(design_maximin(iu2, 66L, seed = 2), mechanism = hd))
+  fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu2))
+  wf2 <- where_fails(fit2)
+  cf2 <- attr(wf2, "conflicts")
+  false_after <- steps(wf2[wf2$kind == "interval", ], dt) > 5 || any(attr(wf2, "record_wide")$credible) || any(cf2$conflict)
+  ex <- if (b == "suspension") {
+    experiment(tb$added_mass$field, change = tb$added_mass$delta)
+  } else {
+    experiment(tb$B$field, change = tb$B$x_nom - tb$iu$nominal[match(names(tb$B$x_nom), tb$iu$name)])
+  }
+  cmp <- suppressWarnings(compare_validations(fit, fit2, holdout = ex, seed = 1))
+  get <- function(m) cmp$after[cmp$metric == m] / cmp$before[cmp$metric == m]
+  data.frame(after_false = false_after, after_conflicts = paste(cf2$input[cf2$conflict], collapse = "+"),
+             model_ratio = round(get("holdout_rmse_model"), 3), corrected_ratio = round(get("holdout_rmse"), 3),
+             local_ratio = round(get("bias_rms_local"), 3), verdict = attr(cmp, "verdict"), stringsAsFactors = FALSE)
 }
 
 for (b in arg_names(args$beds)) {
@@ -69,6 +104,7 @@ for (b in arg_names(args$beds)) {
                       conflicts = paste(cf$input[cf$conflict], collapse = "+"),
                       inside90 = sum(z >= q[1, ] & z <= q[2, ]), n_inputs = length(z), reg_share = round(share, 3),
                       top = if (nrow(wf)) wf$kind[1] else "none", secs = round(clock() - t0), stringsAsFactors = FALSE)
+    if (arg_flag(args$c3) && hd != "none") row <- cbind(row, loop_after(tb, fit, b, hd, dt))
     print(row, row.names = FALSE)
     utils::write.table(row, args$out, sep = ",", row.names = FALSE, append = file.exists(args$out),
                        col.names = !file.exists(args$out))

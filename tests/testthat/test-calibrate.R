@@ -182,7 +182,7 @@ test_that("pooled levels share one tau2: the sampler reproduces the grid posteri
   expect_gt(stats::ks.test(log(X[, "tau2[site1:2-3]"]), cdf_lt)$p.value, 0.01)
   # one variance per level is another posterior: level 2 alone does not follow it
   own <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 5,
-                   bias = bias_control(sigma2 = gp$sigma2, input_likelihood = "independent"),
+                   bias = bias_control(sigma2 = gp$sigma2, pool_levels = NULL, input_likelihood = "independent"),
                    sampler = sampler_control(n_draws = 1500, n_inner = 30, quiet = TRUE))
   expect_identical(own$groups$name, c("site1:2", "site1:3"))
   expect_lt(stats::ks.test(log(as.matrix(own$draws)[, "tau2[site1:2]"]), cdf_lt)$p.value, 0.01)
@@ -232,7 +232,7 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
   for (proposal in c("adaptive", "report")) {
     run <- function(cp, inform_levels) {
       calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 7,
-                bias = bias_control(inform_levels = inform_levels),
+                bias = bias_control(pool_levels = NULL, inform_levels = inform_levels),
                 sampler = sampler_control(n_draws = 200, n_inner = 10, proposal = proposal, quiet = TRUE))
     }
     a <- run(base, 0:2)
@@ -253,17 +253,17 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
 test_that("the inputs' posterior with inform_levels is the posterior from those levels alone", {
   cp <- cut_problem(fine = 2)
   cut <- calibrate(cp$pb$emulators, cp$field, cp$pb$iu, chains = 1, seed = 5,
-                   bias = bias_control(inform_levels = 0:2, input_likelihood = "independent"),
+                   bias = bias_control(pool_levels = NULL, inform_levels = 0:2, input_likelihood = "independent"),
                    sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   # the same problem on its first four coefficients (levels 0 to 2) only
   coarse <- small_problem(index = 1:4)
   W <- cp$field$curves$site1 %*% cp$pb$basis$Psi
   alone <- calibrate(coarse$emulators, field_from_coef(coarse$basis, W[, 1:4]), coarse$iu, chains = 1,
-                     seed = 6, bias = bias_control(input_likelihood = "independent"),
+                     seed = 6, bias = bias_control(pool_levels = NULL, input_likelihood = "independent"),
                      sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   plain <- cut_problem()
   full <- calibrate(plain$pb$emulators, plain$field, plain$pb$iu, chains = 1, seed = 5,
-                    bias = bias_control(input_likelihood = "independent"),
+                    bias = bias_control(pool_levels = NULL, input_likelihood = "independent"),
                     sampler = sampler_control(n_draws = 1500, n_inner = 20, quiet = TRUE))
   for (p in c("u1", "x1")) {
     expect_gt(suppressWarnings(stats::ks.test(as.matrix(cut$draws)[, p], as.matrix(alone$draws)[, p]))$p.value, 0.01)
@@ -292,7 +292,7 @@ test_that("the adaptive sampler mixes on a narrow posterior where the report's d
   pb <- narrow_problem()
   truth <- pb$truth
   field <- pb$field
-  fit <- calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3,
+  fit <- calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3, bias = bias_control(pool_levels = NULL),
                    sampler = sampler_control(n_draws = 300, n_inner = 10, quiet = TRUE))
   expect_true(all(fit$rhat < 1.1), label = paste(signif(fit$rhat, 3), collapse = ", "))
   X <- as.matrix(fit$draws)[, c("u1", "x1")]
@@ -302,7 +302,7 @@ test_that("the adaptive sampler mixes on a narrow posterior where the report's d
   expect_true(all(q[2, ] - q[1, ] < 0.05))
   expect_gt(min(fit$acceptance$inputs), 0.1)
   rep_fit <- suppressWarnings(
-    calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3,
+    calibrate(pb$emulators, field, pb$iu, chains = 2, seed = 3, bias = bias_control(pool_levels = NULL),
               sampler = sampler_control(n_draws = 300, n_inner = 10, proposal = "report", quiet = TRUE)),
     classes = "wavevalid_warning_mixing")
   expect_lt(max(rep_fit$acceptance$inputs), min(fit$acceptance$inputs) / 5)
@@ -401,7 +401,9 @@ test_that("a fit has the documented layout, mcmc.list and print", {
   ml <- coda::as.mcmc.list(fit)
   expect_s3_class(ml, "mcmc.list")
   expect_equal(colnames(ml[[1]])[1:2], c("u1", "x1"))
-  expect_true(all(grepl("^tau2\\[site1:[0-9]+\\]$", colnames(ml[[1]])[-(1:2)])))
+  # one bias variance per level, the coarsest levels pooled (bias_control(pool_levels = "coarse"))
+  expect_true(all(grepl("^tau2\\[site1:[0-9]+(-[0-9]+)?\\]$", colnames(ml[[1]])[-(1:2)])))
+  expect_identical(colnames(ml[[1]])[3], sprintf("tau2[site1:0-%d]", max(fit$settings$pool_levels)))
   expect_equal(dim(fit$wb$site1), c(200L, 16L))
   expect_equal(fit$chain, rep(1:2, each = 100))
   expect_named(fit$rhat, c("u1", "x1"))
@@ -494,8 +496,8 @@ test_that("registration_variance adds the landmark spread of the runs to the var
   expect_equal(a$registration_var, list(site1 = r))
   expect_false(identical(as.matrix(run(sigma2 = s2)$draws), as.matrix(a$draws)))
   expect_null(run(sigma2 = s2)$registration_var)
-  expect_output(print(a), "Registration variance added to the field mean: site1 [0-9]+% of its variance")
-  expect_false(any(grepl("Registration variance", utils::capture.output(print(b)))))
+  expect_output(print(a), "spread of the reference's landmarks over the model runs added to the variance of the field mean, site1 [0-9]+% of it")
+  expect_false(any(grepl("Registration:", utils::capture.output(print(b)))))
   # the tie to model runs is needed
   expect_error(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
                          bias = bias_control(registration_variance = TRUE),

@@ -22,11 +22,11 @@ test_that("example_fit() is a small calibrated fit, the same for the same seed",
   expect_identical(fit$settings$chains, 2)
   expect_identical(nrow(as.matrix(fit$draws)), 400L)
   expect_identical(fit$seed, 1L)
-  # the stored fit at seed 1 is a calibration of example_problem(seed = 1): its field, and the inputs
-  # that made it (u1 = 0.3, x1 = 0.55) inside the draws' 95% intervals
+  # the stored fit at seed 1 is a calibration of example_problem(seed = 1) (its field) under the
+  # package's current defaults (a stored fit made under other defaults fails here)
   expect_identical(fit$field, example_problem(seed = 1)$field)
-  q <- apply(as.matrix(fit$draws)[, c("u1", "x1")], 2L, stats::quantile, c(0.025, 0.975))
-  expect_true(all(q[1, ] <= c(0.3, 0.55) & c(0.3, 0.55) <= q[2, ]), label = paste(signif(q, 3), collapse = ", "))
+  expect_identical(fit$control$bias, bias_control())
+  expect_identical(fit$settings$pool_levels, wavevalid:::coarse_levels(fit$basis))
   ex <- example_problem(seed = 2)
   direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 2,
                                        sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))

@@ -25,9 +25,11 @@ test_that("explicit uniform priors are the I/U map of before, and its draws are 
   ex <- example_problem(1)
   ex$iu <- b
   # draws of the package before priors of calibration inputs existed, same seed and settings
+  # (one bias variance per level, its prior then)
   old <- readRDS(test_path("fixtures", "uniform-prior-draws.rds"))
   for (p in c("adaptive", "report")) {
     fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 7,
+                                      bias = bias_control(pool_levels = NULL),
                                       sampler = sampler_control(n_draws = 30, n_inner = 10, proposal = p, burnin = 300, n_search = 20, quiet = TRUE)))
     expect_identical(as.matrix(fit$draws), old[[p]]$draws)
     expect_identical(fit$wb$site1[, 1:3], old[[p]]$wb)

@@ -1,0 +1,71 @@
+# The coarse levels' shared bias variance, and the registration's own error
+# measured on model runs.
+
+test_that("pool_levels = \"coarse\" pools the record-wide levels until the group holds more than four coefficients", {
+  ex <- example_problem()
+  basis <- ex$emulators$basis
+  lv <- coarse_levels(basis)
+  n <- table(basis$level)
+  expect_true(all(intersect(record_wide_levels(basis), basis$level) %in% lv))
+  expect_gt(sum(n[as.character(lv)]), 4)
+  # one level fewer would hold four or fewer
+  expect_lte(sum(n[as.character(lv[-length(lv)])]), 4)
+  expect_identical(bias_control()$pool_levels, "coarse")
+  fit <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                   sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
+  expect_identical(fit$settings$pool_levels, lv)
+  pooled <- fit$bias_group$site1[basis$level %in% lv]
+  expect_length(unique(pooled), 1L)
+  expect_identical(unique(pooled), sprintf("site1:%d-%d", min(lv), max(lv)))
+  # the method's prior keeps one variance per level
+  fit0 <- calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1, bias = bias_control(pool_levels = NULL),
+                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
+  expect_length(unique(fit0$bias_group$site1[basis$level %in% lv]), length(lv))
+})
+
+test_that("register_curves(check_runs = ) registers the runs nearest the field like a replicate", {
+  tb <- testbed_suspension(seed = 1, hidden = "none")
+  runs <- tb$A$runs
+  field <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2, check_runs = 3)
+  plain <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
+  expect_null(plain$registration_check)
+  expect_identical(field$curves, plain$curves)
+  chk <- field$registration_check
+  expect_named(chk, names(field$curves))
+  expect_identical(dim(chk$site1), c(3L, length(field$t)))
+  # the nearest run, registered on its own, less itself
+  d <- Reduce(`+`, lapply(names(field$curves), function(s) {
+    rowMeans(sweep(runs$curves[[s]], 2L, colMeans(field$curves[[s]]))^2)
+  }))
+  k <- which.min(d)
+  one <- field_runs(lapply(runs$curves, function(m) m[k, , drop = FALSE]), runs$t)
+  reg1 <- suppressWarnings(register_curves(one, runs, tb$windows, knots_every = 2))
+  expect_equal(chk$site2[1, ], reg1$curves$site2[1, ] - runs$curves$site2[k, ])
+  # what registering changes in a curve of the model is far above the noise of the field mean
+  expect_gt(sqrt(mean(chk$site1^2)), 0.03 / sqrt(nrow(field$curves$site1)))
+})
+
+test_that("registration_variance = \"check\" adds the mean square of the runs' registration error to the field mean", {
+  tb <- testbed_suspension(seed = 1, hidden = "none")
+  runs <- tb$A$runs
+  field <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2, check_runs = 2)
+  em <- suppressWarnings(fit_emulators(runs, wavelet_basis(runs, field)))
+  smp <- sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE)
+  fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp,
+                                    bias = bias_control(registration_variance = "check")))
+  for (s in names(field$curves)) {
+    E <- field$registration_check[[s]] %*% em$basis$Psi
+    expect_equal(fit$registration_var[[s]], rep(mean(E^2), ncol(E)))
+  }
+  expect_output(print(fit), "registration's own error")
+  # the field mean's variance holds it: bands of the bias are wider than without
+  fit0 <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp))
+  expect_null(fit0$registration_var)
+  w <- function(f) mean(bias(f)$upper - bias(f)$lower)
+  expect_gt(w(fit), w(fit0))
+  plain <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
+  expect_error(calibrate(em, plain, tb$iu, chains = 1, seed = 1, sampler = smp,
+                         bias = bias_control(registration_variance = "check")),
+               class = "wavevalid_error_registration")
+  expect_error(bias_control(registration_variance = "yes"), class = "wavevalid_error")
+})
