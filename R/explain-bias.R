@@ -206,8 +206,8 @@
 #' ex_b <- explain_bias(fit, candidates, seed = 1)
 #' ex_b
 #' autoplot(ex_b)
-#' # the second finding of where_fails() alone
-#' explain_bias(fit, candidates, seed = 1, finding = where_fails(fit)[2, ])
+#' # the first finding of where_fails() alone
+#' explain_bias(fit, candidates, seed = 1, finding = where_fails(fit)[1, ])
 #' # the early bump in two versions (the second a little late), weighed as one
 #' # effect
 #' versions <- c(candidates, list(bump_early_2 = exp(-((t - 0.3) / 0.05)^2)))
