@@ -124,3 +124,28 @@ test_that("the verdict judges the model against the tolerance and names the top 
   v <- report_verdict(fit, tight, 0.001, expl = expl)
   expect_true(any(grepl("most probable candidate is **bump_early**, inclusion probability 0.93", v, fixed = TRUE)))
 })
+
+test_that("a finding's figure shows the bias and its band on the finding's interval with a margin", {
+  fit <- example_fit()
+  fails <- where_fails(fit)
+  r <- fails[1, ]
+  p <- finding_figure(fails, 1)
+  expect_s3_class(p, "ggplot")
+  d <- p$data
+  dt <- diff(fit$basis$t[1:2])
+  margin <- max((r$end - r$start) / 2, 2 * dt)
+  # the interval and a margin each side, not the whole record
+  expect_lte(min(d$t), r$start - margin + dt)
+  expect_gte(max(d$t), r$end + margin - dt)
+  expect_lt(nrow(d), length(fit$basis$t))
+  expect_true(all(d$site == r$site))
+  # the band drawn is the table's whole-curve band: it excludes zero on the
+  # interval, and nowhere in the margins
+  inside <- d$t >= r$start & d$t < r$end
+  expect_true(all(d$lo[inside] > 0 | d$hi[inside] < 0))
+  expect_false(any(d$lo[!inside] > 0 | d$hi[!inside] < 0))
+  # a finding with no place (an input not read again) has no figure
+  noplace <- fails
+  noplace$site[1] <- NA
+  expect_null(finding_figure(noplace, 1))
+})
