@@ -80,18 +80,45 @@ comparison_sentence <- function(comparison) {
 # The assumptions that change the answer: the noise and its source, the
 # grouping of the bias prior's variances, the inputs' likelihood.
 report_assumptions <- function(fit) {
-  noise <- trimws(fit_assumptions(fit, "noise")[-1])
-  src <- fit$noise_setting
-  learned <- !is.null(src) && any(src != "replicates")
-  noise <- paste0("Field noise", if (learned) " (not from replicates at every site)" else "", ": ",
-                  paste(noise, collapse = "; "), ".")
+  c(noise_source_text(fit), bias_prior_text(fit), likelihood_text(fit))
+}
+
+# The field noise: its source at each site (replicates, learned in the
+# posterior from one replicate, given, the finest level), then its size.
+noise_source_text <- function(fit) {
+  sites <- names(fit$wb)
+  src <- fit$noise_setting %||% stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
+  n <- unlist(fit$n_rep[sites])
+  each <- vapply(sites, function(s) {
+    switch(src[[s]],
+           replicates = sprintf("%s estimated from %d replicates", s, n[[s]]),
+           learned = if (n[[s]] == 1) {
+             sprintf("%s learned in the posterior from one replicate (no replicates to estimate it from)", s)
+           } else {
+             sprintf("%s learned in the posterior (%d replicates)", s, n[[s]])
+           },
+           given = sprintf("%s given by the user", s),
+           finest = sprintf("%s estimated from the finest wavelet level of one curve", s),
+           sprintf("%s %s", s, src[[s]]))
+  }, character(1))
+  size <- trimws(fit_assumptions(fit, "noise")[-1])
+  sprintf("Field noise, source: %s. %s.", paste(each, collapse = "; "), paste(size, collapse = "; "))
+}
+
+# The grouping of the bias prior's variances.
+bias_prior_text <- function(fit) {
   groups <- unique(unlist(fit$bias_group, use.names = FALSE))
   pooled <- fit$settings$pool_levels
   bias <- sprintf("Bias prior: one variance per group of wavelet levels, %d group%s (%s)%s.", length(groups),
                   if (length(groups) == 1) "" else "s", paste(groups, collapse = ", "),
                   if (length(pooled)) sprintf("; levels %s pooled", paste(pooled, collapse = ", ")) else "")
+  bias
+}
+
+# The inputs' likelihood, when the fit records it.
+likelihood_text <- function(fit) {
   lik <- fit_assumptions(fit, "likelihood")
-  c(noise, bias, if (length(lik)) paste0(paste(lik, collapse = " "), "."))
+  if (length(lik)) paste0(paste(lik, collapse = " "), ".")
 }
 
 # One row per input: type, prior, posterior median and 90% interval, sd

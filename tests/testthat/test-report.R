@@ -149,3 +149,19 @@ test_that("a finding's figure shows the bias and its band on the finding's inter
   noplace$site[1] <- NA
   expect_null(finding_figure(noplace, 1))
 })
+
+test_that("the verdict's assumptions name the field noise's source", {
+  fit <- example_fit()
+  a <- report_assumptions(fit)
+  expect_match(a[1], "Field noise, source: site1 estimated from 4 replicates.", fixed = TRUE)
+  expect_match(a[2], "Bias prior: one variance per group of wavelet levels, 2 groups (site1:0-3, site1:4)",
+               fixed = TRUE)
+  expect_match(a[3], "Inputs' likelihood", fixed = TRUE)
+  # a site with one replicate whose noise the posterior learned
+  one <- fit
+  one$n_rep$site1 <- 1L
+  one$noise_setting[["site1"]] <- "learned"
+  one$noise_prior <- list(family = "half-normal", scale = c(site1 = 0.05))
+  a <- report_assumptions(one)
+  expect_match(a[1], "site1 learned in the posterior from one replicate", fixed = TRUE)
+})
