@@ -6,6 +6,8 @@
 #   make test-slow  install the package and run the test suite with the slow tier switched on
 #                   (WAVEVALID_SLOW_TESTS=true: full-size simulation-based calibration, coverage and diagnosis
 #                   over several test beds)
+#   make report-check  install Debian's chromium if missing and read the validation report in it (headless):
+#                   the verdict in the first 1280 x 900 screen, no JavaScript error
 # The shared library is installed stripped of its debugging information (R CMD INSTALL --strip): it is 22 of its
 # 23 MB. Only that: R CMD check reads the symbol table, which R's default strip command would remove too.
 
@@ -29,7 +31,7 @@ R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmar
 # The benchmarks' peers, installed by `make bench` only
 BENCH_PKGS = RobustGaSP
 
-.PHONY: deps document install demo test test-slow check bench sanitize clean
+.PHONY: deps document install demo test test-slow check bench report-check sanitize clean
 
 deps:
 	@if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
@@ -73,6 +75,15 @@ check: $(TARBALL)
 bench: install
 	$(RSCRIPT) tools/install-deps.R $(BENCH_PKGS)
 	for f in bench/*.R; do echo "== $$f"; $(RSCRIPT) $$f || exit 1; done
+
+# The validation report read in headless Chromium (bench/bench_report_browser.R): Debian's chromium is
+# installed here when missing, not by deps.
+report-check: install
+	@if ! command -v chromium >/dev/null 2>&1 && [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get update -qq && apt-get install -y -qq --no-install-recommends chromium >/dev/null; \
+	fi
+	$(RSCRIPT) bench/bench_report_browser.R $(OUT)/report-check
 
 sanitize: deps
 	mkdir -p .sanitize && printf 'CXXFLAGS=-g -O1 -fsanitize=address,undefined -fno-omit-frame-pointer\nLDFLAGS=-fsanitize=address,undefined\n' > .sanitize/Makevars

@@ -1,11 +1,23 @@
 #' An HTML validation report
 #'
-#' Renders every figure and table of a validation into one HTML file,
-#' headed by the largest finding of [where_fails()] ([top_finding()]): the
-#' inputs and their posteriors, emulator quality, the bias and the
-#' bias-corrected prediction with their bands, where the model fails, and,
-#' when given, the ranking of candidate effects, predictions in new settings
-#' and a before/after comparison.
+#' Renders a validation into one HTML file that opens with a verdict: in
+#' sentences with numbers, whether the model is adequate for `tolerance`,
+#' the leading findings of [where_fails()] (each as [top_finding()] says
+#' it), the inputs in conflict with their prior, the most probable missing
+#' effect when `candidates` are given, and, with a `comparison`, whether the
+#' model change helped at the held-out condition with its two ratios and
+#' their 90% intervals; then the assumptions that change the answer (the
+#' field noise and its source, the grouping of the bias prior's variances,
+#' the inputs' likelihood). The sections that follow hold the tables (the
+#' inputs with prior, posterior median and 90% interval, sd ratio, R-hat,
+#' ESS and conflict; the findings; the candidates; the comparison) as HTML
+#' tables, a figure of the bias and its band on each of the first three
+#' findings' intervals, the figures of the fit, and, when given, the
+#' predictions and the before/after figure. The console print of the fit is
+#' kept at the end, folded.
+#'
+#' The tables are made with [knitr::kable()] (`format = "html"`): knitr
+#' already renders the report, so they add no dependency.
 #'
 #' @inheritParams bands
 #' @inheritParams autoplot.wv_fit
@@ -15,18 +27,24 @@
 #' @param candidates Optional candidate effects for [explain_bias()].
 #' @param predictions Optional named list of `wv_prediction` objects.
 #' @param comparison Optional `wv_comparison` from [compare_validations()].
+#' @param tolerance The bias the intended use can accept, passed to
+#'   [where_fails()]: one number or a vector named by site. With the default
+#'   0 any credible bias is a finding and the verdict says the model is not
+#'   shown adequate rather than judging it against a use.
 #' @param title Title of the report.
 #' @param quiet Silence the rendering.
 #' @return The path of the report, invisibly.
 #' @export
 #' @examples
-#' \dontrun{
-#' tb <- load_testbed()
-#' fit <- validate(tb$A$runs, tb$A$field, tb$iu, windows = list(c(6, 11), c(37, 41)))
-#' validation_report(fit, tempfile(fileext = ".html"), runs = tb$A$runs)
+#' if (rmarkdown::pandoc_available()) {
+#'   fit <- example_fit()
+#'   t <- fit$field$t
+#'   candidates <- list(bump_early = exp(-((t - 0.25) / 0.05)^2),
+#'                      bump_late = exp(-((t - 0.75) / 0.05)^2))
+#'   validation_report(fit, tempfile(fileext = ".html"), candidates = candidates, tolerance = 0.005)
 #' }
 validation_report <- function(fit, file = "validation-report.html", runs = NULL, candidates = NULL,
-                              predictions = NULL, comparison = NULL, windows = NULL,
+                              predictions = NULL, comparison = NULL, windows = NULL, tolerance = 0,
                               title = "Validation report", quiet = TRUE) {
   check_class(fit, "wv_fit")
   check_string(file)
@@ -48,8 +66,19 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   file.copy(template, rmd)
   env <- new.env(parent = globalenv())
   env$fit <- fit
-  env$fails <- where_fails(fit)
+  env$fails <- where_fails(fit, tolerance = tolerance)
   env$headline <- top_finding(env$fails)
+  env$expl <- if (!is.null(candidates)) explain_bias(fit, candidates, seed = fit$seed)
+  env$verdict <- report_verdict(fit, env$fails, tolerance, expl = env$expl, comparison = comparison)
+  env$assumptions <- report_assumptions(fit)
+  env$inputs_table <- report_inputs_table(fit)
+  env$findings_table <- report_findings_table(env$fails)
+  env$comparison_tables <- if (!is.null(comparison)) report_comparison_tables(comparison)
+  env$fit_print <- html_escape(paste(utils::capture.output(print(fit)), collapse = "\n"))
+  # the template's helpers, which are not exported
+  env$html_table <- html_table
+  env$finding_figure <- finding_figure
+  env$signif_table <- signif_table
   prior_iu <- fit$prior_iu %||% fit$iu
   iu_table <- signif_table(as.data.frame(prior_iu)[c("name", "type", "lower", "upper", "nominal")])
   iu_table$prior <- prior_labels(prior_iu)
@@ -81,4 +110,11 @@ signif_table <- function(d, digits = 4) {
     out
   })
   d
+}
+
+# Text for HTML: the characters that markup reads escaped.
+html_escape <- function(x) {
+  x <- gsub("&", "&amp;", x, fixed = TRUE)
+  x <- gsub("<", "&lt;", x, fixed = TRUE)
+  gsub(">", "&gt;", x, fixed = TRUE)
 }

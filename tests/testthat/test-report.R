@@ -23,9 +23,145 @@ test_that("the report renders for a fit whose emulators were given their paramet
   html <- readLines(out, warn = FALSE)
   expect_true(any(grepl("Field noise", html, fixed = TRUE)))
   expect_true(any(grepl("uniform", html, fixed = TRUE)))
-  # the report leads with the largest finding, as the print does
-  lead <- sub(",.*", "", top_finding(fit))
-  first <- grep("Top finding|No finding", html)
-  expect_true(length(first) > 0L && any(grepl(lead, html[first[1]], fixed = TRUE)))
-  expect_lt(first[1], grep("The fit</h2>", html, fixed = TRUE)[1])
+  # the report leads with the verdict
+  expect_lt(grep("<h2>Verdict</h2>", html, fixed = TRUE)[1], grep("Inputs</h2>", html, fixed = TRUE)[1])
+})
+
+# One report of the example fit with a comparison, read by the tests below:
+# the page's text with its lines joined, runs of white space made one and
+# characters outside ASCII as "?" (positions then count characters and
+# bytes alike).
+report_text <- local({
+  text <- NULL
+  function() {
+    if (is.null(text)) {
+      fit <- example_fit()
+      ex <- example_problem()
+      moved <- ex$field
+      moved$curves$site1 <- sweep(moved$curves$site1, 2, 0.1 * sin(2 * pi * moved$t), `+`)
+      cmp <- compare_validations(fit, fit, holdout = experiment(moved, change = c(x1 = 0.2)), n_boot = 100, seed = 1)
+      out <- withr::local_tempfile(fileext = ".html")
+      suppressWarnings(validation_report(fit, file = out, comparison = cmp, quiet = TRUE))
+      text <<- iconv(gsub("\\s+", " ", paste(readLines(out, warn = FALSE), collapse = " ")), "UTF-8", "ASCII", sub = "?")
+    }
+    text
+  }
+})
+
+# The text of the page between two strings (the first occurrence of each).
+between <- function(x, from, to) {
+  i <- regexpr(from, x, fixed = TRUE)
+  j <- regexpr(to, substring(x, i, nchar(x)), fixed = TRUE)
+  substr(x, i, i + j - 2L)
+}
+
+test_that("the report opens with a verdict that names the top finding in a sentence", {
+  skip_if_not(rmarkdown::pandoc_available())
+  html <- report_text()
+  fit <- example_fit()
+  at <- function(s) regexpr(s, html, fixed = TRUE)[[1]]
+  expect_gt(at("id=\"verdict\""), 0)
+  # the verdict is the first section: before the inputs, the findings and the print
+  expect_lt(at("id=\"verdict\""), at("Inputs</h2>"))
+  expect_lt(at("id=\"verdict\""), at("Where the model fails</h2>"))
+  expect_lt(at("id=\"verdict\""), at("&lt;wv_fit&gt;"))
+  verdict <- between(html, "id=\"verdict\"", "Inputs</h2>")
+  lead <- sub("^Top finding \\(1 of [0-9]+\\), ", "", top_finding(where_fails(fit)))
+  expect_true(grepl(html_escape(lead), verdict, fixed = TRUE))
+  expect_true(grepl("Not shown adequate", verdict, fixed = TRUE))
+  expect_true(grepl("Inputs in conflict with their prior: none", verdict, fixed = TRUE))
+  # the assumptions that change the answer, with the noise's source
+  expect_true(grepl("Assumptions that change the answer", verdict, fixed = TRUE))
+  expect_true(grepl("from 4 replicates", verdict, fixed = TRUE))
+  expect_true(grepl("Bias prior: one variance per group", verdict, fixed = TRUE))
+})
+
+test_that("the report's inputs, findings and comparison are HTML tables, not console prints", {
+  skip_if_not(rmarkdown::pandoc_available())
+  html <- report_text()
+  inputs <- between(html, "Inputs</h2>", "</table>")
+  expect_true(grepl("<table", inputs, fixed = TRUE))
+  expect_true(grepl("sd_ratio", inputs, fixed = TRUE))
+  expect_false(grepl("<pre", inputs, fixed = TRUE))
+  expect_match(html, "<table[^>]*>\\s*<caption>\\s*Findings ranked by size")
+  expect_match(html, "<table[^>]*>\\s*<caption>\\s*After / before of the held-out RMSE")
+  expect_match(html, "<table[^>]*>\\s*<caption>\\s*Metrics before and after")
+  # no console print outside the folded appendix
+  body <- sub("<details>.*", "", html)
+  expect_false(grepl("<pre", body, fixed = TRUE))
+})
+
+test_that("with a comparison the verdict gives its verdict word and both held-out ratios", {
+  skip_if_not(rmarkdown::pandoc_available())
+  html <- report_text()
+  verdict <- between(html, "id=\"verdict\"", "Inputs</h2>")
+  expect_true(grepl("no clear change", verdict, fixed = TRUE))
+  expect_true(grepl("the model alone errs 1.00 times as much as before (90% interval 1.00 to 1.00)", verdict,
+                    fixed = TRUE))
+  expect_true(grepl("the bias-corrected prediction 1.00 times (1.00 to 1.00)", verdict, fixed = TRUE))
+})
+
+test_that("the console print of the fit is kept, folded in a details element at the end", {
+  skip_if_not(rmarkdown::pandoc_available())
+  html <- report_text()
+  folded <- between(html, "<details>", "</details>")
+  expect_true(grepl("&lt;wv_fit&gt; 1 site (site1)", folded, fixed = TRUE))
+  expect_true(grepl("Acceptance by chain", folded, fixed = TRUE))
+  expect_false(grepl("Acceptance by chain", sub("<details>.*", "", html), fixed = TRUE))
+})
+
+test_that("the verdict judges the model against the tolerance and names the top candidate", {
+  fit <- example_fit()
+  t <- fit$field$t
+  wide <- where_fails(fit, tolerance = 1)
+  v <- report_verdict(fit, wide, 1)
+  expect_match(v[1], "Adequate for the tolerance 1", fixed = TRUE)
+  tight <- where_fails(fit, tolerance = 0.001)
+  v <- report_verdict(fit, tight, 0.001)
+  expect_match(v[1], "Not adequate for the tolerance 0.001**: 1 finding", fixed = TRUE)
+  expl <- structure(data.frame(candidate = "bump_early", inclusion_prob = 0.93, share_explained = 0.6),
+                    class = c("wv_explain", "data.frame"))
+  v <- report_verdict(fit, tight, 0.001, expl = expl)
+  expect_true(any(grepl("most probable candidate is **bump_early**, inclusion probability 0.93", v, fixed = TRUE)))
+})
+
+test_that("a finding's figure shows the bias and its band on the finding's interval with a margin", {
+  fit <- example_fit()
+  fails <- where_fails(fit)
+  r <- fails[1, ]
+  p <- finding_figure(fails, 1)
+  expect_s3_class(p, "ggplot")
+  d <- p$data
+  dt <- diff(fit$basis$t[1:2])
+  margin <- max((r$end - r$start) / 2, 2 * dt)
+  # the interval and a margin each side, not the whole record
+  expect_lte(min(d$t), r$start - margin + dt)
+  expect_gte(max(d$t), r$end + margin - dt)
+  expect_lt(nrow(d), length(fit$basis$t))
+  expect_true(all(d$site == r$site))
+  # the band drawn is the table's whole-curve band: it excludes zero on the
+  # interval, and nowhere in the margins
+  inside <- d$t >= r$start & d$t < r$end
+  expect_true(all(d$lo[inside] > 0 | d$hi[inside] < 0))
+  expect_false(any(d$lo[!inside] > 0 | d$hi[!inside] < 0))
+  # a finding with no place (an input not read again) has no figure
+  noplace <- fails
+  noplace$site[1] <- NA
+  expect_null(finding_figure(noplace, 1))
+})
+
+test_that("the verdict's assumptions name the field noise's source", {
+  fit <- example_fit()
+  a <- report_assumptions(fit)
+  expect_match(a[1], "Field noise, source: site1 estimated from 4 replicates.", fixed = TRUE)
+  expect_match(a[2], "Bias prior: one variance per group of wavelet levels, 2 groups (site1:0-3, site1:4)",
+               fixed = TRUE)
+  expect_match(a[3], "Inputs' likelihood", fixed = TRUE)
+  # a site with one replicate whose noise the posterior learned
+  one <- fit
+  one$n_rep$site1 <- 1L
+  one$noise_setting[["site1"]] <- "learned"
+  one$noise_prior <- list(family = "half-normal", scale = c(site1 = 0.05))
+  a <- report_assumptions(one)
+  expect_match(a[1], "site1 learned in the posterior from one replicate", fixed = TRUE)
 })
