@@ -3,8 +3,8 @@
 #' Lists every finding of a validation in one table ranked by size, the
 #' largest first: a credible record-wide bias, the time intervals where the
 #' band of the (localised) bias excludes zero, the misfit that inputs in
-#' conflict with their prior covered, and such inputs when holding them flags
-#' no interval. It also tells at which wavelet levels (time scales) the bias
+#' conflict with their prior covered, and those inputs themselves, where
+#' their pull moves the model most (what they took up). It also tells at which wavelet levels (time scales) the bias
 #' lives and which inputs have a posterior piled up at a bound of their range
 #' (an input used as a tuning knob, like the report's `x5`).
 #'
@@ -85,9 +85,9 @@
 #'   row per site, spanning the record; `"interval"`: an interval where the
 #'   band of the localised bias excludes zero, or lies beyond the tolerance;
 #'   `"covered"`: such an interval of the bias read with the inputs in
-#'   conflict held to their prior; `"input"`: inputs in conflict whose held
-#'   reading flags no interval, placed where their pull moves the model most,
-#'   or with no place when the bias was not read again), `site`, `start`,
+#'   conflict held to their prior; `"input"`: the inputs in conflict, placed
+#'   where their pull moves the model most, or with no place when the bias
+#'   was not read again), `site`, `start`,
 #'   `end`, `size` (the peak of the absolute posterior mean bias over the
 #'   finding, in the curves' units; for an `"input"`, the largest move of
 #'   the model), `credible` (the largest distance of the finding's band from

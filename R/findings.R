@@ -4,9 +4,9 @@
 
 # The ranked table of findings: the localised `intervals` (with their
 # `credible` gap), the credible record-wide parts of `record_wide`, the
-# intervals of the bias read with the inputs in conflict held (`held`), or
-# where there are none the inputs' pull, and inputs in conflict not read
-# again. `r`: reality's pointwise mean (share of signal of the record-wide
+# intervals of the bias read with the inputs in conflict held (`held`), the
+# inputs' pull (where it moves the model most, by how much), and inputs in
+# conflict not read again. `r`: reality's pointwise mean (share of signal of the record-wide
 # part); `experiments`: the experiment of each site, or NULL.
 findings_table <- function(intervals, record_wide, held, conflicts, r, experiments) {
   cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
@@ -33,13 +33,11 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
   if (!is.null(held)) {
     who <- paste(held$inputs, collapse = ", ")
     covered <- finding_rows(held$fails, "interval")
-    if (nrow(covered)) {
-      parts <- c(parts, list(local(covered, "covered", who)))
-    } else {
-      p <- held$pull[which.max(abs(held$pull$shift)), , drop = FALSE]
-      parts <- c(parts, list(row("input", p$site, p$start, p$end, abs(p$shift), NA_real_, NA_real_, NA_real_,
-                                 if (p$shift > 0) "reality above model" else "reality below model", who)))
-    }
+    if (nrow(covered)) parts <- c(parts, list(local(covered, "covered", who)))
+    # the inputs themselves, where their pull moves the model most: what they took up
+    p <- held$pull[which.max(abs(held$pull$shift)), , drop = FALSE]
+    parts <- c(parts, list(row("input", p$site, p$start, p$end, abs(p$shift), NA_real_, NA_real_, NA_real_,
+                               if (p$shift > 0) "reality above model" else "reality below model", who)))
   } else if (length(conflicted)) {
     parts <- c(parts, list(row("input", NA_character_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_,
                                NA_character_, paste(conflicted, collapse = ", "))))
@@ -102,8 +100,10 @@ top_finding <- function(x, ...) {
       sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
               r$inputs)
     } else {
-      sprintf("an input in conflict with its prior, %s: held to it the bias band still holds zero, and its pull moves the model most at %s, by %s",
-              r$inputs, place, f(r$size))
+      sprintf("an input in conflict with its prior, %s: its pull moves the model most at %s, by %s; %s",
+              r$inputs, place, f(r$size),
+              if (any(x$kind == "covered")) "held to its prior, the bias band excludes zero where the findings of kind \"covered\" lie"
+              else "held to its prior, the bias band still holds zero")
     })
   sprintf("Top finding (1 of %d), %s", n, what)
 }

@@ -30,12 +30,13 @@ test_that("an input that absorbs what the model lacks is a conflict, and held to
   out <- capture.output(print(wf))
   expect_true(any(grepl("u1 in its prior's upper tail", out, fixed = TRUE)))
   expect_true(any(grepl("With u1 held to the prior, the localised bias's band excludes zero", out, fixed = TRUE)))
-  # the misfit u1 covered is a finding, the largest here, and the print leads with it
-  expect_identical(wf$kind[1], "covered")
-  expect_identical(wf$inputs[1], "u1")
-  expect_true(wf$start[1] <= 0.6 && wf$end[1] >= 0.6)
+  # u1 and the misfit it covered are the findings, placed at the bump; the print leads with the largest
+  expect_setequal(wf$kind, c("input", "covered"))
+  expect_true(all(wf$inputs == "u1"))
+  top_two <- wf[c(which(wf$kind == "input"), which(wf$kind == "covered")[1]), ]
+  expect_true(all(top_two$start <= 0.6 & top_two$end >= 0.6))
   expect_equal(sort(wf$size[wf$kind == "covered"], decreasing = TRUE), hw$size)
-  expect_match(out[1], "^Top finding \\(1 of [0-9]+\\), a misfit covered by u1, site1 \\[")
+  expect_match(out[1], "^Top finding \\(1 of [0-9]+\\), (a misfit covered by|an input in conflict with its prior,) u1, site1 \\[|^Top finding \\(1 of [0-9]+\\), an input in conflict with its prior, u1: its pull moves the model most at site1 \\[")
   expect_s3_class(autoplot(wf), "ggplot")
   # the re-read fit is a fit: its own where_fails() says what it holds, and holds nothing more
   wh <- where_fails(hf)

@@ -11,10 +11,11 @@ mixed_fit <- function() {
 
 test_that("the findings of every kind are ranked by size, largest first", {
   wf <- where_fails(mixed_fit())
-  expect_true(all(c("covered", "record-wide", "interval") %in% wf$kind))
+  expect_true(all(c("covered", "input", "record-wide", "interval") %in% wf$kind))
   expect_true(all(diff(wf$size) <= 0))
   expect_identical(wf$peak_abs_bias, wf$size)
-  expect_identical(unname(wf$scale), unname(c(interval = "local", `record-wide` = "record", covered = "held")[wf$kind]))
+  expect_identical(unname(wf$scale), unname(c(interval = "local", `record-wide` = "record", covered = "held",
+                                              input = "held")[wf$kind]))
   # every kind keeps its own size: the record-wide part's peak, the intervals'
   # and the covered intervals' peaks of the localised bias
   rw <- attr(wf, "record_wide")
@@ -22,8 +23,13 @@ test_that("the findings of every kind are ranked by size, largest first", {
   expect_equal(wf$credible[wf$kind == "record-wide"], rw$credible_bias[rw$credible])
   held <- attr(wf, "held")$fails
   expect_equal(sort(wf$size[wf$kind == "covered"]), sort(held$size[held$kind == "interval"]))
-  expect_true(all(wf$inputs[wf$kind == "covered"] == "u1"))
-  expect_true(all(is.na(wf$inputs[wf$kind != "covered"])))
+  expect_true(all(wf$inputs[wf$kind %in% c("covered", "input")] == "u1"))
+  expect_true(all(is.na(wf$inputs[!wf$kind %in% c("covered", "input")])))
+  # the input itself is a finding beside the misfit it covered: where its pull moves the model most
+  pull <- attr(wf, "held")$pull
+  k <- which.max(abs(pull$shift))
+  expect_equal(wf$size[wf$kind == "input"], abs(pull$shift[k]))
+  expect_equal(c(wf$start[wf$kind == "input"], wf$end[wf$kind == "input"]), c(pull$start[k], pull$end[k]))
   # the credible size is the largest distance of the band from zero over the finding
   b <- attr(wf, "bias")
   gap <- pmax(b$lower_curve, -b$upper_curve, 0)
@@ -36,7 +42,8 @@ test_that("the findings of every kind are ranked by size, largest first", {
   # the print leads with the first row and ranks the table the same way
   out <- capture.output(print(wf))
   expect_match(out[1], sprintf("^Top finding \\(1 of %d\\), ", nrow(wf)))
-  phrase <- c(covered = "a misfit covered by u1", interval = "an interval", `record-wide` = "a record-wide bias")
+  phrase <- c(covered = "a misfit covered by u1", interval = "an interval", `record-wide` = "a record-wide bias",
+              input = "an input in conflict with its prior, u1")
   expect_match(out[1], phrase[[wf$kind[1]]], fixed = TRUE)
   expect_match(out[1], sprintf("%s [%s, %s]", wf$site[1], signif(wf$start[1], 4), signif(wf$end[1], 4)), fixed = TRUE)
   expect_identical(top_finding(wf), out[1])
@@ -53,7 +60,7 @@ test_that("an input in conflict whose held reading flags no interval is a findin
   expect_equal(c(wf$start, wf$end), c(pull$start, pull$end))
   expect_equal(wf$size, abs(pull$shift))
   expect_identical(wf$scale, "held")
-  expect_match(top_finding(wf), "an input in conflict with its prior, u1: held to it")
+  expect_match(top_finding(wf), "an input in conflict with its prior, u1: its pull moves the model most at .*; held to its prior, the bias band still holds zero")
   # not read again: the input is still a finding, without a place
   nh <- where_fails(fit, hold = FALSE)
   expect_identical(nh$kind, "input")
@@ -155,15 +162,16 @@ test_that("explain_bias() of a covered misfit or an input explains the held re-r
   t <- fit$basis$t
   cand <- list(bump = exp(-((t - 0.6) / 0.08)^2))
   wf <- where_fails(fit)
-  expect_identical(wf$kind[1], "covered")
+  k <- which(wf$kind == "covered")[1]
+  expect_false(is.na(k))
   hf <- attr(wf, "held")$fit
   # covered: the held fit, restricted to the interval
-  scope <- wavevalid:::finding_scope(fit, wf[1, ])
+  scope <- wavevalid:::finding_scope(fit, wf[k, ])
   expect_identical(scope$fit, hf)
-  got <- explain_bias(fit, cand, seed = 1, finding = wf[1, ])
+  got <- explain_bias(fit, cand, seed = 1, finding = wf[k, ])
   ref <- hf
   ref$wbar$site1[!scope$use] <- ref$wbar$site1[!scope$use] - 3
-  expect_equal(unclass(explain_bias(ref, cand, seed = 1, finding = wf[1, ])), unclass(got))
+  expect_equal(unclass(explain_bias(ref, cand, seed = 1, finding = wf[k, ])), unclass(got))
   # input: the whole held fit, as explain_bias(attr(wf, "held")$fit) gives it
   inp <- where_fails(fit, tolerance = 10)
   a <- explain_bias(fit, cand, seed = 1, finding = inp)
