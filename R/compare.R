@@ -112,7 +112,9 @@
 #' # are the fitted ones moved by the model's own change, for the layout)
 #' moved <- ex$field
 #' moved$curves$site1 <- sweep(moved$curves$site1, 2, 0.1 * sin(2 * pi * moved$t), `+`)
-#' compare_validations(before, after, holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
+#' cmp_held <- compare_validations(before, after, holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
+#' cmp_held
+#' autoplot(cmp_held, type = "holdout")
 compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_boot = 1000, seed = NULL) {
   check_class(before, "wv_fit")
   check_class(after, "wv_fit")
@@ -148,6 +150,7 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
   attr(out, "conflicts") <- conflicts
   attr(out, "holdout_ratio") <- ratio
   attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
+  attr(out, "holdout_predictions") <- if (!is.null(holdout)) list(before = ho$before$pred$summary, after = ho$after$pred$summary)
   attr(out, "verdict") <- holdout_verdict(ratio)
   class(out) <- c("wv_comparison", "data.frame")
   out
@@ -310,9 +313,16 @@ print.summary_wv_comparison <- function(x, ...) {
 
 #' @rdname compare_validations
 #' @param object A `wv_comparison`.
+#' @param type For `autoplot()`: `"bias"` (the default), the bias of each
+#'   model on its own field data with its band; `"holdout"`, the error at the
+#'   held-out condition (the held-out field mean less each prediction, the
+#'   model alone and the bias-corrected one), before and after the change,
+#'   with the verdict and its ratios in the title.
 #' @param ... Unused.
 #' @export
-autoplot.wv_comparison <- function(object, ...) {
+autoplot.wv_comparison <- function(object, type = c("bias", "holdout"), ...) {
+  type <- rlang::arg_match(type)
+  if (type == "holdout") return(holdout_plot(object))
   cv <- attr(object, "curves")
   d <- rbind(cbind(cv$before, model = "before"), cbind(cv$after, model = "after"))
   d$model <- factor(d$model, levels = c("before", "after"))
@@ -322,6 +332,48 @@ autoplot.wv_comparison <- function(object, ...) {
     ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.3) +
     ggplot2::facet_grid(site ~ model, scales = "free_y") +
     ggplot2::labs(x = "time", y = "bias", title = "Bias before and after the model change") +
+    ggplot2::theme_bw()
+}
+
+# The held-out error of each model, before and after: the held-out field
+# mean (registered as each fit registered its own) less the prediction.
+holdout_plot <- function(object) {
+  preds <- attr(object, "holdout_predictions")
+  fields <- attr(object, "holdout_field")
+  if (is.null(preds) || is.null(fields)) {
+    wv_abort(c("This comparison has no held-out condition to plot.",
+               "i" = "Give {.code compare_validations(before, after, holdout = experiment(...))}."),
+             class = "input")
+  }
+  rows <- list()
+  for (m in c("before", "after")) {
+    p <- preds[[m]]
+    for (s in intersect(unique(p$site), names(fields[[m]]$curves))) {
+      ps <- p[p$site == s, , drop = FALSE]
+      y <- colMeans(fields[[m]]$curves[[s]])
+      rows[[length(rows) + 1L]] <- data.frame(
+        t = rep(ps$t, 2L), site = s, model = m,
+        prediction = rep(c("model alone", "bias-corrected"), each = nrow(ps)),
+        error = c(y - ps$model, y - ps$mean), stringsAsFactors = FALSE)
+    }
+  }
+  d <- do.call(rbind, rows)
+  d$model <- factor(d$model, levels = c("before", "after"))
+  d$prediction <- factor(d$prediction, levels = c("model alone", "bias-corrected"))
+  hr <- attr(object, "holdout_ratio")
+  f <- function(z) format(round(z, 2), nsmall = 2)
+  sub <- if (!is.null(hr)) {
+    sprintf("%s: held-out RMSE after / before, model alone %s [%s, %s], bias-corrected %s [%s, %s]",
+            attr(object, "verdict") %||% holdout_verdict(hr), f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1]),
+            f(hr$ratio[2]), f(hr$lower[2]), f(hr$upper[2]))
+  }
+  ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$error, colour = .data$model)) +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(linewidth = 0.3) +
+    ggplot2::scale_colour_manual(values = c(before = "grey60", after = "black"), name = NULL) +
+    ggplot2::facet_grid(site ~ prediction, scales = "free_y") +
+    ggplot2::labs(x = "time", y = "held-out field mean less prediction",
+                  title = "Error at the held-out condition, before and after the change", subtitle = sub) +
     ggplot2::theme_bw()
 }
 

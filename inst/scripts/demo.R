@@ -64,6 +64,7 @@ comparison <- compare_validations(fit, fit_m, holdout = experiment(tb$added_mass
                                   seed = 1)
 print(comparison)
 save_plot(autoplot(comparison), "09-before-and-after.png", height = 6)
+save_plot(autoplot(comparison, type = "holdout"), "10-held-out-error.png", height = 6)
 
 coverage <- function(pred, field) {
   d <- as.data.frame(pred)

@@ -67,6 +67,17 @@ test_that("a fix that helps at a new condition: 'helped', its intervals below 1"
   expect_true(any(grepl("the change helped", out, fixed = TRUE)))
   expect_true(any(startsWith(out, "Rule: helped when")))
   expect_true(any(startsWith(capture.output(print(summary(cmp))), "Rule: helped when")))
+  # the held-out figure: the field mean less each prediction, whose mean square is the RMSE's with one
+  # replicate's noise averaged out, and the verdict in its subtitle
+  g <- autoplot(cmp, type = "holdout")
+  d <- g$data
+  y_bar <- colMeans(held$field$curves$site1)
+  expect_equal(d$error[d$model == "before" & d$prediction == "model alone"], y_bar - p$model)
+  expect_equal(d$error[d$model == "before" & d$prediction == "bias-corrected"], y_bar - p$mean)
+  rms <- function(m) sqrt(mean(d$error[d$model == m & d$prediction == "model alone"]^2))
+  expect_lt(rms("after"), 0.6 * rms("before"))
+  expect_match(g$labels$subtitle, "^helped: held-out RMSE after / before, model alone 0\\.")
+  expect_error(autoplot(compare_validations(before, after), type = "holdout"), class = "wavevalid_error_input")
   # the same with a list of two experiments, one for each model
   cmp2 <- compare_validations(before, after, holdout = list(before = held, after = held), seed = 1)
   expect_identical(attr(cmp2, "holdout_ratio"), attr(cmp, "holdout_ratio"))

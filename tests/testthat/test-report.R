@@ -99,6 +99,9 @@ test_that("with a comparison the verdict gives its verdict word and both held-ou
   expect_true(grepl("the model alone errs 1.00 times as much as before (90% interval 1.00 to 1.00)", verdict,
                     fixed = TRUE))
   expect_true(grepl("the bias-corrected prediction 1.00 times (1.00 to 1.00)", verdict, fixed = TRUE))
+  # two figures after the comparison's tables: the bias before and after, and the held-out error
+  compared <- between(html, "Before and after the model change</h2>", "Appendix")
+  expect_identical(lengths(regmatches(compared, gregexpr("<img", compared, fixed = TRUE))), 2L)
 })
 
 test_that("the console print of the fit is kept, folded in a details element at the end", {
