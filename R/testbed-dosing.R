@@ -75,8 +75,10 @@ testbed_dosing <- function(seed = 1, hidden = "none") {
 #'   half-effect at 3 mg/L): later doses decay faster.
 #'
 #' In [simulate_dosing()] each is switched on by naming it in `mechanism`;
-#' its strength is the design column `s_<name>` in \[0, 1\], 1 being
-#' reality's strength.
+#' its strength is the design column `s_<name>` in \[0, 2\], 1 being
+#' reality's strength. Strengths above 1 carry the mechanism beyond
+#' reality's: they let a model with the mechanism added give its strength a
+#' range that holds reality's inside it, not on its bound.
 #' @return A character vector.
 #' @export
 #' @examples
@@ -121,7 +123,7 @@ dosing_mechanisms <- function() {
 #'   run. Inputs it lacks take their value from `nominal`.
 #' @param mechanism `NULL` or names from [dosing_mechanisms()] to switch on;
 #'   each needs a strength column `s_<name>` in `design`, with values in
-#'   \[0, 1\] (1 = reality's strength).
+#'   \[0, 2\] (1 = reality's strength).
 #' @param nominal Named values for inputs missing from `design` (default 0.5
 #'   for every input).
 #' @return A `wv_runs` object with the site `plasma` on the 2048-point grid;

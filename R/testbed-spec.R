@@ -73,8 +73,8 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
     wv_abort("Every column of {.arg design} must be numeric and finite.", call = call)
   }
   for (s in scols) {
-    if (any(design[[s]] < 0 | design[[s]] > 1)) {
-      wv_abort("Strength {.val {s}} must lie in [0, 1] (1 = reality's strength).", call = call)
+    if (any(design[[s]] < 0 | design[[s]] > 2)) {
+      wv_abort("Strength {.val {s}} must lie in [0, 2] (1 = reality's strength).", call = call)
     }
   }
   nom <- stats::setNames(rep(0.5, length(inputs)), inputs)

@@ -79,8 +79,11 @@ testbed_suspension <- function(seed = 1, hidden = "none", n_added_mass = 1) {
 #'   the big events).
 #'
 #' In [simulate_suspension()] each is switched on by naming it in
-#' `mechanism`; its strength is the design column `s_<name>` in \[0, 1\], 1
-#' being reality's strength.
+#' `mechanism`; its strength is the design column `s_<name>` in \[0, 2\], 1
+#' being reality's strength. Strengths above 1 carry the mechanism beyond
+#' reality's (the lift-off above 1 reverses the tire's force in tension): they
+#' let a model with the mechanism added give its strength a range that holds
+#' reality's inside it, not on its bound.
 #' @return A character vector.
 #' @export
 #' @examples
@@ -111,7 +114,7 @@ testbed_mechanisms <- function() {
 #'   run. Inputs it lacks take their value from `nominal`.
 #' @param mechanism `NULL` or names from [testbed_mechanisms()] to switch on;
 #'   each needs a strength column `s_<name>` in `design`, with values in
-#'   \[0, 1\] (1 = reality's strength).
+#'   \[0, 2\] (1 = reality's strength).
 #' @param nominal Named values for inputs missing from `design` (default 0.5
 #'   for every input).
 #' @return A `wv_runs` object with sites `site1` (front) and `site2` (rear) on

@@ -30,11 +30,13 @@
 #   Rscript studies/false_findings.R [beds=suspension,dosing] [seeds=1:5] [hidden=none,all]
 #                                    [pool_levels=coarse] [registration_variance=check]
 #                                    [n_draws=150] [n_inner=20] [chains=1] [out=false_findings.csv]
+#                                    [strength_upper=1] (c3: the range [0, strength_upper] of the added strength)
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 args <- study_args(list(beds = "suspension,dosing", seeds = "1:5", hidden = "none,all", pool_levels = "coarse",
                         registration_variance = "check", n_draws = "150", n_inner = "20", chains = "1",
-                        out = "false_findings.csv", truth = "FALSE", c3 = "FALSE"))
+                        out = "false_findings.csv", truth = "FALSE", c3 = "FALSE", strength_upper = "1"))
+args$strength_upper <- as.numeric(args$strength_upper)
 options(wavevalid.quiet = TRUE)
 pool <- if (args$pool_levels == "coarse") "coarse" else arg_value(args$pool_levels)
 rv <- if (args$registration_variance == "check") "check" else arg_flag(args$registration_variance)
@@ -48,7 +50,7 @@ steps <- function(wf, dt) {
 # condition.
 loop_after <- function(tb, fit, b, hd, dt) {
   s_name <- paste0("s_", hd)
-  iu2 <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
+  iu2 <- iu_add(tb$iu, s_name, lower = 0, upper = args$strength_upper, nominal = args$strength_upper / 2)
   off <- tb$A$runs$design
   off[[s_name]] <- 0
   runs2 <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t),
