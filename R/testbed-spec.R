@@ -14,10 +14,13 @@
 # `knots` by a random sign times U(`shift`) times `scale`. `shifted` holds
 # the conditions met by moving the inputs of A (list of `shift`, a named
 # change of the coded inputs, `n_field` and `label`). `text` holds the words
-# of messages and prints.
+# of messages and prints. `max_strength` names the mechanisms whose strength
+# cannot exceed a physical limit below 2 (the largest strength otherwise).
 new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid, windows,
-                             designs, nominal_B, n_field, warp, noise, shifted = list(), text) {
+                             designs, nominal_B, n_field, warp, noise, shifted = list(), text,
+                             max_strength = NULL) {
   structure(list(name = name, iu = iu, mechanisms = mechanisms, mechanisms_fn = mechanisms_fn,
+                 max_strength = max_strength,
                  physical = physical, simulator = simulator, grid = grid, windows = windows,
                  designs = designs, nominal_B = nominal_B, n_field = n_field, warp = warp,
                  noise = noise, shifted = shifted, text = text),
@@ -73,8 +76,10 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
     wv_abort("Every column of {.arg design} must be numeric and finite.", call = call)
   }
   for (s in scols) {
-    if (any(design[[s]] < 0 | design[[s]] > 2)) {
-      wv_abort("Strength {.val {s}} must lie in [0, 2] (1 = reality's strength).", call = call)
+    top <- unname(spec$max_strength[sub("^s_", "", s)])
+    if (!length(top) || is.na(top)) top <- 2
+    if (any(design[[s]] < 0 | design[[s]] > top)) {
+      wv_abort("Strength {.val {s}} must lie in [0, {top}] (1 = reality's strength).", call = call)
     }
   }
   nom <- stats::setNames(rep(0.5, length(inputs)), inputs)

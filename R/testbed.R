@@ -80,10 +80,10 @@ testbed_suspension <- function(seed = 1, hidden = "none", n_added_mass = 1) {
 #'
 #' In [simulate_suspension()] each is switched on by naming it in
 #' `mechanism`; its strength is the design column `s_<name>` in \[0, 2\], 1
-#' being reality's strength. Strengths above 1 carry the mechanism beyond
-#' reality's (the lift-off above 1 reverses the tire's force in tension): they
-#' let a model with the mechanism added give its strength a range that holds
-#' reality's inside it, not on its bound.
+#' being reality's strength (the lift-off's in \[0, 1\]: at 1 the tire's
+#' force in tension is gone). Strengths above 1 carry the mechanism beyond
+#' reality's: they let a model with the mechanism added give its strength a
+#' range that holds reality's inside it, not on its bound.
 #' @return A character vector.
 #' @export
 #' @examples
@@ -114,7 +114,7 @@ testbed_mechanisms <- function() {
 #'   run. Inputs it lacks take their value from `nominal`.
 #' @param mechanism `NULL` or names from [testbed_mechanisms()] to switch on;
 #'   each needs a strength column `s_<name>` in `design`, with values in
-#'   \[0, 2\] (1 = reality's strength).
+#'   \[0, 2\] (1 = reality's strength; the lift-off's in \[0, 1\]).
 #' @param nominal Named values for inputs missing from `design` (default 0.5
 #'   for every input).
 #' @return A `wv_runs` object with sites `site1` (front) and `site2` (rear) on
@@ -187,6 +187,8 @@ suspension_spec <- function(n_added_mass = 1L) {
   new_testbed_spec(
     name = "suspension", iu = testbed_iu(),
     mechanisms = testbed_mechanisms(), mechanisms_fn = "testbed_mechanisms",
+    # the tire's force in tension is gone at strength 1: nothing beyond
+    max_strength = c(tire_liftoff = 1),
     physical = testbed_physical,
     simulator = function(params, strength, t) suspension_simulate_cpp(params, strength, t, 4L),
     grid = testbed_grid(), windows = testbed_windows(),

@@ -50,7 +50,9 @@ steps <- function(wf, dt) {
 # condition.
 loop_after <- function(tb, fit, b, hd, dt) {
   s_name <- paste0("s_", hd)
-  iu2 <- iu_add(tb$iu, s_name, lower = 0, upper = args$strength_upper, nominal = args$strength_upper / 2)
+  # the lift-off's strength cannot pass 1 (the tire's force in tension is gone)
+  top <- if (hd == "tire_liftoff") min(1, args$strength_upper) else args$strength_upper
+  iu2 <- iu_add(tb$iu, s_name, lower = 0, upper = top, nominal = top / 2)
   off <- tb$A$runs$design
   off[[s_name]] <- 0
   runs2 <- c(model_runs(off, tb$A$runs$curves, tb$A$runs$t),

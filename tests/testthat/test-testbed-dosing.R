@@ -149,7 +149,7 @@ test_that("bad input stops with classed errors", {
   expect_error(simulate_dosing(data.frame(u1 = NA_real_)), class = "wavevalid_error_input")
   expect_error(simulate_dosing(data.frame(s_induction = 1)), class = "wavevalid_error_input")
   expect_error(simulate_dosing(data.frame(u1 = 0.5), mechanism = "induction"), class = "wavevalid_error_input")
-  expect_error(simulate_dosing(data.frame(s_induction = 1.5), mechanism = "induction"),
+  expect_error(simulate_dosing(data.frame(s_induction = 2.5), mechanism = "induction"),
                class = "wavevalid_error_input")
   expect_error(simulate_dosing(data.frame(u1 = 0.5), mechanism = "strut_friction"),
                class = "wavevalid_error_input")

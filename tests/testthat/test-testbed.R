@@ -122,6 +122,17 @@ test_that("the mechanism switched on at strength 1 reproduces reality", {
   expect_lt(gap_half, max(abs(off$curves$site1[1, ] - tb$truth$reality$site1)))
 })
 
+test_that("strengths past reality's carry a mechanism further, up to its limit", {
+  # the bump stop at 1.5 is stiffer than reality's; the lift-off stops at 1, where the tire's pull is gone
+  base <- simulate_suspension(truth_design(tb))$curves$site1[1, ]
+  gap <- function(m, s) max(abs(simulate_suspension(truth_design(tb, m, s), mechanism = m)$curves$site1[1, ] - base))
+  expect_gt(gap("progressive_bumpstop", 1.5), 1.2 * gap("progressive_bumpstop", 1))
+  expect_error(simulate_suspension(truth_design(tb, "progressive_bumpstop", 2.1), mechanism = "progressive_bumpstop"),
+               "\\[0, 2\\]", class = "wavevalid_error")
+  expect_error(simulate_suspension(truth_design(tb, "tire_liftoff", 1.1), mechanism = "tire_liftoff"),
+               "\\[0, 1\\]", class = "wavevalid_error")
+})
+
 test_that("event mechanisms act only near the pothole and the bump", {
   base <- simulate_suspension(truth_design(tb))
   near <- (grid > 6 & grid < 13) | (grid > 37 & grid < 44)
@@ -176,7 +187,7 @@ test_that("simulate_suspension fills inputs from nominals and checks its design"
   expect_error(simulate_suspension(data.frame(speed = 1)), class = "wavevalid_error_input")
   expect_error(simulate_suspension(d, mechanism = "strut_friction"), class = "wavevalid_error_input")
   expect_error(simulate_suspension(cbind(d, s_strut_friction = 1)), class = "wavevalid_error_input")
-  expect_error(simulate_suspension(cbind(d, s_strut_friction = 2), mechanism = "strut_friction"),
+  expect_error(simulate_suspension(cbind(d, s_strut_friction = 2.5), mechanism = "strut_friction"),
                class = "wavevalid_error_input")
   expect_error(simulate_suspension(d, mechanism = "wind"), class = "wavevalid_error_input")
   expect_error(simulate_suspension(d, nominal = c(x9 = 0.5)), class = "wavevalid_error_input")
