@@ -141,7 +141,7 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   sites <- if (type %in% c("reality", "field_run")) names(object$wb) else base_sites(object)
   # the draws of the set-up (prior draws of the variations, emulators of new
   # runs) come from their own stream, fixed by the seed
-  setup_seed <- if (seed < .Machine$integer.max) seed + 1L else 1L
+  setup_seed <- setup_seed_of(seed)
   new_model <- with_rng_seed(setup_seed, switch(type,
     added_load = if (is.null(new_runs) && !is.null(delta)) {
       added_load_emulated(object, delta)
@@ -373,12 +373,14 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   )
 }
 
+# The seed of the set-up draws of a prediction made with `seed`.
+setup_seed_of <- function(seed) if (seed < .Machine$integer.max) seed + 1L else 1L
+
 # predict(type = "new_condition"): the draws of the condition
 # (new_condition_setup(), from the set-up stream), then the bands by base
 # site.
 predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed, call = rlang::caller_env()) {
-  setup_seed <- if (seed < .Machine$integer.max) seed + 1L else 1L
-  setup <- with_rng_seed(setup_seed, new_condition_setup(fit, condition, call = call))
+  setup <- with_rng_seed(setup_seed_of(seed), new_condition_setup(fit, condition, call = call))
   sites <- names(setup$sites)
   out <- with_rng_seed(seed, lapply(sites, function(s) new_condition_site(fit, s, setup, level, noise, keep_draws)))
   names(out) <- sites
