@@ -88,56 +88,54 @@ experiment <- function(field, change = NULL, emulators = NULL, reference = NULL,
 
 #' Experiments at many conditions at once
 #'
-#' Makes one [experiment()] for each field of a list, each at its value of
-#' the test conditions: the curves of one system measured at several settings
-#' (doses, temperatures, loads). Give the result to [calibrate()] or
-#' [validate()] as `experiments`, with the field of the base condition (the
-#' conditions' nominal values of the I/U map) as `field`.
+#' Makes one [experiment()] for each field at its value of the test
+#' conditions: the curves of one system measured at several settings (doses,
+#' temperatures, loads). Give the result to [calibrate()] or [validate()] as
+#' `experiments`, with the field of the base condition (the conditions'
+#' nominal values in the I/U map) as `field`.
 #'
-#' @param fields A named list of `wv_field` objects ([field_runs()]), one per
-#'   experiment, or one `wv_field` with `by`.
-#' @param condition A data frame with one row per field, in the order of
-#'   `fields`, and one column per condition input (other columns are an
-#'   error); or, with `by`, `NULL`.
-#' @param by With long field data: a data frame of the measurements with the
-#'   columns [field_runs()] reads (`t`, `y`, and `site`, `replicate` as
-#'   present) and one column per condition input; each distinct combination
-#'   of the condition columns is an experiment, named `"<input>=<value>"`
-#'   (joined by `","`), its rows read by `field_runs(data, t = )`. `fields`
-#'   must then be `NULL`.
-#' @param t With `by`: the time grid of the fields (that of the model runs).
-#' @param ... With `by`: further arguments of [field_runs()] (`x_nom`, ...).
+#' @param fields A named list of `wv_field` objects ([field_runs()]), one
+#'   per experiment; or a data frame of long field data with a column for
+#'   each condition input, every distinct combination of their values an
+#'   experiment named `"<input>=<value>"` (joined by `","`), its rows read by
+#'   `field_runs(rows, ...)`.
+#' @param condition With a list of fields: a data frame with one row per
+#'   field, in the order of `fields`, and one numeric column per condition
+#'   input. With long data: the names of its condition columns.
+#' @param ... With long data: the arguments of [field_runs()] that name its
+#'   columns (`t`, `y`, `site`, `replicate`) and `x_nom`.
 #' @return A named list of `wv_experiment` objects.
 #' @seealso [experiment()], [iu_map()] (section Conditions).
 #' @export
 #' @examples
 #' tb <- load_testbed()
 #' experiments_at(list(added_mass = tb$added_mass$field), data.frame(x1 = 0.65))
-experiments_at <- function(fields = NULL, condition = NULL, by = NULL, t = NULL, ...) {
-  if (!is.null(by)) {
-    if (!is.null(fields) || !is.null(condition)) {
-      wv_abort("Give either {.arg fields} with {.arg condition}, or long data {.arg by}, not both.",
-               class = "condition")
+#' # long data: two doses, two replicates each, on sixteen time points
+#' long <- expand.grid(t = 0:15, replicate = 1:2, dose = c(250, 550))
+#' long$y <- long$dose / 400 * exp(-long$t / 2) + rnorm(nrow(long), sd = 0.01)
+#' experiments_at(long, "dose", t = "t", y = "y", replicate = "replicate")
+experiments_at <- function(fields, condition, ...) {
+  if (is.data.frame(fields)) {
+    cols <- condition
+    if (!is.character(cols) || !length(cols) || !all(cols %in% names(fields))) {
+      wv_abort(c("With long field data, {.arg condition} must name its condition columns.",
+                 "i" = "Its columns: {.val {names(fields)}}."), class = "condition")
     }
-    if (!is.data.frame(by)) wv_abort("{.arg by} must be a data frame of long field data.", class = "condition")
-    cols <- setdiff(names(by), c("t", "y", "site", "replicate"))
-    if (!length(cols)) {
-      wv_abort(c("{.arg by} has no condition column.",
-                 "i" = "Besides {.field t}, {.field y}, {.field site} and {.field replicate}, give one column per condition input."),
-               class = "condition")
-    }
-    bad <- cols[!vapply(by[cols], is.numeric, logical(1))]
+    bad <- cols[!vapply(fields[cols], is.numeric, logical(1))]
     if (length(bad)) wv_abort("The condition column{?s} {.val {bad}} must be numeric.", class = "condition")
-    key <- do.call(paste, c(lapply(cols, function(p) paste0(p, "=", format(by[[p]], trim = TRUE))), sep = ","))
+    key <- do.call(paste, c(lapply(cols, function(p) paste0(p, "=", format(fields[[p]], trim = TRUE))), sep = ","))
     keys <- unique(key)
+    long <- fields
     fields <- stats::setNames(lapply(keys, function(k) {
-      field_runs(by[key == k, setdiff(names(by), cols), drop = FALSE], t = t, ...)
+      field_runs(long[key == k, setdiff(names(long), cols), drop = FALSE], ...)
     }), keys)
-    condition <- by[match(keys, key), cols, drop = FALSE]
+    condition <- long[match(keys, key), cols, drop = FALSE]
+  } else if (...length()) {
+    wv_abort("The arguments after {.arg condition} are for long field data only.", class = "condition")
   }
   if (inherits(fields, "wv_field") || !is.list(fields) || !length(fields) || is.null(names(fields)) ||
       any(names(fields) == "") || anyDuplicated(names(fields))) {
-    wv_abort(c("{.arg fields} must be a named list of {.cls wv_field}s, one per experiment.",
+    wv_abort(c("{.arg fields} must be a named list of {.cls wv_field}s, one per experiment, or long field data.",
                "i" = "For example {.code list(dose_250 = field_250, dose_550 = field_550)}."), class = "condition")
   }
   if (!is.data.frame(condition) || nrow(condition) != length(fields) || !ncol(condition) ||
