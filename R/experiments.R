@@ -254,7 +254,8 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
 # to: its own `reference` when given, else the model in its condition as the
 # emulators predict it. With `change`: every run of `runs` (the base
 # experiment's, to which `emulators` were fitted) with its retained wavelet
-# coefficients replaced by the emulators' means at its inputs plus the change,
+# coefficients replaced by the emulators' means at its inputs plus the change
+# (with a condition: its condition inputs set to the experiment's values),
 # so that the mean of these runs stands to the experiment as the mean of
 # `runs` stands to the base experiment. Every run is kept, those the change
 # moves outside the range of the design too (the emulators extrapolate
@@ -271,6 +272,8 @@ experiment_reference <- function(x, emulators, runs) {
   if (!is.null(x$change)) {
     design <- runs$design
     for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
+    # a condition is known: every run at the experiment's value
+    for (p in intersect(names(x$condition), names(design))) design[[p]] <- x$condition[[p]]
     curves <- lapply(sites, function(s) {
       basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) +
         basis_remainder(emulators$basis, runs$curves[[s]])
@@ -300,6 +303,9 @@ register_experiments <- function(experiments, emulators, runs, windows, ..., qui
     experiments[[e]] <- x
     how[[e]] <- if (!is.null(x$reference)) {
       sprintf("its reference (%d run%s)", nrow(ref$design), if (nrow(ref$design) == 1L) "" else "s")
+    } else if (!is.null(x$condition)) {
+      paste0("the emulators at the runs' inputs at the condition ",
+             paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "))
     } else if (!is.null(x$change)) {
       n_out <- sum(outside_design(ref$design, runs$design, names(x$change)))
       paste0("the emulators at the runs' inputs changed by ",
