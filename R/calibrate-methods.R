@@ -97,8 +97,10 @@ prior_lines <- function(prior_iu, conditions = NULL) {
   if (is.null(prior_iu)) return(character(0))
   lab <- prior_labels(prior_iu)
   cond <- prior_iu$name %in% conditions$inputs
-  lab[cond] <- sprintf("none: a condition, known (%s in the base experiment; each experiment at its own)",
-                       format(signif(conditions$base[prior_iu$name[cond]], 4), trim = TRUE))
+  if (any(cond)) {
+    lab[cond] <- sprintf("none: a condition, known (%s in the base experiment; each experiment at its own)",
+                         format(signif(conditions$base[prior_iu$name[cond]], 4), trim = TRUE))
+  }
   c("Priors:", paste0("  ", formatC(prior_iu$name, width = -max(nchar(prior_iu$name))), "  ", lab),
     joint_prior_text(prior_iu))
 }
