@@ -44,7 +44,7 @@ print.wv_fit <- function(x, ...) {
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
   cli::cat_line("(sd_ratio: posterior sd / prior sd; near 1 the data say little of the input)")
-  for (line in prior_lines(x$prior_iu)) cli::cat_line(line)
+  for (line in prior_lines(x$prior_iu, x$conditions)) cli::cat_line(line)
   for (line in noise_lines(x)) cli::cat_line(line)
   for (line in shared_error_lines(x)) cli::cat_line(line)
   for (line in experiment_lines(x)) cli::cat_line(line)
@@ -93,9 +93,14 @@ print.wv_fit <- function(x, ...) {
 }
 
 # The prior of every input, one line each, and the correlations of joint priors.
-prior_lines <- function(prior_iu) {
+prior_lines <- function(prior_iu, conditions = NULL) {
   if (is.null(prior_iu)) return(character(0))
   lab <- prior_labels(prior_iu)
+  cond <- prior_iu$name %in% conditions$inputs
+  if (any(cond)) {
+    lab[cond] <- sprintf("none: a condition, known (%s in the base experiment; each experiment at its own)",
+                         format(signif(conditions$base[prior_iu$name[cond]], 4), trim = TRUE))
+  }
   c("Priors:", paste0("  ", formatC(prior_iu$name, width = -max(nchar(prior_iu$name))), "  ", lab),
     joint_prior_text(prior_iu))
 }
@@ -161,11 +166,14 @@ format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
 input_table <- function(x) {
   X <- as.matrix(x$draws)
-  data.frame(input = x$inputs, type = x$prior_iu$type,
+  cond <- x$inputs %in% x$conditions$inputs
+  sd_ratio <- apply(X[, x$inputs, drop = FALSE], 2, stats::sd) / (x$prior_sd %||% prior_sds(x$prior_iu))[x$inputs]
+  sd_ratio[cond] <- NA_real_
+  data.frame(input = x$inputs, type = ifelse(cond, "condition", x$prior_iu$type),
              mean = colMeans(X[, x$inputs, drop = FALSE]),
              q2.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
              q97.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
-             sd_ratio = apply(X[, x$inputs, drop = FALSE], 2, stats::sd) / (x$prior_sd %||% prior_sds(x$prior_iu))[x$inputs],
+             sd_ratio = unname(sd_ratio),
              rhat = unname(x$rhat[x$inputs]), ess = round(unname(x$ess[x$inputs])),
              stringsAsFactors = FALSE)
 }
@@ -191,7 +199,8 @@ summary.wv_fit <- function(object, ...) {
                     q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
-  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu), noise = noise_lines(object),
+  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu, object$conditions),
+                 noise = noise_lines(object),
                  experiments = experiment_lines(object), tau2 = tau,
                  acceptance = object$acceptance,
                  flags = object$flags, settings = object$settings,

@@ -305,11 +305,15 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   pool_levels <- bias$pool_levels
   registration_variance <- bias$registration_variance
   inform_levels <- bias$inform_levels
-  spec <- calibration_spec(emulators, field, iu, sigma2, pool_levels = pool_levels,
+  # the conditions are known: held at the base experiment's values
+  iu_run <- conditions_held_iu(iu)
+  spec <- calibration_spec(emulators, field, iu_run, sigma2, pool_levels = pool_levels,
                            registration_variance = registration_variance)
-  experiments <- check_experiments(experiments, emulators, field, spec$x_nom)
+  cond <- iu_conditions(iu)
+  spec$x_nom[cond] <- condition_base(iu)
+  experiments <- check_experiments(experiments, emulators, field, spec$x_nom, iu = iu)
   if (!is.null(experiments)) {
-    spec <- add_experiments(spec, experiments, emulators, iu, pool_levels, registration_variance, bias$level_variances,
+    spec <- add_experiments(spec, experiments, emulators, iu_run, pool_levels, registration_variance, bias$level_variances,
                             bias$experiment_bias)
     parts <- experiment_fit_parts(spec, emulators, field, experiments)
     emulators <- parts$emulators
@@ -336,6 +340,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
                       seed = seed)
   fit$shared_errors <- shared
   fit$prior_sd <- prior_sds(fit$prior_iu)
+  fit$conditions <- fit_condition_table(iu, experiments)
   if (!is.null(experiments)) {
     fit$settings$level_variances <- bias$level_variances
     fit$settings$experiment_bias <- bias$experiment_bias

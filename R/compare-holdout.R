@@ -51,6 +51,17 @@ fit_draws <- function(fit, sites, dW = NULL) {
   }), sites)
 }
 
+# Centred coefficient draws of the model and of the bias-corrected
+# prediction at a condition (new_condition_setup()).
+condition_draws <- function(fit, setup, sites) {
+  G <- if (is.null(fit$basis$settings)) crossprod(fit$basis$Psi)
+  stats::setNames(lapply(sites, function(s) {
+    M <- setup$sites[[s]]$M
+    W <- M + setup$sites[[s]]$B
+    list(Psi = fit$basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+  }), sites)
+}
+
 # The curve draws a user's prediction kept (keep_draws = TRUE), centred; the
 # model alone has none.
 prediction_draws <- function(pred) {
@@ -64,7 +75,7 @@ prediction_draws <- function(pred) {
 # the posterior draws of the inputs plus the change (predict(type =
 # "added_load", delta = change)) or through the experiment's own emulators.
 experiment_prediction <- function(fit, x, level, seed, call) {
-  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), call = call)$holdout
+  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), iu = fit$iu, call = call)$holdout
   miss <- setdiff(names(x$field$curves), base_sites(fit))
   if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
   args <- fit$call_args
@@ -76,6 +87,11 @@ experiment_prediction <- function(fit, x, level, seed, call) {
                                   features = args$features, knots_every = ke, quiet = TRUE)$holdout$field
   }
   sites <- names(field$curves)
+  if (!is.null(x$condition)) {
+    pred <- stats::predict(fit, type = "new_condition", condition = x$condition, level = level, seed = seed)
+    setup <- with_rng_seed(setup_seed_of(pred$seed), new_condition_setup(fit, x$condition, call = call))
+    return(list(field = field, pred = pred, draws = condition_draws(fit, setup, sites)))
+  }
   if (!is.null(x$change)) {
     pred <- stats::predict(fit, type = "added_load", delta = x$change, level = level, seed = seed)
     dW <- added_load_emulated(fit, x$change, call = call)$Dw

@@ -24,6 +24,11 @@
 #'     itself, at the posterior draws of its inputs plus the change through
 #'     its emulators, plus its bias (as `predict(fit, type = "added_load",
 #'     delta = change)`); the change must name inputs of both models;
+#'   * an [experiment()] with `condition`: a held-out test condition (a dose
+#'     or load never fitted, the fits' I/U maps holding it as a condition
+#'     input): each model predicts it as `predict(fit, type =
+#'     "new_condition", condition = )` does, the bias carried from the tested
+#'     conditions;
 #'   * a list of two experiments, `before` and `after`, one for each model:
 #'     with their own `change` (when the models name the changed input
 #'     differently) or their own `emulators`, fitted to each model's runs at

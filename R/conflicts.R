@@ -100,20 +100,7 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
 # The fit's I/U map with the inputs `values` (named, in the fit's own units)
 # held: each a calibration input on a point-like range at its value.
 held_iu <- function(fit, values) {
-  iu <- fit$iu
-  for (nm in names(values)) {
-    k <- match(nm, iu$name)
-    v <- values[[nm]]
-    eps <- 1e-7 * max(iu$upper[k] - iu$lower[k], abs(v), 1e-8)
-    iu$type[k] <- "calibration"
-    iu$lower[k] <- v - eps
-    iu$upper[k] <- v + eps
-    iu$nominal[k] <- v
-    if ("prior" %in% names(iu)) iu$prior[k] <- "uniform"
-    if ("prior_sd" %in% names(iu)) iu$prior_sd[k] <- NA_real_
-    if ("prior_mean" %in% names(iu)) iu$prior_mean[k] <- NA_real_
-  }
-  iu
+  hold_at(fit$iu, values)
 }
 
 # The strata's fits pooled into one fit, with the original's I/U map, prior

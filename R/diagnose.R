@@ -95,7 +95,9 @@
 #'   bias over it), `share_of_signal` (that integral over the integral of the
 #'   absolute predicted reality there), `sign` (whether the model is above or
 #'   below reality), `inputs` (the inputs that covered it, `NA` otherwise),
-#'   for a fit of several experiments `experiment`, and, as before the kinds,
+#'   for a fit of several experiments `experiment`, for a fit with test
+#'   conditions ([iu_map()], section Conditions) `condition` (the finding's
+#'   experiment's condition, e.g. `"dose = 250"`), and, as before the kinds,
 #'   `peak_abs_bias` (equal to `size`) and `scale` (`"record"`, `"local"`,
 #'   `"held"`). Code that wants the intervals alone keeps the rows of kind
 #'   `"interval"`, as [flagged_share()] does. Attributes: `wavelet_levels`
@@ -194,6 +196,11 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
   out <- findings_table(intervals, rw, held, cf, r, fit$experiments)
+  if (!is.null(fit$conditions)) {
+    # the condition of each finding's experiment ("base" without experiments)
+    labs <- condition_labels(fit$conditions)
+    out$condition <- unname(labs[out$experiment %||% rep("base", nrow(out))])
+  }
   att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
               tolerance = tol, credible = credible_bias(b, gap), pooled_level0 = 0 %in% fit$settings$pool_levels,

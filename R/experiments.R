@@ -14,6 +14,13 @@
 #'   keep the changed inputs inside the emulators' design ranges.
 #' * `emulators`: the experiment's own emulators (from its own model runs), on
 #'   the basis of the base experiment and with the same inputs.
+#' * `condition`: the experiment's value of each test condition, the inputs
+#'   of type `"condition"` of the I/U map (see [iu_map()], section
+#'   Conditions): a known setting such as a dose or a temperature, spanned by
+#'   the model runs' design. It stands for the change `condition - nominal`
+#'   of those inputs, `nominal` being the base experiment's value; a
+#'   `change` of other inputs may come with it. [experiments_at()] makes the
+#'   experiments of many fields at once.
 #'
 #' Give the experiments to [calibrate()] or [validate()] through their
 #' argument `experiments`, a named list. Each experiment has its own bias
@@ -29,7 +36,7 @@
 #' @param change A named numeric vector: the change of the inputs named from
 #'   the base experiment, or `NULL` with `emulators`.
 #' @param emulators A `wv_emulators` object of this experiment's own runs, or
-#'   `NULL` with `change`.
+#'   `NULL` with `change` or `condition`.
 #' @param reference Optional `wv_runs` of the model in this experiment's
 #'   condition (the runs of the base design with the change, say):
 #'   [validate()] registers the experiment's field data to their mean, as it
@@ -37,19 +44,32 @@
 #'   default): to the model in this experiment's condition as the emulators
 #'   predict it, never to the base condition's runs (see [validate()],
 #'   argument `experiments`).
+#' @param condition A named numeric vector: the experiment's value of every
+#'   condition input of the I/U map (in its own units), or `NULL` when the
+#'   I/U map has none. Checked by [calibrate()] and [validate()] against the
+#'   I/U map: every condition given, none other, each inside its design
+#'   range, and no `change` of a condition.
 #' @return A `wv_experiment` object.
 #' @seealso [calibrate()], [where_fails()] (which reports each experiment's
-#'   sites).
+#'   sites), [experiments_at()].
 #' @export
 #' @examples
 #' tb <- load_testbed()
 #' # validate() registers its field data to the model with the change
 #' experiment(tb$added_mass$field, change = tb$added_mass$delta)
-experiment <- function(field, change = NULL, emulators = NULL, reference = NULL) {
+#' # the same experiment with x1 a condition of the I/U map (nominal 0.5)
+#' experiment(tb$added_mass$field, condition = c(x1 = 0.65))
+experiment <- function(field, change = NULL, emulators = NULL, reference = NULL, condition = NULL) {
   call <- rlang::current_env()
   check_class(field, "wv_field", call = call)
-  if (is.null(change) == is.null(emulators)) {
-    wv_abort(c("An experiment needs either {.arg change} or {.arg emulators}, not both or neither.",
+  check_condition_values(condition, call = call)
+  if (!is.null(condition) && !is.null(emulators)) {
+    wv_abort(c("An experiment at a {.arg condition} is predicted by the base experiment's emulators; it takes no {.arg emulators}.",
+               "i" = "Run the model over the conditions in the base design, with the condition as an input."),
+             class = c("condition", "experiment"), call = call)
+  }
+  if (is.null(condition) && is.null(change) == is.null(emulators)) {
+    wv_abort(c("An experiment needs either {.arg change} or {.arg emulators}, not both or neither (or a {.arg condition}).",
                "i" = "Give {.arg change} (e.g. {.code c(x1 = 0.15)}) when the base experiment's emulators serve at the changed inputs."),
              class = "experiment", call = call)
   }
@@ -62,14 +82,82 @@ experiment <- function(field, change = NULL, emulators = NULL, reference = NULL)
   }
   if (!is.null(emulators)) check_class(emulators, "wv_emulators", call = call)
   if (!is.null(reference)) check_class(reference, "wv_runs", call = call)
-  structure(list(field = field, change = change, emulators = emulators, reference = reference),
+  structure(list(field = field, change = change, emulators = emulators, reference = reference, condition = condition),
             class = "wv_experiment")
+}
+
+#' Experiments at many conditions at once
+#'
+#' Makes one [experiment()] for each field at its value of the test
+#' conditions: the curves of one system measured at several settings (doses,
+#' temperatures, loads). Give the result to [calibrate()] or [validate()] as
+#' `experiments`, with the field of the base condition (the conditions'
+#' nominal values in the I/U map) as `field`.
+#'
+#' @param fields A named list of `wv_field` objects ([field_runs()]), one
+#'   per experiment; or a data frame of long field data with a column for
+#'   each condition input, every distinct combination of their values an
+#'   experiment named `"<input>=<value>"` (joined by `","`), its rows read by
+#'   `field_runs(rows, ...)`.
+#' @param condition With a list of fields: a data frame with one row per
+#'   field, in the order of `fields`, and one numeric column per condition
+#'   input. With long data: the names of its condition columns.
+#' @param ... With long data: the arguments of [field_runs()] that name its
+#'   columns (`t`, `y`, `site`, `replicate`) and `x_nom`.
+#' @return A named list of `wv_experiment` objects.
+#' @seealso [experiment()], [iu_map()] (section Conditions).
+#' @export
+#' @examples
+#' tb <- load_testbed()
+#' experiments_at(list(added_mass = tb$added_mass$field), data.frame(x1 = 0.65))
+#' # long data: two doses, two replicates each, on sixteen time points
+#' long <- expand.grid(t = 0:15, replicate = 1:2, dose = c(250, 550))
+#' long$y <- long$dose / 400 * exp(-long$t / 2) + rnorm(nrow(long), sd = 0.01)
+#' experiments_at(long, "dose", t = "t", y = "y", replicate = "replicate")
+experiments_at <- function(fields, condition, ...) {
+  if (is.data.frame(fields)) {
+    cols <- condition
+    if (!is.character(cols) || !length(cols) || !all(cols %in% names(fields))) {
+      wv_abort(c("With long field data, {.arg condition} must name its condition columns.",
+                 "i" = "Its columns: {.val {names(fields)}}."), class = "condition")
+    }
+    bad <- cols[!vapply(fields[cols], is.numeric, logical(1))]
+    if (length(bad)) wv_abort("The condition column{?s} {.val {bad}} must be numeric.", class = "condition")
+    key <- do.call(paste, c(lapply(cols, function(p) paste0(p, "=", format(fields[[p]], trim = TRUE))), sep = ","))
+    keys <- unique(key)
+    long <- fields
+    fields <- stats::setNames(lapply(keys, function(k) {
+      field_runs(long[key == k, setdiff(names(long), cols), drop = FALSE], ...)
+    }), keys)
+    condition <- long[match(keys, key), cols, drop = FALSE]
+  } else if (...length()) {
+    wv_abort("The arguments after {.arg condition} are for long field data only.", class = "condition")
+  }
+  if (inherits(fields, "wv_field") || !is.list(fields) || !length(fields) || is.null(names(fields)) ||
+      any(names(fields) == "") || anyDuplicated(names(fields))) {
+    wv_abort(c("{.arg fields} must be a named list of {.cls wv_field}s, one per experiment, or long field data.",
+               "i" = "For example {.code list(dose_250 = field_250, dose_550 = field_550)}."), class = "condition")
+  }
+  if (!is.data.frame(condition) || nrow(condition) != length(fields) || !ncol(condition) ||
+      !all(vapply(condition, is.numeric, logical(1)))) {
+    wv_abort(c("{.arg condition} must be a data frame of numeric columns, one row per field ({length(fields)}).",
+               "x" = if (is.data.frame(condition)) "It has {nrow(condition)} row{?s}." else
+                 "It is {.obj_type_friendly {condition}}."), class = "condition")
+  }
+  out <- lapply(seq_along(fields), function(i) {
+    experiment(fields[[i]], condition = unlist(condition[i, , drop = FALSE]))
+  })
+  stats::setNames(out, names(fields))
 }
 
 #' @export
 print.wv_experiment <- function(x, ...) {
   reps <- vapply(x$field$curves, nrow, integer(1))
-  how <- if (!is.null(x$change)) {
+  how <- if (!is.null(x$condition)) {
+    ch <- if (isTRUE(x$condition_resolved)) x$change_given else x$change
+    paste0("at the condition ", paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "),
+           if (length(ch)) paste0(", inputs changed by ", paste(sprintf("%s %+g", names(ch), ch), collapse = ", ")))
+  } else if (!is.null(x$change)) {
     paste0("the base emulators at the inputs changed by ",
            paste(sprintf("%s %+g", names(x$change), x$change), collapse = ", "))
   } else {
@@ -100,15 +188,16 @@ as_experiment <- function(x, e, call = rlang::caller_env()) {
   if (!is.list(x) || is.null(x$field)) {
     wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment", call = call)
   }
-  experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference)
+  experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference, condition = x$condition)
 }
 
 # The experiments as a named list of wv_experiment objects, checked against
 # the base experiment before any sampling: their emulators' inputs, basis and
 # sites, the inputs their change names, and, given the nominal inputs `x_nom`
 # (from calibration_spec()), that the change keeps them inside the emulators'
-# design.
-check_experiments <- function(experiments, emulators, field, x_nom = NULL, call = rlang::caller_env()) {
+# design. With the I/U map `iu`, an experiment's condition becomes its
+# change of the condition inputs (resolve_experiment_condition()).
+check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = NULL, call = rlang::caller_env()) {
   if (is.null(experiments)) return(NULL)
   check_experiment_list(experiments, call = call)
   bad <- grepl("/", names(experiments), fixed = TRUE) | names(experiments) %in% names(field$curves)
@@ -118,6 +207,7 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, call 
   }
   out <- lapply(names(experiments), function(e) {
     x <- as_experiment(experiments[[e]], e, call = call)
+    if (!is.null(iu) || !is.null(x$condition)) x <- resolve_experiment_condition(x, e, iu, call = call)
     em <- x$emulators %||% emulators
     if (!identical(em$inputs, emulators$inputs)) {
       wv_abort(c("The emulators of experiment {.val {e}} must have the base emulators' inputs.",
@@ -164,7 +254,8 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, call 
 # to: its own `reference` when given, else the model in its condition as the
 # emulators predict it. With `change`: every run of `runs` (the base
 # experiment's, to which `emulators` were fitted) with its retained wavelet
-# coefficients replaced by the emulators' means at its inputs plus the change,
+# coefficients replaced by the emulators' means at its inputs plus the change
+# (with a condition: its condition inputs set to the experiment's values),
 # so that the mean of these runs stands to the experiment as the mean of
 # `runs` stands to the base experiment. Every run is kept, those the change
 # moves outside the range of the design too (the emulators extrapolate
@@ -181,6 +272,8 @@ experiment_reference <- function(x, emulators, runs) {
   if (!is.null(x$change)) {
     design <- runs$design
     for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
+    # a condition is known: every run at the experiment's value
+    for (p in intersect(names(x$condition), names(design))) design[[p]] <- x$condition[[p]]
     curves <- lapply(sites, function(s) {
       basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) +
         basis_remainder(emulators$basis, runs$curves[[s]])
@@ -210,6 +303,9 @@ register_experiments <- function(experiments, emulators, runs, windows, ..., qui
     experiments[[e]] <- x
     how[[e]] <- if (!is.null(x$reference)) {
       sprintf("its reference (%d run%s)", nrow(ref$design), if (nrow(ref$design) == 1L) "" else "s")
+    } else if (!is.null(x$condition)) {
+      paste0("the emulators at the runs' inputs at the condition ",
+             paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "))
     } else if (!is.null(x$change)) {
       n_out <- sum(outside_design(ref$design, runs$design, names(x$change)))
       paste0("the emulators at the runs' inputs changed by ",
@@ -377,12 +473,22 @@ base_sites <- function(fit) {
 # (nothing with one experiment).
 experiment_lines <- function(fit) {
   ex <- fit$experiments
+  if (is.null(ex) && !is.null(fit$conditions)) {
+    return(sprintf("Condition%s (known, not sampled): %s", if (length(fit$conditions$inputs) == 1L) "" else "s",
+                   condition_labels(fit$conditions)[["base"]]))
+  }
   if (is.null(ex)) return(character(0))
   lines <- vapply(unique(ex$experiment), function(e) {
     sites <- ex$site[ex$experiment == e]
     reps <- vapply(sites, function(s) fit$n_rep[[s]], numeric(1))
     sh <- site_shift(fit, sites[1])
-    how <- if (e == "base") "the base experiment" else if (any(sh != 0)) {
+    cond_lab <- if (!is.null(fit$conditions)) condition_labels(fit$conditions)[[e]]
+    sh[names(sh) %in% fit$conditions$inputs] <- 0
+    how <- if (!is.null(cond_lab)) {
+      paste0(if (e == "base") "the base experiment, " else "", cond_lab,
+             if (any(sh != 0)) paste0("; inputs changed by ",
+                                      paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", ")))
+    } else if (e == "base") "the base experiment" else if (any(sh != 0)) {
       paste0("inputs changed by ", paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", "))
     } else "its own emulators"
     sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps, ifelse(reps == 1, "", "s")),

@@ -20,7 +20,7 @@ print.wv_fails <- function(x, ...) {
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
     cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs",
-                        "experiment"), names(x))
+                        "experiment", "condition"), names(x))
     df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
     if (all(is.na(df$inputs))) df$inputs <- NULL
     num <- vapply(df, is.numeric, logical(1))

@@ -87,6 +87,11 @@ boundary_check <- function(fit, margin = 0.02) {
     k <- match(p, iu$name)
     lo <- iu$lower[k]
     hi <- iu$upper[k]
+    if (iu$type[k] == "condition") {
+      # known, held at its value: never at a bound by the data's pull
+      return(data.frame(input = p, lower = lo, upper = hi, near_lower = 0, near_upper = 0, prior_near_lower = 0,
+                        prior_near_upper = 0, flagged = FALSE, stringsAsFactors = FALSE))
+    }
     nom <- iu$nominal[k]
     if (iu$type[k] == "variation" && !is.null(fit$x_nom) && p %in% names(fit$x_nom)) {
       shift <- fit$x_nom[[p]] - nom

@@ -29,7 +29,7 @@ fit_assumptions <- function(fit, part = c("priors", "joint_prior", "noise", "lik
   check_class(fit, "wv_fit")
   part <- check_choice(part)
   out <- switch(part,
-                priors = prior_lines(fit$prior_iu),
+                priors = prior_lines(fit$prior_iu, fit$conditions),
                 joint_prior = if (!is.null(fit$prior_iu)) joint_prior_text(fit$prior_iu),
                 noise = noise_lines(fit),
                 likelihood = shared_error_lines(fit),

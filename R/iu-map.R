@@ -1,9 +1,22 @@
 #' The Input/Uncertainty map
 #'
 #' Declares the inputs of a computer model: which are calibration parameters
-#' (unknown constants of the model) and which are physical inputs subject to
+#' (unknown constants of the model), which are physical inputs subject to
 #' manufacturing variation (`x = x_nom + delta`, `delta` normal with standard
-#' deviation `prior_sd`, truncated so that `x` stays in its range).
+#' deviation `prior_sd`, truncated so that `x` stays in its range), and which
+#' are test conditions.
+#'
+#' @section Conditions:
+#' A `"condition"` input is a known setting of a test (a temperature, a
+#' load, a dose): it has no prior and is never sampled. `lower` and `upper`
+#' give the range the model runs' design spans (the emulators take the
+#' condition as an input like any other), `nominal` its value in the base
+#' experiment (the `field` of [calibrate()] or [validate()]). Every further
+#' experiment gives its own value, `experiment(field, condition = c(dose =
+#' 250))`, which stands for the change `condition - nominal` of the input;
+#' the calibration holds the input at the base experiment's value, as
+#' [hold_inputs()] holds an input. A new condition is predicted with
+#' `predict(fit, type = "new_condition", condition = )`.
 #'
 #' @section Priors of calibration inputs:
 #' Every prior is truncated to `[lower, upper]`:
@@ -23,10 +36,13 @@
 #'
 #' @param name Input names; they must match the columns of the design of
 #'   [model_runs()].
-#' @param type For each input, `"calibration"` or `"variation"`.
-#' @param lower,upper Uncertainty range of each input.
+#' @param type For each input, `"calibration"`, `"variation"` or
+#'   `"condition"` (see the section Conditions).
+#' @param lower,upper Uncertainty range of each input (of a condition: the
+#'   range of the model runs' design).
 #' @param nominal Nominal value of each input (default the centre of its range).
-#'   For calibration inputs it is the value used for nominal runs.
+#'   For calibration inputs it is the value used for nominal runs; for a
+#'   condition, its value in the base experiment.
 #' @param prior_sd Prior standard deviation: of the manufacturing variation
 #'   (default a sixth of the range), of a `"normal"` calibration input (default
 #'   a sixth of the range), or of `log(x)` for a `"lognormal"` one (default a
@@ -36,6 +52,7 @@
 #'   `"lognormal"` (see the section Priors of calibration inputs). One value
 #'   applies to every calibration input; with one value per input, those of
 #'   inputs with manufacturing variation must be `"normal"`. `NULL`: uniform.
+#'   Conditions have none: their `prior` is `"none"`, whatever is given.
 #' @param prior_mean Mean of a `"normal"` prior, median of a `"lognormal"` one
 #'   (in the input's own units); `NULL` or `NA` entries take the nominal.
 #'   Unused for the other inputs.
@@ -56,6 +73,9 @@
 #' # a normal prior on u1 and a log-normal one (median 0.3, sd of log 0.4) on u2
 #' iu_map(c("u1", "u2"), "calibration", lower = c(0, 0.01), upper = c(1, 1),
 #'        prior = c("normal", "lognormal"), prior_mean = c(0.6, 0.3), prior_sd = c(0.1, 0.4))
+#' # a test condition: the dose, run from 200 to 600 mg, 400 mg in the base experiment
+#' iu_map(c("u1", "dose"), c("calibration", "condition"), lower = c(0, 200), upper = c(1, 600),
+#'        nominal = c(0.5, 400))
 iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
                    prior_sd = NULL, prior = NULL, prior_mean = NULL) {
   if (!is.character(name) || length(name) == 0L) {
@@ -75,7 +95,7 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
     }
   }
   if (!is.character(type)) {
-    wv_abort("{.arg type} must be a character vector of {.val calibration} or {.val variation}.")
+    wv_abort("{.arg type} must be a character vector of {.val calibration}, {.val variation} or {.val condition}.")
   }
   type <- rep_len(type, n)
   if (is.null(prior)) prior <- "uniform"
@@ -94,7 +114,9 @@ iu_map <- function(name, type, lower, upper, nominal = (lower + upper) / 2,
     ))
   }
   var <- type == "variation"
-  if (n > 1L && !all(prior == prior[1]) && any(prior[var] != "normal")) {
+  cond <- type == "condition"
+  prior[cond] <- "none"
+  if (n > 1L && !all(prior[!cond] == prior[!cond][1]) && any(prior[var] != "normal")) {
     wv_abort(c(
       "Inputs with manufacturing variation have a normal prior about their nominal.",
       "x" = "{.arg prior} gives {.val {unique(prior[var & prior != 'normal'])}} for {.val {name[var & prior != 'normal']}}."
@@ -142,8 +164,9 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #'
 #' @inheritParams calibrate
 #' @param name Names of the new inputs, none of them already in `iu`.
-#' @param type For each new input, `"calibration"` (default) or
-#'   `"variation"`.
+#' @param type For each new input, `"calibration"` (default),
+#'   `"variation"` or `"condition"` (a known setting of each experiment; see
+#'   [iu_map()], section Conditions).
 #' @param lower,upper Uncertainty range of each new input.
 #' @inheritParams iu_map
 #' @return The `wv_iu` object with the new inputs after those of `iu`.
@@ -185,6 +208,25 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
   validate_wv_iu(out)
 }
 
+# The I/U map `iu` with the inputs `values` (named, in their own units)
+# held: each a calibration input with a uniform prior on a point-like range
+# at its value (hold_inputs(), and the conditions of calibrate()).
+hold_at <- function(iu, values) {
+  for (nm in names(values)) {
+    k <- match(nm, iu$name)
+    v <- values[[nm]]
+    eps <- 1e-7 * max(iu$upper[k] - iu$lower[k], abs(v), 1e-8)
+    iu$type[k] <- "calibration"
+    iu$lower[k] <- v - eps
+    iu$upper[k] <- v + eps
+    iu$nominal[k] <- v
+    if ("prior" %in% names(iu)) iu$prior[k] <- "uniform"
+    if ("prior_sd" %in% names(iu)) iu$prior_sd[k] <- NA_real_
+    if ("prior_mean" %in% names(iu)) iu$prior_mean[k] <- NA_real_
+  }
+  iu
+}
+
 new_wv_iu <- function(x) {
   structure(x, class = c("wv_iu", "data.frame"))
 }
@@ -197,10 +239,10 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
   if (length(dup)) {
     wv_abort("Input names must be unique; {.val {dup}} appear{?s/} more than once.", call = call)
   }
-  badtype <- !x$type %in% c("calibration", "variation")
+  badtype <- !x$type %in% c("calibration", "variation", "condition")
   if (any(badtype)) {
     wv_abort(c(
-      "{.arg type} must be {.val calibration} or {.val variation}.",
+      "{.arg type} must be {.val calibration}, {.val variation} or {.val condition}.",
       "x" = "{cli::qty(sum(badtype))}Input{?s} {.val {x$name[badtype]}} {?has/have} type {.val {unique(x$type[badtype])}}."
     ), call = call)
   }
@@ -234,6 +276,7 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
   if (is.null(x$prior)) return(x)
   badp <- !x$prior %in% c("uniform", "normal", "lognormal", "joint") |
     (x$type == "variation" & x$prior != "normal")
+  badp[x$type == "condition"] <- x$prior[x$type == "condition"] != "none"
   if (any(badp)) {
     wv_abort(c(
       "{.arg prior} must be {.val uniform}, {.val normal} or {.val lognormal} for calibration inputs.",
@@ -296,13 +339,19 @@ print.wv_iu <- function(x, ...) {
   x <- iu_upgrade(x)
   n_cal <- sum(x$type == "calibration")
   n_var <- sum(x$type == "variation")
-  cli::cat_line(sprintf("<wv_iu> %d input%s: %d calibration, %d with manufacturing variation",
-                        nrow(x), if (nrow(x) == 1) "" else "s", n_cal, n_var))
+  n_cond <- sum(x$type == "condition")
+  cli::cat_line(sprintf("<wv_iu> %d input%s: %d calibration, %d with manufacturing variation%s",
+                        nrow(x), if (nrow(x) == 1) "" else "s", n_cal, n_var,
+                        if (n_cond) sprintf(", %d condition%s", n_cond, if (n_cond == 1) "" else "s") else ""))
   df <- data.frame(name = x$name, type = x$type, nominal = format(signif(x$nominal, 4), trim = TRUE),
                    `prior on [lower, upper]` = prior_labels(x, range = FALSE), check.names = FALSE,
                    stringsAsFactors = FALSE)
   print(df, row.names = FALSE, right = FALSE)
   for (line in joint_prior_text(x)) cli::cat_line(line)
+  if (n_cond) {
+    cli::cat_line(sprintf("Condition%s, known and set by each experiment (nominal: the base experiment's): %s",
+                          if (n_cond == 1) "" else "s", paste(x$name[x$type == "condition"], collapse = ", ")))
+  }
   invisible(x)
 }
 
@@ -312,6 +361,7 @@ summary.wv_iu <- function(object, ...) {
     n = nrow(object),
     calibration = object$name[object$type == "calibration"],
     variation = object$name[object$type == "variation"],
+    condition = object$name[object$type == "condition"],
     width = stats::setNames(object$upper - object$lower, object$name)
   ), class = "summary_wv_iu")
 }
@@ -321,6 +371,7 @@ print.summary_wv_iu <- function(x, ...) {
   cli::cat_line("I/U map of ", x$n, " inputs")
   cli::cat_line("  calibration: ", if (length(x$calibration)) paste(x$calibration, collapse = ", ") else "none")
   cli::cat_line("  variation:   ", if (length(x$variation)) paste(x$variation, collapse = ", ") else "none")
+  if (length(x$condition)) cli::cat_line("  condition:   ", paste(x$condition, collapse = ", "))
   invisible(x)
 }
 
@@ -339,6 +390,7 @@ as.data.frame.wv_iu <- function(x, ...) {
 #' iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), c(0, 0), c(1, 1))
 #' autoplot(iu)
 autoplot.wv_iu <- function(object, ...) {
+  object <- object[object$type != "condition", , drop = FALSE]
   grid <- do.call(rbind, lapply(seq_len(nrow(object)), function(k) {
     v <- seq(object$lower[k], object$upper[k], length.out = 201)
     data.frame(input = object$name[k], value = v, density = iu_prior_density(object, k, v))

@@ -108,6 +108,7 @@ iu_prior_density <- function(iu, k, v) {
   inside <- v >= lo & v <= hi
   prior <- iu$prior[k]
   if (prior == "uniform") return(ifelse(inside, 1 / (hi - lo), 0))
+  if (prior == "none") return(ifelse(v == iu$nominal[k], Inf, 0))
   if (prior == "joint") {
     x <- with_rng_seed(1L, iu_prior_draws(iu, 4000L)[, k])
     d <- stats::density(x, from = lo, to = hi, n = 512)
@@ -130,6 +131,7 @@ iu_prior_mass <- function(iu, k, a, b) {
   if (b <= a) return(0)
   switch(iu$prior[k],
          uniform = (b - a) / (iu$upper[k] - iu$lower[k]),
+         none = as.numeric(a <= iu$nominal[k] && iu$nominal[k] <= b),
          joint = {
            x <- with_rng_seed(1L, iu_prior_draws(iu, 4000L)[, k])
            mean(x >= a & x <= b)
@@ -139,7 +141,8 @@ iu_prior_mass <- function(iu, k, a, b) {
 
 # Draws from the prior of every input (n x p matrix in the inputs' own units),
 # with nominals of the inputs with manufacturing variation optionally
-# replaced (a new vehicle under other nominals).
+# replaced (a new vehicle under other nominals). A condition is known: its
+# nominal value, the base experiment's, in every draw.
 iu_prior_draws <- function(iu, n, nominal = NULL) {
   iu <- iu_upgrade(iu)
   nom <- iu$nominal
@@ -147,6 +150,7 @@ iu_prior_draws <- function(iu, n, nominal = NULL) {
   out <- vapply(seq_len(nrow(iu)), function(k) {
     lo <- iu$lower[k] - iu$nominal[k] + nom[k]
     hi <- iu$upper[k] - iu$nominal[k] + nom[k]
+    if (iu$type[k] == "condition") return(rep(iu$nominal[k], n))
     if (iu$type[k] == "calibration") {
       if (iu$prior[k] == "joint") return(rep(NA_real_, n))
       if (iu$prior[k] == "uniform") return(stats::runif(n, iu$lower[k], iu$upper[k]))
@@ -202,6 +206,7 @@ prior_labels <- function(iu, range = TRUE) {
   vapply(seq_len(nrow(iu)), function(k) {
     lab <- switch(iu$prior[k],
       uniform = "uniform",
+      none = "none (a condition, known), design",
       normal = sprintf("normal(%s, sd %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
       lognormal = sprintf("log-normal(median %s, sd of log %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
       joint = {

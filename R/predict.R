@@ -24,6 +24,36 @@
 #'   new nominals) on the same wavelet basis; variation inputs drawn from their
 #'   prior around `x_nom`, calibration inputs, bias and field variances carried
 #'   over jointly from the fit's draws; plus measurement error.
+#' * `"new_condition"`: the same system at the value `condition` of the test
+#'   conditions of the I/U map (see [iu_map()], section Conditions), tested
+#'   or not; see the section New conditions.
+#'
+#' @section New conditions:
+#' At a tested condition (the base experiment's or that of an experiment of
+#' the fit) the prediction is that experiment's own: its model and bias
+#' coefficient draws and field variances, exactly the draws of `type =
+#' "field_run"` (or `"reality"` without noise) at its sites, without the
+#' field detail outside the basis. At an untested condition the model part
+#' is the emulators' change, draw by draw, from the base condition to the
+#' new one (the path of `"added_load"` with `delta`): each posterior draw of
+#' the inputs moved by the change of the conditions.
+#'
+#' The bias there was never observed. It is carried from the tested
+#' conditions by the bias model's own structure: with one bias shared by the
+#' experiments (`bias_control(experiment_bias = "shared")`) it is that bias,
+#' which the model already assumes the same at every condition; with a bias
+#' per experiment (the default), it is the tested conditions' biases pooled
+#' as an equal mixture: draw `h` takes the bias (and the field variance) of
+#' draw `h` of one tested condition, the conditions sharing the draws equally
+#' in a random order. The mixture carries the spread of the bias across the
+#' tested conditions into the band, so that a bias that changes with the
+#' condition widens the band rather than being extrapolated by a trend two or
+#' three conditions cannot support; the nearest tested condition alone would
+#' narrow the band to one condition's bias and hide that spread. The result
+#' says which was used (`bias_from`: `"tested"`, `"shared"` or `"pooled"`).
+#'
+#' The summary then has, besides the bias-corrected band, the band of the
+#' model alone (`model_lower`, `model_upper`, with the same noise).
 #'
 #' With `bias = "multiplicative"` the bias of each draw is carried over as a
 #' ratio, `y^R / y^M - 1`, applied to the new model output; where the model
@@ -45,6 +75,8 @@
 #'   `new_runs`).
 #' @param x_new For `"new_vehicle"`: optional named values at which to fix the
 #'   variation inputs of the new vehicle instead of drawing them.
+#' @param condition For `"new_condition"`: the named value of every condition
+#'   input of the fit's I/U map, inside its design range.
 #' @param residual For the types that predict the tested vehicle
 #'   (`"reality"`, `"field_run"`, `"added_load"`): add the detail of its field
 #'   curves outside the retained basis, with its sampling error (see
@@ -61,13 +93,29 @@
 #'   `site`, `t`, `mean`, `lower`, `upper` (pointwise band), `lower_curve`,
 #'   `upper_curve` (band holding a `level` share of whole curves), `model`
 #'   (pure-model prediction)), `type`, `bias`, `level`, `draws` (if kept) and
-#'   what was used to build it. `as.data.frame()` returns `summary`.
+#'   what was used to build it. `as.data.frame()` returns `summary`. For
+#'   `"new_condition"` also `condition`, `tested` (the experiment whose
+#'   condition it is, or `NA`), `bias_from`, and the columns `model_lower`,
+#'   `model_upper` of `summary`.
 #' @export
-predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal"),
+#' @examples
+#' ex <- example_problem()
+#' # x1 a test condition: 0.5 in the base experiment, 0.7 in a second one
+#' iu <- iu_map(c("u1", "x1"), c("calibration", "condition"), lower = c(0, 0), upper = c(1, 1),
+#'              nominal = c(0.5, 0.5))
+#' fit <- calibrate(ex$emulators, ex$field, iu, chains = 1, seed = 1,
+#'                  experiments = list(hot = experiment(ex$field, condition = c(x1 = 0.7))),
+#'                  sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
+#' # x1 = 0.6 was never tested
+#' p <- predict(fit, type = "new_condition", condition = c(x1 = 0.6), noise = FALSE)
+#' p
+#' head(as.data.frame(p))
+predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal",
+                                            "new_condition"),
                            bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, delta = NULL,
                            x_nom = NULL,
                            x_new = NULL, residual = TRUE, noise = NULL, guard = 0.01, keep_draws = FALSE,
-                           seed = NULL, ...) {
+                           seed = NULL, condition = NULL, ...) {
   check_dots_none(...)
   type <- check_choice(type)
   bias <- check_choice(bias)
@@ -76,14 +124,24 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   residual <- residual && type %in% c("reality", "field_run", "added_load")
   check_number(guard, min = 0, max = 1)
   noise <- noise %||% (type != "reality")
+  check_flag(noise)
   seed <- resolve_seed(seed)
+  if (!is.null(condition) && type != "new_condition") {
+    wv_abort("{.arg condition} is used only by {.code type = \"new_condition\"}.", class = "condition")
+  }
+  if (type == "new_condition") {
+    if (bias != "additive") {
+      wv_abort("A new condition carries the bias additively; use {.code bias = \"additive\"}.", class = "condition")
+    }
+    return(predict_new_condition(object, condition, level, noise, keep_draws, seed))
+  }
   em <- object$emulators
   # the other experiments' sites for the fit's own conditions only; a new
   # load, vehicle or nominal changes the base experiment
   sites <- if (type %in% c("reality", "field_run")) names(object$wb) else base_sites(object)
   # the draws of the set-up (prior draws of the variations, emulators of new
   # runs) come from their own stream, fixed by the seed
-  setup_seed <- if (seed < .Machine$integer.max) seed + 1L else 1L
+  setup_seed <- setup_seed_of(seed)
   new_model <- with_rng_seed(setup_seed, switch(type,
     added_load = if (is.null(new_runs) && !is.null(delta)) {
       added_load_emulated(object, delta)
@@ -315,6 +373,26 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   )
 }
 
+# The seed of the set-up draws of a prediction made with `seed`.
+setup_seed_of <- function(seed) if (seed < .Machine$integer.max) seed + 1L else 1L
+
+# predict(type = "new_condition"): the draws of the condition
+# (new_condition_setup(), from the set-up stream), then the bands by base
+# site.
+predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed, call = rlang::caller_env()) {
+  setup <- with_rng_seed(setup_seed_of(seed), new_condition_setup(fit, condition, call = call))
+  sites <- names(setup$sites)
+  out <- with_rng_seed(seed, lapply(sites, function(s) new_condition_site(fit, s, setup, level, noise, keep_draws)))
+  names(out) <- sites
+  structure(list(
+    summary = do.call(rbind, lapply(out, `[[`, "summary")),
+    draws = if (keep_draws) lapply(out, `[[`, "draws"),
+    n_guarded = vapply(out, `[[`, 0, "n_guarded"),
+    type = "new_condition", bias = "additive", level = level, noise = noise, residual = FALSE, seed = seed,
+    condition = setup$condition, tested = setup$tested, bias_from = setup$bias_from
+  ), class = "wv_prediction")
+}
+
 #' @export
 as.data.frame.wv_prediction <- function(x, ...) {
   x$summary
@@ -324,8 +402,15 @@ as.data.frame.wv_prediction <- function(x, ...) {
 print.wv_prediction <- function(x, ...) {
   labels <- c(reality = "bias-corrected prediction of reality", field_run = "a new field run",
               added_load = "the same vehicle with an added load", new_vehicle = "a new vehicle of the same type",
-              new_nominal = "a new vehicle with new nominal inputs")
+              new_nominal = "a new vehicle with new nominal inputs", new_condition = "the system at a new condition",
+              experiment = "a held-out experiment")
   cli::cat_line(sprintf("<wv_prediction> %s, %s bias, %g%% bands", labels[[x$type]], x$bias, 100 * x$level))
+  if (identical(x$type, "new_condition")) {
+    cli::cat_line(sprintf("  condition %s: %s", paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "),
+                          switch(x$bias_from, tested = sprintf("tested (experiment %s), its own draws", x$tested),
+                                 shared = "untested, the bias shared by the experiments",
+                                 pooled = "untested, the tested conditions' biases pooled")))
+  }
   s <- x$summary
   for (site in unique(s$site)) {
     d <- s[s$site == site, ]

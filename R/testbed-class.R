@@ -34,6 +34,11 @@ print.wv_testbed <- function(x, ...) {
     cli::cat_line(sprintf("  %s: %d model runs, %d field replicate%s", spec$shifted[[cd]]$label, n_runs(cd),
                           n_field(cd), if (n_field(cd) == 1L) "" else "s"))
   }
+  if (!is.null(x$doses)) {
+    cli::cat_line(sprintf("  doses: %d model runs over the inputs and the dose (%g to %g mg); field replicates at %s mg and A's 400",
+                          nrow(x$doses$runs$design), min(x$doses$runs$design$dose), max(x$doses$runs$design$dose),
+                          paste(x$doses$amounts, collapse = ", ")))
+  }
   cli::cat_line(sprintf("  %s: ", spec$text$windows),
                 paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]), character(1)),
                       collapse = ", "))

@@ -41,9 +41,28 @@
 #' The result depends only on `seed`; the caller's random number stream is
 #' left as it was.
 #'
+#' With `doses`, the same patient is also studied at other dose amounts, the
+#' amount a test condition (see [iu_map()], section Conditions). The list
+#' then has `doses`, made after everything above (which `doses` leaves as it
+#' was):
+#' * `iu`: the I/U map with the condition `dose` (mg; nominal 400, the amount
+#'   of condition A, the base experiment; design range from 0.9 times the
+#'   smallest amount to 1.1 times the largest, 400 included);
+#' * `runs`: `n_dose_runs` model runs ([design_maximin()] on that map, the
+#'   nominal centre last), the dose among their inputs;
+#' * `fields`: one `wv_field` per amount, named `"dose_<mg>"`, of 6
+#'   replicates of reality at that amount (same `u*`, `delta*` and hidden
+#'   mechanisms as A, warps and noise of their own), and `amounts`;
+#' * `truth`: `reality` (a list by amount, named as `fields`, of noise-free
+#'   curves by site) and `warps`.
+#'
 #' @inheritParams testbed_suspension
 #' @param hidden `"none"` or one or several of `dosing_mechanisms()`: what
 #'   reality has and the model lacks.
+#' @param doses `NULL` or dose amounts in mg other than 400 at which the
+#'   patient is also studied (see above).
+#' @param n_dose_runs With `doses`: the number of model runs over the inputs
+#'   and the dose.
 #' @return A `wv_testbed_dosing` object, also of class `wv_testbed` (a list,
 #'   layout above).
 #' @seealso [simulate_dosing()] to run the model at other inputs,
@@ -53,11 +72,52 @@
 #' tb <- testbed_dosing(seed = 1, hidden = "enterohepatic_recycling")
 #' tb
 #' autoplot(tb, windows = NULL)
-testbed_dosing <- function(seed = 1, hidden = "none") {
+#' \donttest{
+#' # the dose amount as a test condition: fields at 250 and 550 mg besides A's 400
+#' tb <- testbed_dosing(seed = 1, doses = c(250, 550), n_dose_runs = 40)
+#' tb$doses$iu
+#' names(tb$doses$fields)
+#' }
+testbed_dosing <- function(seed = 1, hidden = "none", doses = NULL, n_dose_runs = 80) {
   check_number(seed, "seed", integer = TRUE)
   spec <- dosing_spec()
   hidden <- spec_check_hidden(spec, hidden)
-  with_rng_seed(seed, build_testbed_from_spec(spec, seed, hidden))
+  if (!is.null(doses)) {
+    if (!is.numeric(doses) || !length(doses) || any(!is.finite(doses)) || any(doses <= 0) ||
+        anyDuplicated(doses) || any(doses == 400)) {
+      wv_abort(c("{.arg doses} must be distinct positive dose amounts in mg, other than 400 (condition A's).",
+                 "x" = "It is {.code {deparse(doses)}}."), class = "condition")
+    }
+    check_number(n_dose_runs, "n_dose_runs", min = 10, max = 1000, integer = TRUE)
+  }
+  with_rng_seed(seed, {
+    tb <- build_testbed_from_spec(spec, seed, hidden)
+    if (!is.null(doses)) tb$doses <- dosing_conditions(spec, tb, sort(doses), as.integer(n_dose_runs), seed, hidden)
+    tb
+  })
+}
+
+# The patient of test bed `tb` at other dose amounts (testbed_dosing(doses =
+# )), with the RNG already seeded: the I/U map with the condition `dose`, the
+# runs over it, and reality and its field replicates at each amount.
+dosing_conditions <- function(spec, tb, amounts, n_runs, seed, hidden) {
+  iu <- tb$iu
+  xn <- iu$name[iu$type == "variation"]
+  span <- range(c(amounts, 400))
+  iu_d <- iu_add(iu, "dose", type = "condition", lower = 0.9 * span[1], upper = 1.1 * span[2], nominal = 400)
+  design <- design_maximin(iu_d, n_runs, seed = seed)
+  runs <- new_wv_runs(design, spec$grid, spec_simulate_coded(spec, as.matrix(design)))
+  nom <- stats::setNames(iu$nominal, iu$name)
+  x_star <- c(tb$truth$u, nom[xn] + tb$truth$delta)
+  labels <- paste0("dose_", format(amounts, trim = TRUE))
+  made <- lapply(seq_along(amounts), function(j) {
+    reality <- spec_reality(spec, c(x_star, dose = amounts[j]), hidden)
+    c(list(reality = reality), make_field(spec, reality, spec$n_field[["A"]], nom[xn], labels[j]))
+  })
+  names(made) <- labels
+  list(iu = iu_d, runs = runs, fields = lapply(made, `[[`, "field"), amounts = stats::setNames(amounts, labels),
+       truth = list(reality = lapply(made, `[[`, "reality"),
+                    warps = do.call(rbind, unname(lapply(made, `[[`, "warps")))))
 }
 
 #' Names of the mechanisms the dosing model can lack
@@ -101,7 +161,8 @@ dosing_mechanisms <- function() {
 #' * `dE/dt = (C / (C + 3) - E) / 36`
 #'
 #' with the elimination rate `e(t) = CL (1 + 1.5 s_ind E) C / (1 + s_sat C / 10)`,
-#' `D = 400` mg at the dose times `t_d` = 2, 14, 26 h, `phi` the normal
+#' `D` mg (400 unless the design's column `dose` says otherwise) at the dose
+#' times `t_d` = 2, 14, 26 h, `phi` the normal
 #' density of standard deviation 0.1 h (a tablet's dissolution) and the gall
 #' bladder's emptying rate `k_gb(t) = 3 sum_d exp(-(t - t_d - 4)^2 / 0.18)`.
 #' The strengths `s_sat`, `s_rec`, `s_lag`, `s_ind` are those of
@@ -120,7 +181,10 @@ dosing_mechanisms <- function() {
 #' | `x4` | intercompartmental clearance `Q` (`Vp` = 60 L) | 8 L/h | 1.2 |
 #'
 #' @param design A data frame (or named matrix) of coded inputs, one row per
-#'   run. Inputs it lacks take their value from `nominal`.
+#'   run. Inputs it lacks take their value from `nominal`. A column `dose`
+#'   sets each run's dose amount in mg (default 400), a known input of the
+#'   model: a test condition (see [iu_map()], section Conditions, and
+#'   `testbed_dosing(doses = )`).
 #' @param mechanism `NULL` or names from [dosing_mechanisms()] to switch on;
 #'   each needs a strength column `s_<name>` in `design`, with values in
 #'   \[0, 2\] (1 = reality's strength).
@@ -132,6 +196,8 @@ dosing_mechanisms <- function() {
 #' @examples
 #' runs <- simulate_dosing(data.frame(u1 = c(0.3, 0.7), u2 = 0.5))
 #' runs
+#' # the same patient at two dose amounts
+#' simulate_dosing(data.frame(dose = c(250, 550)))
 #' recycled <- simulate_dosing(
 #'   data.frame(s_enterohepatic_recycling = c(0, 1)),
 #'   mechanism = "enterohepatic_recycling"
@@ -168,7 +234,10 @@ dosing_spec <- function() {
     name = "dosing", iu = dosing_iu(),
     mechanisms = dosing_mechanisms(), mechanisms_fn = "dosing_mechanisms",
     physical = dosing_physical,
-    simulator = function(params, strength, t) dosing_simulate_cpp(params, strength, doses, 400, t, 4L),
+    simulator = function(params, strength, t) {
+      dosing_simulate_cpp(params[, 1:6, drop = FALSE], strength, doses, params[, "dose"], t, 4L)
+    },
+    known = c(dose = 400),
     grid = 48 * (0:2047) / 2048, windows = list(c(1.5, 5), c(13.5, 17), c(25.5, 29)),
     designs = dosing_designs,
     # condition B: heavier patients with a larger central volume and a lower
@@ -208,11 +277,13 @@ dosing_designs <- function(iu, nom_B, seed) {
   list(A = design_maximin(iu, 66L, seed = seed), B = design_maximin(iu_B, 65L, nominal = FALSE, seed = seed))
 }
 
-# Physical parameters (K x 6, order of ParamIndex in dosing.h) of coded inputs.
+# Physical parameters (K x 6, order of ParamIndex in dosing.h) of coded
+# inputs, and the dose amount in mg (the column `dose` of `coded`, else 400).
 dosing_physical <- function(coded) {
   f <- function(v, g) 1 + g * (v - 0.5)
   w <- f(coded[, "x3"], 0.6)
+  dose <- if ("dose" %in% colnames(coded)) coded[, "dose"] else rep(400, nrow(coded))
   cbind(cl = 5 * f(coded[, "u1"], 1.2) * w^0.75, ka = 1.5 * f(coded[, "u2"], 1.2),
         v = 40 * f(coded[, "x1"], 0.6) * w, f = 0.8 * f(coded[, "x2"], 0.4),
-        q = 8 * f(coded[, "x4"], 1.2) * w^0.75, vp = 60 * w)
+        q = 8 * f(coded[, "x4"], 1.2) * w^0.75, vp = 60 * w, dose = dose)
 }

@@ -16,14 +16,17 @@
 # change of the coded inputs, `n_field` and `label`). `text` holds the words
 # of messages and prints. `max_strength` names the mechanisms whose strength
 # cannot exceed a physical limit below 2 (the largest strength otherwise).
+# `known` holds the simulator's known inputs outside the I/U map with their
+# default values (the dosing bed's dose amount, mg): a design may set them,
+# and `physical()` receives them as columns.
 new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid, windows,
                              designs, nominal_B, n_field, warp, noise, shifted = list(), text,
-                             max_strength = NULL) {
+                             max_strength = NULL, known = NULL) {
   structure(list(name = name, iu = iu, mechanisms = mechanisms, mechanisms_fn = mechanisms_fn,
                  max_strength = max_strength,
                  physical = physical, simulator = simulator, grid = grid, windows = windows,
                  designs = designs, nominal_B = nominal_B, n_field = n_field, warp = warp,
-                 noise = noise, shifted = shifted, text = text),
+                 noise = noise, shifted = shifted, text = text, known = known),
             class = "wv_testbed_spec")
 }
 
@@ -41,7 +44,7 @@ new_wv_testbed <- function(x, kind) {
 }
 
 # The conditions of a test bed: "A", "B" and any shifted ones.
-testbed_conditions <- function(x) setdiff(names(x), c("iu", "truth", "windows"))
+testbed_conditions <- function(x) setdiff(names(x), c("iu", "truth", "windows", "doses"))
 
 # --- checks --------------------------------------------------------------------
 
@@ -68,7 +71,8 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
   if (!is.data.frame(design) || nrow(design) == 0L) {
     wv_abort("{.arg design} must be a data frame with one row per run and named input columns.", call = call)
   }
-  inputs <- spec$iu$name
+  known <- spec$known %||% numeric()
+  inputs <- c(spec$iu$name, names(known))
   mechs <- spec$mechanisms
   scols <- check_mechanism_columns(spec, design, mechanism, call)
   nonnum <- !vapply(design, is.numeric, logical(1))
@@ -82,7 +86,12 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
       wv_abort("Strength {.val {s}} must lie in [0, {top}] (1 = reality's strength).", call = call)
     }
   }
-  nom <- stats::setNames(rep(0.5, length(inputs)), inputs)
+  for (v in intersect(names(known), names(design))) {
+    if (any(design[[v]] <= 0)) {
+      wv_abort("The column {.val {v}} of {.arg design} must be positive (default {known[[v]]}).", call = call)
+    }
+  }
+  nom <- stats::setNames(c(rep(0.5, length(spec$iu$name)), known), inputs)
   if (!is.null(nominal)) {
     if (!is.numeric(nominal) || is.null(names(nominal)) || any(!names(nominal) %in% inputs) ||
         any(!is.finite(nominal))) {
@@ -102,7 +111,7 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
 # The mechanisms switched on against the columns of the design: returns the
 # strength columns of the mechanisms switched on.
 check_mechanism_columns <- function(spec, design, mechanism, call) {
-  inputs <- spec$iu$name
+  inputs <- c(spec$iu$name, names(spec$known))
   mechs <- spec$mechanisms
   if (!is.null(mechanism)) {
     bad <- setdiff(mechanism, mechs)

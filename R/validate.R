@@ -154,7 +154,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
   if (!is.null(experiments)) {
-    experiments <- check_experiments(experiments, emulators, field)
+    experiments <- check_experiments(experiments, emulators, field, iu = iu)
     if (!is.null(windows)) {
       experiments <- register_experiments(experiments, emulators, runs, windows, features = features,
                                           knots_every = knots_every, quiet = quiet)

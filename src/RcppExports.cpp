@@ -287,7 +287,7 @@ BEGIN_RCPP
 END_RCPP
 }
 // dosing_simulate_cpp
-Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, double dose_mg, const Rcpp::NumericVector& t, int nsub);
+Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, const Rcpp::NumericVector& dose_mg, const Rcpp::NumericVector& t, int nsub);
 RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
@@ -295,7 +295,7 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type params(paramsSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type doses(dosesSEXP);
-    Rcpp::traits::input_parameter< double >::type dose_mg(dose_mgSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type dose_mg(dose_mgSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
     Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
     rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub));

@@ -53,13 +53,14 @@ Rcpp::NumericVector suspension_road_cpp(const Rcpp::NumericVector& x) {
 // Simulates every row of `params` (K x 6 physical parameters, in the order of
 // wavevalid::dosing::ParamIndex) with the mechanism strengths in the matching
 // row of `strength` (K x 4: saturable elimination, enterohepatic recycling,
-// absorption lag, induction), doses of `dose_mg` at the times `doses`.
+// absorption lag, induction), doses of `dose_mg` at the times `doses`
+// (one amount for every run, or one per run).
 // Returns list(plasma = K x T) of concentrations in mg/L; a run that blows up
 // is returned as a row of NA.
 // [[Rcpp::export]]
 Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params,
                                const Rcpp::NumericMatrix& strength,
-                               const Rcpp::NumericVector& doses, double dose_mg,
+                               const Rcpp::NumericVector& doses, const Rcpp::NumericVector& dose_mg,
                                const Rcpp::NumericVector& t, int nsub) {
   namespace wd = wavevalid::dosing;
   const int K = params.nrow(), nt = t.size(), nd = doses.size();
@@ -68,6 +69,7 @@ Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params,
   if (nt < 2) Rcpp::stop("t must have at least two points");
   if (nd < 1) Rcpp::stop("doses must hold at least one time");
   if (nsub < 1) Rcpp::stop("nsub must be positive");
+  if (dose_mg.size() != 1 && dose_mg.size() != K) Rcpp::stop("dose_mg must hold one amount or one per run");
   Rcpp::NumericMatrix plasma(K, nt);
   std::vector<double> p(wd::N_PARAMS);
   for (int k = 0; k < K; ++k) {
@@ -77,7 +79,7 @@ Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params,
     s.recycling = strength(k, 1);
     s.lag = strength(k, 2);
     s.induction = strength(k, 3);
-    bool ok = wd::simulate(p.data(), s, &doses[0], nd, dose_mg, &t[0], nt, nsub, &plasma(k, 0), K);
+    bool ok = wd::simulate(p.data(), s, &doses[0], nd, dose_mg[dose_mg.size() == 1 ? 0 : k], &t[0], nt, nsub, &plasma(k, 0), K);
     if (!ok) {
       for (int j = 0; j < nt; ++j) plasma(k, j) = NA_REAL;
     }

@@ -1,0 +1,207 @@
+# Test conditions: inputs of type "condition", known for each experiment.
+
+cond_iu <- function() {
+  iu_map(c("u1", "x1"), c("calibration", "condition"), lower = c(0, 0), upper = c(1, 1), nominal = c(0.5, 0.5))
+}
+
+cond_sampler <- function() sampler_control(n_draws = 60, n_inner = 10, burnin = 300, n_search = 20, quiet = TRUE)
+
+# example_problem() with x1 a condition: the base experiment at 0.5, a
+# second one (two replicates) at 0.7.
+cond_fit <- function(bias = bias_control(), seed = 3) {
+  ex <- example_problem(1)
+  f2 <- ex$field
+  f2$curves$site1 <- f2$curves$site1[1:2, , drop = FALSE]
+  exps <- list(hot = experiment(f2, condition = c(x1 = 0.7)))
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, cond_iu(), experiments = exps, bias = bias,
+                                    chains = 1, seed = seed, sampler = cond_sampler()))
+  list(ex = ex, f2 = f2, fit = fit)
+}
+
+test_that("a condition input has no prior, prints as a condition and keeps its design range", {
+  iu <- cond_iu()
+  expect_identical(iu$type, c("calibration", "condition"))
+  expect_identical(iu$prior, c("uniform", "none"))
+  expect_true(is.na(iu$prior_sd[2]) && is.na(iu$prior_mean[2]))
+  expect_output(print(iu), "1 condition")
+  expect_output(print(iu), "none \\(a condition, known\\), design \\[0, 1\\]")
+  expect_output(print(summary(iu)), "condition:   x1")
+  # a prior asked of a condition is dropped; its draws are its nominal
+  iu2 <- iu_add(iu_map("u1", "calibration", 0, 1), "temp", type = "condition", lower = 280, upper = 320,
+                nominal = 300)
+  expect_identical(iu2$prior[2], "none")
+  withr::local_seed(1)
+  expect_true(all(iu_prior_sample(iu2, 50)[, "temp"] == 300))
+  expect_error(iu_map("a", "conditon", 0, 1), class = "wavevalid_error")
+  # the map without conditions prints as before
+  expect_false(any(grepl("condition", capture.output(print(example_problem()$iu)))))
+})
+
+test_that("the condition path gives the same draws as experiment(change =) with the input held", {
+  s <- cond_fit()
+  ex <- s$ex
+  held <- wavevalid:::hold_at(ex$iu, c(x1 = 0.5))
+  # the change the condition stands for, computed as the condition path does
+  exps <- list(hot = experiment(s$f2, change = c(x1 = 0.7 - 0.5)))
+  ref <- suppressWarnings(calibrate(ex$emulators, ex$field, held, experiments = exps, chains = 1, seed = 3,
+                                    sampler = cond_sampler()))
+  expect_identical(as.matrix(s$fit$draws), as.matrix(ref$draws))
+  expect_identical(s$fit$wb, ref$wb)
+  expect_identical(s$fit$wM, ref$wM)
+  expect_identical(s$fit$sigma2, ref$sigma2)
+  # the condition is held at the base value; the fit keeps the I/U map with the condition
+  expect_true(all(abs(as.matrix(s$fit$draws)[, "x1"] - 0.5) < 1e-6))
+  expect_identical(s$fit$iu$type[2], "condition")
+  expect_equal(s$fit$conditions$values, data.frame(experiment = c("base", "hot"), x1 = c(0.5, 0.7)))
+  expect_output(print(s$fit), "hot: x1 = 0.7")
+  expect_output(print(s$fit), "x1   condition")
+  expect_output(print(s$fit), "none: a condition, known")
+  expect_false(any(boundary_check_flags <- s$fit$flags$boundary$input == "x1"))
+})
+
+test_that("bad conditions are classed errors naming the fix", {
+  ex <- example_problem(1)
+  iu <- cond_iu()
+  run <- function(exps, iu_use = iu) {
+    calibrate(ex$emulators, ex$field, iu_use, experiments = exps, chains = 1, seed = 1, sampler = cond_sampler())
+  }
+  cls <- "wavevalid_error_condition"
+  expect_error(experiment(ex$field, condition = 0.7), class = cls)
+  expect_error(experiment(ex$field, condition = c(x1 = NA)), class = cls)
+  expect_error(experiment(ex$field, condition = c(x1 = 0.7), emulators = ex$emulators), class = cls)
+  # missing for an experiment, outside the design range, set by a change, not a condition
+  expect_error(run(list(a = experiment(ex$field, change = c(x1 = 0.1)))), class = cls)
+  expect_error(run(list(a = experiment(ex$field, condition = c(x1 = 1.2)))), "outside the design range",
+               class = cls)
+  expect_error(run(list(a = experiment(ex$field, condition = c(x1 = 0.7), change = c(x1 = 0.1)))),
+               "sets condition input", class = cls)
+  expect_error(run(list(a = experiment(ex$field, condition = c(u1 = 0.7, x1 = 0.7)))), "not a condition",
+               class = cls)
+  expect_error(run(list(a = experiment(ex$field, condition = c(x1 = 0.7))), ex$iu), "no condition input",
+               class = cls)
+  expect_error(run(list(a = experiment(ex$field, emulators = ex$emulators))), class = cls)
+  expect_snapshot(run(list(a = experiment(ex$field, condition = c(x1 = 1.2)))), error = TRUE)
+})
+
+test_that("a new condition: a tested one is that experiment's prediction, an untested one moves the model", {
+  s <- cond_fit()
+  fit <- s$fit
+  r <- predict(fit, type = "reality", residual = FALSE, seed = 1)
+  for (case in list(c(x1 = 0.5, site = "site1"), c(x1 = 0.7, site = "hot/site1"))) {
+    p <- predict(fit, type = "new_condition", condition = c(x1 = as.numeric(case[["x1"]])), noise = FALSE, seed = 1)
+    a <- r$summary[r$summary$site == case[["site"]], ]
+    expect_equal(p$summary$mean, a$mean)
+    expect_equal(p$summary$lower, a$lower)
+    expect_equal(p$summary$upper_curve, a$upper_curve)
+    expect_equal(p$summary$model, a$model)
+    expect_identical(p$bias_from, "tested")
+    expect_identical(unique(p$summary$site), "site1")
+  }
+  # untested: the model moved by the emulators' change, the biases pooled
+  p <- predict(fit, type = "new_condition", condition = c(x1 = 0.6), noise = FALSE, seed = 1)
+  expect_identical(p$bias_from, "pooled")
+  expect_true(is.na(p$tested))
+  z <- colMeans(as.matrix(fit$draws)[, fit$inputs])
+  m <- wavevalid:::gasp_bank_predict_cpp(fit$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
+  expect_equal(p$summary$model, drop(fit$basis$Psi %*% t(m)))
+  expect_true(all(p$summary$model_lower <= p$summary$model_upper))
+  expect_output(print(p), "untested, the tested conditions' biases pooled")
+  # each draw's bias is the same draw's bias of one tested condition, in equal shares
+  set <- withr::with_seed(2, wavevalid:::new_condition_setup(fit, c(x1 = 0.6)))
+  B <- set$sites$site1$B
+  from_base <- rowSums(abs(B - fit$wb$site1)) == 0
+  from_hot <- rowSums(abs(B - fit$wb[["hot/site1"]])) == 0
+  expect_true(all(from_base | from_hot))
+  expect_equal(sum(from_base), nrow(B) / 2)
+  # one bias shared by the experiments: carried as it is
+  sh <- cond_fit(bias_control(experiment_bias = "shared"))$fit
+  set <- withr::with_seed(2, wavevalid:::new_condition_setup(sh, c(x1 = 0.6)))
+  expect_identical(set$bias_from, "shared")
+  expect_identical(set$sites$site1$B, sh$wb$site1)
+  # same seed, same bands
+  expect_identical(predict(fit, type = "new_condition", condition = c(x1 = 0.6), seed = 5)$summary,
+                   predict(fit, type = "new_condition", condition = c(x1 = 0.6), seed = 5)$summary)
+})
+
+test_that("predicting a new condition checks its input", {
+  fit <- cond_fit()$fit
+  cls <- "wavevalid_error_condition"
+  expect_error(predict(fit, type = "new_condition"), class = cls)
+  expect_error(predict(fit, type = "new_condition", condition = c(x1 = 2)), class = cls)
+  expect_error(predict(fit, type = "new_condition", condition = c(x2 = 0.5)), class = cls)
+  expect_error(predict(fit, type = "reality", condition = c(x1 = 0.5)), class = cls)
+  expect_error(predict(example_fit(), type = "new_condition", condition = c(x1 = 0.5)), "no condition input",
+               class = cls)
+})
+
+test_that("experiments_at() makes experiments from lists of fields and from long data", {
+  ex <- example_problem(1)
+  e <- experiments_at(list(a = ex$field, b = ex$field), data.frame(x1 = c(0.3, 0.7)))
+  expect_identical(names(e), c("a", "b"))
+  expect_identical(e$b$condition, c(x1 = 0.7))
+  long <- expand.grid(t = 0:15, replicate = 1:2, dose = c(250, 550))
+  long$y <- long$dose / 400 * exp(-long$t / 2)
+  e <- experiments_at(long, "dose", t = "t", y = "y", replicate = "replicate")
+  expect_identical(names(e), c("dose=250", "dose=550"))
+  expect_identical(e[["dose=550"]]$condition, c(dose = 550))
+  expect_equal(e[["dose=550"]]$field$curves$site1[1, ], 550 / 400 * exp(-(0:15) / 2))
+  expect_error(experiments_at(list(a = ex$field), data.frame(x1 = c(0.3, 0.7))), class = "wavevalid_error_condition")
+  expect_error(experiments_at(long, "mass", t = "t", y = "y"), class = "wavevalid_error_condition")
+  expect_output(print(e[[1]]), "at the condition dose = 250")
+})
+
+test_that("where_fails() names each finding's condition; a held-out condition is judged", {
+  s <- cond_fit()
+  w <- where_fails(s$fit)
+  expect_true(all(w$condition[w$experiment == "hot"] == "x1 = 0.7"))
+  expect_true(all(w$condition[w$experiment == "base"] == "x1 = 0.5"))
+  ho <- experiment(s$ex$field, condition = c(x1 = 0.6))
+  cmp <- compare_validations(s$fit, s$fit, holdout = ho, n_boot = 200, seed = 1)
+  hr <- attr(cmp, "holdout_ratio")
+  expect_equal(hr$ratio, c(1, 1))
+  # the held-out prediction is the new condition's
+  p <- predict(s$fit, type = "new_condition", condition = c(x1 = 0.6), seed = 1)
+  err <- sweep(s$ex$field$curves$site1, 2L, p$summary$mean)
+  expect_equal(cmp$before[cmp$metric == "holdout_rmse"], sqrt(mean(err^2)))
+})
+
+test_that("the dosing model takes the dose amount; testbed_dosing(doses =) adds the amounts", {
+  r <- simulate_dosing(data.frame(dose = c(400, 200)))
+  # without the mechanisms the model is linear in the dose
+  expect_equal(r$curves$plasma[2, ], r$curves$plasma[1, ] / 2, tolerance = 1e-8)
+  expect_equal(simulate_dosing(data.frame(u1 = 0.4))$curves, simulate_dosing(data.frame(u1 = 0.4, dose = 400))$curves)
+  expect_error(simulate_dosing(data.frame(dose = -1)), "must be positive")
+  tb0 <- testbed_dosing(2)
+  tb <- testbed_dosing(2, doses = c(250, 550), n_dose_runs = 12)
+  expect_identical(tb$A, tb0$A)
+  expect_identical(tb$truth, tb0$truth)
+  expect_identical(names(tb$doses$fields), c("dose_250", "dose_550"))
+  expect_identical(tb$doses$iu$type[tb$doses$iu$name == "dose"], "condition")
+  expect_identical(names(tb$doses$runs$design), tb$doses$iu$name)
+  # reality at 250 mg is reality at 400 mg scaled, the model being linear with nothing hidden
+  expect_equal(tb$doses$truth$reality$dose_250$plasma, tb$truth$reality$plasma * 250 / 400, tolerance = 1e-8)
+  expect_output(print(tb), "doses: 12 model runs")
+  expect_error(testbed_dosing(2, doses = 400), class = "wavevalid_error_condition")
+})
+
+test_that("the suspension bed's added mass as a condition gives the draws of experiment(change =) with x1 held", {
+  skip_unless_slow()
+  tb <- load_testbed()
+  em <- fit_emulators(tb$A$runs, wavelet_basis(tb$A$runs, tb$A$field))
+  iu_c <- tb$iu
+  iu_c$type[iu_c$name == "x1"] <- "condition"
+  iu_c$prior[iu_c$name == "x1"] <- "none"
+  iu_c$prior_sd[iu_c$name == "x1"] <- NA_real_
+  iu_c$prior_mean[iu_c$name == "x1"] <- NA_real_
+  sc <- sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE)
+  at <- 0.5 + tb$added_mass$delta[["x1"]]
+  fit_c <- suppressWarnings(calibrate(em, tb$A$field, iu_c, chains = 1, seed = 1, sampler = sc,
+                                      experiments = list(added_mass = experiment(tb$added_mass$field,
+                                                                                 condition = c(x1 = at)))))
+  fit_h <- suppressWarnings(calibrate(em, tb$A$field, wavevalid:::hold_at(tb$iu, c(x1 = 0.5)), chains = 1,
+                                      seed = 1, sampler = sc,
+                                      experiments = list(added_mass = experiment(tb$added_mass$field,
+                                                                                 change = c(x1 = at - 0.5)))))
+  expect_identical(as.matrix(fit_c$draws), as.matrix(fit_h$draws))
+  expect_identical(fit_c$wb, fit_h$wb)
+})
