@@ -157,7 +157,7 @@ test_that("bad input stops with classed errors", {
   expect_error(simulate_dosing(data.frame(u1 = -5)), class = "wavevalid_error_input")
   expect_error(dosing_signatures(c(0.5, 0.5)), class = "wavevalid_error_input")
   expect_error(dosing_signatures(c(u1 = 0.5), "tire_liftoff"), class = "wavevalid_error_input")
-  expect_snapshot(simulate_dosing(data.frame(u1 = 0.5, dose = 2)), error = TRUE)
+  expect_snapshot(simulate_dosing(data.frame(u1 = 0.5, doze = 2)), error = TRUE)
 })
 
 test_that("print, summary and autoplot describe the dosing test bed", {
