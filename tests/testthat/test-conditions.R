@@ -183,25 +183,3 @@ test_that("the dosing model takes the dose amount; testbed_dosing(doses =) adds 
   expect_output(print(tb), "doses: 12 model runs")
   expect_error(testbed_dosing(2, doses = 400), class = "wavevalid_error_condition")
 })
-
-test_that("the suspension bed's added mass as a condition gives the draws of experiment(change =) with x1 held", {
-  skip_unless_slow()
-  tb <- load_testbed()
-  em <- fit_emulators(tb$A$runs, wavelet_basis(tb$A$runs, tb$A$field))
-  iu_c <- tb$iu
-  iu_c$type[iu_c$name == "x1"] <- "condition"
-  iu_c$prior[iu_c$name == "x1"] <- "none"
-  iu_c$prior_sd[iu_c$name == "x1"] <- NA_real_
-  iu_c$prior_mean[iu_c$name == "x1"] <- NA_real_
-  sc <- sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE)
-  at <- 0.5 + tb$added_mass$delta[["x1"]]
-  fit_c <- suppressWarnings(calibrate(em, tb$A$field, iu_c, chains = 1, seed = 1, sampler = sc,
-                                      experiments = list(added_mass = experiment(tb$added_mass$field,
-                                                                                 condition = c(x1 = at)))))
-  fit_h <- suppressWarnings(calibrate(em, tb$A$field, wavevalid:::hold_at(tb$iu, c(x1 = 0.5)), chains = 1,
-                                      seed = 1, sampler = sc,
-                                      experiments = list(added_mass = experiment(tb$added_mass$field,
-                                                                                 change = c(x1 = at - 0.5)))))
-  expect_identical(as.matrix(fit_c$draws), as.matrix(fit_h$draws))
-  expect_identical(fit_c$wb, fit_h$wb)
-})
