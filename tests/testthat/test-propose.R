@@ -1,0 +1,101 @@
+# propose_terms(): a term planted in the field is proposed in its family,
+# nothing is proposed without one, the simulated effect of a state term is
+# its derivative, and the nuisance directions are never proposed.
+
+propose_problem <- function(strength, seed = 1) {
+  t <- seq(0, 1, length.out = 128)
+  model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2)
+  withr::with_seed(seed, {
+    design <- data.frame(u1 = (0:29 + stats::runif(30)) / 30, x1 = (sample(30) - stats::runif(30)) / 30)
+    runs <- model_runs(design, t(mapply(model, design$u1, design$x1)), t, site = "site1")
+    truth <- model(0.4, 0.5)
+    # the planted term: a hinge of the output above 0.8
+    reality <- truth + strength * pmax(truth - 0.8, 0)
+    reps <- t(replicate(3, reality + stats::rnorm(length(t), sd = 0.01)))
+  })
+  field <- field_runs(reps, t, x_nom = c(x1 = 0.5))
+  iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), c(0, 0), c(1, 1), nominal = c(0.5, 0.5))
+  suppressWarnings(validate(runs, field, iu, chains = 1, seed = 1,
+                            sampler = sampler_control(n_draws = 60, n_inner = 10, quiet = TRUE)))
+}
+
+test_that("a planted hinge is proposed as a hinge, with its strength inside the interval; none without it", {
+  fit_on <- propose_problem(2)
+  pr <- propose_terms(fit_on, term_library(fit_on), n_draws = 40, seed = 1)
+  expect_s3_class(pr, "wv_proposals")
+  expect_identical(pr$family[1], "hinge_above")
+  expect_identical(pr$channel[1], "output")
+  expect_gt(pr$inclusion_prob[1], 0.9)
+  expect_true(pr$strength_lower[1] < 2 && pr$strength_upper[1] > 1)
+  expect_true(pr$from[1] <= 0.25 && pr$to[1] >= 0.25)
+  expect_output(print(pr), "Proposed: hinge_above")
+
+  fit_off <- propose_problem(0)
+  pr0 <- propose_terms(fit_off, term_library(fit_off), n_draws = 40, seed = 1)
+  expect_lt(pr0$inclusion_prob[1], 0.5)
+  expect_gt(attr(pr0, "none"), 0.5)
+  expect_output(print(pr0), "No term proposed")
+})
+
+test_that("a proposal becomes a candidate that explain_bias() weighs first", {
+  fit <- propose_problem(2)
+  pr <- propose_terms(fit, term_library(fit), n_draws = 40, seed = 1)
+  cand <- proposed_candidates(pr, fit, n = 2)
+  expect_named(cand, pr$term[1:2])
+  ex <- explain_bias(fit, cand, positive = FALSE, n_draws = 20, seed = 1)
+  expect_identical(ex$candidate[1], pr$term[1])
+  expect_error(proposed_candidates(pr, example_fit()), class = "wavevalid_error_input")
+})
+
+test_that("a state term's simulated effect is the derivative of the output in its strength", {
+  fit <- example_fit()
+  t <- fit$basis$t
+  state <- cos(2 * pi * t)
+  lib <- term_library(fit, states = list(s = state), outputs = FALSE, products = FALSE)
+  expect_true(all(lib$channels$kind == "state"))
+  # a simulator whose output moves by strength * fun(state), then by its square
+  lin <- function(channel, fun, strength) list(site1 = sin(2 * pi * t) + strength * fun(state))
+  quad <- function(channel, fun, strength) list(site1 = sin(2 * pi * t) + strength * fun(state) + strength^2)
+  X_dir <- wavevalid:::term_signatures(fit, lib, NULL)$X
+  X_lin <- wavevalid:::term_signatures(fit, lib, lin)$X
+  X_quad <- wavevalid:::term_signatures(fit, lib, quad)$X
+  expect_equal(X_lin, X_dir, tolerance = 1e-8)
+  # the central difference removes the strength's square exactly
+  expect_equal(X_quad, X_dir, tolerance = 1e-8)
+  bad <- function(channel, fun, strength) list(other = t)
+  expect_error(propose_terms(fit, lib, simulate = bad, n_draws = 5), class = "wavevalid_error_input")
+})
+
+test_that("terms the parameter shifts or the registration's error span are never proposed", {
+  fit <- example_fit()
+  N <- wavevalid:::proposal_nuisance(fit, FALSE)$X
+  X <- cbind(inside = drop(N %*% c(2, -1)), outside = rnorm(nrow(N)))
+  expect_identical(unname(wavevalid:::outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
+  # with the registration's error in every model (warps with knots at 1/4,
+  # 1/2, 3/4), the output's time derivative (a shift of time) is not a term,
+  # while a hinge of the output still is
+  fit_r <- propose_problem(0)
+  fit_r$field$warps <- data.frame(site = "site1", replicate = 1L, window = NA, feature = "fitted",
+                                  t_before = c(0.25, 0.5, 0.75), t_after = c(0.25, 0.5, 0.75))
+  nu <- wavevalid:::proposal_nuisance(fit_r, TRUE)
+  expect_match(nu$label[2], "registration error")
+  lib <- term_library(fit_r)
+  X <- wavevalid:::term_signatures(fit_r, lib, NULL)$X
+  ok <- wavevalid:::outside_span(X, nu$X, rep(1, nrow(X)))
+  expect_false(ok[["linear(d/dt output)"]])
+  expect_true(all(ok[lib$terms$family == "hinge_above"]))
+  pr <- propose_terms(fit_r, lib, n_draws = 10, seed = 1)
+  expect_false("linear(d/dt output)" %in% attr(pr, "versions")$term)
+})
+
+test_that("propose_terms() refuses bad input before any work", {
+  fit <- example_fit()
+  lib <- term_library(fit)
+  expect_error(propose_terms(fit, list()), class = "wavevalid_error_input")
+  expect_error(propose_terms(fit, lib, max_size = 3), class = "wavevalid_error_input")
+  expect_error(propose_terms(fit, lib, simulate = 1), class = "wavevalid_error_input")
+  other <- propose_problem(0)
+  expect_error(propose_terms(other, lib), "another fit", class = "wavevalid_error_input")
+  expect_error(term_library(fit, states = list(1:3)), class = "wavevalid_error_input")
+  expect_error(term_library(fit, outputs = FALSE), class = "wavevalid_error_input")
+})
