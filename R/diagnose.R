@@ -78,6 +78,13 @@
 #' @param hold If `TRUE` (default), read the bias again with the inputs in
 #'   conflict with their prior held to it (see the section Inputs that cover a
 #'   misfit). Fits of several experiments report their conflicts without it.
+#' @param proposals `NULL` or a `wv_proposals` table of [propose_terms()] on
+#'   this fit: each proposed term (inclusion probability 0.5 or more) joins
+#'   the table as a finding of kind `"term"`, placed where its effect is
+#'   largest and sized by that effect's peak. A term the regression proposes
+#'   is a finding even where the bias band holds zero everywhere, as when an
+#'   input with a flat prior has taken the effect up (no interval, and no
+#'   prior to be in conflict with).
 #' @param ... Must be empty: an unknown argument is an error.
 #' @return A `wv_fails` data frame with one row per finding, ranked by
 #'   `size` (decreasing; an input in conflict not read again, which has no
@@ -87,7 +94,7 @@
 #'   `"covered"`: such an interval of the bias read with the inputs in
 #'   conflict held to their prior; `"input"`: the inputs in conflict, placed
 #'   where their pull moves the model most, or with no place when the bias
-#'   was not read again), `site`, `start`,
+#'   was not read again; `"term"`: a proposed term, with `proposals`), `site`, `start`,
 #'   `end`, `size` (the peak of the absolute posterior mean bias over the
 #'   finding, in the curves' units; for an `"input"`, the largest move of
 #'   the model), `credible` (the largest distance of the finding's band from
@@ -140,9 +147,10 @@
 #' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
-                        tolerance = 0, scales = c("split", "whole"), hold = TRUE, ...) {
+                        tolerance = 0, scales = c("split", "whole"), hold = TRUE, proposals = NULL, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
+  if (!is.null(proposals)) check_proposals_of(proposals, fit)
   check_level(level)
   band <- check_choice(band)
   scales <- check_choice(scales)
@@ -195,7 +203,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
-  out <- findings_table(intervals, rw, held, cf, r, fit$experiments)
+  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals)
   if (!is.null(fit$conditions)) {
     # the condition of each finding's experiment ("base" without experiments)
     labs <- condition_labels(fit$conditions)

@@ -8,7 +8,7 @@
 # inputs' pull (where it moves the model most, by how much), and inputs in
 # conflict not read again. `r`: reality's pointwise mean (share of signal of the record-wide
 # part); `experiments`: the experiment of each site, or NULL.
-findings_table <- function(intervals, record_wide, held, conflicts, r, experiments) {
+findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL) {
   cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
             "inputs")
   row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs) {
@@ -42,6 +42,13 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
     parts <- c(parts, list(row("input", NA_character_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_,
                                NA_character_, paste(conflicted, collapse = ", "))))
   }
+  if (!is.null(proposals)) {
+    pr <- proposals[proposals$inclusion_prob >= 0.5, , drop = FALSE]
+    if (nrow(pr)) {
+      parts <- c(parts, list(row("term", pr$site, pr$from, pr$to, pr$peak, NA_real_, NA_real_, NA_real_,
+                                 NA_character_, pr$term)))
+    }
+  }
   out <- do.call(rbind, parts)
   if (is.null(out)) {
     out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
@@ -50,7 +57,8 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
   out <- out[order(-out$size, na.last = TRUE), cols, drop = FALSE]
   if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
   out$peak_abs_bias <- out$size
-  out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held")[out$kind]
+  out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held",
+                 term = "term")[out$kind]
   rownames(out) <- NULL
   out
 }
@@ -96,6 +104,8 @@ top_finding <- function(x, ...) {
                             r$site, f(r$size), f(r$credible), r$sign),
     covered = sprintf("a misfit covered by %s, %s: with %s held to the prior the localised bias peaks at |bias| %s and is credibly at least %s (%s)",
                       r$inputs, place, r$inputs, f(r$size), f(r$credible), r$sign),
+    term = sprintf("a proposed term, %s (propose_terms()): its effect peaks at %s, %s",
+                   r$inputs, f(r$size), place),
     input = if (is.na(r$site)) {
       sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
               r$inputs)

@@ -192,14 +192,6 @@ channel_terms <- function(ch, x) {
   out <- list(make("linear", "", function(x) x))
   out <- c(out, list(make("power", "x^2", function(x) x^2), make("power", "x|x|", function(x) x * abs(x)),
                      make("power", "x^3", function(x) x^3)))
-  out <- c(out, lapply(zero_or(q(c(0.25, 0.5, 0.75))), function(c) {
-    force(c)
-    make("abs", paste0("c = ", fmt(c)), function(x) abs(x - c))
-  }))
-  out <- c(out, lapply(zero_or(q(0.5)), function(c) {
-    force(c)
-    make("sign", paste0("c = ", fmt(c)), function(x) tanh((x - c) / e))
-  }))
   above <- unique(c(if (q(0.003) < 0 && q(0.997) > 0) 0, q(c(0.5, 0.75, 0.9, 0.97, 0.99, 0.997))))
   below <- unique(c(if (q(0.003) < 0 && q(0.997) > 0) 0, q(c(0.003, 0.01, 0.03, 0.1, 0.25, 0.5))))
   hinge <- function(family, cs, k, f) {
@@ -212,11 +204,19 @@ channel_terms <- function(ch, x) {
     out <- c(out, hinge("hinge_above", above, k, function(x, c) pmax(x - c, 0)),
              hinge("hinge_below", below, k, function(x, c) pmax(c - x, 0)))
   }
+  out <- c(out, lapply(zero_or(q(0.5)), function(c) {
+    force(c)
+    make("sign", paste0("c = ", fmt(c)), function(x) tanh((x - c) / e))
+  }))
   sat <- unique(stats::quantile(abs(v), c(0.1, 0.5, 0.9), names = FALSE))
   sat <- sat[sat > 0]
   out <- c(out, lapply(sat, function(c) {
     force(c)
     make("saturating", paste0("c = ", fmt(c)), function(x) x * abs(x) / (c + abs(x)))
+  }))
+  out <- c(out, lapply(zero_or(q(c(0.25, 0.5, 0.75))), function(c) {
+    force(c)
+    make("abs", paste0("c = ", fmt(c)), function(x) abs(x - c))
   }))
   out
 }

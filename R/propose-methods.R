@@ -22,6 +22,11 @@ print.wv_proposals <- function(x, ...) {
     cli::cat_line(sprintf("No term proposed: none reaches inclusion 0.5 (probability of no term %.2f).",
                           attr(x, "none")))
   }
+  eq <- attr(x, "equivalent")
+  eq <- eq[eq$same_as %in% utils::head(x$term[x$inclusion_prob >= 0.1], 3L), , drop = FALSE]
+  for (k in unique(eq$same_as)) {
+    cli::cat_line("The data cannot tell ", k, " from: ", paste(eq$term[eq$same_as == k], collapse = ", "), ".")
+  }
   from <- attr(x, "effects_from")
   cli::cat_line(if (identical(from, "simulated")) {
     "Effects: output terms act on the output as they are; state terms through the simulated equations."
@@ -72,10 +77,8 @@ proposed_candidates <- function(x, fit, n = 3L) {
   check_class(x, "wv_proposals")
   check_class(fit, "wv_fit")
   check_number(n, min = 1, integer = TRUE)
+  check_proposals_of(x, fit)
   sig <- attr(x, "signatures")
-  if (nrow(sig) != sum(vapply(fit$wb, ncol, 1L))) {
-    wv_abort("{.arg fit} is not the fit the proposals were made on.")
-  }
   sites <- names(fit$wb)
   nc <- vapply(fit$wb, ncol, 1L)
   offs <- c(0L, cumsum(nc))
@@ -86,4 +89,21 @@ proposed_candidates <- function(x, fit, n = 3L) {
     }), sites)
   })
   stats::setNames(out, x$term[k])
+}
+
+# Aborts unless the proposals `x` were made on `fit` (its sites, grid and
+# retained coefficients).
+check_proposals_of <- function(x, fit, call = rlang::caller_env()) {
+  check_class(x, "wv_proposals", arg = "proposals", call = call)
+  made <- attr(x, "made_on")
+  if (!identical(made, proposal_fingerprint(fit))) {
+    wv_abort(c("The proposals were not made on this fit.",
+               "i" = "Run {.code propose_terms(fit, term_library(fit))} on it."), call = call)
+  }
+  invisible(x)
+}
+
+proposal_fingerprint <- function(fit) {
+  list(sites = names(fit$wb), n = vapply(fit$wb, ncol, 1L), t = range(fit$basis$t),
+       draws = nrow(fit$wb[[1]]), wbar = vapply(fit$wbar, sum, numeric(1)))
 }

@@ -21,9 +21,11 @@
 #' by the inverse of their field, emulator and bias variance, are regressed on
 #' the terms' effects under Zellner's g-prior with `g` the number of
 #' coefficients, and the evidence is tempered for residuals that are alike
-#' within a time segment. Two kinds of direction are in every model and so
+#' within a time segment. Three kinds of direction are in every model and so
 #' can never be proposed: the parameter shifts (what moving each input
-#' would do, [explain_bias()]'s `shift:` candidates) and, when the field was
+#' would do, [explain_bias()]'s `shift:` candidates), an offset of the whole
+#' record at each site (its mean, which the calibrated inputs trade against
+#' the events: [where_fails()] reports a record-wide bias) and, when the field was
 #' registered, the registration's own error (the model curve's time
 #' derivative times a hat function at each knot of the registration's
 #' warps: a small local shift of time). Subsets of up to `max_size`
@@ -100,6 +102,8 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   lib <- library$terms
   usable <- outside_span(X, N$X, colMeans(Wt))
   if (!any(usable)) wv_abort("Every term of the library is a parameter shift or a registration error here.")
+  same <- equivalent_terms(X[, usable, drop = FALSE], N$X, colMeans(Wt))
+  usable[usable] <- is.na(same)
   X <- X[, usable, drop = FALSE]
   lib <- lib[usable, , drop = FALSE]
   res <- with_rng_seed(seed, proposal_regression(rs$residuals, Wt, X, N$X, lib$effect, cluster, max_size, level))
@@ -115,6 +119,9 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   attr(out, "n_terms") <- c(terms = nrow(lib), families = length(unique(lib$effect)))
   attr(out, "effects_from") <- if (is.null(simulate)) "direct" else "simulated"
   attr(out, "eta") <- res$eta
+  attr(out, "made_on") <- proposal_fingerprint(fit)
+  eq <- same[!is.na(same)]
+  attr(out, "equivalent") <- data.frame(term = unname(eq), same_as = names(eq), stringsAsFactors = FALSE)
   class(out) <- c("wv_proposals", "data.frame")
   out
 }
@@ -155,7 +162,9 @@ simulated_effect <- function(simulate, channel, fun, values, sites) {
   stats::setNames(lapply(sites, function(s) (up[[s]] - down[[s]]) / (2 * e)), sites)
 }
 
-# The directions in every model: the parameter shifts and, with
+# The directions in every model: the parameter shifts, a constant at each
+# site (the record's mean, whose bias the calibrated inputs trade against the
+# events) and, with
 # `registration`, the model curve's first and second time derivatives times a
 # hat function at each knot of the registration's warps, per site: a warp
 # error delta(t) moves a replicate by delta y' + delta^2 y'' / 2 to second
@@ -163,7 +172,16 @@ simulated_effect <- function(simulate, channel, fun, values, sites) {
 # the warps' spread (y'').
 proposal_nuisance <- function(fit, registration) {
   sh <- shift_candidates(fit, posterior_mean_inputs(fit))
-  label <- if (ncol(sh)) "parameter shifts" else character()
+  sites <- names(fit$wb)
+  n <- vapply(fit$wb, ncol, 1L)
+  offs <- c(0L, cumsum(n))
+  level0 <- vapply(seq_along(sites), function(i) {
+    x <- numeric(sum(n))
+    x[(offs[i] + 1L):offs[i + 1L]] <- colSums(fit$basis$Psi)
+    x
+  }, numeric(sum(n)))
+  sh <- cbind(sh, level0)
+  label <- c(if (ncol(sh) > length(sites)) "parameter shifts", "an offset of the record at each site")
   if (!registration || is.null(fit$field$warps)) return(list(X = sh, label = label))
   tb <- fit$basis$t
   w <- fit$field$warps
@@ -175,9 +193,6 @@ proposal_nuisance <- function(fit, registration) {
   }, numeric(length(tb)))
   d1 <- output_channels(fit)[["d/dt output"]]
   d2 <- lapply(d1, grid_derivative, t = tb)
-  sites <- names(fit$wb)
-  n <- vapply(fit$wb, ncol, 1L)
-  offs <- c(0L, cumsum(n))
   nk <- length(knots)
   R <- matrix(0, sum(n), 2L * length(sites) * nk)
   for (i in seq_along(sites)) {
@@ -198,6 +213,27 @@ outside_span <- function(X, N, w) {
   if (!ncol(N)) return(colSums(Xw^2) > 0)
   r <- qr.resid(qr(N * sw), Xw)
   colSums(r^2) > 1e-6 * colSums(Xw^2)
+}
+
+# Terms the data cannot tell from an earlier term: after the nuisance N is
+# projected out (weights w), their effects are the same direction (|cor| above
+# 0.999). A named vector, one per column of X: NA for a term kept, else the
+# name of the earlier term it duplicates (the library lists simpler families
+# first), named by the term dropped.
+equivalent_terms <- function(X, N, w) {
+  sw <- sqrt(w)
+  R <- X * sw
+  if (ncol(N)) R <- qr.resid(qr(N * sw), R)
+  R <- sweep(R, 2L, sqrt(colSums(R^2)), `/`)
+  C <- abs(crossprod(R))
+  out <- rep(NA_character_, ncol(X))
+  names(out) <- colnames(X)
+  for (j in seq_len(ncol(X))[-1]) {
+    prev <- which(is.na(out[seq_len(j - 1L)]))
+    k <- prev[C[prev, j] > 0.999]
+    if (length(k)) out[j] <- colnames(X)[k[1]]
+  }
+  out
 }
 
 # The regression of the residual draws Y (H x n) on the terms X (n x m) with

@@ -69,7 +69,8 @@ test_that("a state term's simulated effect is the derivative of the output in it
 test_that("terms the parameter shifts or the registration's error span are never proposed", {
   fit <- example_fit()
   N <- wavevalid:::proposal_nuisance(fit, FALSE)$X
-  X <- cbind(inside = drop(N %*% c(2, -1)), outside = rnorm(nrow(N)))
+  expect_identical(ncol(N), 3L)  # shift:u1, shift:x1 and the offset of site1
+  X <- cbind(inside = drop(N %*% c(2, -1, 0.5)), outside = withr::with_seed(1, rnorm(nrow(N))))
   expect_identical(unname(wavevalid:::outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
   # with the registration's error in every model (warps with knots at 1/4,
   # 1/2, 3/4), the output's time derivative (a shift of time) is not a term,
@@ -78,7 +79,7 @@ test_that("terms the parameter shifts or the registration's error span are never
   fit_r$field$warps <- data.frame(site = "site1", replicate = 1L, window = NA, feature = "fitted",
                                   t_before = c(0.25, 0.5, 0.75), t_after = c(0.25, 0.5, 0.75))
   nu <- wavevalid:::proposal_nuisance(fit_r, TRUE)
-  expect_match(nu$label[2], "registration error")
+  expect_match(nu$label[3], "registration error")
   lib <- term_library(fit_r)
   X <- wavevalid:::term_signatures(fit_r, lib, NULL)$X
   ok <- wavevalid:::outside_span(X, nu$X, rep(1, nrow(X)))
@@ -86,6 +87,11 @@ test_that("terms the parameter shifts or the registration's error span are never
   expect_true(all(ok[lib$terms$family == "hinge_above"]))
   pr <- propose_terms(fit_r, lib, n_draws = 10, seed = 1)
   expect_false("linear(d/dt output)" %in% attr(pr, "versions")$term)
+  # abs(y - c) = 2 (y - c)_+ - (y - c): with the output's scale a shift of x1
+  # and the offset in every model, the two are one effect, kept once
+  eq <- wavevalid:::equivalent_terms(X[, c("hinge_above(output; c = 0, k = 1)", "abs(output; c = 0)")], nu$X,
+                                     rep(1, nrow(X)))
+  expect_identical(unname(eq), c(NA, "hinge_above(output; c = 0, k = 1)"))
 })
 
 test_that("propose_terms() refuses bad input before any work", {

@@ -1,0 +1,97 @@
+# Does propose_terms() name the missing mechanism's family, and nothing when
+# nothing is missing? Both test beds, each mechanism hidden at seeds 1-3 and
+# nothing hidden at seeds 1-5: the model validated with validate() (one chain
+# of n_draws x n_inner, seed 1, the beds' windows), then propose_terms() on
+# term_library(fit) (every default: max_size 2, 100 draws, the parameter
+# shifts and the registration's shift and blur in every model).
+#   mode = "outputs": the library of the output channels only (a term's curve
+#          its effect on the output);
+#   mode = "states": the states of the bed's simulator at coef(fit)
+#          (simulate_*(states = TRUE)) as channels too, their effects
+#          simulated through the equations (simulate_*(term = testbed_term()))
+# Per case: the top proposal (term, family, channel, inclusion), whether its
+# family is one the mechanism can be written as (`right`, below), and the
+# probability of no term.
+#   Rscript studies/propose_terms.R [mode=outputs] [seeds=1:3] [null_seeds=1:5] [n_draws=150] [n_inner=20]
+suppressPackageStartupMessages(library(wavevalid))
+source("studies/args.R")
+a <- study_args(list(mode = "outputs", seeds = "1:3", null_seeds = "1:5", n_draws = "150", n_inner = "20",
+                     beds = "suspension,dosing"))
+options(wavevalid.quiet = TRUE)
+
+# The families each mechanism can be written as, on a state or on the output
+right <- list(
+  progressive_bumpstop = c("hinge_above", "power"),
+  strut_friction = "sign",
+  digressive_damper = c("hinge_above", "hinge_below", "saturating", "abs"),
+  tire_liftoff = c("hinge_below", "hinge_above"),
+  saturable_elimination = c("saturating", "power"),
+  enterohepatic_recycling = character(),
+  absorption_lag = character(),
+  induction = "product"
+)
+
+bed_states <- function(bed, fit) {
+  d <- as.data.frame(as.list(coef(fit)))
+  if (bed == "suspension") {
+    st <- attr(simulate_suspension(d, states = TRUE), "states")
+    lapply(c(compression = "compression", velocity = "velocity", damper = "damper", tire = "tire"),
+           function(k) list(site1 = st[[paste0(k, "_front")]][1, ], site2 = st[[paste0(k, "_rear")]][1, ]))
+  } else {
+    st <- attr(simulate_dosing(d, states = TRUE), "states")
+    lapply(st[c("concentration", "gut", "peripheral", "bile", "induction")], function(m) m[1, ])
+  }
+}
+
+bed_simulator <- function(bed, fit) {
+  d <- as.data.frame(as.list(coef(fit)))
+  sim <- if (bed == "suspension") simulate_suspension else simulate_dosing
+  function(channel, fun, strength) {
+    d$s_term <- strength
+    r <- sim(d, term = testbed_term(channel, fun))
+    lapply(r$curves, function(m) m[1, ])
+  }
+}
+
+one_case <- function(bed, hidden, seed) {
+  t0 <- proc.time()[["elapsed"]]
+  tb <- if (bed == "suspension") testbed_suspension(seed = seed, hidden = hidden) else
+    testbed_dosing(seed = seed, hidden = hidden)
+  fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = 1, seed = 1,
+                                   sampler = sampler_control(n_draws = as.integer(a$n_draws),
+                                                             n_inner = as.integer(a$n_inner), quiet = TRUE)))
+  if (a$mode == "states") {
+    lib <- suppressMessages(term_library(fit, states = bed_states(bed, fit)))
+    pr <- propose_terms(fit, lib, simulate = bed_simulator(bed, fit), seed = 1)
+  } else {
+    lib <- term_library(fit)
+    pr <- propose_terms(fit, lib, seed = 1)
+  }
+  top <- pr[1, ]
+  data.frame(bed = bed, hidden = hidden, seed = seed, top = top$term, family = top$family,
+             channel = top$channel, inclusion = round(top$inclusion_prob, 3),
+             right = if (hidden == "none") NA else top$family %in% right[[hidden]],
+             proposed = top$inclusion_prob >= 0.5, none = round(attr(pr, "none"), 3),
+             acts = sprintf("%s [%.2f, %.2f]", top$site, top$from, top$to),
+             secs = round(proc.time()[["elapsed"]] - t0))
+}
+
+rows <- list()
+for (bed in arg_names(a$beds)) {
+  mechs <- if (bed == "suspension") testbed_mechanisms() else dosing_mechanisms()
+  cases <- rbind(expand.grid(hidden = "none", seed = arg_numbers(a$null_seeds), stringsAsFactors = FALSE),
+                 expand.grid(hidden = mechs, seed = arg_numbers(a$seeds), stringsAsFactors = FALSE))
+  for (i in seq_len(nrow(cases))) {
+    r <- one_case(bed, cases$hidden[i], cases$seed[i])
+    print(r, row.names = FALSE)
+    rows[[length(rows) + 1L]] <- r
+  }
+}
+out <- do.call(rbind, rows)
+cat("\n")
+print(out, row.names = FALSE)
+cat("\nNothing hidden, a proposal at inclusion >= 0.5, by bed:\n")
+print(with(out[out$hidden == "none", ], tapply(proposed, bed, sum)))
+cat("\nHidden: the top proposal of a right family and at inclusion >= 0.5, by mechanism (of the seeds):\n")
+h <- out[out$hidden != "none", ]
+print(with(h, tapply(right & proposed, hidden, sum)))
