@@ -73,15 +73,15 @@ input_log_prior_cpp <- function(priors, Z, debug_break = 0L) {
     .Call(`_wavevalid_input_log_prior_cpp`, priors, Z, debug_break)
 }
 
-suspension_simulate_cpp <- function(params, strength, t, nsub) {
-    .Call(`_wavevalid_suspension_simulate_cpp`, params, strength, t, nsub)
+suspension_simulate_cpp <- function(params, strength, t, nsub, term_state = -1L, term_range = as.numeric( c()), term_table = as.numeric( c()), term_strength = as.numeric( c()), states = FALSE) {
+    .Call(`_wavevalid_suspension_simulate_cpp`, params, strength, t, nsub, term_state, term_range, term_table, term_strength, states)
 }
 
 suspension_road_cpp <- function(x) {
     .Call(`_wavevalid_suspension_road_cpp`, x)
 }
 
-dosing_simulate_cpp <- function(params, strength, doses, dose_mg, t, nsub) {
-    .Call(`_wavevalid_dosing_simulate_cpp`, params, strength, doses, dose_mg, t, nsub)
+dosing_simulate_cpp <- function(params, strength, doses, dose_mg, t, nsub, term_state = -1L, term_range = as.numeric( c()), term_table = as.numeric( c()), term_strength = as.numeric( c()), states = FALSE) {
+    .Call(`_wavevalid_dosing_simulate_cpp`, params, strength, doses, dose_mg, t, nsub, term_state, term_range, term_table, term_strength, states)
 }
 

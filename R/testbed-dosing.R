@@ -190,8 +190,24 @@ dosing_mechanisms <- function() {
 #'   \[0, 2\] (1 = reality's strength).
 #' @param nominal Named values for inputs missing from `design` (default 0.5
 #'   for every input).
+#' @param states `TRUE` to return the state histories of the runs too (see
+#'   Value).
+#' @param term `NULL` or an added term made by [testbed_term()] of a state
+#'   `"concentration"`, `"gut"`, `"central"`, `"peripheral"`, `"bile"` or
+#'   `"induction"`: an extra elimination `s_term f(x)` mg/h from the central
+#'   compartment (`dAc/dt = ... - s_term f(x)`), its strength the design
+#'   column `s_term` (any finite number). It may be on together with
+#'   `mechanism`.
 #' @return A `wv_runs` object with the site `plasma` on the 2048-point grid;
-#'   its design holds the columns of `design`.
+#'   its design holds the columns of `design`. A run whose solution blows up
+#'   is dropped with a warning, as [model_runs()] does.
+#'
+#'   With `states = TRUE` it has the attribute `"states"`, a named list of
+#'   matrices (one row per run, in the runs' order, on the curves' grid):
+#'   `gut`, `central`, `peripheral`, `bile` (the amounts `Ag`, `Ac`, `Ap`,
+#'   `Ab`, mg), `induction` (`E`) and `concentration` (`C`, mg/L, the same
+#'   numbers as the curves). The curves are the same with or without the
+#'   states.
 #' @export
 #' @examples
 #' runs <- simulate_dosing(data.frame(u1 = c(0.3, 0.7), u2 = 0.5))
@@ -203,8 +219,12 @@ dosing_mechanisms <- function() {
 #'   mechanism = "enterohepatic_recycling"
 #' )
 #' autoplot(recycled)
-simulate_dosing <- function(design, mechanism = NULL, nominal = NULL) {
-  spec_simulate(dosing_spec(), design, mechanism, nominal)
+#' # the states, and an added term: a second clearance of 2 L/h
+#' clearance <- testbed_term("concentration", function(C) 2 * C)
+#' runs <- simulate_dosing(data.frame(s_term = c(0, 1)), term = clearance, states = TRUE)
+#' apply(attr(runs, "states")$central, 1, max)
+simulate_dosing <- function(design, mechanism = NULL, nominal = NULL, states = FALSE, term = NULL) {
+  spec_simulate(dosing_spec(), design, mechanism, nominal, states = states, term = term)
 }
 
 #' Signatures of the dosing mechanisms
@@ -234,8 +254,10 @@ dosing_spec <- function() {
     name = "dosing", iu = dosing_iu(),
     mechanisms = dosing_mechanisms(), mechanisms_fn = "dosing_mechanisms",
     physical = dosing_physical,
-    simulator = function(params, strength, t) {
-      dosing_simulate_cpp(params[, 1:6, drop = FALSE], strength, doses, params[, "dose"], t, 4L)
+    simulator = function(params, strength, t, term = NULL, states = FALSE) {
+      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(), strength = numeric())
+      dosing_simulate_cpp(params[, 1:6, drop = FALSE], strength, doses, params[, "dose"], t, 4L,
+                          term$state, term$range, term$table, term$strength, states)
     },
     known = c(dose = 400),
     grid = 48 * (0:2047) / 2048, windows = list(c(1.5, 5), c(13.5, 17), c(25.5, 29)),

@@ -6,10 +6,12 @@
 # testbed_suspension() and testbed_dosing() are two specifications.
 
 # `physical(coded)` maps a K x p matrix of coded inputs to the simulator's
-# physical parameters; `simulator(params, strength, t)` runs them with a
-# K x m matrix of mechanism strengths and returns a named list by site of
-# K x T matrices (a row of NA for a run that blew up). `designs(iu, nom_B,
-# seed)` gives the designs of conditions A and B. `n_field` holds the number
+# physical parameters; `simulator(params, strength, t, term = NULL, states =
+# FALSE)` runs them with a K x m matrix of mechanism strengths and returns a
+# named list by site of K x T matrices (a row of NA for a run that blew up);
+# `term` is an added term as spec_check_term() gives it, and with `states`
+# the list carries the attribute "states" (named list of K x T matrices).
+# `designs(iu, nom_B, seed)` gives the designs of conditions A and B. `n_field` holds the number
 # of field replicates of A and B. `warp` moves the knots `moved` of
 # `knots` by a random sign times U(`shift`) times `scale`. `shifted` holds
 # the conditions met by moving the inputs of A (list of `shift`, a named
@@ -143,8 +145,11 @@ check_mechanism_columns <- function(spec, design, mechanism, call) {
 
 # --- simulating ------------------------------------------------------------------
 
-# Simulates a K x p matrix of coded inputs with a K x m matrix of strengths.
-spec_simulate_coded <- function(spec, coded, strength = NULL, call = rlang::caller_env()) {
+# Simulates a K x p matrix of coded inputs with a K x m matrix of strengths,
+# an added term (NULL or as spec_check_term() gives it) and, with `states`,
+# the state histories as the attribute "states" of the result.
+spec_simulate_coded <- function(spec, coded, strength = NULL, term = NULL, states = FALSE,
+                                call = rlang::caller_env()) {
   coded <- as.matrix(coded)
   if (is.null(strength)) strength <- matrix(0, nrow(coded), length(spec$mechanisms))
   params <- spec$physical(coded)
@@ -152,19 +157,33 @@ spec_simulate_coded <- function(spec, coded, strength = NULL, call = rlang::call
     wv_abort("The coded inputs give non-positive physical parameters; keep them within about [-0.3, 1.3].",
              call = call)
   }
-  spec$simulator(params, as.matrix(strength), spec$grid)
+  if (is.null(term) && !states) return(spec$simulator(params, as.matrix(strength), spec$grid))
+  spec$simulator(params, as.matrix(strength), spec$grid, term = term, states = states)
 }
 
-# The model runs of a user design (simulate_suspension(), simulate_dosing()).
-spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, call = rlang::caller_env()) {
-  design <- spec_check_design(spec, design, mechanism, nominal, call = call)
-  sim <- spec_simulate_coded(spec, design$full, design$strength, call = call)
+# The model runs of a user design (simulate_suspension(), simulate_dosing()),
+# with the state histories as the attribute "states" when `states` is TRUE
+# (rows of failed runs dropped as model_runs() drops their curves).
+spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, states = FALSE, term = NULL,
+                          call = rlang::caller_env()) {
+  check_flag(states, "states", call = call)
+  termed <- spec_check_term(spec, design, term, call = call)
+  checked <- spec_check_design(spec, termed$design, mechanism, nominal, call = call)
+  user <- if (is.null(term)) checked$user else as.data.frame(design)
+  sim <- spec_simulate_coded(spec, checked$full, checked$strength, term = termed$term, states = states,
+                             call = call)
+  hist <- attr(sim, "states")
+  attr(sim, "states") <- NULL
   if (anyNA(sim[[1L]])) {
-    return(model_runs(design$user, sim, spec$grid))
+    failed <- Reduce(`|`, lapply(sim, function(m) apply(m, 1L, function(r) any(!is.finite(r)))))
+    runs <- model_runs(user, sim, spec$grid)
+    hist <- lapply(hist, function(m) m[!failed, , drop = FALSE])
+  } else {
+    rownames(user) <- NULL
+    runs <- new_wv_runs(user, spec$grid, sim)
   }
-  user <- design$user
-  rownames(user) <- NULL
-  new_wv_runs(user, spec$grid, sim)
+  if (states) attr(runs, "states") <- hist
+  runs
 }
 
 hidden_strength <- function(hidden, mechanisms) {

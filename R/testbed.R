@@ -117,10 +117,26 @@ testbed_mechanisms <- function() {
 #'   \[0, 2\] (1 = reality's strength; the lift-off's in \[0, 1\]).
 #' @param nominal Named values for inputs missing from `design` (default 0.5
 #'   for every input).
+#' @param states `TRUE` to return the state histories of the runs too (see
+#'   Value).
+#' @param term `NULL` or an added term made by [testbed_term()] of a state
+#'   `"compression"`, `"velocity"`, `"damper"` or `"tire"`: its strength is
+#'   the design column `s_term` (any finite number). The term acts at both
+#'   axles and may be on together with `mechanism`.
 #' @return A `wv_runs` object with sites `site1` (front) and `site2` (rear) on
 #'   the 4096-point grid; its design holds the columns of `design`. A run
 #'   whose solution blows up (inputs far outside the I/U ranges) is dropped
 #'   with a warning, as [model_runs()] does.
+#'
+#'   With `states = TRUE` it has the attribute `"states"`, a named list of
+#'   matrices (one row per run, in the runs' order, on the curves' grid; the
+#'   rows of dropped runs dropped too): `compression_front`,
+#'   `compression_rear` (strut compression, m, from static equilibrium),
+#'   `velocity_front`, `velocity_rear` (its rate, m/s of physical time; the
+#'   grid is course time, a quarter of a second per unit), `damper_front`,
+#'   `damper_rear` (damper force, kN) and `tire_front`, `tire_rear` (tire
+#'   force, kN, an added tire term included). The curves are the same with
+#'   or without the states.
 #' @export
 #' @examples
 #' runs <- simulate_suspension(data.frame(u1 = c(0.3, 0.7), u2 = 0.5))
@@ -129,8 +145,12 @@ testbed_mechanisms <- function() {
 #'   data.frame(s_strut_friction = c(0, 1)), mechanism = "strut_friction"
 #' )
 #' autoplot(with_friction, windows = list(c(6, 11), c(37, 41)))
-simulate_suspension <- function(design, mechanism = NULL, nominal = NULL) {
-  spec_simulate(suspension_spec(), design, mechanism, nominal)
+#' # the states, and an added term: extra damping of 1 kN per m/s
+#' damping <- testbed_term("velocity", function(v) v)
+#' runs <- simulate_suspension(data.frame(s_term = c(0, 1)), term = damping, states = TRUE)
+#' names(attr(runs, "states"))
+simulate_suspension <- function(design, mechanism = NULL, nominal = NULL, states = FALSE, term = NULL) {
+  spec_simulate(suspension_spec(), design, mechanism, nominal, states = states, term = term)
 }
 
 #' The shipped suspension test bed
@@ -190,7 +210,10 @@ suspension_spec <- function(n_added_mass = 1L) {
     # the tire's force in tension is gone at strength 1: nothing beyond
     max_strength = c(tire_liftoff = 1),
     physical = testbed_physical,
-    simulator = function(params, strength, t) suspension_simulate_cpp(params, strength, t, 4L),
+    simulator = function(params, strength, t, term = NULL, states = FALSE) {
+      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(), strength = numeric())
+      suspension_simulate_cpp(params, strength, t, 4L, term$state, term$range, term$table, term$strength, states)
+    },
     grid = testbed_grid(), windows = testbed_windows(),
     designs = suspension_designs,
     # condition B: a heavier vehicle on softer springs with less bump-stop

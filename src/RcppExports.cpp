@@ -262,8 +262,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // suspension_simulate_cpp
-Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub);
-RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+Rcpp::List suspension_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& t, int nsub, int term_state, Rcpp::NumericVector term_range, Rcpp::NumericVector term_table, Rcpp::NumericVector term_strength, bool states);
+RcppExport SEXP _wavevalid_suspension_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP tSEXP, SEXP nsubSEXP, SEXP term_stateSEXP, SEXP term_rangeSEXP, SEXP term_tableSEXP, SEXP term_strengthSEXP, SEXP statesSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -271,7 +271,12 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type strength(strengthSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
     Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
-    rcpp_result_gen = Rcpp::wrap(suspension_simulate_cpp(params, strength, t, nsub));
+    Rcpp::traits::input_parameter< int >::type term_state(term_stateSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_range(term_rangeSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_table(term_tableSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_strength(term_strengthSEXP);
+    Rcpp::traits::input_parameter< bool >::type states(statesSEXP);
+    rcpp_result_gen = Rcpp::wrap(suspension_simulate_cpp(params, strength, t, nsub, term_state, term_range, term_table, term_strength, states));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -287,8 +292,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // dosing_simulate_cpp
-Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, const Rcpp::NumericVector& dose_mg, const Rcpp::NumericVector& t, int nsub);
-RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP) {
+Rcpp::List dosing_simulate_cpp(const Rcpp::NumericMatrix& params, const Rcpp::NumericMatrix& strength, const Rcpp::NumericVector& doses, const Rcpp::NumericVector& dose_mg, const Rcpp::NumericVector& t, int nsub, int term_state, Rcpp::NumericVector term_range, Rcpp::NumericVector term_table, Rcpp::NumericVector term_strength, bool states);
+RcppExport SEXP _wavevalid_dosing_simulate_cpp(SEXP paramsSEXP, SEXP strengthSEXP, SEXP dosesSEXP, SEXP dose_mgSEXP, SEXP tSEXP, SEXP nsubSEXP, SEXP term_stateSEXP, SEXP term_rangeSEXP, SEXP term_tableSEXP, SEXP term_strengthSEXP, SEXP statesSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -298,7 +303,12 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type dose_mg(dose_mgSEXP);
     Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type t(tSEXP);
     Rcpp::traits::input_parameter< int >::type nsub(nsubSEXP);
-    rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub));
+    Rcpp::traits::input_parameter< int >::type term_state(term_stateSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_range(term_rangeSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_table(term_tableSEXP);
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type term_strength(term_strengthSEXP);
+    Rcpp::traits::input_parameter< bool >::type states(statesSEXP);
+    rcpp_result_gen = Rcpp::wrap(dosing_simulate_cpp(params, strength, doses, dose_mg, t, nsub, term_state, term_range, term_table, term_strength, states));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -322,9 +332,9 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
-    {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 4},
+    {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 9},
     {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},
-    {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 6},
+    {"_wavevalid_dosing_simulate_cpp", (DL_FUNC) &_wavevalid_dosing_simulate_cpp, 11},
     {NULL, NULL, 0}
 };
 

@@ -21,6 +21,10 @@
 // returns to the gut when the gall bladder empties), an absorption lag, and
 // induction of the clearance by the drug itself. At s = 0 every mechanism
 // term vanishes exactly.
+//
+// An added term (testbed_term.h) s_term * f(x) of one state x (C, Ag, Ac,
+// Ap, Ab or E, in the units above) is an extra elimination rate (mg/h) from
+// the central compartment: dAc/dt -= s_term f(x). It does not go to the bile.
 #ifndef WAVEVALID_DOSING_H
 #define WAVEVALID_DOSING_H
 
@@ -28,6 +32,7 @@
 #include <cstddef>
 
 #include "rk4.h"
+#include "testbed_term.h"
 
 namespace wavevalid {
 namespace dosing {
@@ -55,6 +60,11 @@ enum ParamIndex {
   N_PARAMS
 };
 
+// States an added term can be a function of; the recorded state histories
+// are those of TERM_GUT..TERM_CONCENTRATION in this order (N_RECORDED).
+enum TermState { TERM_CONCENTRATION = 0, TERM_GUT, TERM_CENTRAL, TERM_PERIPHERAL, TERM_BILE, TERM_INDUCTION };
+const int N_RECORDED = 6;
+
 struct Strength {
   double saturable = 0.0, recycling = 0.0, lag = 0.0, induction = 0.0;
 };
@@ -62,8 +72,9 @@ struct Strength {
 class Patient {
  public:
   static const int NSTATE = 5;
-  Patient(const double* p, const Strength& s, const double* doses, int n_doses, double dose_mg)
-      : p_(p), s_(s), doses_(doses), nd_(n_doses), dose_(dose_mg) {}
+  Patient(const double* p, const Strength& s, const double* doses, int n_doses, double dose_mg,
+          const AddedTerm& term = AddedTerm())
+      : p_(p), s_(s), doses_(doses), nd_(n_doses), dose_(dose_mg), term_(term) {}
 
   double concentration(const double* y) const { return y[1] / p_[P_V]; }
 
@@ -85,9 +96,16 @@ class Patient {
     const double emptied = kgb * y[3];
     dy[0] = input + emptied - absorbed;
     dy[1] = absorbed - elim - dist;
+    if (term_.state >= 0 && term_.acts_on(term_.state)) dy[1] -= term_(term_value(c, y));
     dy[2] = dist;
     dy[3] = s_.recycling * BILE_FRACTION * elim - emptied;
     dy[4] = (c / (c + INDUCTION_EC50) - y[4]) / INDUCTION_TAU;
+  }
+
+  // The recorded states Ag, Ac, Ap, Ab, E and C of state y.
+  void recorded(const double* y, double* out) const {
+    for (int i = 0; i < NSTATE; ++i) out[i] = y[i];
+    out[NSTATE] = concentration(y);
   }
 
  private:
@@ -96,19 +114,31 @@ class Patient {
   const double* doses_;
   int nd_;
   double dose_;
+  AddedTerm term_;
+
+  // The added term's state at concentration c and state y.
+  double term_value(double c, const double* y) const {
+    return term_.state == TERM_CONCENTRATION ? c : y[term_.state - 1];
+  }
 };
 
 // Integrates from rest at t[0] with nsub RK4 steps per grid interval and
-// writes the plasma concentration (mg/L) at t[k] to conc[k * stride].
-// Returns false if the solution stops being finite.
-inline bool simulate(const double* params, const Strength& s, const double* doses, int n_doses,
-                     double dose_mg, const double* t, int nt, int nsub, double* conc,
-                     std::ptrdiff_t stride) {
-  const Patient pt(params, s, doses, n_doses, dose_mg);
+// writes the plasma concentration (mg/L) at t[k] to conc[k * stride]; with
+// `states` (NULL or N_RECORDED pointers), the recorded states go to
+// states[i][k * stride]. Returns false if the solution stops being finite.
+inline bool simulate(const double* params, const Strength& s, const AddedTerm& term, const double* doses,
+                     int n_doses, double dose_mg, const double* t, int nt, int nsub, double* conc,
+                     std::ptrdiff_t stride, double* const* states = nullptr) {
+  const Patient pt(params, s, doses, n_doses, dose_mg, term);
   return rk4_grid(pt, t, nt, nsub, 1.0, [&](int k, const double* y) {
     const double c = pt.concentration(y);
     if (k > 0 && !std::isfinite(c)) return false;
     conc[k * stride] = c;
+    if (states != nullptr) {
+      double rec[N_RECORDED];
+      pt.recorded(y, rec);
+      for (int i = 0; i < N_RECORDED; ++i) states[i][k * stride] = rec[i];
+    }
     return true;
   });
 }

@@ -21,6 +21,13 @@
 // velocity v), digressive damper (above a knee velocity the damping slope
 // drops from c to c * (1 - s * (1 - DIGRESSIVE_RATIO))) and
 // progressive bump stop (force k p (1 + s p / PROGRESSIVE_P0) at penetration p).
+//
+// An added term (testbed_term.h) s_term * f(x) acts at both axles, each with
+// its own axle's state x: a force f(d) or f(v) (kN) added to the strut force
+// (TERM_COMPRESSION, TERM_VELOCITY; it enters the reported strut load), a
+// velocity f(Fd) (m/s, Fd in kN) added to the damper's velocity law
+// (TERM_DAMPER), or a force f(Ft) (kN, Ft the tire's force before the term,
+// in kN) added to the tire force (TERM_TIRE).
 #ifndef WAVEVALID_SUSPENSION_H
 #define WAVEVALID_SUSPENSION_H
 
@@ -31,6 +38,7 @@
 #include <vector>
 
 #include "rk4.h"
+#include "testbed_term.h"
 
 namespace wavevalid {
 namespace suspension {
@@ -86,6 +94,14 @@ enum ParamIndex {
   P_GAPR,     // rear bump-stop clearance
   N_PARAMS
 };
+
+// States an added term can be a function of.
+enum TermState { TERM_COMPRESSION = 0, TERM_VELOCITY, TERM_DAMPER, TERM_TIRE };
+
+// The state histories recorded at each grid point, in this order:
+// compression d (m) and compression velocity v (m/s) of the front and rear
+// struts, damper forces (kN), tire forces (kN, the term included).
+const int N_RECORDED = 8;
 
 struct Strength {
   double liftoff = 0.0;
@@ -191,7 +207,7 @@ class HalfCar {
  public:
   static const int NSTATE = 10;
 
-  HalfCar(const double* p, const Strength& s) : s_(s) {
+  HalfCar(const double* p, const Strength& s, const AddedTerm& term = AddedTerm()) : s_(s), term_(term) {
     for (int i = 0; i < N_PARAMS; ++i) p_[i] = p[i];
     const double L = WHEELBASE_A + WHEELBASE_B;
     preload_f_ = p_[P_MS] * GRAVITY * WHEELBASE_B / L;
@@ -206,11 +222,18 @@ class HalfCar {
     const double pen = d - gap;
     if (pen > 0.0) f += kbs * pen * (1.0 + s_.progressive * pen / PROGRESSIVE_P0);
     if (s_.friction > 0.0) f += s_.friction * FRICTION_F0 * v / std::sqrt(v * v + FRICTION_VEPS * FRICTION_VEPS);
+    if (term_.acts_on(TERM_COMPRESSION)) f += 1000.0 * term_(d);
+    if (term_.acts_on(TERM_VELOCITY)) f += 1000.0 * term_(v);
     return f;
   }
 
   // Damper velocity producing damper force f (inverse of the damper law).
   double damper_velocity(double f, double cc, double cr) const {
+    const double v = damper_law(f, cc, cr);
+    return term_.acts_on(TERM_DAMPER) ? v + term_(f / 1000.0) : v;
+  }
+
+  double damper_law(double f, double cc, double cr) const {
     const double c = f >= 0.0 ? cc : cr;
     const double fk = c * DIGRESSIVE_KNEE;
     const double af = std::fabs(f);
@@ -223,6 +246,7 @@ class HalfCar {
   double tire_force(double defl, double preload, double kt) const {
     double f = preload + kt * defl;
     if (f < 0.0) f *= (1.0 - s_.liftoff);
+    if (term_.acts_on(TERM_TIRE)) f += 1000.0 * term_(f / 1000.0);
     return f;
   }
 
@@ -262,25 +286,48 @@ class HalfCar {
     out[1] = strut_force(dr, vr, y[9], preload_r_, p_[P_KSR], p_[P_KBSR], p_[P_GAPR]) / 1000.0;
   }
 
+  // The N_RECORDED state histories' values at course time t for state y.
+  void recorded(double t, const double* y, double* out) const {
+    const Road& rd = road();
+    const double a = WHEELBASE_A, b = WHEELBASE_B;
+    const double xf = front_position(t);
+    out[0] = y[2] - (y[0] + a * y[1]);
+    out[1] = y[3] - (y[0] - b * y[1]);
+    out[2] = y[6] - (y[4] + a * y[5]);
+    out[3] = y[7] - (y[4] - b * y[5]);
+    out[4] = y[8] / 1000.0;
+    out[5] = y[9] / 1000.0;
+    out[6] = tire_force(rd(xf) - y[2], preload_f_ + p_[P_MUF] * GRAVITY, p_[P_KTF]) / 1000.0;
+    out[7] = tire_force(rd(xf - a - b) - y[3], preload_r_ + p_[P_MUR] * GRAVITY, p_[P_KTR]) / 1000.0;
+  }
+
  private:
   double p_[N_PARAMS];
   Strength s_;
+  AddedTerm term_;
   double preload_f_, preload_r_;
 };
 
 // Simulates one run from static equilibrium at t[0] and writes the loads at
 // the course times t[0..nt-1] to front[k * stride] and rear[k * stride].
-// Each output interval is split into nsub RK4 steps. Returns false if the
-// solution blew up (non-finite state).
-inline bool simulate(const double* params, const Strength& s, const double* t, int nt, int nsub,
-                     double* front, double* rear, std::ptrdiff_t stride) {
-  const HalfCar car(params, s);
+// Each output interval is split into nsub RK4 steps. With `states` (NULL or
+// N_RECORDED pointers), the recorded states go to states[i][k * stride].
+// Returns false if the solution blew up (non-finite state).
+inline bool simulate(const double* params, const Strength& s, const AddedTerm& term, const double* t,
+                     int nt, int nsub, double* front, double* rear, std::ptrdiff_t stride,
+                     double* const* states = nullptr) {
+  const HalfCar car(params, s, term);
   return rk4_grid(car, t, nt, nsub, TIME_SCALE, [&](int k, const double* y) {
     double out[2];
     car.loads(y, out);
     if (k > 0 && (!std::isfinite(out[0]) || !std::isfinite(out[1]))) return false;
     front[k * stride] = out[0];
     rear[k * stride] = out[1];
+    if (states != nullptr) {
+      double rec[N_RECORDED];
+      car.recorded(t[k], y, rec);
+      for (int i = 0; i < N_RECORDED; ++i) states[i][k * stride] = rec[i];
+    }
     return true;
   });
 }
