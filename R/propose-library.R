@@ -192,8 +192,14 @@ channel_terms <- function(ch, x) {
   out <- list(make("linear", "", function(x) x))
   out <- c(out, list(make("power", "x^2", function(x) x^2), make("power", "x|x|", function(x) x * abs(x)),
                      make("power", "x^3", function(x) x^3)))
+  # thresholds within a thousandth of the spread of the channel's extreme
+  # would make terms that are zero to rounding
+  lo <- min(v)
+  hi <- max(v)
   above <- unique(c(if (q(0.003) < 0 && q(0.997) > 0) 0, q(c(0.5, 0.75, 0.9, 0.97, 0.99, 0.997))))
+  above <- above[hi - above > 1e-3 * spread]
   below <- unique(c(if (q(0.003) < 0 && q(0.997) > 0) 0, q(c(0.003, 0.01, 0.03, 0.1, 0.25, 0.5))))
+  below <- below[below - lo > 1e-3 * spread]
   hinge <- function(family, cs, k, f) {
     lapply(cs, function(c) {
       force(c)

@@ -92,6 +92,9 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   seed <- resolve_seed(seed)
   sig <- term_signatures(fit, library, simulate)
   X <- sig$X
+  if (!ncol(X)) wv_abort("No term of the library could be simulated: check {.arg simulate}.")
+  library$terms <- library$terms[sig$keep, , drop = FALSE]
+  library$funs <- library$funs[sig$keep]
   N <- proposal_nuisance(fit, reg)
   H <- nrow(fit$wb[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
@@ -139,18 +142,29 @@ term_signatures <- function(fit, library, simulate) {
                "i" = "Drop {.arg simulate}: the state terms then act on the output directly."))
   }
   X <- matrix(0, sum(vapply(fit$wb, ncol, 1L)), nrow(lib), dimnames = list(NULL, lib$term))
+  failed <- rep(FALSE, nrow(lib))
   for (j in seq_len(nrow(lib))) {
     v <- library$values[[j]]
-    if (state[j]) v <- simulated_effect(simulate, lib$channel[j], library$funs[[j]], v, sites)
+    if (state[j]) {
+      v <- simulated_effect(simulate, lib$channel[j], library$funs[[j]], v, sites)
+      if (is.null(v)) {
+        failed[j] <- TRUE
+        next
+      }
+    }
     X[, j] <- unlist(lapply(sites, function(s) drop(v[[s]] %*% Psi)))
   }
-  list(X = X, kind = ifelse(state, "simulated", "direct"))
+  if (any(failed)) {
+    wv_inform(c("!" = "{cli::qty(sum(failed))}The simulation with {?the term/each of the terms} {.val {lib$term[failed]}} failed or was not finite: left out."))
+  }
+  list(X = X[, !failed, drop = FALSE], kind = ifelse(state, "simulated", "direct")[!failed], keep = !failed)
 }
 
 simulated_effect <- function(simulate, channel, fun, values, sites) {
   e <- 0.01 / max(abs(unlist(values)))
   run <- function(s) {
-    y <- simulate(channel, fun, s)
+    y <- tryCatch(suppressWarnings(simulate(channel, fun, s)), error = function(e) NULL)
+    if (is.null(y)) return(NULL)
     if (!is.list(y) || !all(sites %in% names(y))) {
       wv_abort(c("{.arg simulate} must return a named list with one curve per site.",
                  "i" = "The fit's sites are {.val {sites}}."))
@@ -159,7 +173,10 @@ simulated_effect <- function(simulate, channel, fun, values, sites) {
   }
   up <- run(e)
   down <- run(-e)
-  stats::setNames(lapply(sites, function(s) (up[[s]] - down[[s]]) / (2 * e)), sites)
+  if (is.null(up) || is.null(down)) return(NULL)
+  out <- stats::setNames(lapply(sites, function(s) (up[[s]] - down[[s]]) / (2 * e)), sites)
+  if (any(!is.finite(unlist(out)))) return(NULL)
+  out
 }
 
 # The directions in every model: the parameter shifts, a constant at each

@@ -62,6 +62,14 @@ test_that("a state term's simulated effect is the derivative of the output in it
   expect_equal(X_lin, X_dir, tolerance = 1e-8)
   # the central difference removes the strength's square exactly
   expect_equal(X_quad, X_dir, tolerance = 1e-8)
+  # a term whose simulation fails is left out, with a message
+  flaky <- function(channel, fun, strength) {
+    if (identical(fun, lib$funs[[2]])) stop("the solver failed")
+    lin(channel, fun, strength)
+  }
+  expect_message(sig <- wavevalid:::term_signatures(fit, lib, flaky), "failed or was not finite")
+  expect_identical(sig$keep, seq_along(lib$funs) != 2L)
+  expect_equal(sig$X, X_dir[, -2], tolerance = 1e-8)
   bad <- function(channel, fun, strength) list(other = t)
   expect_error(propose_terms(fit, lib, simulate = bad, n_draws = 5), class = "wavevalid_error_input")
 })
