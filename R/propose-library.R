@@ -146,16 +146,7 @@ output_channels <- function(fit) {
     drop(fit$basis$Psi %*% drop(w))
   })
   names(y) <- names(fit$wb)
-  list(output = y, `d/dt output` = lapply(y, grid_derivative, t = tb))
-}
-
-grid_derivative <- function(y, t) {
-  n <- length(y)
-  d <- numeric(n)
-  d[2:(n - 1L)] <- (y[3:n] - y[1:(n - 2L)]) / (t[3:n] - t[1:(n - 2L)])
-  d[1] <- (y[2] - y[1]) / (t[2] - t[1])
-  d[n] <- (y[n] - y[n - 1L]) / (t[n] - t[n - 1L])
-  d
+  list(output = y, `d/dt output` = lapply(y, grid_slope, t = tb))
 }
 
 # FALSE for a channel whose curves (all sites together) are, up to an affine

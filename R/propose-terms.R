@@ -26,9 +26,10 @@
 #' would do, [explain_bias()]'s `shift:` candidates), an offset of the whole
 #' record at each site (its mean, which the calibrated inputs trade against
 #' the events: [where_fails()] reports a record-wide bias) and, when the field was
-#' registered, the registration's own error (the model curve's time
-#' derivative times a hat function at each knot of the registration's
-#' warps: a small local shift of time). Subsets of up to `max_size`
+#' registered, the registration's own error at each landmark (an error in
+#' the landmark's time shifts the registered curves near it, the model
+#' curve's time derivative times the landmark's hat function, and the spread
+#' of such errors blurs their mean, the second derivative times it). Subsets of up to `max_size`
 #' families are weighed, with equal prior mass on each size (from none),
 #' shared equally among the families and within a family among its
 #' versions, so that a large library pays for its size: with 50 families,
@@ -181,12 +182,12 @@ simulated_effect <- function(simulate, channel, fun, values, sites) {
 
 # The directions in every model: the parameter shifts, a constant at each
 # site (the record's mean, whose bias the calibrated inputs trade against the
-# events) and, with
-# `registration`, the model curve's first and second time derivatives times a
-# hat function at each knot of the registration's warps, per site: a warp
-# error delta(t) moves a replicate by delta y' + delta^2 y'' / 2 to second
-# order, so the registered mean carries a local shift (y') and the blur of
-# the warps' spread (y'').
+# events) and, with `registration`, the registration's error at each
+# landmark of the reference (registration_landmark_columns()): an error
+# delta_k in the landmark's time moves the registered mean by -delta_k h_k y'
+# to first order and by delta_k^2 h_k y'' / 2 to second (the blur the warps'
+# spread leaves in the mean of the replicates), one direction of each for the
+# sites the landmark acts on together.
 proposal_nuisance <- function(fit, registration) {
   sh <- shift_candidates(fit, posterior_mean_inputs(fit))
   sites <- names(fit$wb)
@@ -199,27 +200,35 @@ proposal_nuisance <- function(fit, registration) {
   }, numeric(sum(n)))
   sh <- cbind(sh, level0)
   label <- c(if (ncol(sh) > length(sites)) "parameter shifts", "an offset of the record at each site")
-  if (!registration || is.null(fit$field$warps)) return(list(X = sh, label = label))
+  reg <- if (registration) registration_directions(fit)
+  if (is.null(reg)) return(list(X = sh, label = label))
+  list(X = cbind(sh, reg$X),
+       label = c(label, sprintf("the registration's error at its %d landmark%s (a shift and a blur of each)", reg$k,
+                                if (reg$k == 1L) "" else "s")))
+}
+
+# The shift and blur directions of the registration's error at each landmark
+# (see proposal_nuisance()), on the retained coefficients of every site
+# stacked; NULL without landmarks.
+registration_directions <- function(fit) {
+  sites <- names(fit$wb)
+  field_sites <- intersect(sites, names(fit$field$curves))
+  if (is.null(fit$field$warps) || !length(field_sites)) return(NULL)
+  cols <- registration_landmark_columns(fit$field, field_sites)
+  if (is.null(cols) || !length(cols$sd)) return(NULL)
   tb <- fit$basis$t
-  w <- fit$field$warps
-  knots <- sort(unique(c(range(tb), w$t_after[w$replicate == w$replicate[1]])))
-  knots <- knots[knots >= tb[1] & knots <= tb[length(tb)]]
-  knots <- knots[c(TRUE, diff(knots) > 2 * (tb[2] - tb[1]))]
-  hats <- vapply(seq_along(knots), function(k) {
-    stats::approx(knots, as.numeric(seq_along(knots) == k), xout = tb, rule = 2)$y
-  }, numeric(length(tb)))
-  d1 <- output_channels(fit)[["d/dt output"]]
-  d2 <- lapply(d1, grid_derivative, t = tb)
-  nk <- length(knots)
-  R <- matrix(0, sum(n), 2L * length(sites) * nk)
-  for (i in seq_along(sites)) {
-    rows <- (offs[i] + 1L):offs[i + 1L]
-    cols <- (i - 1L) * 2L * nk + seq_len(nk)
-    R[rows, cols] <- crossprod(fit$basis$Psi, hats * d1[[sites[i]]])
-    R[rows, cols + nk] <- crossprod(fit$basis$Psi, hats * d2[[sites[i]]])
+  y1 <- output_channels(fit)[["d/dt output"]]
+  y2 <- lapply(y1, grid_slope, t = tb)
+  K <- ncol(cols$hats)
+  one <- function(k, deriv) {
+    unlist(lapply(sites, function(s) {
+      on <- s %in% field_sites && cols$on[k, s]
+      drop(crossprod(fit$basis$Psi, if (on) cols$hats[, k] * deriv[[s]] else 0 * tb))
+    }))
   }
-  R <- R[, colSums(R^2) > 0, drop = FALSE]
-  list(X = cbind(sh, R), label = c(label, sprintf("registration error (shift and blur at %d knots per site)", nk)))
+  X <- cbind(vapply(seq_len(K), one, numeric(sum(vapply(fit$wb, ncol, 1L))), deriv = y1),
+             vapply(seq_len(K), one, numeric(sum(vapply(fit$wb, ncol, 1L))), deriv = y2))
+  list(X = X[, colSums(X^2) > 0, drop = FALSE], k = K)
 }
 
 # FALSE for a column of X that the nuisance N spans (weighted residual norm
@@ -286,13 +295,10 @@ proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level) {
     G <- crossprod(Xt)
     d <- diag(G)
     r2 <- pmin(b^2 / (d * yy), 1 - 1e-12)
-    best <- which.max(r2)
-    eta[h] <- if (is.null(cluster)) 1 else {
-      qa <- qr(cbind(N, X[, best]) * sw)
-      Q <- qr.Q(qa)[, seq_len(qa$rank), drop = FALSE]
-      tempering_power(Q / sw, Y[h, ], Wt[h, ], cluster)
-    }
-    ne <- eta[h] * (n - q)
+    # each term's evidence tempered by the cluster jackknife of its amplitude
+    et <- if (is.null(cluster)) rep(1, m) else term_tempering(Xt, yt, b, d, cluster)
+    eta[h] <- stats::median(et)
+    ne <- et * (n - q)
     g <- ne
     sh <- g / (1 + g)
     l1 <- -0.5 * log1p(g) - 0.5 * ne * log1p(-sh * r2)
@@ -303,7 +309,9 @@ proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level) {
       num <- outer(b^2, d) - 2 * outer(b, b) * G + outer(d, b^2)
       ok <- pair_ok & det > 1e-8 * outer(d, d)
       r2p <- pmin(ifelse(ok, num / (det * yy), 0), 1 - 1e-12)
-      l2 <- ifelse(ok, lp2 - log1p(g) - 0.5 * ne * log1p(-sh * r2p), -Inf)
+      # a pair tempered as the more tempered of its terms
+      ne2 <- outer(ne, ne, pmin)
+      l2 <- ifelse(ok, lp2 - log1p(ne2) - 0.5 * ne2 * log1p(-ne2 / (1 + ne2) * r2p), -Inf)
       post <- c(post, l2[ok])
     }
     top <- max(post)
@@ -324,6 +332,29 @@ proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level) {
   }
   list(inclusion = stats::setNames(colMeans(incl), eff), version_prob = ver / H, none = mean(none),
        amp_m = amp_m, amp_s = amp_s, share = share, eta = eta, level = level)
+}
+
+# The tempering power of each term's single-term regression: the variance
+# of its amplitude the regression claims (phi_j / d_j) over the cluster
+# jackknife's (the sum over clusters c of (a_j - a_j(-c))^2, a_j(-c) the
+# amplitude fitted without cluster c), capped at 1. A term whose evidence
+# comes from one cluster (one event at one site) cannot be told from an error
+# shared within that cluster, and gets almost none; a term whose amplitude
+# every cluster agrees on keeps its evidence. Xt, yt: the weighted columns and
+# data with the nuisance projected out; b = Xt'yt, d = diag(Xt'Xt).
+term_tempering <- function(Xt, yt, b, d, cluster) {
+  a <- b / d
+  B <- rowsum(Xt * yt, cluster)
+  S <- rowsum(Xt^2, cluster)
+  rest <- sweep(-S, 2L, d, `+`)
+  D <- (B - sweep(S, 2L, a, `*`)) / rest
+  D[rest <= 1e-10 * rep(d, each = nrow(rest))] <- Inf
+  vj <- colSums(D^2)
+  phi <- pmax(sum(yt^2) - b^2 / d, 0) / length(yt)
+  out <- phi / (d * vj)
+  out[!is.finite(out) & vj == 0] <- 1
+  out[!is.finite(out)] <- 0
+  pmin(out, 1)
 }
 
 # One row per family: its most probable version, inclusion, strength with its

@@ -68,7 +68,8 @@
 #'   [register_curves()]; default: the mean of the model runs).
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]): `"auto"` (default) a knot
-#'   every 1/32 of the record, a number (in time units), or `NULL` for the
+#'   every 1/32 of the record (at least four steps of the field's grid, the
+#'   closest spacing [register_curves()] takes), a number (in time units), or `NULL` for the
 #'   method's report's landmark warp (landmarks only).
 #' @param features The landmarks located in each window (passed to
 #'   [register_curves()]): `c("min", "max")` (default), or any of `"min"`,
@@ -145,7 +146,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   raw_field <- field
   raw_experiments <- experiments
   knots_every_arg <- knots_every
-  if (identical(knots_every, "auto")) knots_every <- diff(range(field$t)) / 32
+  if (identical(knots_every, "auto")) knots_every <- max(diff(range(field$t)) / 32, 4 * diff(field$t[1:2]))
   if (!is.null(experiments)) check_experiment_list(experiments)
   if (!is.null(windows)) {
     field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every,

@@ -17,7 +17,7 @@ suppressPackageStartupMessages(library(wavevalid))
 source("studies/args.R")
 a <- study_args(list(mode = "outputs", seeds = "1:3", null_seeds = "1:5", n_draws = "150", n_inner = "20",
                      beds = "suspension,dosing"))
-options(wavevalid.quiet = TRUE)
+options(wavevalid.quiet = TRUE, width = 250)
 
 # The families each mechanism can be written as, on a state or on the output
 right <- list(

@@ -2,7 +2,7 @@
 # nothing is proposed without one, the simulated effect of a state term is
 # its derivative, and the nuisance directions are never proposed.
 
-propose_problem <- function(strength, seed = 1) {
+propose_problem <- function(strength, seed = 1, windows = NULL) {
   t <- seq(0, 1, length.out = 128)
   model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2)
   withr::with_seed(seed, {
@@ -15,7 +15,7 @@ propose_problem <- function(strength, seed = 1) {
   })
   field <- field_runs(reps, t, x_nom = c(x1 = 0.5))
   iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), c(0, 0), c(1, 1), nominal = c(0.5, 0.5))
-  suppressWarnings(validate(runs, field, iu, chains = 1, seed = 1,
+  suppressWarnings(validate(runs, field, iu, windows = windows, chains = 1, seed = 1,
                             sampler = sampler_control(n_draws = 60, n_inner = 10, quiet = TRUE)))
 }
 
@@ -80,21 +80,25 @@ test_that("terms the parameter shifts or the registration's error span are never
   expect_identical(ncol(N), 3L)  # shift:u1, shift:x1 and the offset of site1
   X <- cbind(inside = drop(N %*% c(2, -1, 0.5)), outside = withr::with_seed(1, rnorm(nrow(N))))
   expect_identical(unname(wavevalid:::outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
-  # with the registration's error in every model (warps with knots at 1/4,
-  # 1/2, 3/4), the output's time derivative (a shift of time) is not a term,
-  # while a hinge of the output still is
-  fit_r <- propose_problem(0)
-  fit_r$field$warps <- data.frame(site = "site1", replicate = 1L, window = NA, feature = "fitted",
-                                  t_before = c(0.25, 0.5, 0.75), t_after = c(0.25, 0.5, 0.75))
+  # a field registered on landmarks at the sine's maximum and minimum: the
+  # registration's error at each landmark (a shift and a blur there) is in
+  # every model, while a hinge of the output is still a term
+  fit_r <- propose_problem(0, windows = list(c(0.15, 0.35), c(0.65, 0.85)))
   nu <- wavevalid:::proposal_nuisance(fit_r, TRUE)
-  expect_match(nu$label[3], "registration error")
+  cols <- wavevalid:::registration_landmark_columns(fit_r$field, "site1")
+  K <- length(cols$sd)
+  expect_gte(K, 1L)
+  expect_match(nu$label[3], sprintf("registration's error at its %d landmark", K))
+  expect_identical(ncol(nu$X), 3L + 2L * K)
+  slope <- wavevalid:::grid_slope(wavevalid:::output_channels(fit_r)$output$site1, fit_r$basis$t)
+  shift_k <- drop(crossprod(fit_r$basis$Psi, cols$hats[, 1] * slope))
   lib <- term_library(fit_r)
   X <- wavevalid:::term_signatures(fit_r, lib, NULL)$X
-  ok <- wavevalid:::outside_span(X, nu$X, rep(1, nrow(X)))
-  expect_false(ok[["linear(d/dt output)"]])
+  ok <- wavevalid:::outside_span(cbind(X, landmark = shift_k), nu$X, rep(1, nrow(X)))
+  expect_false(ok[["landmark"]])
   expect_true(all(ok[lib$terms$family == "hinge_above"]))
-  pr <- propose_terms(fit_r, lib, n_draws = 10, seed = 1)
-  expect_false("linear(d/dt output)" %in% attr(pr, "versions")$term)
+  # without the registration's directions, it would be a term
+  expect_true(wavevalid:::outside_span(cbind(X, landmark = shift_k), nu$X[, 1:3], rep(1, nrow(X)))[["landmark"]])
   # abs(y - c) = 2 (y - c)_+ - (y - c): with the output's scale a shift of x1
   # and the offset in every model, the two are one effect, kept once
   eq <- wavevalid:::equivalent_terms(X[, c("hinge_above(output; c = 0, k = 1)", "abs(output; c = 0)")], nu$X,
