@@ -80,25 +80,20 @@ test_that("terms the parameter shifts or the registration's error span are never
   expect_identical(ncol(N), 3L)  # shift:u1, shift:x1 and the offset of site1
   X <- cbind(inside = drop(N %*% c(2, -1, 0.5)), outside = withr::with_seed(1, rnorm(nrow(N))))
   expect_identical(unname(wavevalid:::outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
-  # a field registered on landmarks at the sine's maximum and minimum: the
-  # registration's error at each landmark (a shift and a blur there) is in
-  # every model, while a hinge of the output is still a term
+  # a registered field: a shift and a blur direction at each knot of the
+  # warps, random, not fixed: a hinge of the output stays a term
   fit_r <- propose_problem(0, windows = list(c(0.15, 0.35), c(0.65, 0.85)))
   nu <- wavevalid:::proposal_nuisance(fit_r, TRUE)
-  cols <- wavevalid:::registration_landmark_columns(fit_r$field, "site1")
-  K <- length(cols$sd)
-  expect_gte(K, 1L)
-  expect_match(nu$label[3], sprintf("registration's error at its %d landmark", K))
-  expect_identical(ncol(nu$X), 3L + 2L * K)
-  slope <- wavevalid:::grid_slope(wavevalid:::output_channels(fit_r)$output$site1, fit_r$basis$t)
-  shift_k <- drop(crossprod(fit_r$basis$Psi, cols$hats[, 1] * slope))
+  expect_identical(ncol(nu$X), 3L)
+  expect_identical(ncol(nu$R), length(nu$kind))
+  expect_setequal(unique(nu$kind), c("shift", "blur"))
+  expect_identical(sum(nu$kind == "shift"), nu$knots)
   lib <- term_library(fit_r)
   X <- wavevalid:::term_signatures(fit_r, lib, NULL)$X
-  ok <- wavevalid:::outside_span(cbind(X, landmark = shift_k), nu$X, rep(1, nrow(X)))
-  expect_false(ok[["landmark"]])
+  ok <- wavevalid:::outside_span(X, nu$X, rep(1, nrow(X)))
   expect_true(all(ok[lib$terms$family == "hinge_above"]))
-  # without the registration's directions, it would be a term
-  expect_true(wavevalid:::outside_span(cbind(X, landmark = shift_k), nu$X[, 1:3], rep(1, nrow(X)))[["landmark"]])
+  pr <- propose_terms(fit_r, lib, n_draws = 10, seed = 1)
+  expect_match(attr(pr, "nuisance")[3], "registration's error at its [0-9]+ warp knots")
   # abs(y - c) = 2 (y - c)_+ - (y - c): with the output's scale a shift of x1
   # and the offset in every model, the two are one effect, kept once
   eq <- wavevalid:::equivalent_terms(X[, c("hinge_above(output; c = 0, k = 1)", "abs(output; c = 0)")], nu$X,
@@ -116,4 +111,24 @@ test_that("propose_terms() refuses bad input before any work", {
   expect_error(propose_terms(other, lib), "another fit", class = "wavevalid_error_input")
   expect_error(term_library(fit, states = list(1:3)), class = "wavevalid_error_input")
   expect_error(term_library(fit, outputs = FALSE), class = "wavevalid_error_input")
+})
+
+test_that("the registration error's sizes are recovered by restricted maximum likelihood", {
+  withr::local_seed(3)
+  n <- 600
+  w <- stats::runif(n, 0.5, 2)
+  F <- cbind(1, seq_len(n) / n)
+  R <- matrix(stats::rnorm(n * 60), n, 60)
+  kind <- rep(c("shift", "blur"), each = 30)
+  lam <- c(shift = 4, blur = 0.25)
+  est <- replicate(20, {
+    Rs <- sweep(R, 2L, sqrt(colSums(R^2 * w)), `/`)
+    y <- drop(F %*% c(1, -2) + Rs %*% stats::rnorm(60, sd = sqrt(lam[kind])) + stats::rnorm(n, sd = 1 / sqrt(w)))
+    wavevalid:::registration_scale(y, w, F, R, kind)$by_kind[c("shift", "blur")]
+  })
+  # the median over 20 data sets within 30% of the truth, each kind
+  med <- apply(est, 1, stats::median)
+  expect_equal(unname(med), unname(lam), tolerance = 0.3)
+  # and the shift's variance told from none: its 10% quantile above 1
+  expect_gt(stats::quantile(est["shift", ], 0.1), 1)
 })
