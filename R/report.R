@@ -27,6 +27,9 @@
 #' @param candidates Optional candidate effects for [explain_bias()].
 #' @param predictions Optional named list of `wv_prediction` objects.
 #' @param comparison Optional `wv_comparison` from [compare_validations()].
+#' @param proposals Optional `wv_proposals` from [propose_terms()] on `fit`:
+#'   a proposed term joins the findings (kind `"term"`) and the report gains
+#'   a section with the proposals' table and figure.
 #' @param tolerance The bias the intended use can accept, passed to
 #'   [where_fails()]: one number or a vector named by site. With the default
 #'   0 any credible bias is a finding and the verdict says the model is not
@@ -45,8 +48,9 @@
 #' }
 validation_report <- function(fit, file = "validation-report.html", runs = NULL, candidates = NULL,
                               predictions = NULL, comparison = NULL, windows = NULL, tolerance = 0,
-                              title = "Validation report", quiet = TRUE) {
+                              title = "Validation report", quiet = TRUE, proposals = NULL) {
   check_class(fit, "wv_fit")
+  if (!is.null(proposals)) check_proposals_of(proposals, fit)
   check_string(file)
   if (!is.null(runs)) check_class(runs, "wv_runs")
   if (!is.null(comparison)) check_class(comparison, "wv_comparison")
@@ -66,7 +70,8 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   file.copy(template, rmd)
   env <- new.env(parent = globalenv())
   env$fit <- fit
-  env$fails <- where_fails(fit, tolerance = tolerance)
+  env$fails <- where_fails(fit, tolerance = tolerance, proposals = proposals)
+  env$proposals <- proposals
   env$headline <- top_finding(env$fails)
   env$expl <- if (!is.null(candidates)) explain_bias(fit, candidates, seed = fit$seed)
   env$verdict <- report_verdict(fit, env$fails, tolerance, expl = env$expl, comparison = comparison)

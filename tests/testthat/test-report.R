@@ -168,3 +168,20 @@ test_that("the verdict's assumptions name the field noise's source", {
   a <- report_assumptions(one)
   expect_match(a[1], "site1 learned in the posterior from one replicate", fixed = TRUE)
 })
+
+test_that("with proposals the report lists the proposed term among the findings and in its own section", {
+  skip_if_not(rmarkdown::pandoc_available())
+  fit <- example_fit()
+  pr <- propose_terms(fit, term_library(fit), n_draws = 20, seed = 1)
+  # make the leading proposal a finding whatever its evidence here
+  pr$inclusion_prob[1] <- 0.9
+  file <- tempfile(fileext = ".html")
+  validation_report(fit, file, proposals = pr)
+  html <- paste(readLines(file, warn = FALSE), collapse = "\n")
+  expect_true(grepl("Proposed terms</h2>", html, fixed = TRUE))
+  expect_true(grepl(html_escape(pr$term[1]), html, fixed = TRUE))
+  wf <- where_fails(fit, proposals = pr)
+  expect_true("term" %in% wf$kind)
+  expect_true(grepl(">\\s*term\\s*</td>", between(html, "Where the model fails</h2>", "Proposed terms</h2>"), perl = TRUE))
+  expect_error(validation_report(example_fit(2), file, proposals = pr), class = "wavevalid_error_input")
+})
