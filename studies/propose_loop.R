@@ -1,11 +1,12 @@
-# Does the top proposal fix the model as well as the true mechanism? The
-# suspension bed, each mechanism hidden at `seeds`: the model validated
+# Does the top proposal fix the model as well as the true mechanism? Each
+# bed (`bed`), each mechanism hidden at `seeds`: the model validated
 # (validate(), one chain of n_draws x n_inner, seed 1), the terms proposed
 # from the simulator's states and output (propose_terms(), states simulated
 # through testbed_term()), then two models validated again with update() and
-# judged at the held-out added-mass run (compare_validations(), seed 1):
+# judged at the held-out condition (compare_validations(), seed 1): the
+# suspension's added-mass run, the dosing bed's condition B (another patient):
 #   proposal  the top proposal added: a state term through the simulator
-#             (simulate_suspension(term = testbed_term())), an output term
+#             (simulate_*(term = testbed_term())), an output term
 #             added to each run's curves; its strength a calibration input
 #             over [0, 2 s] (s the proposal's strength, the range's ends
 #             swapped when it is negative), 66 runs on a maximin design and
@@ -15,16 +16,19 @@
 # Per case: the proposal, and for each model the held-out error of the model
 # alone and bias-corrected over before's (ratio_*), and the verdict; `rel`
 # the proposal's model-alone ratio over the true mechanism's (target <= 1.2).
-#   Rscript studies/propose_loop.R [seeds=1] [hidden=all] [n_draws=150] [n_inner=20]
+#   Rscript studies/propose_loop.R [bed=suspension] [seeds=1] [hidden=all] [n_draws=150] [n_inner=20]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
-a <- study_args(list(seeds = "1", hidden = "all", n_draws = "150", n_inner = "20"))
+a <- study_args(list(bed = "suspension", seeds = "1", hidden = "all", n_draws = "150", n_inner = "20"))
+susp <- a$bed == "suspension"
+simulate_bed <- if (susp) simulate_suspension else simulate_dosing
 options(wavevalid.quiet = TRUE, width = 250)
-hidden <- if (a$hidden == "all") testbed_mechanisms() else arg_names(a$hidden)
+hidden <- if (a$hidden == "all") (if (susp) testbed_mechanisms() else dosing_mechanisms()) else arg_names(a$hidden)
 sampler <- sampler_control(n_draws = as.integer(a$n_draws), n_inner = as.integer(a$n_inner), quiet = TRUE)
 
 states_at <- function(z) {
-  st <- attr(simulate_suspension(z, states = TRUE), "states")
+  st <- attr(simulate_bed(z, states = TRUE), "states")
+  if (!susp) return(lapply(st[c("concentration", "gut", "peripheral", "bile", "induction")], function(m) m[1, ]))
   lapply(c(compression = "compression", velocity = "velocity", damper = "damper", tire = "tire"),
          function(k) list(site1 = st[[paste0(k, "_front")]][1, ], site2 = st[[paste0(k, "_rear")]][1, ]))
 }
@@ -33,7 +37,7 @@ states_at <- function(z) {
 # design's column s_term.
 runs_with_term <- function(design, channel, fun) {
   if (channel %in% c("output", "d/dt output")) {
-    base <- simulate_suspension(design[setdiff(names(design), "s_term")])
+    base <- simulate_bed(design[setdiff(names(design), "s_term")])
     curves <- lapply(base$curves, function(Y) {
       X <- if (channel == "output") Y else t(apply(Y, 1, function(y) c(diff(y)[1], (y[-(1:2)] - y[1:(length(y) - 2)]) / 2,
                                                                        diff(y)[length(y) - 1]) / diff(base$t[1:2])))
@@ -41,23 +45,24 @@ runs_with_term <- function(design, channel, fun) {
     })
     return(model_runs(design, curves, base$t))
   }
-  simulate_suspension(design, term = testbed_term(channel, fun))
+  simulate_bed(design, term = testbed_term(channel, fun))
 }
 
 one <- function(hd, seed) {
   t0 <- clock()
-  tb <- testbed_suspension(seed = seed, hidden = hd)
+  tb <- if (susp) testbed_suspension(seed = seed, hidden = hd) else testbed_dosing(seed = seed, hidden = hd)
   fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = 1, seed = 1,
                                    sampler = sampler))
   z <- as.data.frame(as.list(coef(fit)))
   sim <- function(channel, fun, strength) {
-    lapply(simulate_suspension(transform(z, s_term = strength), term = testbed_term(channel, fun))$curves,
+    lapply(simulate_bed(transform(z, s_term = strength), term = testbed_term(channel, fun))$curves,
            function(m) m[1, ])
   }
   pr <- propose_terms(fit, suppressMessages(term_library(fit, states = states_at(z))), simulate = sim, seed = 1)
   top <- pr[1, ]
   fun <- attr(pr, "funs")[[top$term]]
-  ex <- experiment(tb$added_mass$field, change = tb$added_mass$delta)
+  ex <- if (susp) experiment(tb$added_mass$field, change = tb$added_mass$delta) else
+    experiment(tb$B$field, change = tb$B$x_nom - tb$iu$nominal[match(names(tb$B$x_nom), tb$iu$name)])
   judge <- function(runs2, iu2) {
     fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu2))
     cmp <- suppressWarnings(compare_validations(fit, fit2, holdout = ex, seed = 1))
@@ -76,9 +81,9 @@ one <- function(hd, seed) {
   s_name <- paste0("s_", hd)
   up <- if (hd == "tire_liftoff") 1 else 1.5
   iu_t <- iu_add(tb$iu, s_name, lower = 0, upper = up, nominal = up / 2)
-  runs_t <- with_off(simulate_suspension(design_maximin(iu_t, 66L, seed = 2), mechanism = hd), s_name)
+  runs_t <- with_off(simulate_bed(design_maximin(iu_t, 66L, seed = 2), mechanism = hd), s_name)
   true <- judge(runs_t, iu_t)
-  data.frame(hidden = hd, seed = seed, proposal = top$term, inclusion = round(top$inclusion_prob, 2),
+  data.frame(bed = a$bed, hidden = hd, seed = seed, proposal = top$term, inclusion = round(top$inclusion_prob, 2),
              ratio_model_proposal = round(as.numeric(prop[["model"]]), 3),
              ratio_corrected_proposal = round(as.numeric(prop[["corrected"]]), 3), verdict_proposal = prop[["verdict"]],
              ratio_model_true = round(as.numeric(true[["model"]]), 3),
