@@ -107,7 +107,8 @@ summary.wv_fails <- function(object, ...) {
   iv <- finding_rows(object, "interval")
   structure(list(
     top = top_finding(object),
-    kinds = table(factor(object$kind, levels = c("record-wide", "interval", "covered", "input", "term"))),
+    kinds = table(factor(object$kind, levels = c("record-wide", "interval", "covered", "input",
+                                                 if (any(object$kind == "term")) "term"))),
     n = nrow(iv),
     by_site = if (nrow(iv)) tapply(iv$integrated_abs_bias, iv$site, sum) else numeric(),
     total_length = sum(iv$end - iv$start),
