@@ -74,10 +74,11 @@ one <- function(hd, seed) {
     off[[name]] <- 0
     c(model_runs(off, tb$A$runs$curves, tb$A$runs$t), runs)
   }
-  ends <- sort(c(0, 2 * top$strength))
-  iu_p <- iu_add(tb$iu, "s_term", lower = ends[1], upper = ends[2], nominal = mean(ends))
-  runs_p <- with_off(runs_with_term(design_maximin(iu_p, 66L, seed = 2), top$channel, fun), "s_term")
-  prop <- if (is.null(fun)) c(model = NA, corrected = NA, verdict = "a product: not added") else judge(runs_p, iu_p)
+  prop <- if (is.null(fun)) c(model = NA, corrected = NA, verdict = "a product: not added") else {
+    ends <- sort(c(0, 2 * top$strength))
+    iu_p <- iu_add(tb$iu, "s_term", lower = ends[1], upper = ends[2], nominal = mean(ends))
+    judge(with_off(runs_with_term(design_maximin(iu_p, 66L, seed = 2), top$channel, fun), "s_term"), iu_p)
+  }
   s_name <- paste0("s_", hd)
   up <- if (hd == "tire_liftoff") 1 else 1.5
   iu_t <- iu_add(tb$iu, s_name, lower = 0, upper = up, nominal = up / 2)
