@@ -37,7 +37,8 @@ print.wv_proposals <- function(x, ...) {
   cli::cat_line("In every model, never proposed: ", paste(attr(x, "nuisance"), collapse = "; "), ".")
   eta <- attr(x, "eta")
   if (!is.null(eta) && stats::median(eta) < 0.995) {
-    cli::cat_line(sprintf("Evidence tempered by eta = %.2f (median over draws).", stats::median(eta)))
+    cli::cat_line(sprintf(paste0("Evidence tempered by the jackknife over time segments: eta = %.2f ",
+                                 "(median over terms and draws)."), stats::median(eta)))
   }
   invisible(x)
 }
