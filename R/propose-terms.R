@@ -178,9 +178,15 @@ term_signatures <- function(fit, library, simulate) {
   }
   X <- matrix(0, sum(vapply(fit$wb, ncol, 1L)), nrow(lib), dimnames = list(NULL, lib$term))
   failed <- rep(FALSE, nrow(lib))
+  # a bar while the state terms are simulated (cli shows it only after two
+  # seconds)
+  bar <- any(state) && !isTRUE(getOption("wavevalid.quiet", FALSE))
+  if (bar) cli::cli_progress_bar("Simulating the terms' effects", total = sum(state), .envir = environment())
+  env <- environment()
   for (j in seq_len(nrow(lib))) {
     v <- library$values[[j]]
     if (state[j]) {
+      if (bar) cli::cli_progress_update(.envir = env)
       v <- simulated_effect(simulate, lib$channel[j], library$funs[[j]], v, sites)
       if (is.null(v)) {
         failed[j] <- TRUE
@@ -282,7 +288,11 @@ proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level, R
   ver <- numeric(m)
   none <- eta <- numeric(H)
   amp_m <- amp_s <- share <- matrix(0, H, m)
+  bar <- H >= 20L && !isTRUE(getOption("wavevalid.quiet", FALSE))
+  if (bar) cli::cli_progress_bar("Regressing the bias draws on the terms", total = H, .envir = environment())
+  env <- environment()
   for (h in seq_len(H)) {
+    if (bar) cli::cli_progress_update(.envir = env)
     sw <- sqrt(Wt[h, ])
     yt <- Y[h, ] * sw
     Xt <- X * sw
