@@ -36,3 +36,35 @@ fit_assumptions <- function(fit, part = c("priors", "joint_prior", "noise", "lik
                 experiments = experiment_lines(fit))
   as.character(out)
 }
+
+# The experiments of a fit, one line each, for print() and the report
+# (nothing with one experiment).
+experiment_lines <- function(fit) {
+  ex <- fit$experiments
+  if (is.null(ex) && !is.null(fit$conditions)) {
+    return(sprintf("Condition%s (known, not sampled): %s", if (length(fit$conditions$inputs) == 1L) "" else "s",
+                   condition_labels(fit$conditions)[["base"]]))
+  }
+  if (is.null(ex)) return(character(0))
+  lines <- vapply(unique(ex$experiment), function(e) {
+    sites <- ex$site[ex$experiment == e]
+    reps <- vapply(sites, function(s) fit$n_rep[[s]], numeric(1))
+    sh <- site_shift(fit, sites[1])
+    cond_lab <- if (!is.null(fit$conditions)) condition_labels(fit$conditions)[[e]]
+    sh[names(sh) %in% fit$conditions$inputs] <- 0
+    how <- if (!is.null(cond_lab)) {
+      paste0(if (e == "base") "the base experiment, " else "", cond_lab,
+             if (any(sh != 0)) paste0("; inputs changed by ",
+                                      paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", ")))
+    } else if (e == "base") "the base experiment" else if (any(sh != 0)) {
+      paste0("inputs changed by ", paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", "))
+    } else "its own emulators"
+    sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps, ifelse(reps == 1, "", "s")),
+                                          collapse = ", "))
+  }, character(1))
+  c(sprintf("Experiments, calibrated jointly (%s):",
+            if (identical(fit$settings$experiment_bias, "shared")) "one bias shared by the experiments" else
+              sprintf("one bias per experiment; level variances %s",
+                      if (identical(fit$settings$level_variances, "per_experiment")) "per experiment" else "shared")),
+    lines)
+}
