@@ -31,9 +31,8 @@ registration_extra_variance <- function(field, basis) {
 # mean's slope, a column of a T x K matrix for each site in `sites` (zero at
 # the sites the landmark does not act on; a landmark shared by the sites acts
 # on all of them), and sd_k, its spread over the runs. Landmarks with no
-# spread or on the edge of the knots are left out. Also the hat functions
-# (`hats`, T x K) and which sites each landmark acts on (`on`, K x sites).
-# NULL when the field was not registered to model runs.
+# spread or on the edge of the knots are left out. NULL when the field was not
+# registered to model runs.
 registration_landmark_columns <- function(field, sites) {
   w <- field$warps
   spread <- if (is.null(w)) NULL else attr(w, "landmark_sd")
@@ -42,8 +41,6 @@ registration_landmark_columns <- function(field, sites) {
   slope <- lapply(field$curves[sites], function(Y) grid_slope(colMeans(Y), t))
   shared <- !is.na(attr(w, "landmark_site"))
   H <- stats::setNames(lapply(sites, function(s) matrix(0, length(t), 0L)), sites)
-  hats <- matrix(0, length(t), 0L)
-  on <- matrix(FALSE, 0L, length(sites), dimnames = list(NULL, sites))
   sd <- numeric(0)
   for (m in unique(spread$site)) {
     lm <- spread[spread$site == m, , drop = FALSE]
@@ -57,12 +54,10 @@ registration_landmark_columns <- function(field, sites) {
       h <- stats::approx(after[(j - 1L):(j + 1L)], c(0, 1, 0), xout = t, rule = 2)$y
       h[t < after[j - 1L] | t > after[j + 1L]] <- 0
       sd <- c(sd, lm$sd[k])
-      hats <- cbind(hats, h)
-      on <- rbind(on, sites %in% targets)
       for (s in sites) H[[s]] <- cbind(H[[s]], if (s %in% targets) h * slope[[s]] else 0 * t)
     }
   }
-  list(H = H, sd = sd, hats = hats, on = on)
+  list(H = H, sd = sd)
 }
 
 # Slope of a curve on its grid: central differences, one-sided at the ends.
