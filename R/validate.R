@@ -65,7 +65,13 @@
 #' @param windows Optional list of `c(from, to)` event windows; when given,
 #'   the field curves are registered first.
 #' @param reference Reference curves for the registration (passed to
-#'   [register_curves()]; default: the mean of the model runs).
+#'   [register_curves()]; default: the mean of the model runs). When the I/U
+#'   map has test conditions (inputs of type `"condition"`), the runs span
+#'   them all, so by default the field is registered twice: first to the
+#'   mean of the runs, to build the basis and fit the emulators, then again
+#'   to the model at the base experiment's condition (the runs' inputs with
+#'   the conditions set to their nominal values, through the emulators), as
+#'   the experiments are registered to the model at theirs.
 #' @param knots_every Spacing of the further warp knots fitted between the
 #'   windows (passed to [register_curves()]): `"auto"` (default) a knot
 #'   every 1/32 of the record (at least four steps of the field's grid, the
@@ -154,6 +160,20 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   }
   basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
   emulators <- fit_emulators(runs, basis, engine)
+  cond <- iu_conditions(iu)
+  if (!is.null(windows) && is.null(reference) && length(cond)) {
+    # with test conditions the runs span them all: the base field goes to the
+    # model at its own condition, as the experiments at theirs
+    base <- list(field = raw_field, change = stats::setNames(numeric(length(cond)), cond),
+                 condition = condition_base(iu))
+    field <- register_curves(raw_field, experiment_reference(base, emulators, runs), windows, features = features,
+                             knots_every = knots_every,
+                             check_runs = if (identical(bias$registration_variance, "check")) 5L else 0L)
+    if (!quiet) {
+      at <- paste(sprintf("%s = %g", cond, base$condition), collapse = ", ")
+      wv_inform(c("i" = "The field data were registered to the model at the base condition {at} (the emulators at the runs' inputs)."))
+    }
+  }
   if (!is.null(experiments)) {
     experiments <- check_experiments(experiments, emulators, field, iu = iu)
     if (!is.null(windows)) {

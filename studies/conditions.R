@@ -4,7 +4,7 @@
 # 400 (testbed_dosing(doses = )): the model validated on 400 (the base
 # experiment), 250 and 550 mg (experiments_at(), the dose a condition of the
 # I/U map, 80 model runs over the inputs and the dose; landmarks in the dose
-# windows; one chain of n_draws x n_inner, seed 1), then 475 mg predicted
+# windows; `chains` chains of n_draws x n_inner, seed 1), then 475 mg predicted
 # with predict(type = "new_condition", noise = FALSE). Per seed and case:
 #   cover      share of the 2048 points of the registered true plasma curve at
 #              475 mg inside the 90% pointwise bias-corrected band. The field
@@ -28,11 +28,11 @@
 # each mechanism of `hidden` (reality has it; coverage of before and after,
 # and the verdict).
 #   Rscript studies/conditions.R [seeds=1:5] [hidden=enterohepatic_recycling] [none=TRUE]
-#                                [n_draws=150] [n_inner=20] [out=studies/conditions.csv]
+#                                [n_draws=150] [n_inner=20] [chains=1] [out=studies/conditions.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(seeds = "1:5", hidden = "enterohepatic_recycling", none = "TRUE", n_draws = "150",
-                       n_inner = "20", out = "studies/conditions.csv"))
+                       n_inner = "20", chains = "1", out = "studies/conditions.csv"))
 seeds <- arg_numbers(opt$seeds)
 hidden <- setdiff(arg_names(opt$hidden), "none")
 sampler <- sampler_control(n_draws = as.integer(opt$n_draws), n_inner = as.integer(opt$n_inner), quiet = TRUE)
@@ -60,7 +60,7 @@ cover <- function(p, truth, lower = "lower", upper = "upper") {
 fit_doses <- function(tb, runs, iu) {
   exps <- experiments_at(tb$doses$fields[paste0("dose_", tested)], data.frame(dose = tested))
   suppressWarnings(validate(runs, tb$A$field, iu, windows = tb$windows, experiments = exps, sampler = sampler,
-                            chains = 1, seed = 1))
+                            chains = as.integer(opt$chains), seed = 1))
 }
 
 # The band at the held-out dose and at a tested one.

@@ -183,3 +183,33 @@ test_that("the dosing model takes the dose amount; testbed_dosing(doses =) adds 
   expect_output(print(tb), "doses: 12 model runs")
   expect_error(testbed_dosing(2, doses = 400), class = "wavevalid_error_condition")
 })
+
+test_that("with conditions, validate() registers the base field to the model at its own condition", {
+  withr::local_seed(2)
+  t <- seq(0, 1, length.out = 129)[-129]
+  # an event whose time moves with the condition c1
+  bump <- function(u, c) u * exp(-((t - 0.3 - 0.3 * c) / 0.04)^2) + 0.3 * sin(2 * pi * t)
+  design <- data.frame(u1 = stats::runif(40, 0.5, 1.5), c1 = (sample(40) - stats::runif(40)) / 40)
+  runs <- model_runs(design, list(site1 = t(mapply(bump, design$u1, design$c1))), t)
+  truth <- bump(1, 0.1)
+  field <- field_runs(list(site1 = t(replicate(3, truth + stats::rnorm(length(t), sd = 0.01)))), t)
+  iu <- iu_map(c("u1", "c1"), c("calibration", "condition"), lower = c(0.5, 0), upper = c(1.5, 1),
+               nominal = c(1, 0.1))
+  windows <- list(c(0.2, 0.7))
+  msg <- expect_message(
+    fit <- suppressWarnings(validate(runs, field, iu, windows = windows, chains = 1, seed = 1,
+                                     sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200,
+                                                               n_search = 10))),
+    "registered to the model at the base condition c1 = 0.1", class = "wavevalid_message")
+  rms <- function(m) sqrt(mean(sweep(m, 2L, truth)^2))
+  # the model at c1 = 0.1 has the field's timing: registration leaves it near the truth
+  expect_lt(rms(fit$field$curves$site1), 0.02)
+  # the mean of runs over every condition would pull it off
+  to_all <- register_curves(field, runs, windows, knots_every = 4 * diff(t[1:2]))
+  expect_gt(rms(to_all$curves$site1), 4 * rms(fit$field$curves$site1))
+  # a reference given is used as given
+  given <- suppressWarnings(validate(runs, field, iu, windows = windows, reference = runs, chains = 1, seed = 1,
+                                     sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200,
+                                                               n_search = 10, quiet = TRUE)))
+  expect_equal(given$field$curves$site1, to_all$curves$site1)
+})
