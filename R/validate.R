@@ -117,7 +117,10 @@
 #'   `basis_args`, `engine`, the `experiments` as given, `chains`), so that
 #'   [update()][update.wv_fit] validates again with the same settings and
 #'   [compare_validations()] registers held-out data as the fit registered
-#'   its own.
+#'   its own; and the time each phase took in `timing`, a data frame of
+#'   `phase` (`"preflight"`, `"registration"`, `"basis"`, `"emulators"`,
+#'   `"experiments"` (their field data's registration), `"calibration"`, those
+#'   that ran), `elapsed` and `cpu` seconds (user and system).
 #' @seealso [update.wv_fit()] to validate again with new runs.
 #' @export
 #' @examples
@@ -148,27 +151,30 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
   sigma2 <- bias$sigma2
   check_sigma2(sigma2, names(field$curves))
-  enforce_preflight(preflight(runs, field, iu, sigma2 = sigma2, windows = windows, basis_args = basis_args))
+  clock <- phase_clock()
+  enforce_preflight(clock("preflight", preflight(runs, field, iu, sigma2 = sigma2, windows = windows,
+                                                 basis_args = basis_args)))
   raw_field <- field
   raw_experiments <- experiments
   knots_every_arg <- knots_every
   if (identical(knots_every, "auto")) knots_every <- max(diff(range(field$t)) / 32, 4 * diff(field$t[1:2]))
   if (!is.null(experiments)) check_experiment_list(experiments)
+  check_runs <- if (identical(bias$registration_variance, "check")) 5L else 0L
   if (!is.null(windows)) {
-    field <- register_curves(field, reference %||% runs, windows, features = features, knots_every = knots_every,
-                             check_runs = if (identical(bias$registration_variance, "check")) 5L else 0L)
+    field <- clock("registration", register_curves(field, reference %||% runs, windows, features = features,
+                                                   knots_every = knots_every, check_runs = check_runs))
   }
-  basis <- do.call(wavelet_basis, c(list(runs, field), basis_args))
-  emulators <- fit_emulators(runs, basis, engine)
+  basis <- clock("basis", do.call(wavelet_basis, c(list(runs, field), basis_args)))
+  emulators <- clock("emulators", fit_emulators(runs, basis, engine))
   cond <- iu_conditions(iu)
   if (!is.null(windows) && is.null(reference) && length(cond)) {
     # with test conditions the runs span them all: the base field goes to the
     # model at its own condition, as the experiments at theirs
     base <- list(field = raw_field, change = stats::setNames(numeric(length(cond)), cond),
                  condition = condition_base(iu))
-    field <- register_curves(raw_field, experiment_reference(base, emulators, runs), windows, features = features,
-                             knots_every = knots_every,
-                             check_runs = if (identical(bias$registration_variance, "check")) 5L else 0L)
+    field <- clock("registration", register_curves(raw_field, experiment_reference(base, emulators, runs), windows,
+                                                   features = features, knots_every = knots_every,
+                                                   check_runs = check_runs))
     if (!quiet) {
       at <- paste(sprintf("%s = %g", cond, base$condition), collapse = ", ")
       wv_inform(c("i" = "The field data were registered to the model at the base condition {at} (the emulators at the runs' inputs)."))
@@ -177,14 +183,16 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   if (!is.null(experiments)) {
     experiments <- check_experiments(experiments, emulators, field, iu = iu)
     if (!is.null(windows)) {
-      experiments <- register_experiments(experiments, emulators, runs, windows, features = features,
-                                          knots_every = knots_every, quiet = quiet)
+      experiments <- clock("experiments", register_experiments(experiments, emulators, runs, windows,
+                                                               features = features, knots_every = knots_every,
+                                                               quiet = quiet))
     }
   }
-  fit <- calibrate(emulators, field, iu, experiments = experiments, bias = bias, sampler = sampler, chains = chains,
-                   seed = seed)
+  fit <- clock("calibration", calibrate(emulators, field, iu, experiments = experiments, bias = bias,
+                                        sampler = sampler, chains = chains, seed = seed))
   fit$call_args <- list(runs = runs, field = raw_field, windows = windows, reference = reference,
                         knots_every = knots_every_arg, features = features, basis_args = basis_args, engine = engine,
                         experiments = raw_experiments, chains = chains)
+  fit$timing <- clock()
   fit
 }

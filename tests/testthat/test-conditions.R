@@ -207,6 +207,9 @@ test_that("with conditions, validate() registers the base field to the model at 
   # the mean of runs over every condition would pull it off
   to_all <- register_curves(field, runs, windows, knots_every = 4 * diff(t[1:2]))
   expect_gt(rms(to_all$curves$site1), 4 * rms(fit$field$curves$site1))
+  # the time of each phase, the base field's two registrations in one row
+  expect_identical(fit$timing$phase, c("preflight", "registration", "basis", "emulators", "calibration"))
+  expect_true(all(fit$timing$elapsed >= 0) && all(fit$timing$cpu >= 0) && fit$timing$cpu[5] > 0)
   # a reference given is used as given
   given <- suppressWarnings(validate(runs, field, iu, windows = windows, reference = runs, chains = 1, seed = 1,
                                      sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 200,
