@@ -20,13 +20,32 @@ free_cores <- function() {
 # proposal-density ratio of the global moves, 2: no tau2 ratio, ...) exists
 # only to show that the simulation-based checks detect errors.
 run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global = 0.1) {
-  n_draws <- sm$n_draws
-  quiet <- sm$quiet
+  worker <- chain_worker(spec, sm, seed, tau, debug_break, p_global)
+  # the worker carries the sampler's spec in its closure, sent once per chain
+  future.apply::future_lapply(seq_len(chains), worker, future.seed = NULL, future.packages = "wavevalid",
+                              future.globals = stats::setNames(list(), character(0)))
+}
+
+# The function a chain's future evaluates: its environment holds only what
+# the chain needs (the sampler's spec, settings and seed). On the suspension
+# test bed (2 sites, 431 coefficients each, 66 runs) that is 30 MiB per chain.
+chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
+  # forced, so that no promise carries the caller's frame to the worker
+  force(sm)
+  force(seed)
+  force(debug_break)
+  force(p_global)
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)
-  chain_fun <- function(ch) {
+  # what the C++ sampler reads: by site the emulators' banks and the field's
+  # coefficients, and the priors (not the basis nor the I/U map)
+  spec <- list(sites = spec$sites, priors = spec$priors, groups = spec$groups["name"], z_init = spec$z_init,
+               informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight)
+  rm(tau)
+  function(ch) {
+    n_draws <- sm$n_draws
     progress <- NULL
-    if (!isTRUE(quiet)) {
+    if (!isTRUE(sm$quiet)) {
       id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
       progress <- function(h) cli::cli_progress_update(id = id, set = h)
     }
@@ -36,9 +55,9 @@ run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global =
                      chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
                      adaptive = identical(sm$proposal, "adaptive"), burnin = as.integer(sm$burnin),
                      p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
-                     n_search = as.integer(sm$n_search), threads = as.integer(sm$threads), informs = as.integer(spec$informs %||% integer(0)),
+                     n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
+                     informs = as.integer(spec$informs %||% integer(0)),
                      temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1))
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
-  future.apply::future_lapply(seq_len(chains), chain_fun, future.seed = NULL)
 }

@@ -20,7 +20,9 @@
 #' calibrated again at each point (one chain, with the fit's settings and the
 #' same field data, emulators and noise), and the draws of the strata are
 #' pooled. Its bias bands therefore include how much the held inputs could
-#' move the model within their prior.
+#' move the model within their prior. The strata's calibrations are futures
+#' ([future::plan()] decides where they run; each worker is sent the fit's
+#' emulators and field data, and its draws do not depend on the plan).
 #'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()] (one experiment).
 #' @param inputs Names of the inputs to hold; `NULL` (default) holds those
@@ -82,19 +84,22 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   sampler <- ctl$sampler
   sampler$quiet <- TRUE
   seed <- fit$seed %||% 1L
-  if (!quiet) {
-    pb <- cli::cli_progress_bar(sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "),
-                                        if (length(inputs) == 1L) "its" else "their"), total = strata)
-  }
-  fits <- lapply(seq_len(strata), function(k) {
-    iu <- held_iu(fit, values[k, ])
-    f <- suppressMessages(suppressWarnings(calibrate(
-      fit$emulators, fit$field, iu, bias = ctl$bias, sampler = sampler, chains = 1L, seed = seed + k
-    ), classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary")))
-    if (!quiet) cli::cli_progress_update(id = pb)
-    f
-  })
+  label <- sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "), if (length(inputs) == 1L) "its" else "their")
+  tasks <- lapply(seq_len(strata), function(k) list(iu = held_iu(fit, values[k, ]), seed = seed + k))
+  job <- list(emulators = fit$emulators, field = fit$field, bias = ctl$bias, sampler = sampler)
+  fits <- run_futures(tasks, stratum_worker(job), label, quiet)
   pool_fits(fit, fits, values, cf)
+}
+
+# The calibration of one stratum of hold_inputs(): a closure that carries
+# only what a worker needs (the emulators, the field data, the settings).
+stratum_worker <- function(job) {
+  force(job)
+  function(task) {
+    suppressMessages(suppressWarnings(calibrate(
+      job$emulators, job$field, task$iu, bias = job$bias, sampler = job$sampler, chains = 1L, seed = task$seed
+    ), classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary")))
+  }
 }
 
 # The fit's I/U map with the inputs `values` (named, in the fit's own units)

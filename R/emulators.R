@@ -407,6 +407,26 @@ run_chunks <- function(tasks, worker, n_fit, engine) {
   out
 }
 
+# Runs tasks through future.apply in batches of twice the workers so that a
+# progress bar labelled `label` can follow, one step per task. `worker`
+# carries its data in its closure (no search for globals); the results do not
+# depend on the plan when each task sets its own seed.
+run_futures <- function(tasks, worker, label, quiet = FALSE) {
+  if (!length(tasks)) return(list())
+  batch <- max(1L, 2L * future::nbrOfWorkers())
+  groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
+  if (!quiet) cli::cli_progress_bar(label, total = length(tasks), .envir = environment())
+  out <- vector("list", length(tasks))
+  no_globals <- stats::setNames(list(), character(0))
+  for (g in groups) {
+    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = NULL, future.packages = "wavevalid",
+                                          future.globals = no_globals)
+    if (!quiet) cli::cli_progress_update(inc = length(g), .envir = environment())
+  }
+  if (!quiet) cli::cli_progress_done(.envir = environment())
+  out
+}
+
 # Assembles a site's bank from hyperparameters (flat coefficients: beta = 0,
 # unit nugget, variance 1e-16 of the data scale).
 emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
