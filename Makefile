@@ -25,9 +25,10 @@ RMAKE = MAKEFLAGS=-j$(JOBS)
 
 DEB_PKGS = r-cran-rcpp r-cran-rcppeigen r-cran-wavethresh r-cran-coda r-cran-ggplot2 \
            r-cran-future r-cran-future.apply r-cran-knitr r-cran-rmarkdown r-cran-roxygen2 \
-           r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat pandoc qpdf pngquant
+           r-cran-withr r-cran-pkgbuild r-cran-cli r-cran-rlang r-cran-testthat r-cran-callr \
+           r-cran-batchtools r-cran-future.batchtools pandoc qpdf pngquant
 R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmarkdown roxygen2 pkgbuild \
-           withr cli rlang testthat DiceKriging
+           withr cli rlang testthat DiceKriging callr batchtools future.batchtools future.callr
 # The benchmarks' peers, installed by `make bench` only
 BENCH_PKGS = RobustGaSP
 

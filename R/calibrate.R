@@ -138,7 +138,33 @@
 #'
 #' The loop runs in C++. Each chain is one future
 #' (`future.apply::future_lapply()`), so `future::plan()` decides where chains
-#' run, and `seed` alone decides the draws.
+#' run, and `seed` alone decides the draws (see section Where the work runs).
+#'
+#' @section Where the work runs:
+#' The chains here, the emulators' fits in [fit_emulators()] (chunks of
+#' coefficients) and the strata of [hold_inputs()] are futures: the plan set
+#' with [future::plan()] decides where they run, and the results are the
+#' same under every plan (the package's tests compare the draws bit for bit
+#' under the sequential plan, `future::multisession`, `future.callr::callr`,
+#' `future.batchtools::batchtools_local` and batchtools' Slurm template).
+#' Each future carries only what its worker needs, in its function's
+#' closure: a chain, the sampler's specification (by site, the emulators'
+#' factors of every retained coefficient and the field's coefficients; 30 MiB
+#' on the package's suspension test bed, 2 sites x 431 coefficients x 66
+#' runs, growing with coefficients x runs^2); a chunk of emulators, the
+#' runs' retained coefficients and the design (0.5 MiB); a stratum of
+#' [hold_inputs()], the fit's emulators and field data (44 MiB on the test
+#' bed). Within a chain the sampler uses `sampler_control(threads = )`
+#' threads. On a cluster with Slurm, through `future.batchtools`:
+#' ```
+#' future::plan(future.batchtools::batchtools_slurm, template = "slurm-simple",
+#'              resources = list(walltime = 3600, memory = 4000, ncpus = 2))
+#' fit <- validate(runs, field, iu, windows = windows, chains = 4)
+#' ```
+#' submits each chain and each batch of emulator fits as a job, with the
+#' Slurm template that `batchtools` ships (or a path to one's own); on one
+#' machine, `future::plan(future::multisession, workers = 2)` or
+#' `future::plan(future.callr::callr, workers = 2)` runs two chains at once.
 #'
 #' @param emulators A `wv_emulators` object ([fit_emulators()]).
 #' @param field A `wv_field` object ([field_runs()]): the field replicates, on

@@ -285,8 +285,14 @@ emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
 
 # The function a future evaluates on one chunk of coefficients.
 emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args) {
+  # every argument forced: no promise carries fit_emulators()' frame (the
+  # runs, the basis) to the workers
   force(X)
   force(W)
+  force(starts)
+  force(log_beta_range)
+  force(seed)
+  force(km_args)
   level_set <- if (engine == "gasp_level") level_settings()
   function(task) {
     Y <- W[[task$site]][, task$cols, drop = FALSE]

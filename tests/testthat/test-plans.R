@@ -1,0 +1,96 @@
+# Where the work runs: the chains, the emulators' fits and hold_inputs()'
+# strata are futures, so future::plan() decides where; the results must not
+# depend on it, on this machine's workers as through a cluster's scheduler.
+
+skip_unless_installed <- function() {
+  skip_on_cran()
+  skip_if(length(find.package("wavevalid", lib.loc = .libPaths(), quiet = TRUE)) == 0L)
+  skip_if(isNamespaceLoaded("pkgload") && pkgload::is_dev_package("wavevalid"))
+}
+
+plan_sampler <- function() sampler_control(n_draws = 40, n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE)
+
+plan_draws <- function(ex) {
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 7, sampler = plan_sampler()))
+  as.matrix(fit$draws)
+}
+
+# A stand-in for Slurm's commands on this machine: sbatch keeps a copy of
+# the job script (in submitted.txt), runs it at once and answers as Slurm
+# does; squeue lists no job (all done).
+fake_slurm <- function(dir) {
+  dir.create(dir, showWarnings = FALSE)
+  writeLines(c("#!/bin/sh", "cat \"$1\" >> \"$(dirname \"$0\")/submitted.txt\"", "bash \"$1\" >/dev/null 2>&1",
+               "echo \"Submitted batch job $$\""), file.path(dir, "sbatch"))
+  writeLines(c("#!/bin/sh", "exit 0"), file.path(dir, "squeue"))
+  writeLines(c("#!/bin/sh", "exit 0"), file.path(dir, "scancel"))
+  Sys.chmod(file.path(dir, c("sbatch", "squeue", "scancel")), "0755")
+  dir
+}
+
+test_that("the chains' draws are the sequential ones under future.callr and batchtools, local and through Slurm", {
+  skip_unless_installed()
+  skip_if_not_installed("future.callr")
+  skip_if_not_installed("future.batchtools")
+  skip_if(.Platform$OS.type != "unix" || !nzchar(Sys.which("bash")))
+  ex <- example_problem(1)
+  old <- future::plan(future::sequential)
+  withr::defer(future::plan(old))
+  ref <- plan_draws(ex)
+  future::plan(future.callr::callr, workers = 2)
+  expect_identical(plan_draws(ex), ref)
+  # batchtools keeps its registries under the working directory
+  withr::local_dir(withr::local_tempdir())
+  future::plan(future.batchtools::batchtools_local)
+  expect_identical(plan_draws(ex), ref)
+  # a cluster plan: batchtools' Slurm template, each chain a job submitted with sbatch
+  bin <- fake_slurm(file.path(getwd(), "bin"))
+  withr::local_envvar(PATH = paste(bin, Sys.getenv("PATH"), sep = .Platform$path.sep))
+  future::plan(future.batchtools::batchtools_slurm, template = "slurm-simple",
+               resources = list(walltime = 600, memory = 1000, ncpus = 1))
+  expect_identical(plan_draws(ex), ref)
+  # the chains went through the template: at least a job script per chain,
+  # each with the template's #SBATCH lines
+  submitted <- readLines(file.path(bin, "submitted.txt"))
+  n_jobs <- sum(grepl("batchtools::doJobCollection", submitted, fixed = TRUE))
+  expect_gte(n_jobs, 2L)
+  expect_identical(sum(grepl("^#SBATCH --mem-per-cpu=1000$", submitted)), n_jobs)
+  expect_identical(sum(grepl("^#SBATCH --time=10$", submitted)), n_jobs)
+})
+
+test_that("hold_inputs() gives the sequential draws under a multisession plan", {
+  skip_unless_installed()
+  skip_if_not_installed("future")
+  fit <- example_fit()
+  old <- future::plan(future::sequential)
+  withr::defer(future::plan(old))
+  withr::local_options(wavevalid.quiet = TRUE)
+  ref <- hold_inputs(fit, inputs = "u1", strata = 3)
+  future::plan(future::multisession, workers = 2)
+  par <- hold_inputs(fit, inputs = "u1", strata = 3)
+  expect_identical(as.matrix(par$draws), as.matrix(ref$draws))
+  expect_identical(par$wb, ref$wb)
+})
+
+test_that("a chain's future carries the sampler's sites and priors, not its caller's data", {
+  big <- stats::runif(2e6)  # 15 MiB
+  spec <- list(sites = list(s = list(bank = stats::runif(1e4))), priors = list(1), groups = data.frame(name = "g"),
+               z_init = 0.5, basis = list(Psi = big), informs = NULL, temper = 1, input_weight = 1)
+  caller <- function() {
+    unused <- big  # a large object in the calling frame
+    wavevalid:::chain_worker(spec, list(n_draws = 1L, quiet = TRUE), seed = 1 + 0, tau = list(fixed = FALSE),
+                             debug_break = 0L, p_global = 0.1)
+  }
+  worker <- caller()
+  size <- length(serialize(worker, NULL))
+  expect_lt(size, 2 * length(serialize(spec$sites, NULL)) + 1e5)
+  expect_setequal(ls(environment(worker)), c("spec", "sm", "seed", "debug_break", "p_global", "fix", "tau_init"))
+  expect_null(environment(worker)$spec$basis)
+  # the emulators' worker: the coefficients and the design, not the caller's runs
+  fit_caller <- function() {
+    unused <- big
+    wavevalid:::emulator_worker("gasp", X = matrix(0, 2, 1), W = list(s = matrix(0, 2, 1)), starts = 2L,
+                                log_beta_range = c(-1, 1), seed = 1 + 0, km_args = list())
+  }
+  expect_lt(length(serialize(fit_caller(), NULL)), 1e5)
+})
