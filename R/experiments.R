@@ -257,7 +257,9 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
 # coefficients replaced by the emulators' means at its inputs plus the change
 # (with a condition: its condition inputs set to the experiment's values),
 # so that the mean of these runs stands to the experiment as the mean of
-# `runs` stands to the base experiment. Every run is kept, those the change
+# `runs` stands to the base experiment. With a condition, the part the basis
+# leaves out is the mean of the runs nearest the condition
+# (condition_neighbours()). Every run is kept, those the change
 # moves outside the range of the design too (the emulators extrapolate
 # there): on the suspension test bed, leaving them out or moving them to the
 # edge of the range took the reference farther from the true runs with the
@@ -274,9 +276,11 @@ experiment_reference <- function(x, emulators, runs) {
     for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
     # a condition is known: every run at the experiment's value
     for (p in intersect(names(x$condition), names(design))) design[[p]] <- x$condition[[p]]
+    near <- condition_neighbours(runs$design, x$condition)
     curves <- lapply(sites, function(s) {
-      basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) +
-        basis_remainder(emulators$basis, runs$curves[[s]])
+      rest <- basis_remainder(emulators$basis, runs$curves[[s]])
+      if (!is.null(near)) rest <- matrix(colMeans(rest[near, , drop = FALSE]), nrow(rest), ncol(rest), byrow = TRUE)
+      basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) + rest
     })
   } else {
     em <- x$emulators
@@ -323,6 +327,23 @@ register_experiments <- function(experiments, emulators, runs, windows, ..., qui
                 stats::setNames(bullets, rep("*", length(bullets)))))
   }
   experiments
+}
+
+# The runs nearest an experiment's condition (NULL without one): the
+# max(5, 10%) of them closest to `condition` in the condition inputs, each
+# scaled by its range in the design. A condition can change the fine detail
+# the basis leaves out (a dose scales the kink where it is given), so an
+# experiment's reference takes that detail from these runs, not from all.
+condition_neighbours <- function(design, condition) {
+  cond <- intersect(names(condition), names(design))
+  if (!length(cond)) return(NULL)
+  d2 <- 0
+  for (p in cond) {
+    w <- diff(range(design[[p]]))
+    d2 <- d2 + ((design[[p]] - condition[[p]]) / if (w > 0) w else 1)^2
+  }
+  k <- min(nrow(design), max(5L, ceiling(nrow(design) / 10)))
+  order(d2)[seq_len(k)]
 }
 
 # Which rows of `design` lie outside the range of `runs_design` in the

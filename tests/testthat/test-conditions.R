@@ -216,3 +216,39 @@ test_that("with conditions, validate() registers the base field to the model at 
                                                                n_search = 10, quiet = TRUE)))
   expect_equal(given$field$curves$site1, to_all$curves$site1)
 })
+
+test_that("an experiment at a condition is registered to a reference whose fine detail is the condition's", {
+  withr::local_seed(1)
+  withr::local_options(wavevalid.quiet = TRUE)
+  tb <- testbed_dosing(1, "none", doses = 250)
+  runs <- tb$doses$runs
+  field_250 <- tb$doses$fields$dose_250
+  basis <- wavelet_basis(runs, tb$A$field)
+  em <- suppressWarnings(fit_emulators(runs, basis))
+  x <- wavevalid:::check_experiments(list(d250 = experiment(field_250, condition = c(dose = 250))), em, tb$A$field,
+                                     iu = tb$doses$iu)
+  knots <- 48 / 32
+  reg <- wavevalid:::register_experiments(x, em, runs, tb$windows, knots_every = knots)$d250$field
+  # the runs nearest 250 mg give the detail the basis leaves out (8 of 80)
+  near <- wavevalid:::condition_neighbours(runs$design, c(dose = 250))
+  expect_length(near, 8L)
+  expect_true(all(abs(runs$design$dose[near] - 250) <= sort(abs(runs$design$dose - 250))[8]))
+  # registered as to the simulator's runs at 250 mg
+  d <- runs$design
+  d$dose <- 250
+  to_true <- register_curves(field_250, simulate_dosing(d), tb$windows, knots_every = knots)
+  # against the emulated curves with every run's detail (each at its own dose)
+  ref_all <- wavevalid:::experiment_reference(x$d250, em, runs)
+  pred <- stats::predict(em, d, site = "plasma")$mean
+  ref_all$curves$plasma <- wavevalid:::basis_curves(basis, pred) +
+    wavevalid:::basis_remainder(basis, runs$curves$plasma)
+  to_all <- register_curves(field_250, ref_all, tb$windows, knots_every = knots)
+  rms <- function(a, b) sqrt(mean((a - b)^2))
+  landmarks <- function(f) f$warps$t_after[f$warps$feature != "fitted" & f$warps$replicate == 1]
+  dt <- diff(tb$A$field$t[1:2])
+  # measured: rms 0.009 mg/L against 0.037, landmarks within a grid step against up to 5 steps
+  expect_lt(rms(reg$curves$plasma, to_true$curves$plasma), 0.015)
+  expect_gt(rms(to_all$curves$plasma, to_true$curves$plasma), 2.5 * rms(reg$curves$plasma, to_true$curves$plasma))
+  expect_lte(max(abs(landmarks(reg) - landmarks(to_true))), dt * 1.01)
+  expect_gt(max(abs(landmarks(to_all) - landmarks(to_true))), 3 * dt)
+})
