@@ -244,7 +244,8 @@
 #'   `seed`, `settings`, `registration_var` (by site, the `r_i` added, or
 #'   `NULL`), `noise_setting` (by site, how the field noise was set) and
 #'   `noise_prior` (the [noise_prior()] of the learned noise with its scale by
-#'   site, or `NULL`).
+#'   site, or `NULL`), and `sampling_seconds` (the chains' wall time; the
+#'   print gives the slowest input's effective draws per second).
 #' @section Several experiments:
 #' Experiments of one unit (a test course, the same course with an added
 #' mass) share the calibration inputs and the manufacturing variations; the
@@ -354,7 +355,9 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
     shared <- shared_error_weight(spec, field, tau, seed, sm)
     spec$input_weight <- shared$weight
   }
+  t_sampling <- proc.time()[["elapsed"]]
   runs <- run_chains(spec, sm, chains, seed, tau)
+  t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = sm$n_draws, n_inner = sm$n_inner, chains = chains,
                                       step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,
@@ -365,6 +368,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
                                       n_search = sm$n_search, input_likelihood = bias$input_likelihood),
                       seed = seed)
   fit$shared_errors <- shared
+  fit$sampling_seconds <- t_sampling
   fit$prior_sd <- prior_sds(fit$prior_iu)
   fit$conditions <- fit_condition_table(iu, experiments)
   if (!is.null(experiments)) {

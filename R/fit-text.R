@@ -68,3 +68,15 @@ experiment_lines <- function(fit) {
                       if (identical(fit$settings$level_variances, "per_experiment")) "per experiment" else "shared")),
     lines)
 }
+
+# The chains' wall time and the slowest input's effective draws per second
+# (all chains together), for the print of a fit.
+sampling_speed_lines <- function(x) {
+  sec <- x$sampling_seconds
+  ess <- x$ess[x$inputs]
+  ess <- ess[is.finite(ess)]
+  if (is.null(sec) || !is.finite(sec) || sec <= 0 || !length(ess)) return(character(0))
+  k <- which.min(ess)
+  sprintf("Sampling took %s s: %s effective draws per second for the slowest input (%s, ESS %s)",
+          format(signif(sec, 3)), format(signif(ess[[k]] / sec, 3)), names(ess)[k], round(ess[[k]]))
+}

@@ -414,7 +414,17 @@ test_that("a fit has the documented layout, mcmc.list and print", {
   # coef(): the posterior means of the inputs over both chains, in their units
   expect_equal(coef(fit), colMeans(X[, c("u1", "x1")]))
   expect_error(coef(fit, "median"), class = "wavevalid_error_input")
-  expect_snapshot(print(fit))
+  # the chains' time and the slowest input's effective draws per second
+  expect_gt(fit$sampling_seconds, 0)
+  ess <- fit$ess[fit$inputs]
+  speed <- min(ess) / fit$sampling_seconds
+  line <- grep("^Sampling took", capture.output(print(fit)), value = TRUE)
+  expect_length(line, 1L)
+  said <- as.numeric(sub(".*: ([0-9.e+]+) effective draws per second.*", "\\1", line))
+  expect_equal(said, speed, tolerance = 0.01)
+  expect_match(line, sprintf("(%s, ESS %d)", names(which.min(ess)), round(min(ess))), fixed = TRUE)
+  no_time <- function(s) sub("^Sampling took .*", "Sampling took <time>", s)
+  expect_snapshot(print(fit), transform = no_time)
   expect_snapshot(print(summary(fit)))
   expect_s3_class(autoplot(fit, "inputs"), "ggplot")
   expect_s3_class(autoplot(fit, "trace"), "ggplot")
