@@ -24,9 +24,12 @@
 #
 # Run: R_LIBS=<lib> Rscript bench/bench_conditions.R [conditions=1,3,10]
 #
-# Measured on a 2-core machine shared with another job (load about 2-3;
-# R 4.2, reference BLAS); the table is in bench/README.md,
-# "bench_conditions.R".
+# Measured on a 2-core machine shared with another job (R 4.2, reference
+# BLAS), CPU seconds at 1, 3 and 10 conditions: calibration (2 x 100 x 20)
+# 15.3, 42.9, 147.4; per 1000 cycles 0.93, 2.29, 9.16 (0.99 of one
+# condition's per added condition); the default sampler projected 466, 1158,
+# 4601 s; registration 2.6, 5.1, 14.2; fit_emulators() 9.7, 11.7, 9.7; peak
+# RSS 181, 203, 249 MiB. The table is in bench/README.md.
 library(wavevalid)
 options(wavevalid.quiet = TRUE)
 
