@@ -138,7 +138,9 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
   }
   n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
   worker <- emulator_worker(engine, prep$X, W, starts, log_beta_range, seed, list(...))
-  results <- run_chunks(tasks, worker, n_fit, engine)
+  results <- run_futures(tasks, worker, paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
+                         quiet = isTRUE(getOption("wavevalid.quiet", FALSE)),
+                         steps = vapply(tasks, function(x) length(x$cols), integer(1)), future_seed = TRUE)
 
   banks <- list()
   params <- list()
@@ -387,47 +389,22 @@ dicekriging_fit <- function(X, Y, km_args, seed, cols) {
   list(beta = beta, alpha = alpha, nugget = rep(0, n), converged = !failed, cols = cols)
 }
 
-# Runs the chunk tasks through future.apply in batches so that a progress bar
-# can follow; the result does not depend on the plan.
-run_chunks <- function(tasks, worker, n_fit, engine) {
-  if (!length(tasks)) return(list())
-  quiet <- isTRUE(getOption("wavevalid.quiet", FALSE))
-  batch <- max(1L, 2L * future::nbrOfWorkers())
-  groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
-  if (!quiet) {
-    cli::cli_progress_bar(paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
-                          total = n_fit, .envir = environment())
-  }
-  out <- vector("list", length(tasks))
-  # the worker closure carries its data; no search for globals in each batch
-  no_globals <- stats::setNames(list(), character(0))
-  for (g in groups) {
-    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = TRUE,
-                                          future.packages = "wavevalid", future.globals = no_globals)
-    if (!quiet) {
-      cli::cli_progress_update(inc = sum(vapply(tasks[g], function(x) length(x$cols), integer(1))),
-                               .envir = environment())
-    }
-  }
-  if (!quiet) cli::cli_progress_done(.envir = environment())
-  out
-}
-
 # Runs tasks through future.apply in batches of twice the workers so that a
-# progress bar labelled `label` can follow, one step per task. `worker`
-# carries its data in its closure (no search for globals); the results do not
-# depend on the plan when each task sets its own seed.
-run_futures <- function(tasks, worker, label, quiet = FALSE) {
+# progress bar labelled `label` can follow, task i moving it by steps[i].
+# `worker` carries its data in its closure (no search for globals); the
+# results do not depend on the plan (`future_seed` as future.apply's
+# future.seed: NULL when each task sets its own seed).
+run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, length(tasks)), future_seed = NULL) {
   if (!length(tasks)) return(list())
   batch <- max(1L, 2L * future::nbrOfWorkers())
   groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
-  if (!quiet) cli::cli_progress_bar(label, total = length(tasks), .envir = environment())
+  if (!quiet) cli::cli_progress_bar(label, total = sum(steps), .envir = environment())
   out <- vector("list", length(tasks))
   no_globals <- stats::setNames(list(), character(0))
   for (g in groups) {
-    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = NULL, future.packages = "wavevalid",
+    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = future_seed, future.packages = "wavevalid",
                                           future.globals = no_globals)
-    if (!quiet) cli::cli_progress_update(inc = length(g), .envir = environment())
+    if (!quiet) cli::cli_progress_update(inc = sum(steps[g]), .envir = environment())
   }
   if (!quiet) cli::cli_progress_done(.envir = environment())
   out
