@@ -133,13 +133,18 @@ noise_lines <- function(fit) {
 # The variance the registration adds to the field mean, and where it comes
 # from (bias_control(registration_variance =)).
 registration_lines <- function(fit) {
-  if (is.null(fit$registration_var)) return(character())
+  if (is.null(fit$registration_var)) {
+    if (is.null(fit$field$warps)) return(character())
+    return(paste("Registration: nothing added to the variance of the field mean for the registration's own error",
+                 if (isFALSE(fit$settings$registration_variance)) "(registration_variance = FALSE)" else
+                   "(the field carries no check: register_curves(check_runs = 5))"))
+  }
   share <- vapply(names(fit$registration_var), function(s) {
     e <- colMeans(fit$sigma2[[s]]) / fit$n_rep[[s]]
     r <- fit$registration_var[[s]]
     sum(r) / sum(r + e)
   }, numeric(1))
-  src <- if (identical(fit$settings$registration_variance, "check")) {
+  src <- if (!isTRUE(fit$settings$registration_variance)) {
     n <- nrow(fit$field$registration_check[[1L]] %||% matrix(0, 0, 0))
     sprintf("the registration's own error (what it changed in the %d model run%s nearest the field)", n,
             if (n == 1L) "" else "s")

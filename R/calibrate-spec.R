@@ -125,7 +125,9 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   if (identical(pool_levels, "coarse")) pool_levels <- coarse_levels(basis)
   tau_group <- bias_groups(basis$level, pool_levels, call = call)
   extra <- NULL
-  if (identical(registration_variance, "check")) {
+  if (identical(registration_variance, "auto")) {
+    extra <- registration_check_variance(field, basis)
+  } else if (identical(registration_variance, "check")) {
     extra <- registration_check_variance(field, basis)
     if (is.null(extra)) {
       wv_abort(c(

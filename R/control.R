@@ -52,10 +52,10 @@
 #'   method's posterior.
 #' @param registration_variance What the registration of the field adds to
 #'   the variance of the registered field mean (see the section
-#'   Registration of [calibrate()]): `FALSE` (default), nothing (the
-#'   method's); `"check"`, the registration's own error, measured by
-#'   [register_curves()] on the model runs nearest the field (nothing is
-#'   added when the field was not registered to model runs); `TRUE`, a
+#'   Registration of [calibrate()]): `"auto"` (default), the registration's
+#'   own error when the field carries it (as [validate()] registers it) and
+#'   nothing otherwise; `"check"`, that error, required (an error when the
+#'   field does not carry it); `FALSE`, nothing (the method's); `TRUE`, a
 #'   first-order variance from the spread of the reference's landmarks over
 #'   the runs.
 #' @param fix_tau2 Optional fixed bias variances (one value, or a vector
@@ -74,11 +74,11 @@
 #' bias_control()
 #' # the method's report
 #' bias_control(pool_levels = NULL, input_likelihood = "independent")
-#' # the registration's own error in the field mean's variance
-#' bias_control(registration_variance = "check")
+#' # the method's field mean: nothing for the registration's own error
+#' bias_control(registration_variance = FALSE)
 bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = NULL,
                          input_likelihood = c("adjusted", "independent"), temper = 1,
-                         registration_variance = FALSE, fix_tau2 = NULL,
+                         registration_variance = "auto", fix_tau2 = NULL,
                          level_variances = c("shared", "per_experiment"),
                          experiment_bias = c("own", "shared")) {
   input_likelihood <- check_choice(input_likelihood)
@@ -86,8 +86,10 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
   experiment_bias <- check_choice(experiment_bias)
   check_number(temper, min = 0, max = 1)
   if (temper == 0) wv_abort("{.arg temper} must be above 0; 1 is the method's posterior.")
-  if (!(isTRUE(registration_variance) || isFALSE(registration_variance) || identical(registration_variance, "check"))) {
-    wv_abort("{.arg registration_variance} must be {.val check}, {.code TRUE} or {.code FALSE}.")
+  if (!(isTRUE(registration_variance) || isFALSE(registration_variance) ||
+        (is.character(registration_variance) && length(registration_variance) == 1L &&
+         registration_variance %in% c("auto", "check")))) {
+    wv_abort("{.arg registration_variance} must be {.val auto}, {.val check}, {.code TRUE} or {.code FALSE}.")
   }
   if (!identical(pool_levels, "coarse")) check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
   check_levels_arg(inform_levels, "inform_levels", min_length = 1L)

@@ -118,8 +118,8 @@
 #'   registered field mean) are registered like a replicate, to measure what
 #'   the registration does to a curve of the model itself (see the section
 #'   The registration's own error); 0 (default) skips it. [validate()]
-#'   registers 5 when its `bias_control()` asks for
-#'   `registration_variance = "check"`.
+#'   registers 5 unless its `bias_control()` sets
+#'   `registration_variance = FALSE` or `TRUE`.
 #' @return A registered `wv_field`: the same object with registered curves and
 #'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
 #'   window, feature) and columns `site` (the site whose curve set the
@@ -147,8 +147,8 @@
 #' registered like a replicate; what the registration changes in them
 #' (`registration_check`, by site a matrix of the registered run less the
 #' run) is the registration's error on a curve like the field's, which
-#' [calibrate()] adds to the variance of the registered field mean with
-#' `bias_control(registration_variance = "check")`.
+#' [calibrate()] adds to the variance of the registered field mean (by
+#' default, when the field carries it; see its section Registration).
 #'
 #' @section Registering the model runs:
 #' The field replicates are registered to the mean of the model runs, whose

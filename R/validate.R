@@ -164,7 +164,7 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   knots_every_arg <- knots_every
   if (identical(knots_every, "auto")) knots_every <- max(diff(range(field$t)) / 32, 4 * diff(field$t[1:2]))
   if (!is.null(experiments)) check_experiment_list(experiments)
-  check_runs <- if (identical(bias$registration_variance, "check")) 5L else 0L
+  check_runs <- if (isTRUE(bias$registration_variance %in% c("auto", "check"))) 5L else 0L
   if (!is.null(windows)) {
     field <- clock("registration", register_curves(field, reference %||% runs, windows, features = features,
                                                    knots_every = knots_every, check_runs = check_runs))
