@@ -53,7 +53,6 @@ print.wv_fit <- function(x, ...) {
     cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
     for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
   }
-  for (line in registration_lines(x)) cli::cat_line(line)
   lo <- if (!is.null(x$field$warps)) attr(x$field$warps, "left_out")
   if (!is.null(lo) && nrow(lo)) {
     cli::cat_line("! Registration left out landmarks in another order than the reference's: ",

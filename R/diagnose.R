@@ -203,7 +203,9 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
-  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals)
+  tm <- timing_table(fit, level)
+  if (!is.null(tm)) tm$flagged <- tm$flagged & tm$credible > tol[tm$site]
+  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals, tm)
   if (!is.null(fit$conditions)) {
     # the condition of each finding's experiment ("base" without experiments)
     labs <- condition_labels(fit$conditions)
@@ -212,7 +214,7 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
               tolerance = tol, credible = credible_bias(b, gap), pooled_level0 = 0 %in% fit$settings$pool_levels,
-              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held)
+              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held, timing = tm)
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out

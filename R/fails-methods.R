@@ -14,7 +14,7 @@ print.wv_fails <- function(x, ...) {
     sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
   }
   iv <- finding_rows(x, "interval")
-  cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|); %d interval%s where the %g%% %s band of the %sbias %s",
+  cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|, or for a timing finding the change its shift makes in the curve); %d interval%s where the %g%% %s band of the %sbias %s",
                         nrow(x), if (nrow(x) == 1) "" else "s", nrow(iv), if (nrow(iv) == 1) "" else "s", 100 * lev,
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
@@ -34,6 +34,16 @@ print.wv_fails <- function(x, ...) {
                    format(signif(rw$offset_upper, 3)), ifelse(rw$credible, "", " (not credibly non-zero)"))
     cli::cat_line(sprintf("Record-wide part (levels %s, an offset or a slow trend), its time average: ", rw$levels[1]),
                   paste(txt, collapse = "; "))
+  }
+  tm <- attr(x, "timing")
+  if (!is.null(tm)) {
+    cli::cat_line(sprintf("Events' timing, field less model at the calibrated inputs (%d landmark%s, each at %s%% so that together they hold %g%%): %s",
+                          nrow(tm), if (nrow(tm) == 1L) "" else "s",
+                          format(signif(100 * (1 - (1 - attr(tm, "level")) / nrow(tm)), 3)), 100 * attr(tm, "level"),
+                          paste(sprintf("%s %s %s %s [%s, %s]%s", tm$site, tm$window, tm$feature,
+                                        format(signif(tm$shift, 2)), format(signif(tm$lower, 2)),
+                                        format(signif(tm$upper, 2)), ifelse(tm$flagged, " (a finding)", "")),
+                                collapse = "; ")))
   }
   levs <- attr(x, "wavelet_levels")
   if (!is.null(levs)) {
@@ -108,6 +118,7 @@ summary.wv_fails <- function(object, ...) {
   structure(list(
     top = top_finding(object),
     kinds = table(factor(object$kind, levels = c("record-wide", "interval", "covered", "input",
+                                                 if (any(object$kind == "timing")) "timing",
                                                  if (any(object$kind == "term")) "term"))),
     n = nrow(iv),
     by_site = if (nrow(iv)) tapply(iv$integrated_abs_bias, iv$site, sum) else numeric(),

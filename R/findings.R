@@ -8,7 +8,7 @@
 # inputs' pull (where it moves the model most, by how much), and inputs in
 # conflict not read again. `r`: reality's pointwise mean (share of signal of the record-wide
 # part); `experiments`: the experiment of each site, or NULL.
-findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL) {
+findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL, timing = NULL) {
   cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
             "inputs")
   row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs) {
@@ -49,6 +49,13 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
                                  NA_character_, pr$term)))
     }
   }
+  if (!is.null(timing) && any(timing$flagged)) {
+    tm <- timing[timing$flagged, , drop = FALSE]
+    parts <- c(parts, list(row("timing", tm$site, pmin(tm$field, tm$model), pmax(tm$field, tm$model), tm$size,
+                               tm$credible, NA_real_, NA_real_,
+                               ifelse(tm$shift > 0, "reality later than model", "reality earlier than model"),
+                               NA_character_)))
+  }
   out <- do.call(rbind, parts)
   if (is.null(out)) {
     out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
@@ -58,7 +65,7 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
   if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
   out$peak_abs_bias <- out$size
   out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held",
-                 term = "term")[out$kind]
+                 term = "term", timing = "timing")[out$kind]
   rownames(out) <- NULL
   out
 }
@@ -106,6 +113,7 @@ top_finding <- function(x, ...) {
                       r$inputs, place, r$inputs, f(r$size), f(r$credible), r$sign),
     term = sprintf("a proposed term, %s (propose_terms()): its effect peaks at %s, %s",
                    r$inputs, f(r$size), place),
+    timing = timing_finding_text(r, attr(x, "timing"), f),
     input = if (is.na(r$site)) {
       sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
               r$inputs)
@@ -124,8 +132,9 @@ no_finding_text <- function(x) {
   band <- sprintf("%g%% %s band", 100 * (attr(x, "level") %||% 0.9),
                   if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve")
   within <- if (is.null(tol) || all(tol == 0)) "holds zero everywhere" else "lies beyond the tolerance nowhere"
-  sprintf("No finding: the %s of the bias %s%s, and no input is in conflict with its prior",
-          band, within, if (identical(attr(x, "scales"), "split")) " (the record-wide part and the localised part)" else "")
+  sprintf("No finding: the %s of the bias %s%s, %sno input is in conflict with its prior",
+          band, within, if (identical(attr(x, "scales"), "split")) " (the record-wide part and the localised part)" else "",
+          if (is.null(attr(x, "timing"))) "and " else "no event's timing differs from the model's, and ")
 }
 
 # What explain_bias() regresses for the first row of the where_fails() table
@@ -144,6 +153,11 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
   r <- finding[1L, ]
   label <- if (is.na(r$site)) sprintf("%s (%s)", r$kind, r$inputs) else
     sprintf("%s at %s [%s, %s]", r$kind, r$site, format(signif(r$start, 4)), format(signif(r$end, 4)))
+  if (r$kind == "timing") {
+    wv_abort(c("The finding {label} is a shift of an event's timing, which the registration takes out of the bias.",
+               "i" = "Judge a candidate effect by the time it moves that event to: simulate the model with it."),
+             class = "finding", call = call)
+  }
   if (r$kind %in% c("covered", "input")) {
     hd <- attr(finding, "held", exact = TRUE)
     if (is.null(hd)) {
@@ -171,4 +185,20 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
   }
   use <- unlist(lapply(sites, function(s) coef & s == r$site), use.names = FALSE)
   list(fit = fit, use = use, label = sprintf("%s, %d coefficient%s", label, sum(coef), if (sum(coef) == 1L) "" else "s"))
+}
+
+# The sentence of a timing finding (row `r` of the table, `tm` the table of
+# the landmarks' timing).
+timing_finding_text <- function(r, tm, f) {
+  k <- if (is.null(tm)) integer() else which(tm$flagged & tm$site == r$site &
+                                               abs(pmin(tm$field, tm$model) - r$start) < 1e-12 &
+                                               abs(tm$size - r$size) < 1e-12)
+  if (!length(k)) {
+    return(sprintf("a shift of an event's timing, %s [%s, %s] (%s)", r$site, f(r$start, 4), f(r$end, 4), r$sign))
+  }
+  k <- k[1L]
+  sprintf("a shift of an event's timing, %s: its %s in window %s comes at %s in the field and at %s in the model at the calibrated inputs, %s by %s [%s, %s]; moved by that shift the curve changes by up to %s there (credibly at least %s)",
+          r$site, tm$feature[k], tm$window[k], f(tm$field[k], 4), f(tm$model[k], 4),
+          if (tm$shift[k] > 0) "later" else "earlier", f(abs(tm$shift[k])), f(tm$lower[k]), f(tm$upper[k]),
+          f(r$size), f(r$credible))
 }

@@ -308,6 +308,7 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
                         landmark_site = if (is.null(landmark_site)) NA_character_ else landmark_site,
                         sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
                         left_out = left_out)
+  attr(warps, "landmark_settings") <- list(features = features, refine = refine)
   validate_wv_warps(warps)
   out <- validate_wv_field(new_wv_field(t, curves, field$x_nom, warps, noise = field$noise))
   if (inherits(reference, "wv_runs") && check_runs > 0L) {

@@ -167,7 +167,7 @@ html_table <- function(d, caption = NULL) {
 # with no place (an input not read again).
 finding_figure <- function(fails, i) {
   r <- fails[i, ]
-  if (is.na(r$site) || is.na(r$start)) return(NULL)
+  if (is.na(r$site) || is.na(r$start) || r$kind == "timing") return(NULL)
   b <- switch(r$kind, `record-wide` = attr(fails, "bias_whole"),
               covered = attr(attr(fails, "held")$fails, "bias"), attr(fails, "bias"))
   if (is.null(b)) b <- attr(fails, "bias")

@@ -13,6 +13,9 @@
 #   inside90        how many true inputs lie inside their 90% intervals
 #   reg_share       the share of the field mean's variance the registration
 #                   adds (averaged over sites)
+#   timing          the landmarks whose timing differs credibly between the
+#                   field and the model at the calibrated inputs (findings of
+#                   kind "timing")
 #   top             the kind of the first finding
 # With `c3=TRUE`, for a hidden mechanism, the loop of the user: the mechanism
 # added to the model (its strength a new input on [0, 1], the fit's runs at
@@ -60,7 +63,8 @@ loop_after <- function(tb, fit, b, hd, dt) {
   fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu2))
   wf2 <- where_fails(fit2)
   cf2 <- attr(wf2, "conflicts")
-  false_after <- steps(wf2[wf2$kind == "interval", ], dt) > 5 || any(attr(wf2, "record_wide")$credible) || any(cf2$conflict)
+  false_after <- steps(wf2[wf2$kind == "interval", ], dt) > 5 || any(attr(wf2, "record_wide")$credible) ||
+    any(cf2$conflict) || any(wf2$kind == "timing")
   ex <- if (b == "suspension") {
     experiment(tb$added_mass$field, change = tb$added_mass$delta)
   } else {
@@ -94,6 +98,7 @@ for (b in arg_names(args$beds)) {
       overlap <- any(flagged_share(wf, eff) > 0, na.rm = TRUE) ||
         (!is.null(h) && any(flagged_share(h$fails, eff) > 0, na.rm = TRUE))
     }
+    tm <- attr(wf, "timing")
     z <- true_inputs(tb, fit$inputs)
     X <- as.matrix(fit$draws)[, fit$inputs]
     q <- apply(X, 2, stats::quantile, c(0.05, 0.95))
@@ -106,6 +111,7 @@ for (b in arg_names(args$beds)) {
                       n_int = sum(wf$kind == "interval"), held_longest = if (is.null(h)) NA else steps(h$fails, dt),
                       overlap = overlap, wide = any(rw$credible), offset = by_site(rw$offset),
                       conflicts = paste(cf$input[cf$conflict], collapse = "+"),
+                      timing = if (is.null(tm)) 0L else sum(tm$flagged),
                       inside90 = sum(z >= q[1, ] & z <= q[2, ]), n_inputs = length(z), reg_share = round(share, 3),
                       top = if (nrow(wf)) wf$kind[1] else "none", secs = round(clock() - t0), stringsAsFactors = FALSE)
     if (arg_flag(args$c3) && hd != "none") row <- cbind(row, loop_after(tb, fit, b, hd, dt))
