@@ -136,7 +136,7 @@ registration_lines <- function(fit) {
     if (is.null(fit$field$warps)) return(character())
     return(paste("Registration: nothing added to the variance of the field mean for the registration's own error",
                  if (isFALSE(fit$settings$registration_variance)) "(registration_variance = FALSE)" else
-                   "(the field carries no check: register_curves(check_runs = 5))"))
+                   "(the field carries no check of it: register it to model runs with register_curves(check_runs = 5))"))
   }
   share <- vapply(names(fit$registration_var), function(s) {
     e <- colMeans(fit$sigma2[[s]]) / fit$n_rep[[s]]

@@ -14,8 +14,10 @@ print.wv_fails <- function(x, ...) {
     sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
   }
   iv <- finding_rows(x, "interval")
-  cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|, or for a timing finding the change its shift makes in the curve); %d interval%s where the %g%% %s band of the %sbias %s",
-                        nrow(x), if (nrow(x) == 1) "" else "s", nrow(iv), if (nrow(iv) == 1) "" else "s", 100 * lev,
+  cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|%s); %d interval%s where the %g%% %s band of the %sbias %s",
+                        nrow(x), if (nrow(x) == 1) "" else "s",
+                        if (any(x$kind %in% "timing")) ", or for a timing finding the change its shift makes in the curve" else "",
+                        nrow(iv), if (nrow(iv) == 1) "" else "s", 100 * lev,
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {

@@ -59,11 +59,21 @@ test_that("registration_variance = \"check\" adds the mean square of the runs' r
   }
   expect_output(print(fit), "registration's own error")
   # the field mean's variance holds it: bands of the bias are wider than without
-  fit0 <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp))
+  fit0 <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp,
+                                     bias = bias_control(registration_variance = FALSE)))
   expect_null(fit0$registration_var)
+  expect_output(print(fit0), "nothing added to the variance of the field mean .*registration_variance = FALSE")
   w <- function(f) mean(bias(f)$upper - bias(f)$lower)
   expect_gt(w(fit), w(fit0))
+  # the default takes the measure when the field carries it, and draws as "check" does
+  fit_auto <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp))
+  expect_identical(fit_auto$registration_var, fit$registration_var)
+  expect_identical(as.matrix(fit_auto$draws), as.matrix(fit$draws))
   plain <- register_curves(tb$A$field, runs, tb$windows, knots_every = 2)
+  # ... and adds nothing, saying so, when it does not
+  fit_plain <- suppressWarnings(calibrate(em, plain, tb$iu, chains = 1, seed = 1, sampler = smp))
+  expect_null(fit_plain$registration_var)
+  expect_output(print(fit_plain), "the field carries no check")
   expect_error(calibrate(em, plain, tb$iu, chains = 1, seed = 1, sampler = smp,
                          bias = bias_control(registration_variance = "check")),
                class = "wavevalid_error_registration")
