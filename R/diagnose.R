@@ -80,7 +80,7 @@
 #' interval nearest zero. Attribute `timing` holds every landmark's reading.
 #' It needs two or more replicates. On the dosing test bed a hidden
 #' absorption lag, which the registration on each dose's rise aligns away,
-#' is found at each dose (0.74 h at the first at seed 1, 90% interval 0.68 to
+#' is found at each dose (0.74 h at the first at seed 1, its interval 0.68 to
 #' 0.81);
 #' `studies/README.md` in the package's source repository gives the
 #' readings with nothing hidden.
