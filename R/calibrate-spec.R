@@ -125,11 +125,9 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   if (identical(pool_levels, "coarse")) pool_levels <- coarse_levels(basis)
   tau_group <- bias_groups(basis$level, pool_levels, call = call)
   extra <- NULL
-  if (identical(registration_variance, "auto")) {
+  if (isTRUE(registration_variance %in% c("auto", "check"))) {
     extra <- registration_check_variance(field, basis)
-  } else if (identical(registration_variance, "check")) {
-    extra <- registration_check_variance(field, basis)
-    if (is.null(extra)) {
+    if (is.null(extra) && registration_variance == "check") {
       wv_abort(c(
         "{.code registration_variance = \"check\"} needs the registration's own error, measured on model runs.",
         "x" = "{.arg field} carries no {.field registration_check}.",

@@ -369,13 +369,13 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
   base_site <- stats::setNames(base_sites, base_sites)
   shift <- list()
   banks <- list()
+  # the registration's own error: measured on each experiment's field when
+  # it carries a check, else the base experiment's at the same site (the
+  # same registration of the same kind of curve)
+  measured <- isTRUE(registration_variance %in% c("auto", "check"))
   for (e in names(experiments)) {
     x <- experiments[[e]]
     em <- x$emulators %||% emulators
-    # the registration's own error: measured on the experiment's field when
-    # it carries a check, else the base experiment's at the same site (the
-    # same registration of the same kind of curve)
-    measured <- isTRUE(registration_variance %in% c("auto", "check"))
     sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
                             registration_variance = if (measured) "auto" else registration_variance, call = call)
     if (measured && is.null(sub$extra) && !is.null(spec$extra)) sub$extra <- spec$extra[names(sub$sites)]

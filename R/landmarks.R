@@ -76,14 +76,22 @@ extremum_at <- function(tt, y, refine = FALSE) {
 # landmark's time over the runs (rows of Y). Runs whose landmarks come in
 # another order in a window leave that window out.
 landmark_spread <- function(Y, t, windows, features, refine, ref_lm, site) {
-  times <- vapply(seq_len(nrow(Y)), function(k) {
-    lm <- curve_landmarks(Y[k, ], t, windows, features, refine)
-    lm$t[match(paste(ref_lm$window, ref_lm$feature), paste(lm$window, lm$feature))]
-  }, numeric(nrow(ref_lm)))
-  times <- matrix(times, nrow = nrow(ref_lm))
+  times <- landmark_times(Y, t, windows, features, refine, ref_lm$window, ref_lm$feature)
   data.frame(site = site, window = ref_lm$window, feature = ref_lm$feature, t_after = ref_lm$t,
              sd = if (ncol(times) > 1L) apply(times, 1L, stats::sd) else rep(0, nrow(ref_lm)),
              stringsAsFactors = FALSE)
+}
+
+# The times of the landmarks named by (window, feature) in every curve (row)
+# of Y: a matrix with one row per landmark and one column per curve, NA
+# where a curve lacks the landmark.
+landmark_times <- function(Y, t, windows, features, refine, window, feature) {
+  key <- paste(window, feature)
+  times <- vapply(seq_len(nrow(Y)), function(k) {
+    lm <- curve_landmarks(Y[k, ], t, windows, features, refine)
+    lm$t[match(key, paste(lm$window, lm$feature))]
+  }, numeric(length(key)))
+  matrix(times, nrow = length(key))
 }
 
 # Knots (before -> after) of the warp of one replicate, checked for

@@ -35,13 +35,14 @@ timing_table <- function(fit, level = 0.9) {
   rows <- list()
   for (m in unique(keys$site)) {
     if (!m %in% names(runs$curves)) next
-    Y <- runs$curves[[m]]
-    lms <- lapply(seq_len(nrow(Y)), function(k) curve_landmarks(Y[k, ], t, windows, st$features, st$refine))
-    for (i in which(keys$site == m)) {
-      key <- paste(keys$window[i], keys$feature[i])
-      L <- lw$t_before[lw$site == m & paste(lw$window, lw$feature) == key]
+    i_m <- which(keys$site == m)
+    times <- landmark_times(runs$curves[[m]], t, windows, st$features, st$refine,
+                            keys$window[i_m], keys$feature[i_m])
+    for (j in seq_along(i_m)) {
+      i <- i_m[j]
+      L <- lw$t_before[lw$site == m & lw$window == keys$window[i] & lw$feature == keys$feature[i]]
       L <- L[is.finite(L)]
-      tr <- vapply(lms, function(lm) lm$t[match(key, paste(lm$window, lm$feature))] %||% NA_real_, numeric(1))
+      tr <- times[j, ]
       if (length(L) < 2L || sum(is.finite(tr)) < 5L) next
       rows[[length(rows) + 1L]] <- c(list(site = m, window = keys$window[i], feature = keys$feature[i]),
                                      timing_shift(L, tr, X$design, X$draws))
