@@ -40,7 +40,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
   # what the C++ sampler reads: by site the emulators' banks and the field's
   # coefficients, and the priors (not the basis nor the I/U map)
   spec <- list(sites = spec$sites, priors = spec$priors, groups = spec$groups["name"], z_init = spec$z_init,
-               informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight)
+               informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight,
+               reg_shift_var = spec$reg_shift_var)
   rm(tau)
   function(ch) {
     n_draws <- sm$n_draws
@@ -57,7 +58,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                      p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
                      n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
                      informs = as.integer(spec$informs %||% integer(0)),
-                     temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1))
+                     temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1),
+                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else as.numeric(spec$reg_shift_var))
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
 }

@@ -124,10 +124,16 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   sigma2 <- resolve_sigma2(sigma2, sites, length(basis$index), call = call)
   if (identical(pool_levels, "coarse")) pool_levels <- coarse_levels(basis)
   tau_group <- bias_groups(basis$level, pool_levels, call = call)
-  extra <- NULL
-  if (isTRUE(registration_variance %in% c("auto", "check"))) {
-    extra <- registration_check_variance(field, basis)
-    if (is.null(extra) && registration_variance == "check") {
+  extra <- shifts <- extra_diag <- NULL
+  if (isTRUE(registration_variance %in% c("auto", "check", "diagonal"))) {
+    # the check's error as shifts of the landmarks along the curve's
+    # time-shift directions, sampled with the inputs, and the rest on every
+    # coefficient; one variance per site for all of it ("diagonal", internal:
+    # the experiments' sites and a bias shared by experiments)
+    extra <- extra_diag <- registration_check_variance(field, basis)
+    if (!identical(registration_variance, "diagonal")) shifts <- registration_shift_structure(field, basis)
+    if (!is.null(shifts)) extra <- shifts$extra
+    if (is.null(extra) && identical(registration_variance, "check")) {
       wv_abort(c(
         "{.code registration_variance = \"check\"} needs the registration's own error, measured on model runs.",
         "x" = "{.arg field} carries no {.field registration_check}.",
@@ -157,7 +163,8 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
-                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]])
+                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]],
+                           reg_U = shifts$U[[s]])
     if (noise_setting[[s]] == "learned") {
       site_data[[s]]$noise <- c(list(scale = unname(noise_scale[[s]]),
                                      family = match(noise$family, c("half-cauchy", "half-normal")) - 1L),
@@ -167,7 +174,8 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, noise_setting = noise_setting, noise_prior = noise,
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, reg_shift_var = shifts$var, extra_diag = extra_diag,
+       noise_setting = noise_setting, noise_prior = noise,
        noise_evidence = noise_evidence_summary(field, sites[noise_setting == "learned"], site_data))
 }
 

@@ -53,8 +53,9 @@
 #' @param registration_variance What the registration of the field adds to
 #'   the variance of the registered field mean (see the section
 #'   Registration of [calibrate()]): `"auto"` (default), the registration's
-#'   own error when the field carries it (as [validate()] registers it) and
-#'   nothing otherwise; `"check"`, that error, required (an error when the
+#'   own error when the field carries it (as [validate()] registers it),
+#'   as shifts of the events sampled with the inputs and a variance for the
+#'   rest, and nothing otherwise; `"check"`, that error, required (an error when the
 #'   field does not carry it); `FALSE`, nothing (the method's); `TRUE`, a
 #'   first-order variance from the spread of the reference's landmarks over
 #'   the runs.

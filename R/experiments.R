@@ -373,17 +373,29 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
   # it carries a check, else the base experiment's at the same site (the
   # same registration of the same kind of curve)
   measured <- isTRUE(registration_variance %in% c("auto", "check"))
+  if (measured && !is.null(spec$reg_shift_var) && experiment_bias == "shared") {
+    # the sampler's shifts need each site's own bias: one variance per site
+    for (s in base_sites) {
+      spec$sites[[s]]$reg_U <- NULL
+      spec$sites[[s]]$extra <- spec$extra_diag[[s]]
+    }
+    spec$extra <- spec$extra_diag
+    spec$reg_shift_var <- NULL
+  }
   for (e in names(experiments)) {
     x <- experiments[[e]]
     em <- x$emulators %||% emulators
     sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
-                            registration_variance = if (measured) "auto" else registration_variance, call = call)
-    if (measured && is.null(sub$extra) && !is.null(spec$extra)) sub$extra <- spec$extra[names(sub$sites)]
+                            registration_variance = if (measured) "diagonal" else registration_variance, call = call)
+    if (measured && is.null(sub$extra) && !is.null(spec$extra)) {
+      sub$extra <- (spec$extra_diag %||% spec$extra)[names(sub$sites)]
+    }
     sh <- stats::setNames(numeric(p), spec$inputs)
     if (!is.null(x$change)) sh[names(x$change)] <- x$change
     for (s in names(sub$sites)) {
       name <- paste0(e, "/", s)
       d <- sub$sites[[s]]
+      d$extra <- sub$extra[[s]]
       lab <- sub$bias_group[[s]]
       if (level_variances == "shared") {
         if (!s %in% base_sites) {

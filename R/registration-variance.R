@@ -85,3 +85,40 @@ registration_check_variance <- function(field, basis) {
     rep(mean(E^2), ncol(E))
   }), sites)
 }
+
+# The registration's own error as shifts of the reference's landmarks: the
+# first-order change a shift delta_k of landmark k makes in the registered
+# field mean, h_k ybar' (registration_landmark_columns()), in coefficients,
+# a column of U by site; the shifts' variances from the check (what
+# registering did to the model runs nearest the field): each checked run's
+# change regressed on the columns, the mean square of its shifts; what the
+# shifts leave of the change, its mean square by site, as the per-coefficient
+# variance beyond them. A list (U by site, var, extra by site), or NULL when
+# the field carries no check or no landmark with a spread.
+registration_shift_structure <- function(field, basis) {
+  chk <- field$registration_check
+  sites <- names(field$curves)
+  if (is.null(chk) || !all(sites %in% names(chk))) return(NULL)
+  cols <- registration_landmark_columns(field, sites)
+  if (is.null(cols) || !length(cols$sd)) return(NULL)
+  U <- lapply(cols$H[sites], function(H) basis_coef(basis, t(H)))
+  U <- lapply(U, function(u) t(matrix(u, nrow = length(cols$sd))))
+  E <- lapply(sites, function(s) basis_coef(basis, chk[[s]]))
+  Ustack <- do.call(rbind, U)
+  n_run <- nrow(E[[1]])
+  delta <- matrix(0, n_run, length(cols$sd))
+  resid <- stats::setNames(vector("list", length(sites)), sites)
+  for (r in seq_len(n_run)) {
+    e <- unlist(lapply(E, function(x) x[r, ]))
+    delta[r, ] <- qr.coef(qr(Ustack), e)
+  }
+  delta[is.na(delta)] <- 0
+  v <- colMeans(delta^2)
+  extra <- stats::setNames(lapply(seq_along(sites), function(j) {
+    R <- E[[j]] - delta %*% t(U[[j]])
+    rep(mean(R^2), ncol(E[[j]]))
+  }), sites)
+  keep <- v > 0
+  if (!any(keep)) return(NULL)
+  list(U = lapply(stats::setNames(U, sites), function(u) u[, keep, drop = FALSE]), var = v[keep], extra = extra)
+}

@@ -24,7 +24,8 @@ struct ChainSettings {
 const char* const kRequired[] = {"n_groups", "z_init", "tau2_init", "fix_tau2", "n_draws",
                                  "n_inner", "step", "seed", "chain"};
 const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global", "p_indep",
-                                 "n_search", "threads", "informs", "temper", "input_weight"};
+                                 "n_search", "threads", "informs", "temper", "input_weight",
+                                 "reg_shift_var"};
 
 bool has_entry(const Rcpp::List& x, const char* name) {
   return x.containsElementNamed(name);
@@ -113,6 +114,8 @@ ChainSettings read_settings(const Rcpp::List& x) {
   set.input_weight = optional_scalar<double>(x, "input_weight", 1.0);
   if (!(set.input_weight > 0.0 && set.input_weight <= 1.0)) Rcpp::stop("input_weight must lie in (0, 1]");
   if (set.debug_break == 7) set.input_weight = 1.0;
+  if (has_entry(x, "reg_shift_var") && !Rf_isNull(x["reg_shift_var"]))
+    set.reg_shift_var = Rcpp::as<Eigen::VectorXd>(x["reg_shift_var"]);
   if (has_entry(x, "progress")) {
     SEXP progress = x["progress"];
     out.progress = progress;
@@ -239,6 +242,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       d.bias_of = Rcpp::as<int>(si["bias_of"]);
     if (si.containsElementNamed("shift") && !Rf_isNull(si["shift"]))
       d.shift = Rcpp::as<Eigen::VectorXd>(si["shift"]);
+    if (si.containsElementNamed("reg_U") && !Rf_isNull(si["reg_U"]))
+      d.shift_U = Rcpp::as<Eigen::MatrixXd>(si["reg_U"]);
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
     const int n = banks[s].n_coef();
@@ -295,7 +300,8 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_global") = out.n_global > 0 ? out.acc_global / out.n_global : NA_REAL,
       Rcpp::Named("acc_burnin") = out.n_burn > 0 ? out.acc_burn / out.n_burn : NA_REAL,
       Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
-      Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov);
+      Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov,
+      Rcpp::Named("reg_shift") = out.reg_shift);
 }
 
 // Log prior density of the inputs at each row of Z (own units), as the

@@ -81,6 +81,7 @@ class Sampler : public SamplerState {
     out.inputs.resize(H, p_);
     out.tau2.resize(H, G_);
     out.sigma2.resize(S); out.wb.resize(S); out.wM.resize(S);
+    out.reg_shift.resize(H, K_);
     for (int s = 0; s < S; ++s) {
       const int n = sites_[s].bank->n_coef();
       out.sigma2[s].resize(H, n); out.wb[s].resize(H, n); out.wM[s].resize(H, n);
@@ -89,14 +90,14 @@ class Sampler : public SamplerState {
     predict_all(z_, m_, v_);
     tau2_ = Eigen::VectorXd::Zero(G_);
     sigbar_ = Eigen::VectorXd::Zero(G_);
-    bool tau_ready = false;
+    tau_ready_ = false;
     walk_.init(priors_);
 
     // Burn-in: blocks of n_inner cycles, sigma2 drawn at the start of each.
     if (set_.burnin > 0) {
       draw_sigma2();
       init_tau2();
-      tau_ready = true;
+      tau_ready_ = true;
       if (set_.adaptive && set_.n_search > 0) search_start();
     }
     out.z_start = z_;
@@ -120,12 +121,13 @@ class Sampler : public SamplerState {
 
     for (int h = 0; h < H; ++h) {
       draw_sigma2();
-      if (!tau_ready) { init_tau2(); tau_ready = true; }
+      if (!tau_ready_) { init_tau2(); tau_ready_ = true; }
       refresh_cache();
       double ll = loglik(tau2_);
       for (int it = 0; it < set_.n_inner; ++it) ll = cycle(ll, -1);
       out.inputs.row(h) = z_.transpose();
       out.tau2.row(h) = tau2_.transpose();
+      if (K_ > 0) out.reg_shift.row(h) = a_.transpose();
       draw_coefficients(h, out);
       if ((h + 1) % set_.report_every == 0 || h + 1 == H) progress(h + 1);
     }
@@ -138,8 +140,14 @@ class Sampler : public SamplerState {
   }
 
  private:
+  bool tau_ready_ = false;
+
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {
+    if (K_ > 0 && tau_ready_) {
+      registration_shift_step();
+      ll = loglik(tau2_);
+    }
     if (any_learn_) ll = noise_steps(burn_it >= 0);
     if (!set_.adaptive) {
       if (!set_.fix_tau2 && G_ > 0) ll = tau_step();

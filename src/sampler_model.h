@@ -22,6 +22,9 @@ struct SiteData {
   bool fixed_sigma2 = false;
   Eigen::VectorXd sigma2_fixed;  // n, used when fixed_sigma2
   Eigen::VectorXd extra;         // n, variance of wbar beyond sigma2 / R (registration); zeros if none
+  Eigen::MatrixXd shift_U;       // n x K, the field means' change per unit of each registration shift
+                                 // (settings.reg_shift_var); no columns: the site has none
+  Eigen::VectorXd wbar0;         // n, the field means as registered (wbar = wbar0 - shift_U a)
   std::vector<int> group;        // n, global tau2 group of each coefficient (a group may span
                                  // sites: the same level in several experiments)
   int bias_of = -1;              // >= 0: this site's bias coefficients are those of that site
@@ -217,6 +220,7 @@ struct SamplerSettings {
   std::vector<int> informs;         // G; 0: the group's coefficients do not inform the inputs
                                     // (a cut: its tau2 and bias follow the inputs); empty: all inform
   double temper = 1.0;              // power of the likelihood in the target (1: the method's posterior)
+  Eigen::VectorXd reg_shift_var;    // K, prior variances of the registration's shifts (empty: none)
   double input_weight = 1.0;        // power of the likelihood in the inputs' steps alone: the magnitude
                                     // adjustment of the composite likelihood for errors that the
                                     // coefficients share (1: the coefficients independent, the method's)
@@ -231,6 +235,7 @@ struct SamplerOutput {
   Eigen::VectorXd z_start;   // first point of the burn-in
   double acc_noise = 0, n_noise = 0;  // learned-noise steps after the burn-in
   Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
+  Eigen::MatrixXd reg_shift; // H x K, the registration's shifts (K = 0: none)
 };
 
 // One coefficient's bias and model output given the inputs (emulator mean m

@@ -64,6 +64,17 @@ class SamplerState {
       dependents_[r].push_back(static_cast<int>(s));
       shared_ = true;
     }
+    K_ = static_cast<int>(set_.reg_shift_var.size());
+    a_ = Eigen::VectorXd::Zero(K_);
+    for (std::size_t s = 0; s < S; ++s) {
+      SiteData& d = sites_[s];
+      d.wbar0 = d.wbar;
+      if (d.shift_U.cols() == 0) continue;
+      if (d.shift_U.cols() != K_ || d.shift_U.rows() != d.bank->n_coef())
+        throw std::invalid_argument("a site's registration shifts have the wrong size");
+    }
+    if (K_ > 0 && (shared_ || !(set_.reg_shift_var.array() > 0.0).all()))
+      throw std::invalid_argument("registration shifts need positive variances and no shared bias");
     eta_.assign(S, 0.0);
     eta_step_.assign(S, 0.5);
     for (std::size_t s = 0; s < S; ++s) {
@@ -116,6 +127,43 @@ class SamplerState {
   std::vector<Eigen::VectorXd> resid_;     // wbar - m at the current inputs (with a shared bias)
   std::vector<std::vector<int>> dependents_;  // the sites sharing each site's bias
   bool shared_ = false;                     // some sites share a bias
+  int K_ = 0;                               // the registration's shifts
+  Eigen::VectorXd a_;                       // their current values
+
+  // The registration's error along the curves' time-shift directions: the
+  // shifts a (prior N(0, diag(reg_shift_var))) move the field means by
+  // shift_U a. Given the inputs, tau2 and sigma2 (the bias integrated out)
+  // the coefficients are independent normals, so a's conditional is normal,
+  // precision P = diag(1 / var) + temper sum_s U_s' D_s^-1 U_s and mean
+  // P^-1 temper sum_s U_s' D_s^-1 (wbar0_s - m_s), D = V + sigma2 / R +
+  // extra + tau2: a Gibbs step, after which wbar = wbar0 - U a.
+  void registration_shift_step() {
+    if (K_ == 0) return;
+    Eigen::MatrixXd P = set_.reg_shift_var.cwiseInverse().asDiagonal();
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(K_);
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      const SiteData& d = sites_[s];
+      if (d.shift_U.cols() == 0 || dropped(d)) continue;
+      const int n = d.bank->n_coef();
+      Eigen::VectorXd w(n), y(n);
+      for (int i = 0; i < n; ++i) {
+        w(i) = set_.temper / (base_[s](i) + tau2_(d.group[i]));
+        y(i) = w(i) * (d.wbar0(i) - m_[s](i));
+      }
+      P.noalias() += d.shift_U.transpose() * w.asDiagonal() * d.shift_U;
+      b.noalias() += d.shift_U.transpose() * y;
+    }
+    Eigen::LLT<Eigen::MatrixXd> llt(P);
+    Eigen::VectorXd xi(K_);
+    for (int k = 0; k < K_; ++k) xi(k) = norm_(rng_);
+    a_ = llt.solve(b) + llt.matrixU().solve(xi);
+    for (std::size_t s = 0; s < sites_.size(); ++s) {
+      SiteData& d = sites_[s];
+      if (d.shift_U.cols() == 0) continue;
+      d.wbar = d.wbar0 - d.shift_U * a_;
+    }
+    refresh_cache();
+  }
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 

@@ -42,7 +42,7 @@ args <- study_args(list(beds = "suspension,dosing", seeds = "1:5", hidden = "non
 args$strength_upper <- as.numeric(args$strength_upper)
 options(wavevalid.quiet = TRUE)
 pool <- if (args$pool_levels == "coarse") "coarse" else arg_value(args$pool_levels)
-rv <- if (args$registration_variance == "check") "check" else arg_flag(args$registration_variance)
+rv <- if (args$registration_variance %in% c("auto", "check", "shifts")) args$registration_variance else arg_flag(args$registration_variance)
 bed <- testbed_beds()
 steps <- function(wf, dt) {
   wf <- wf[wf$kind %in% c("interval", "covered"), ]

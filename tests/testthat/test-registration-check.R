@@ -53,11 +53,31 @@ test_that("registration_variance = \"check\" adds the mean square of the runs' r
   smp <- sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE)
   fit <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp,
                                     bias = bias_control(registration_variance = "check")))
-  for (s in names(field$curves)) {
-    E <- field$registration_check[[s]] %*% em$basis$Psi
-    expect_equal(fit$registration_var[[s]], rep(mean(E^2), ncol(E)))
+  # the runs' changes regressed on the shifts' directions: the shifts' prior
+  # variances are the mean squares of the fitted shifts, what they leave is
+  # orthogonal to the directions and its mean square goes on every coefficient
+  sh <- fit$registration_shifts
+  K <- length(sh$variance)
+  expect_gt(K, 0)
+  expect_true(all(sh$variance > 0))
+  expect_identical(dim(sh$draws), c(20L, K))
+  st <- registration_shift_structure(field, em$basis)
+  E <- lapply(names(field$curves), function(s) field$registration_check[[s]] %*% em$basis$Psi)
+  Es <- do.call(cbind, E)
+  Us <- do.call(rbind, st$U)
+  delta <- t(qr.coef(qr(Us), t(Es)))
+  expect_equal(sh$variance, colMeans(delta^2))
+  R <- Es - delta %*% t(Us)
+  expect_lt(max(abs(R %*% Us)), 1e-8 * max(abs(Es %*% Us)))
+  for (j in seq_along(E)) {
+    s <- names(field$curves)[j]
+    Rj <- E[[j]] - delta %*% t(st$U[[s]])
+    expect_equal(fit$registration_var[[s]], rep(mean(Rj^2), ncol(E[[j]])))
   }
-  expect_output(print(fit), "registration's own error")
+  # the shifts take most of what registering changed (over the sites: a
+  # landmark the sites share moves both)
+  expect_lt(mean(R^2), 0.5 * mean(Es^2))
+  expect_output(print(fit), "registration's own error .* shifts of the landmarks")
   # the field mean's variance holds it: bands of the bias are wider than without
   fit0 <- suppressWarnings(calibrate(em, field, tb$iu, chains = 1, seed = 1, sampler = smp,
                                      bias = bias_control(registration_variance = FALSE)))
