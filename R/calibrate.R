@@ -243,8 +243,9 @@
 #'   frozen random-walk covariance of each chain), `rhat`, `ess`, `flags`,
 #'   `seed`, `settings`, `registration_var` (by site, the `r_i` added, or
 #'   `NULL`), `registration_shifts` (when the registration's error is taken
-#'   as shifts: their prior `variance` and their `draws`, one column per
-#'   shift), `noise_setting` (by site, how the field noise was set) and
+#'   as shifts: their prior `variance`, their `draws`, one column per
+#'   shift, and `U`, by site the change of the field mean's coefficients per
+#'   unit of each shift), `noise_setting` (by site, how the field noise was set) and
 #'   `noise_prior` (the [noise_prior()] of the learned noise with its scale by
 #'   site, or `NULL`), and `sampling_seconds` (the chains' wall time; the
 #'   print gives the slowest input's effective draws per second).
@@ -450,7 +451,8 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
   ))
   if (length(spec$reg_shift_var)) {
     fit$registration_shifts <- list(variance = spec$reg_shift_var,
-                                    draws = do.call(rbind, lapply(runs, `[[`, "reg_shift")))
+                                    draws = do.call(rbind, lapply(runs, `[[`, "reg_shift")),
+                                    U = Filter(Negate(is.null), lapply(spec$sites, `[[`, "reg_U")))
   }
   diag <- fit_diagnostics(fit)
   fit$rhat <- diag$rhat

@@ -310,7 +310,7 @@ residual_regression_data <- function(fit, draws, keep) {
   Z <- draws[, fit$inputs, drop = FALSE]
   parts <- lapply(names(fit$wb), function(s) {
     pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], shift_inputs(fit, s, Z))
-    list(r = sweep(-pr$mean, 2L, fit$wbar[[s]], `+`),
+    list(r = field_mean_draws(fit, s, keep) - pr$mean,
          v = pr$var + field_mean_variance(fit, s, keep))
   })
   list(residuals = do.call(cbind, lapply(parts, `[[`, "r")),

@@ -132,7 +132,7 @@ refit_loglik <- function(rf, Z, h, informing) {
     pr <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], shift_inputs(rf, s, Z))
     e <- drop(field_mean_variance(rf, s, h)) + D[h, tau2_columns(rf, s)]
     tot <- sweep(pr$var, 2L, e, `+`)[, use, drop = FALSE]
-    r2 <- sweep(pr$mean, 2L, rf$wbar[[s]])[, use, drop = FALSE]^2
+    r2 <- sweep(pr$mean, 2L, drop(field_mean_draws(rf, s, h)))[, use, drop = FALSE]^2
     ll <- ll - 0.5 * rowSums(log(tot) + r2 / tot)
   }
   ll

@@ -29,6 +29,17 @@ field_mean_variance <- function(fit, s, rows) {
   sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
 }
 
+# The field mean's coefficients at site `s` for the rows `rows` of the
+# draws (rows x coefficients): moved by the registration's shifts drawn
+# there when the fit samples them, else the same in every row.
+field_mean_draws <- function(fit, s, rows) {
+  rs <- fit$registration_shifts
+  out <- matrix(fit$wbar[[s]], length(rows), length(fit$wbar[[s]]), byrow = TRUE)
+  U <- rs$U[[s]]
+  if (is.null(U)) return(out)
+  out - tcrossprod(rs$draws[rows, , drop = FALSE], U)
+}
+
 # Names of the draws' columns holding the bias variance tau^2 of each
 # coefficient's (site, level) group at site `s`.
 tau2_columns <- function(fit, s) {

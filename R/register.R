@@ -147,8 +147,10 @@
 #' registered like a replicate; what the registration changes in them
 #' (`registration_check`, by site a matrix of the registered run less the
 #' run) is the registration's error on a curve like the field's, which
-#' [calibrate()] adds to the variance of the registered field mean (by
-#' default, when the field carries it; see its section Registration).
+#' [calibrate()] takes into the registered field mean's error (by default,
+#' when the field carries it): as shifts of the events' times, sampled with
+#' the inputs, and a variance for what they leave (see its section
+#' Registration).
 #'
 #' @section Registering the model runs:
 #' The field replicates are registered to the mean of the model runs, whose
