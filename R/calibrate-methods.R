@@ -150,16 +150,14 @@ registration_lines <- function(fit) {
   } else {
     "the spread of the reference's landmarks over the model runs"
   }
+  shares <- paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", ")
   rs <- fit$registration_shifts
-  if (is.null(rs)) {
-    return(sprintf("Registration: %s added to the variance of the field mean, %s of it", src,
-                   paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", ")))
-  }
+  if (is.null(rs)) return(sprintf("Registration: %s added to the variance of the field mean, %s of it", src, shares))
   K <- length(rs$variance)
   sprintf(paste("Registration: %s taken as %d shift%s of the landmarks along the curves' time-shift directions",
                 "(prior sd %s, sampled with the inputs), the rest added to the variance of the field mean, %s of it"),
           src, K, if (K == 1L) "" else "s", paste(format(signif(sqrt(rs$variance), 2), trim = TRUE), collapse = ", "),
-          paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", "))
+          shares)
 }
 
 # What the learned noise took from the measurements on their own time stamps

@@ -101,22 +101,14 @@ registration_shift_structure <- function(field, basis) {
   if (is.null(chk) || !all(sites %in% names(chk))) return(NULL)
   cols <- registration_landmark_columns(field, sites)
   if (is.null(cols) || !length(cols$sd)) return(NULL)
-  U <- lapply(cols$H[sites], function(H) basis_coef(basis, t(H)))
-  U <- lapply(U, function(u) t(matrix(u, nrow = length(cols$sd))))
+  U <- lapply(cols$H[sites], function(H) t(basis_coef(basis, t(H))))
   E <- lapply(sites, function(s) basis_coef(basis, chk[[s]]))
-  Ustack <- do.call(rbind, U)
-  n_run <- nrow(E[[1]])
-  delta <- matrix(0, n_run, length(cols$sd))
-  resid <- stats::setNames(vector("list", length(sites)), sites)
-  for (r in seq_len(n_run)) {
-    e <- unlist(lapply(E, function(x) x[r, ]))
-    delta[r, ] <- qr.coef(qr(Ustack), e)
-  }
+  # every checked run's change, all sites together, on the stacked columns
+  delta <- t(qr.coef(qr(do.call(rbind, U)), t(do.call(cbind, E))))
   delta[is.na(delta)] <- 0
   v <- colMeans(delta^2)
   extra <- stats::setNames(lapply(seq_along(sites), function(j) {
-    R <- E[[j]] - delta %*% t(U[[j]])
-    rep(mean(R^2), ncol(E[[j]]))
+    rep(mean((E[[j]] - tcrossprod(delta, U[[j]]))^2), ncol(E[[j]]))
   }), sites)
   keep <- v > 0
   if (!any(keep)) return(NULL)
