@@ -21,10 +21,11 @@ print.wv_fails <- function(x, ...) {
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
-    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs",
+    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs", "event",
                         "experiment", "condition"), names(x))
     df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
     if (all(is.na(df$inputs))) df$inputs <- NULL
+    if (all(is.na(df$event))) df$event <- NULL
     num <- vapply(df, is.numeric, logical(1))
     df[num] <- lapply(df[num], signif, digits = 3)
     print(utils::head(df, 10), row.names = FALSE)

@@ -10,11 +10,11 @@
 # part); `experiments`: the experiment of each site, or NULL.
 findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL, timing = NULL) {
   cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
-            "inputs")
-  row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs) {
+            "inputs", "event")
+  row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs, event = NA_character_) {
     data.frame(kind = kind, site = site, start = start, end = end, size = size, credible = credible,
                integrated_abs_bias = integrated, share_of_signal = share, sign = sign, inputs = inputs,
-               stringsAsFactors = FALSE)
+               event = event, stringsAsFactors = FALSE)
   }
   local <- function(x, kind, inputs) {
     if (!nrow(x)) return(NULL)
@@ -54,12 +54,12 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
     parts <- c(parts, list(row("timing", tm$site, pmin(tm$field, tm$model), pmax(tm$field, tm$model), tm$size,
                                tm$credible, NA_real_, NA_real_,
                                ifelse(tm$shift > 0, "reality later than model", "reality earlier than model"),
-                               NA_character_)))
+                               NA_character_, timing_event(tm))))
   }
   out <- do.call(rbind, parts)
   if (is.null(out)) {
     out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
-               character(), character())
+               character(), character(), character())
   }
   out <- out[order(-out$size, na.last = TRUE), cols, drop = FALSE]
   if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
@@ -187,12 +187,14 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
   list(fit = fit, use = use, label = sprintf("%s, %d coefficient%s", label, sum(coef), if (sum(coef) == 1L) "" else "s"))
 }
 
+# The event of each row of a timing table: its landmark's feature and window.
+timing_event <- function(tm) sprintf("%s in window %s", tm$feature, tm$window)
+
 # The sentence of a timing finding (row `r` of the table, `tm` the table of
-# the landmarks' timing).
+# the landmarks' timing, matched by site and event).
 timing_finding_text <- function(r, tm, f) {
-  k <- if (is.null(tm)) integer() else which(tm$flagged & tm$site == r$site &
-                                               abs(pmin(tm$field, tm$model) - r$start) < 1e-12 &
-                                               abs(tm$size - r$size) < 1e-12)
+  k <- if (is.null(tm) || is.null(r$event)) integer() else
+    which(tm$flagged & tm$site == r$site & timing_event(tm) == r$event)
   if (!length(k)) {
     return(sprintf("a shift of an event's timing, %s [%s, %s] (%s)", r$site, f(r$start, 4), f(r$end, 4), r$sign))
   }

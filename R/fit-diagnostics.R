@@ -125,8 +125,14 @@ boundary_check <- function(fit, margin = 0.02) {
 #   on its side (p inputs: when the model is right and the posterior sits at a
 #   truth drawn from the prior, some input is flagged with probability about
 #   alpha); or
-# * `piled`: at least half of the posterior lies within `margin` of the range
-#   from a bound, and at least four times the prior's share there.
+# * `piled`: the posterior presses on a bound: at least half of it lies
+#   within `margin` of the range from the bound (at least four times the
+#   prior's share there), and its draws fall away from the bound as a normal
+#   centred beyond it, truncated there, would with its centre at least
+#   z = qnorm(1 - alpha / (2 p)) of its sd beyond (bound_overshoot()). A
+#   right model whose true input lies near a bound gives a posterior centred
+#   inside or at most a chance z sd beyond, so the pile is held to the same
+#   family error as `far`.
 # Inputs already held (hold_inputs()) and inputs whose range is a point are
 # not judged.
 input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5, prior = NULL) {
@@ -151,14 +157,36 @@ input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5, pr
     judged <- s > 0 && !(nm %in% held) &&
       (fit$prior_iu$upper[k] - fit$prior_iu$lower[k]) > 1e-4 * max(abs(fit$prior_iu$upper[k]), 1)
     far <- judged && tail < alpha / (2 * p)
-    piled <- judged && share >= majority && share >= 4 * prior_share
+    beyond <- bound_overshoot(if (side == "upper") b$upper - x else x - b$lower)
+    piled <- judged && share >= majority && share >= 4 * prior_share && beyond >= stats::qnorm(1 - alpha / (2 * p))
     data.frame(input = nm, type = fit$prior_iu$type[k], median = med, prior_mean = mu, prior_sd = s,
                prior_sds = if (s > 0) (med - mu) / s else 0, side = side, prior_tail = tail,
-               share_at_bound = share, prior_share_at_bound = prior_share, far = far, piled = piled,
-               conflict = far || piled, stringsAsFactors = FALSE)
+               share_at_bound = share, prior_share_at_bound = prior_share, beyond_bound_sd = beyond, far = far,
+               piled = piled, conflict = far || piled, stringsAsFactors = FALSE)
   }))
   attr(out, "alpha") <- alpha
   out
+}
+
+# How far beyond a bound the posterior's centre lies, in its sd, read from
+# how its draws fall away from the bound (`d`: their distances from it): the
+# centre a of the standard normal truncated to [a, Inf) (its draws' distances
+# from a having the same ratio of mean to sd as `d`). A normal centred at the
+# bound gives a ratio of 1.32 (a = 0), one centred far beyond gives an
+# exponential fall-off (ratio 1, a large), one centred inside a ratio above
+# 1.32 (a < 0). Between -6 and 10; 10 when the draws sit at the bound.
+bound_overshoot <- function(d) {
+  d <- d[is.finite(d)]
+  s <- if (length(d) > 1L) stats::sd(d) else 0
+  if (s <= 1e-12 * max(abs(d), 1)) return(10)
+  r <- mean(d) / s
+  ratio <- function(a) {
+    lam <- exp(stats::dnorm(a, log = TRUE) - stats::pnorm(a, lower.tail = FALSE, log.p = TRUE))
+    (lam - a) / sqrt(max(1 + a * lam - lam^2, 1e-300))
+  }
+  if (r >= ratio(-6)) return(-6)
+  if (r <= ratio(10)) return(10)
+  stats::uniroot(function(a) ratio(a) - r, c(-6, 10), tol = 1e-6)$root
 }
 
 # Draws from the prior of the inputs (own units), with a fixed stream; R's
@@ -173,8 +201,9 @@ conflict_text <- function(cf) {
   vapply(seq_len(nrow(cf)), function(i) {
     r <- cf[i, ]
     where <- if (r$piled) {
-      sprintf("piled at its %s bound (%.0f%% of the draws within 2%% of the range from it; prior %.0f%%)",
-              r$side, 100 * r$share_at_bound, 100 * r$prior_share_at_bound)
+      sprintf("piled at its %s bound (%.0f%% of the draws within 2%% of the range from it, prior %.0f%%; they fall away from it as a posterior centred %s sd beyond it would)",
+              r$side, 100 * r$share_at_bound, 100 * r$prior_share_at_bound,
+              if (r$beyond_bound_sd >= 10) "10 or more" else format(round(r$beyond_bound_sd, 1), nsmall = 1))
     } else {
       sprintf("in its prior's %s tail", r$side)
     }

@@ -64,6 +64,35 @@ test_that("a posterior piled at a bound is a conflict, a partial pile is not", {
   expect_true(piled$conflict[piled$input == "u1"])
   partial <- with_draws(ifelse(seq_len(n) %% 5 < 2, 0.99, 0.9))
   expect_false(partial$conflict[partial$input == "u1"])
+  # draws of a normal truncated at the upper bound 1 (evenly spaced in probability, in a shuffled order)
+  set.seed(3)
+  truncated <- function(centre, sd) {
+    p <- stats::pnorm(1, centre, sd) * (seq_len(n) - 0.5) / n
+    sample(stats::qnorm(p, centre, sd))
+  }
+  # pressed on the bound: centred 5 sd beyond it
+  pressed <- with_draws(truncated(1.05, 0.01))
+  expect_true(pressed$piled[pressed$input == "u1"])
+  expect_equal(pressed$beyond_bound_sd[pressed$input == "u1"], 5, tolerance = 0.1)
+  expect_match(conflict_text(pressed), "u1 piled at its upper bound", fixed = TRUE)
+  # a right model's posterior near the bound: centred 0.01 inside it, sd 0.02; more than half of it
+  # within 2% of the range from the bound, but no further beyond than chance
+  near <- with_draws(truncated(0.99, 0.02))
+  expect_gt(near$share_at_bound[near$input == "u1"], 0.5)
+  expect_false(near$piled[near$input == "u1"])
+  expect_false(near$conflict[near$input == "u1"])
+  expect_equal(near$beyond_bound_sd[near$input == "u1"], -0.5, tolerance = 0.1)
+})
+
+test_that("bound_overshoot() reads the centre of a truncated normal from its draws", {
+  set.seed(4)
+  for (a in c(-1, 0, 1, 3)) {
+    x <- stats::qnorm(stats::pnorm(a) + (1 - stats::pnorm(a)) * (seq_len(2e4) - 0.5) / 2e4)
+    expect_lt(abs(bound_overshoot(x - a) - a), 0.05)
+  }
+  # draws falling away exponentially: the centre far beyond; all at the bound: beyond the cap
+  expect_gt(bound_overshoot(stats::rexp(2e4)), 6)
+  expect_identical(bound_overshoot(rep(0, 10)), 10)
 })
 
 test_that("hold_inputs() calibrates again with the inputs at strata of their prior", {

@@ -3,7 +3,7 @@ test_that("where_fails finds the interval where the missing bump acts", {
   wf <- where_fails(d$fit)
   expect_s3_class(wf, "wv_fails")
   expect_named(wf, c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal",
-                     "sign", "inputs", "peak_abs_bias", "scale"))
+                     "sign", "inputs", "event", "peak_abs_bias", "scale"))
   expect_gt(nrow(wf), 0L)
   top <- wf[1, ]
   expect_identical(top$kind, "interval")

@@ -33,6 +33,10 @@ test_that("a lag of the field's event is a timing finding, its shift inside the 
   expect_equal(tm$model, 0.45, tolerance = 0.02)
   expect_equal(wf$kind[1], "timing")
   expect_match(top_finding(wf), "later by")
+  # the row names its landmark, and the sentence reads that landmark's times
+  expect_equal(wf$event[1], sprintf("%s in window %s", tm$feature, tm$window))
+  expect_match(top_finding(wf), sprintf("its %s in window %s comes at", tm$feature, tm$window), fixed = TRUE)
+  expect_true(all(is.na(wf$event[wf$kind != "timing"])))
   expect_gt(wf$size[1], wf$credible[1])
   expect_error(explain_bias(fit, list(a = rep(1, length(fit$basis$t))), finding = wf[1, ]),
                class = "wavevalid_error_finding")
