@@ -18,17 +18,101 @@ free_cores <- function() {
 # One future per chain. `sm`: the sampler's settings, a sampler_control()
 # with `burnin` and `threads` resolved (calibrate()). debug_break (1: no
 # proposal-density ratio of the global moves, 2: no tau2 ratio, ...) exists
-# only to show that the simulation-based checks detect errors.
+# only to show that the simulation-based checks detect errors. With
+# `sm$n_draws` NULL the chains run in rounds until the inputs' draws meet
+# the targets (chain_rounds()).
 run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global = 0.1) {
   worker <- chain_worker(spec, sm, seed, tau, debug_break, p_global)
   # the worker carries the sampler's spec in its closure, sent once per chain
-  future.apply::future_lapply(seq_len(chains), worker, future.seed = NULL, future.packages = "wavevalid",
-                              future.globals = stats::setNames(list(), character(0)))
+  run <- function(jobs) {
+    future.apply::future_lapply(jobs, worker, future.seed = NULL, future.packages = "wavevalid",
+                                future.globals = stats::setNames(list(), character(0)))
+  }
+  if (!is.null(sm$n_draws)) {
+    return(run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = sm$n_draws, resume = NULL))))
+  }
+  chain_rounds(run, spec, sm, chains)
 }
 
-# The function a chain's future evaluates: its environment holds only what
-# the chain needs (the sampler's spec, settings and seed). On the suspension
-# test bed (2 sites, 431 coefficients each, 66 runs) that is 30 MiB per chain.
+# The chains run until every input's effective sample size (all chains
+# together, coda::effectiveSize()) reaches `sm$ess` and, with two chains or
+# more, its R-hat (coda::gelman.diag()) is at most `sm$rhat`, or until they
+# hold `sm$max_draws` draws each. The first round gives each chain
+# ess / chains draws; each further round continues every chain from where it
+# stopped (its state: the draws are those of one chain run at once) by the
+# draws the slowest input's ESS says are missing, a fifth more, and at least
+# twice the draws held while R-hat is above its target. Inputs held to a
+# point are not judged. The runs carry attribute `stopping`.
+chain_rounds <- function(run, spec, sm, chains) {
+  n <- min(sm$max_draws, max(20L, as.integer(ceiling(sm$ess / chains))))
+  runs <- run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = n, resume = NULL)))
+  judged <- judged_inputs(spec)
+  rounds <- 1L
+  repeat {
+    chk <- chain_convergence(runs, judged, spec$inputs)
+    met <- chk$ess >= sm$ess && (is.na(chk$rhat) || chk$rhat <= sm$rhat)
+    if (met || n >= sm$max_draws) break
+    need <- n * max(1, 1.2 * sm$ess / max(chk$ess, 1))
+    if (!is.na(chk$rhat) && chk$rhat > sm$rhat) need <- max(need, 2 * n)
+    more <- as.integer(min(sm$max_draws - n, max(20, ceiling(need) - n)))
+    if (!isTRUE(sm$quiet)) {
+      wv_inform(c("i" = sprintf("Chains continued by %d draws each: the slowest input's ESS is %s of %s%s.", more,
+                                round(chk$ess), sm$ess,
+                                if (is.na(chk$rhat)) "" else sprintf(", the largest R-hat %.3f (target %s)",
+                                                                     chk$rhat, sm$rhat))))
+    }
+    more_runs <- run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = more, resume = runs[[ch]]$state)))
+    runs <- Map(join_chain_runs, runs, more_runs)
+    n <- n + more
+    rounds <- rounds + 1L
+  }
+  attr(runs, "stopping") <- list(ess_target = sm$ess, rhat_target = sm$rhat, max_draws = sm$max_draws, met = met,
+                                 draws = n, rounds = rounds, ess = chk$ess, rhat = chk$rhat, slowest = chk$slowest)
+  runs
+}
+
+# The inputs whose draws the stopping rule judges: those with a range wider
+# than a point (held inputs are not).
+judged_inputs <- function(spec) {
+  lo <- spec$priors$lower
+  hi <- spec$priors$upper
+  if (is.null(lo) || is.null(hi)) return(seq_along(spec$inputs))
+  which(hi - lo > 1e-5 * pmax(abs(hi), abs(lo), 1))
+}
+
+# The slowest judged input's ESS (all chains) and the largest R-hat (NA with
+# one chain or none judged).
+chain_convergence <- function(runs, judged, inputs) {
+  if (!length(judged)) return(list(ess = Inf, rhat = NA_real_, slowest = NA_character_))
+  ml <- coda::mcmc.list(lapply(runs, function(r) coda::mcmc(r$inputs[, judged, drop = FALSE])))
+  ess <- coda::effectiveSize(ml)
+  rhat <- NA_real_
+  if (length(runs) >= 2L) {
+    rhat <- tryCatch(max(coda::gelman.diag(ml, autoburnin = FALSE, multivariate = FALSE)$psrf[, 1]),
+                     error = function(e) NA_real_)
+  }
+  list(ess = min(ess), rhat = rhat, slowest = inputs[judged][which.min(ess)])
+}
+
+# One chain's draws of two rounds, the second continuing the first: the draws
+# stacked, the acceptance rates weighted by the draws, the state the second's.
+join_chain_runs <- function(a, b) {
+  ha <- nrow(a$inputs)
+  hb <- nrow(b$inputs)
+  w <- function(x, y) if (is.na(x)) y else if (is.na(y)) x else (ha * x + hb * y) / (ha + hb)
+  out <- a
+  for (nm in c("inputs", "tau2", "reg_shift")) out[[nm]] <- rbind(a[[nm]], b[[nm]])
+  for (nm in c("sigma2", "wb", "wM")) out[[nm]] <- Map(rbind, a[[nm]], b[[nm]])
+  for (nm in c("acc_tau", "acc_input", "acc_global", "acc_noise")) out[[nm]] <- w(a[[nm]], b[[nm]])
+  out$state <- b$state
+  out
+}
+
+# The function a chain's future evaluates, on a job list(chain, n_draws,
+# resume): its environment holds only what the chain needs (the sampler's
+# spec, settings and seed). On the suspension test bed (2 sites, 431
+# coefficients each, 66 runs) that is 30 MiB per chain. A job with `resume`
+# (a chain's state) continues that chain, without burn-in.
 chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
   # forced, so that no promise carries the caller's frame to the worker
   force(sm)
@@ -43,8 +127,9 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight,
                reg_shift_var = spec$reg_shift_var)
   rm(tau)
-  function(ch) {
-    n_draws <- sm$n_draws
+  function(job) {
+    ch <- job$chain
+    n_draws <- job$n_draws
     progress <- NULL
     if (!isTRUE(sm$quiet)) {
       id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
@@ -59,7 +144,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                      n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
                      informs = as.integer(spec$informs %||% integer(0)),
                      temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1),
-                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else as.numeric(spec$reg_shift_var))
+                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else as.numeric(spec$reg_shift_var),
+                     resume = job$resume)
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
 }

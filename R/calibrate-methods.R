@@ -44,7 +44,7 @@ print.wv_fit <- function(x, ...) {
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
   cli::cat_line("(sd_ratio: posterior sd / prior sd; near 1 the data say little of the input)")
-  for (line in sampling_speed_lines(x)) cli::cat_line(line)
+  for (line in c(stopping_lines(x), sampling_speed_lines(x))) cli::cat_line(line)
   for (line in prior_lines(x$prior_iu, x$conditions)) cli::cat_line(line)
   for (line in noise_lines(x)) cli::cat_line(line)
   for (line in shared_error_lines(x)) cli::cat_line(line)

@@ -140,6 +140,20 @@
 #' (`future.apply::future_lapply()`), so `future::plan()` decides where chains
 #' run, and `seed` alone decides the draws (see section Where the work runs).
 #'
+#' @section Stopping:
+#' By default (`sampler_control(n_draws = NULL)`) the chains stop when they
+#' have enough: every input's effective sample size, all chains together, at
+#' least `ess` (400) and, with two chains or more, its R-hat at most `rhat`
+#' (1.05), or at `max_draws` draws per chain (1000) with a warning. The
+#' chains first run `ess / chains` draws each after a burn-in sized to them;
+#' then, while a target is unmet, every chain continues from where it
+#' stopped (the draws are those of the same chain run at once: the package's
+#' tests compare them bit for bit) by the draws the slowest input's ESS says
+#' are missing, a fifth more, or twice its draws while R-hat is above its
+#' target. The print of the fit says where the chains stopped and why, and
+#' the slowest input's effective draws per second. A number for `n_draws`
+#' gives chains of that length.
+#'
 #' @section Where the work runs:
 #' The chains here, the emulators' fits in [fit_emulators()] (chunks of
 #' coefficients) and the strata of [hold_inputs()] are futures: the plan set
@@ -341,7 +355,8 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
   check_sigma2(bias$sigma2, names(field$curves))
   sm <- sampler
   if (is.null(sm$burnin)) {
-    sm$burnin <- if (sm$proposal == "adaptive") max(5000, floor(sm$n_draws * sm$n_inner / 4)) else 0
+    n <- sm$n_draws %||% min(sm$max_draws, max(20, ceiling(sm$ess / chains)))
+    sm$burnin <- if (sm$proposal == "adaptive") max(5000, floor(n * sm$n_inner / 4)) else 0
   }
   free <- free_cores()
   if (sm$threads > free) {
@@ -389,7 +404,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   runs <- run_chains(spec, sm, chains, seed, tau)
   t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
-                      settings = list(n_draws = sm$n_draws, n_inner = sm$n_inner, chains = chains,
+                      settings = list(n_draws = nrow(runs[[1L]]$inputs), n_inner = sm$n_inner, chains = chains,
                                       step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,
                                       burnin = sm$burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
@@ -399,6 +414,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
                       seed = seed)
   fit$shared_errors <- shared
   fit$sampling_seconds <- t_sampling
+  fit$stopping <- attr(runs, "stopping")
   fit$prior_sd <- prior_sds(fit$prior_iu)
   fit$conditions <- fit_condition_table(iu, experiments)
   if (!is.null(experiments)) {

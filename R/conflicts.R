@@ -83,6 +83,8 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   ctl <- fit_controls(fit)
   sampler <- ctl$sampler
   sampler$quiet <- TRUE
+  # each stratum as long as the fit's chains: equal shares of the prior
+  if (is.null(sampler$n_draws)) sampler$n_draws <- fit$settings$n_draws
   seed <- fit$seed %||% 1L
   label <- sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "), if (length(inputs) == 1L) "its" else "their")
   tasks <- lapply(seq_len(strata), function(k) list(iu = held_iu(fit, values[k, ]), seed = seed + k))

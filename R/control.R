@@ -118,9 +118,18 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' They change how well the posterior is explored, not which posterior it is.
 #' The number of chains and the seed stay arguments of [calibrate()].
 #'
-#' @param n_draws Draws saved per chain.
+#' @param n_draws Draws saved per chain: a number for chains of that
+#'   length, or `NULL` (default) for chains that stop when they have enough
+#'   (`ess`, `rhat`, `max_draws`; see the section Stopping of [calibrate()]).
 #' @param n_inner Metropolis-Hastings cycles between saved draws (the
 #'   thinning); `sigma2` is drawn anew every `n_inner` cycles.
+#' @param ess,rhat With `n_draws = NULL`, the targets: every input's
+#'   effective sample size, all chains together (`coda::effectiveSize()`), at
+#'   least `ess` (default 400), and with two chains or more its potential
+#'   scale reduction factor (`coda::gelman.diag()`) at most `rhat` (default
+#'   1.05). Inputs held to a point are not judged.
+#' @param max_draws With `n_draws = NULL`, the ceiling: draws per chain at
+#'   most (default 1000); a chain that reaches it without the targets warns.
 #' @param step Half-width of the local proposal as a fraction of each input's
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
 #' @param proposal `"adaptive"` (default) or `"report"`; see the section
@@ -129,8 +138,10 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #'   `"adaptive"` sampler makes an independence move; 0 (default) keeps the
 #'   report's mixture step as the global move, in a tenth of the cycles.
 #' @param burnin Cycles run before the first saved draw and discarded. `NULL`
-#'   gives `max(5000, n_draws * n_inner / 4)` for `"adaptive"`, whose proposal
-#'   adapts during these cycles, and 0 for `"report"`.
+#'   gives `max(5000, n * n_inner / 4)` for `"adaptive"`, whose proposal
+#'   adapts during these cycles (`n` the draws per chain, or with
+#'   `n_draws = NULL` the first round's `ess / chains`), and 0 for
+#'   `"report"`.
 #' @param n_search Number of draws from the prior of the inputs searched,
 #'   with the nominal point, for the start of each chain's burn-in under
 #'   `"adaptive"` (the best by profile likelihood; 0 starts at the nominals).
@@ -148,14 +159,19 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #'   [calibrate()].
 #' @export
 #' @examples
+#' # chains that stop when every input has 400 effective draws and R-hat 1.05
 #' sampler_control()
+#' # a fixed length
 #' sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
-sampler_control <- function(n_draws = 1000, n_inner = 200, step = 0.1, proposal = c("adaptive", "report"),
+sampler_control <- function(n_draws = NULL, n_inner = 200, step = 0.1, proposal = c("adaptive", "report"),
                             global_moves = 0, burnin = NULL, n_search = 200,
                             threads = getOption("wavevalid.threads", 1L),
-                            quiet = getOption("wavevalid.quiet", FALSE)) {
-  check_number(n_draws, min = 1, integer = TRUE)
+                            quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05, max_draws = 1000) {
+  if (!is.null(n_draws)) check_number(n_draws, min = 1, integer = TRUE)
   check_number(n_inner, min = 1, integer = TRUE)
+  check_number(ess, min = 10, max = 1e7)
+  check_number(rhat, min = 1.0001, max = 2)
+  check_number(max_draws, min = 20, max = 1e7, integer = TRUE)
   check_number(step, min = 1e-6, max = 1)
   proposal <- check_choice(proposal)
   check_number(global_moves, min = 0, max = 0.99)
@@ -165,7 +181,7 @@ sampler_control <- function(n_draws = 1000, n_inner = 200, step = 0.1, proposal 
   check_flag(quiet)
   structure(list(n_draws = n_draws, n_inner = n_inner, step = step, proposal = proposal,
                  global_moves = global_moves, burnin = burnin, n_search = n_search, threads = threads,
-                 quiet = quiet),
+                 quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws),
             class = "wv_sampler_control")
 }
 

@@ -56,6 +56,12 @@ prior_mass <- function(pr, k, zone) {
 }
 
 warn_fit_flags <- function(fit) {
+  st <- fit$stopping
+  if (!is.null(st) && !isTRUE(st$met)) {
+    wv_warn(c("The chains reached their ceiling of {st$draws} draws each without the targets.",
+              "*" = "The slowest input, {.val {st$slowest}}, has an ESS of {round(st$ess)} (target {st$ess_target}){if (is.na(st$rhat)) '' else sprintf('; the largest R-hat is %.3f (target %s)', st$rhat, st$rhat_target)}.",
+              "i" = "Raise {.arg max_draws} or {.arg n_inner} in {.fn sampler_control}."), class = "mixing")
+  }
   f <- fit$flags
   if (length(f$rhat)) {
     wv_warn(c("The chains have not mixed: R-hat > 1.1 for {.val {f$rhat}}.",

@@ -69,6 +69,22 @@ experiment_lines <- function(fit) {
     lines)
 }
 
+# How the chains' length was set: stopped on the targets (or at the
+# ceiling), or fixed.
+stopping_lines <- function(x) {
+  st <- x$stopping
+  if (is.null(st)) return(character(0))
+  rh <- if (is.na(st$rhat)) "" else sprintf(" and R-hat at most %s (largest %.3f)", st$rhat_target, st$rhat)
+  if (isTRUE(st$met)) {
+    sprintf("Chains stopped at %d draws each (%d round%s), when every input had an ESS of %s%s (slowest %s, %s)",
+            st$draws, st$rounds, if (st$rounds == 1L) "" else "s", st$ess_target, rh, st$slowest, round(st$ess))
+  } else {
+    sprintf("! Chains stopped at their ceiling of %d draws each without the targets: ESS %s wanted, the slowest input %s has %s%s",
+            st$draws, st$ess_target, st$slowest, round(st$ess),
+            if (is.na(st$rhat)) "" else sprintf("; R-hat %.3f (target %s)", st$rhat, st$rhat_target))
+  }
+}
+
 # The chains' wall time and the slowest input's effective draws per second
 # (all chains together), for the print of a fit.
 sampling_speed_lines <- function(x) {

@@ -25,7 +25,7 @@ const char* const kRequired[] = {"n_groups", "z_init", "tau2_init", "fix_tau2", 
                                  "n_inner", "step", "seed", "chain"};
 const char* const kOptional[] = {"debug_break", "progress", "adaptive", "burnin", "p_global", "p_indep",
                                  "n_search", "threads", "informs", "temper", "input_weight",
-                                 "reg_shift_var"};
+                                 "reg_shift_var", "resume"};
 
 bool has_entry(const Rcpp::List& x, const char* name) {
   return x.containsElementNamed(name);
@@ -64,6 +64,17 @@ Eigen::VectorXd required_vector(const Rcpp::List& x, const char* name) {
   if (TYPEOF(v) != REALSXP && TYPEOF(v) != INTSXP)
     Rcpp::stop("settings: entry '%s' must be a numeric vector", name);
   return Rcpp::as<Eigen::VectorXd>(v);
+}
+
+// A chain's state as a list, which settings$resume takes back.
+Rcpp::List state_list(const wavevalid::ChainState& c) {
+  return Rcpp::List::create(
+      Rcpp::Named("z") = c.z, Rcpp::Named("tau2") = c.tau2, Rcpp::Named("a") = c.a,
+      Rcpp::Named("eta") = Rcpp::wrap(c.eta), Rcpp::Named("eta_step") = Rcpp::wrap(c.eta_step),
+      Rcpp::Named("walk_chol") = c.walk_chol, Rcpp::Named("ind_chol") = c.ind_chol,
+      Rcpp::Named("ind_mean") = c.ind_mean, Rcpp::Named("has_indep") = c.has_indep,
+      Rcpp::Named("log_t_const") = c.log_t_const, Rcpp::Named("log_box") = c.log_box,
+      Rcpp::Named("rng") = c.rng);
 }
 
 ChainSettings read_settings(const Rcpp::List& x) {
@@ -116,6 +127,24 @@ ChainSettings read_settings(const Rcpp::List& x) {
   if (set.debug_break == 7) set.input_weight = 1.0;
   if (has_entry(x, "reg_shift_var") && !Rf_isNull(x["reg_shift_var"]))
     set.reg_shift_var = Rcpp::as<Eigen::VectorXd>(x["reg_shift_var"]);
+  if (has_entry(x, "resume") && !Rf_isNull(x["resume"])) {
+    Rcpp::List st = x["resume"];
+    wavevalid::ChainState& c = set.state;
+    c.z = required_vector(st, "z");
+    c.tau2 = required_vector(st, "tau2");
+    c.a = required_vector(st, "a");
+    const Eigen::VectorXd eta = required_vector(st, "eta"), eta_step = required_vector(st, "eta_step");
+    c.eta.assign(eta.data(), eta.data() + eta.size());
+    c.eta_step.assign(eta_step.data(), eta_step.data() + eta_step.size());
+    c.walk_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "walk_chol"));
+    c.ind_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "ind_chol"));
+    c.ind_mean = required_vector(st, "ind_mean");
+    c.has_indep = required_scalar<bool>(st, "has_indep");
+    c.log_t_const = required_scalar<double>(st, "log_t_const");
+    c.log_box = required_scalar<double>(st, "log_box");
+    c.rng = Rcpp::as<std::string>(required_entry(st, "rng"));
+    set.resume = true;
+  }
   if (has_entry(x, "progress")) {
     SEXP progress = x["progress"];
     out.progress = progress;
@@ -301,7 +330,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_burnin") = out.n_burn > 0 ? out.acc_burn / out.n_burn : NA_REAL,
       Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
       Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov,
-      Rcpp::Named("reg_shift") = out.reg_shift);
+      Rcpp::Named("reg_shift") = out.reg_shift, Rcpp::Named("state") = state_list(out.end));
 }
 
 // Log prior density of the inputs at each row of Z (own units), as the

@@ -61,6 +61,7 @@
 #include <limits>
 #include <cstdint>
 #include <stdexcept>
+#include <sstream>
 #include "gasp_predict.h"
 #include "sampler_model.h"
 #include "sampler_state.h"
@@ -87,14 +88,15 @@ class Sampler : public SamplerState {
       out.sigma2[s].resize(H, n); out.wb[s].resize(H, n); out.wM[s].resize(H, n);
     }
     z_ = set_.z_init;
-    predict_all(z_, m_, v_);
     tau2_ = Eigen::VectorXd::Zero(G_);
     sigbar_ = Eigen::VectorXd::Zero(G_);
     tau_ready_ = false;
     walk_.init(priors_);
+    if (set_.resume) restore(set_.state);
+    predict_all(z_, m_, v_);
 
     // Burn-in: blocks of n_inner cycles, sigma2 drawn at the start of each.
-    if (set_.burnin > 0) {
+    if (set_.burnin > 0 && !set_.resume) {
       draw_sigma2();
       init_tau2();
       tau_ready_ = true;
@@ -102,7 +104,7 @@ class Sampler : public SamplerState {
     }
     out.z_start = z_;
     int done = 0, since_report = 0;
-    while (done < set_.burnin) {
+    while (!set_.resume && done < set_.burnin) {
       if (done > 0) draw_sigma2();
       refresh_cache();
       double ll = loglik(tau2_);
@@ -114,7 +116,7 @@ class Sampler : public SamplerState {
       since_report += len;
       if (since_report >= 50 * set_.n_inner) { progress(0); since_report = 0; }
     }
-    if (set_.adaptive) walk_.freeze();
+    if (set_.adaptive && !set_.resume) walk_.freeze();
     acc_tau_ = n_tau_ = acc_input_ = n_input_ = acc_global_ = n_global_ = 0;
     acc_noise_ = n_noise_ = 0;
     out.acc_burn = acc_burn_; out.n_burn = n_burn_;
@@ -136,11 +138,43 @@ class Sampler : public SamplerState {
     out.acc_global = acc_global_; out.n_global = n_global_;
     out.acc_noise = acc_noise_; out.n_noise = n_noise_;
     out.prop_cov = set_.adaptive ? walk_.covariance() : Eigen::MatrixXd();
+    save(out.end);
     return out;
   }
 
  private:
   bool tau_ready_ = false;
+
+  // Where the chain stands, and back: a chain continued from its state draws
+  // what the chain run at once would have drawn next.
+  void save(ChainState& st) const {
+    st.z = z_;
+    st.tau2 = tau_ready_ ? tau2_ : Eigen::VectorXd();
+    st.a = a_;
+    st.eta = eta_;
+    st.eta_step = eta_step_;
+    walk_.save(st);
+    std::ostringstream os;
+    os << rng_ << ' ' << norm_;
+    st.rng = os.str();
+  }
+  void restore(const ChainState& st) {
+    if (st.z.size() != p_ || st.tau2.size() != G_ || st.a.size() != K_ ||
+        st.eta.size() != eta_.size() || st.eta_step.size() != eta_step_.size())
+      throw std::invalid_argument("a chain's state does not match the sampler");
+    z_ = st.z;
+    tau2_ = st.tau2;
+    tau_ready_ = true;
+    a_ = st.a;
+    for (SiteData& d : sites_)
+      if (d.shift_U.cols() > 0) d.wbar = d.wbar0 - d.shift_U * a_;
+    eta_ = st.eta;
+    eta_step_ = st.eta_step;
+    if (set_.adaptive) walk_.restore(st);
+    std::istringstream is(st.rng);
+    is >> rng_ >> norm_;
+    if (is.fail()) throw std::invalid_argument("a chain's state has an unreadable random number stream");
+  }
 
   // One MH cycle; `burn_it` >= 0 is the burn-in iteration (adaptation on).
   double cycle(double ll, int burn_it) {

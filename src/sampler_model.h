@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <vector>
 #include "gasp_predict.h"
 
@@ -195,6 +196,20 @@ inline double log_prior(const std::vector<InputPrior>& priors, const std::vector
   return lp;
 }
 
+// Where a chain stands after its last saved draw: what a continuation needs
+// to go on exactly as the chain would have (the inputs, tau2, the
+// registration's shifts, the learned noise and its step, the frozen random
+// walk and the random number streams, as text).
+struct ChainState {
+  Eigen::VectorXd z, tau2, a;
+  std::vector<double> eta, eta_step;
+  Eigen::MatrixXd walk_chol, ind_chol;
+  Eigen::VectorXd ind_mean;
+  bool has_indep = false;
+  double log_t_const = 0.0, log_box = 0.0;
+  std::string rng;
+};
+
 struct SamplerSettings {
   int n_draws = 1000;
   int n_inner = 200;
@@ -221,6 +236,8 @@ struct SamplerSettings {
                                     // (a cut: its tau2 and bias follow the inputs); empty: all inform
   double temper = 1.0;              // power of the likelihood in the target (1: the method's posterior)
   Eigen::VectorXd reg_shift_var;    // K, prior variances of the registration's shifts (empty: none)
+  bool resume = false;              // continue from `state` (no burn-in, no start search, z_init unused)
+  ChainState state;
   double input_weight = 1.0;        // power of the likelihood in the inputs' steps alone: the magnitude
                                     // adjustment of the composite likelihood for errors that the
                                     // coefficients share (1: the coefficients independent, the method's)
@@ -236,6 +253,7 @@ struct SamplerOutput {
   double acc_noise = 0, n_noise = 0;  // learned-noise steps after the burn-in
   Eigen::MatrixXd prop_cov;  // frozen random-walk covariance (ADAPTIVE)
   Eigen::MatrixXd reg_shift; // H x K, the registration's shifts (K = 0: none)
+  ChainState end;            // where the chain stands after its last draw
 };
 
 // One coefficient's bias and model output given the inputs (emulator mean m

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 #include "sampler_model.h"
 
@@ -133,6 +134,27 @@ class AdaptiveWalk {
   }
 
   Eigen::MatrixXd covariance() const { return chol_ * chol_.transpose(); }
+
+  // The frozen walk, kept in and taken from a chain's state.
+  void save(ChainState& st) const {
+    st.walk_chol = std::exp(log_scale_) * chol_;
+    st.has_indep = has_indep_;
+    st.ind_chol = ind_chol_;
+    st.ind_mean = ind_mean_;
+    st.log_t_const = log_t_const_;
+    st.log_box = log_box_;
+  }
+  void restore(const ChainState& st) {
+    if (st.walk_chol.rows() != p_ || st.walk_chol.cols() != p_)
+      throw std::invalid_argument("a chain's state has a walk of the wrong size");
+    chol_ = st.walk_chol;
+    log_scale_ = 0.0;
+    has_indep_ = st.has_indep;
+    ind_chol_ = st.ind_chol;
+    ind_mean_ = st.ind_mean;
+    log_t_const_ = st.log_t_const;
+    log_box_ = st.log_box;
+  }
 
  private:
   int p_ = 0;

@@ -142,3 +142,17 @@ shift_draws <- function(sp, lik, seed, n_draws = 300) {
                                     sampler = sampler_control(n_draws = n_draws, n_inner = 10, quiet = TRUE)))
   list(u1 = as.matrix(fit$draws)[, "u1"], weight = fit$shared_errors$weight %||% 1)
 }
+
+# One input, one tau2 group, sigma2 known: the posterior of (u1, tau2) is
+# computable on a grid.
+grid_problem <- function() {
+  pb <- small_problem(two_inputs = FALSE, level = 4L)
+  n <- length(pb$basis$index)
+  R <- 3
+  sd_eps <- 0.6
+  bank <- pb$emulators$banks$site1
+  pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(0.3, 1))
+  W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) +
+    matrix(stats::rnorm(R * n, 0, sd_eps), R, n)
+  list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = sd_eps^2, R = R, wbar = colMeans(W))
+}

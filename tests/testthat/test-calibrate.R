@@ -75,20 +75,6 @@ test_that("simulation-based calibration at a small size: ranks are uniform for b
   expect_true(all(p_adaptive > 0.01), label = paste(signif(p_adaptive, 3), collapse = ", "))
 })
 
-# One input, one tau2 group, sigma2 known: the posterior of (u1, tau2) is
-# computable on a grid.
-grid_problem <- function() {
-  pb <- small_problem(two_inputs = FALSE, level = 4L)
-  n <- length(pb$basis$index)
-  R <- 3
-  sd_eps <- 0.6
-  bank <- pb$emulators$banks$site1
-  pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(0.3, 1))
-  W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) +
-    matrix(stats::rnorm(R * n, 0, sd_eps), R, n)
-  list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = sd_eps^2, R = R, wbar = colMeans(W))
-}
-
 grid_marginals <- function(gp, temper = 1) {
   bank <- gp$pb$emulators$banks$site1
   u <- seq(0.0005, 0.9995, by = 0.001)

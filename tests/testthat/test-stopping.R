@@ -1,0 +1,78 @@
+# Chains that stop when they have enough: a chain continued from its state
+# draws what the chain run at once draws; the rounds stop on the targets.
+
+resume_setup <- function(n_inner = 5L, adaptive = TRUE) {
+  withr::local_seed(11)
+  gp <- grid_problem()
+  spec <- calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  tau <- resolve_fix_tau2(NULL, spec$groups)
+  sm <- sampler_control(n_inner = n_inner, proposal = if (adaptive) "adaptive" else "report", burnin = 300,
+                        quiet = TRUE)
+  list(gp = gp, spec = spec, tau = tau, sm = sm, worker = chain_worker(spec, sm, seed = 5, tau, 0L, 0.1))
+}
+
+test_that("a chain continued from its state draws what the chain run at once draws", {
+  for (adaptive in c(TRUE, FALSE)) {
+    s <- resume_setup(adaptive = adaptive)
+    whole <- s$worker(list(chain = 2L, n_draws = 30L, resume = NULL))
+    first <- s$worker(list(chain = 2L, n_draws = 18L, resume = NULL))
+    rest <- s$worker(list(chain = 2L, n_draws = 12L, resume = first$state))
+    joined <- join_chain_runs(first, rest)
+    expect_identical(joined$inputs, whole$inputs)
+    expect_identical(joined$tau2, whole$tau2)
+    expect_identical(joined$wb, whole$wb)
+    expect_identical(joined$sigma2, whole$sigma2)
+    expect_identical(joined$state, whole$state)
+    # the continuation is not a fresh chain: without the state the draws differ
+    expect_false(identical(s$worker(list(chain = 2L, n_draws = 12L, resume = NULL))$inputs, rest$inputs))
+  }
+})
+
+test_that("a state that does not match the sampler is refused", {
+  s <- resume_setup()
+  st <- s$worker(list(chain = 1L, n_draws = 5L, resume = NULL))$state
+  bad <- st
+  bad$z <- c(bad$z, 0.5)
+  expect_error(s$worker(list(chain = 1L, n_draws = 5L, resume = bad)), "does not match")
+  bad <- st
+  bad$rng <- "not a stream"
+  expect_error(s$worker(list(chain = 1L, n_draws = 5L, resume = bad)), "random number stream")
+})
+
+test_that("the chains stop when every input's ESS and R-hat meet the targets, or warn at the ceiling", {
+  gp <- grid_problem()
+  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3,
+                   bias = bias_control(sigma2 = gp$sigma2),
+                   sampler = sampler_control(n_inner = 5, ess = 150, quiet = TRUE))
+  st <- fit$stopping
+  expect_true(st$met)
+  expect_identical(nrow(fit$draws[[1]]), as.integer(st$draws))
+  expect_identical(fit$settings$n_draws, as.integer(st$draws))
+  ess <- coda::effectiveSize(fit$draws)[fit$inputs]
+  expect_gte(min(ess), 150)
+  expect_equal(unname(min(ess)), st$ess)
+  expect_lte(st$rhat, 1.05)
+  # the first round holds ess / chains draws; a round more only when the targets were not met there
+  expect_gte(st$draws, 75L)
+  expect_match(capture.output(print(fit)), "Chains stopped at [0-9]+ draws each", all = FALSE)
+  # a target the ceiling cannot reach: the chains stop there and warn
+  expect_warning(short <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3,
+                                    bias = bias_control(sigma2 = gp$sigma2),
+                                    sampler = sampler_control(n_inner = 1, ess = 5000, max_draws = 60, quiet = TRUE)),
+                 class = "wavevalid_warning_mixing")
+  expect_false(short$stopping$met)
+  expect_identical(nrow(short$draws[[1]]), 60L)
+  expect_match(capture.output(print(short)), "ceiling of 60 draws", all = FALSE)
+  # a fixed length has no stopping rule
+  fixed <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 1, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
+                     sampler = sampler_control(n_draws = 40, n_inner = 5, quiet = TRUE))
+  expect_null(fixed$stopping)
+  expect_identical(nrow(fixed$draws[[1]]), 40L)
+})
+
+test_that("sampler_control() refuses targets it cannot use", {
+  expect_error(sampler_control(ess = 0), class = "wavevalid_error")
+  expect_error(sampler_control(rhat = 1), class = "wavevalid_error")
+  expect_error(sampler_control(max_draws = 5), class = "wavevalid_error")
+  expect_null(sampler_control()$n_draws)
+})
