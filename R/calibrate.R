@@ -404,7 +404,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   runs <- run_chains(spec, sm, chains, seed, tau)
   t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
-                      settings = list(n_draws = nrow(runs[[1L]]$inputs), n_inner = sm$n_inner, chains = chains,
+                      settings = list(n_draws = sm$n_draws %||% nrow(runs[[1L]]$inputs), n_inner = sm$n_inner, chains = chains,
                                       step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,
                                       burnin = sm$burnin,
                                       fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
