@@ -100,7 +100,14 @@ sizes_all <- list(
 # (at most 200, so that the burn-in stays 5000 cycles); shorter at the large
 # size, whose cycles cost tens of times the base's
 n_inner_long <- c(base = 200L, sites = 200L, points = 200L, runs = 200L, experiments = 200L, large = 60L)
-default_cycles <- 2 * (1000 * 200 + max(5000, 1000 * 200 / 4))  # two chains of the default sampler
+# two chains of 1000 x 200 (the fixed length that was the default, and the
+# stopping rule's ceiling)
+default_cycles <- 2 * (1000 * 200 + max(5000, 1000 * 200 / 4))
+# two chains of the default stopping rule's first round, ess / chains = 200
+# draws of 200 cycles after a burn-in of max(5000, 200 * 200 / 4): enough
+# when every saved draw is about one effective draw, as on the test beds
+# (studies/stopping.R); a second round adds what the ESS lacks
+stop_cycles <- 2 * (200 * 200 + max(5000, 200 * 200 / 4))
 
 args <- commandArgs(trailingOnly = TRUE)
 child <- length(args) >= 1L && args[1] == "--one"
@@ -285,7 +292,9 @@ for (size in sizes) {
     before <- sum(tab[[col]][tab$phase %in% c("preflight", "register", "wavelet_basis", "fit_emulators",
                                                "register_experiments")])
     proj_cal <- short + (default_cycles - short_cycles) * per_cycle
-    c(per_1000 = 1000 * per_cycle, proj_cal = proj_cal, before = before, proj_validate = before + proj_cal)
+    proj_stop <- short + (stop_cycles - short_cycles) * per_cycle
+    c(per_1000 = 1000 * per_cycle, proj_cal = proj_cal, before = before, proj_validate = before + proj_cal,
+      proj_stop = proj_stop, proj_validate_stop = before + proj_stop)
   }
   r$elapsed <- cyc("sec")
   r$cpu <- cyc("cpu")
@@ -297,8 +306,10 @@ for (size in sizes) {
                    R_peak_MiB = round(tab$r_mib, 1), RSS_peak_MiB = round(tab$rss_mib, 1), reps = tab$reps), row.names = FALSE)
   for (w in c("elapsed", "cpu")) {
     v <- r[[w]]
-    cat(sprintf("%-7s calibrate: %.3f s per 1000 Metropolis-Hastings cycles (both chains' cycles counted); default sampler_control() (%d cycles) projected %.0f s; validate() with it %.0f s (%.1f s before calibrate())\n",
+    cat(sprintf("%-7s calibrate: %.3f s per 1000 Metropolis-Hastings cycles (both chains' cycles counted); 2 chains of 1000 x 200 (%d cycles) projected %.0f s; validate() with them %.0f s (%.1f s before calibrate())\n",
                 w, v[["per_1000"]], default_cycles, v[["proj_cal"]], v[["proj_validate"]], v[["before"]]))
+    cat(sprintf("%-7s the stopping rule's first round (%d cycles) projected %.0f s; validate() with it %.0f s\n",
+                w, stop_cycles, v[["proj_stop"]], v[["proj_validate_stop"]]))
   }
   cat(sprintf("peak RSS over the phases %.0f MiB\n", max(tab$rss_mib)))
 }
