@@ -152,7 +152,11 @@
 #' are missing, a fifth more, or twice its draws while R-hat is above its
 #' target. The print of the fit says where the chains stopped and why, and
 #' the slowest input's effective draws per second. A number for `n_draws`
-#' gives chains of that length.
+#' gives chains of that length. On the test beds (two chains, nothing
+#' hidden) the chains stopped after two rounds, at 266-303 draws of 50
+#' cycles on the dosing bed (18-22 s of sampling; 273 s for the former
+#' fixed 1000 draws of 200 cycles) and at 283 on the suspension (66 s), with
+#' the same findings.
 #'
 #' @section Where the work runs:
 #' The chains here, the emulators' fits in [fit_emulators()] (chunks of

@@ -122,7 +122,11 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #'   length, or `NULL` (default) for chains that stop when they have enough
 #'   (`ess`, `rhat`, `max_draws`; see the section Stopping of [calibrate()]).
 #' @param n_inner Metropolis-Hastings cycles between saved draws (the
-#'   thinning); `sigma2` is drawn anew every `n_inner` cycles.
+#'   thinning, default 50); `sigma2` is drawn anew every `n_inner` cycles.
+#'   On both test beds, with the chains stopping at 400 effective draws, a
+#'   saved draw every 50 cycles was worth 0.8-0.9 of an effective draw and
+#'   one every 200 cycles about one: 50 gave 2.3 to 3 times the effective
+#'   draws per second of 200 (`studies/stopping.R`).
 #' @param ess,rhat With `n_draws = NULL`, the targets: every input's
 #'   effective sample size, all chains together (`coda::effectiveSize()`), at
 #'   least `ess` (default 400), and with two chains or more its potential
@@ -163,7 +167,7 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' sampler_control()
 #' # a fixed length
 #' sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
-sampler_control <- function(n_draws = NULL, n_inner = 200, step = 0.1, proposal = c("adaptive", "report"),
+sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1, proposal = c("adaptive", "report"),
                             global_moves = 0, burnin = NULL, n_search = 200,
                             threads = getOption("wavevalid.threads", 1L),
                             quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05, max_draws = 1000) {

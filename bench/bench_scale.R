@@ -104,10 +104,10 @@ n_inner_long <- c(base = 200L, sites = 200L, points = 200L, runs = 200L, experim
 # stopping rule's ceiling)
 default_cycles <- 2 * (1000 * 200 + max(5000, 1000 * 200 / 4))
 # two chains of the default stopping rule's first round, ess / chains = 200
-# draws of 200 cycles after a burn-in of max(5000, 200 * 200 / 4): enough
-# when every saved draw is about one effective draw, as on the test beds
-# (studies/stopping.R); a second round adds what the ESS lacks
-stop_cycles <- 2 * (200 * 200 + max(5000, 200 * 200 / 4))
+# draws of n_inner = 50 cycles after a burn-in of max(5000, 200 * 50 / 4):
+# enough when every saved draw is about one effective draw (0.8-0.9 on the
+# test beds, studies/stopping.R); a second round adds what the ESS lacks
+stop_cycles <- 2 * (200 * 50 + max(5000, 200 * 50 / 4))
 
 args <- commandArgs(trailingOnly = TRUE)
 child <- length(args) >= 1L && args[1] == "--one"

@@ -9,14 +9,21 @@
 #   inside90      the true inputs inside their 90% intervals
 #   top           the first finding's kind; conflicts, timing, wide, longest as
 #                 in studies/false_findings.R
-#   Rscript studies/stopping.R [beds=dosing,suspension] [seeds=1] [hidden=none,first] [out=stopping.csv]
+#   Rscript studies/stopping.R [beds=dosing,suspension] [seeds=1] [hidden=none,first]
+#                              [samplers=stopping,fixed_1000] [out=stopping.csv]
+# samplers: stopping (the default), fixed_1000 (1000 x 200), stopping_<k>
+# (the stopping rule with n_inner = k).
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
-args <- study_args(list(beds = "dosing,suspension", seeds = "1", hidden = "none,first", out = "stopping.csv"))
+args <- study_args(list(beds = "dosing,suspension", seeds = "1", hidden = "none,first",
+                        samplers = "stopping,fixed_1000", out = "stopping.csv"))
 options(wavevalid.quiet = TRUE)
 bed <- testbed_beds()
-samplers <- list(stopping = sampler_control(quiet = TRUE),
-                 fixed_1000 = sampler_control(n_draws = 1000, n_inner = 200, quiet = TRUE))
+samplers <- lapply(stats::setNames(nm = arg_names(args$samplers)), function(nm) {
+  if (nm == "stopping") return(sampler_control(quiet = TRUE))
+  if (nm == "fixed_1000") return(sampler_control(n_draws = 1000, n_inner = 200, quiet = TRUE))
+  sampler_control(n_inner = as.integer(sub("^stopping_", "", nm)), quiet = TRUE)
+})
 for (b in arg_names(args$beds)) {
   hidden <- unlist(lapply(arg_names(args$hidden), function(h) if (h == "first") bed[[b]]$mechanisms()[1] else h))
   for (hd in hidden) for (seed in arg_numbers(args$seeds)) for (sm in names(samplers)) {
