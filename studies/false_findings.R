@@ -33,6 +33,7 @@
 #   Rscript studies/false_findings.R [beds=suspension,dosing] [seeds=1:5] [hidden=none,all]
 #                                    [pool_levels=coarse] [registration_variance=check]
 #                                    [n_draws=150] [n_inner=20] [chains=1] [out=false_findings.csv]
+#                                    (n_draws=default: sampler_control()'s defaults)
 #                                    [strength_upper=1] (c3: the range [0, strength_upper] of the added strength)
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
@@ -44,6 +45,12 @@ options(wavevalid.quiet = TRUE)
 pool <- if (args$pool_levels == "coarse") "coarse" else arg_value(args$pool_levels)
 rv <- if (args$registration_variance %in% c("auto", "check", "shifts")) args$registration_variance else arg_flag(args$registration_variance)
 bed <- testbed_beds()
+# n_draws=default: sampler_control()'s defaults (chains that stop on their
+# targets, a draw every 50 cycles); else a fixed length
+sampler_of <- function(args) {
+  if (identical(args$n_draws, "default")) return(sampler_control(quiet = TRUE))
+  sampler_control(n_draws = as.integer(args$n_draws), n_inner = as.integer(args$n_inner), quiet = TRUE)
+}
 steps <- function(wf, dt) {
   wf <- wf[wf$kind %in% c("interval", "covered"), ]
   if (!nrow(wf)) 0 else max(round((wf$end - wf$start) / dt))
@@ -84,8 +91,7 @@ for (b in arg_names(args$beds)) {
     tb <- bed[[b]]$make(seed = seed, hidden = hd)
     fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, features = bed[[b]]$features,
                                      bias = bias_control(pool_levels = pool, registration_variance = rv),
-                                     sampler = sampler_control(n_draws = as.integer(args$n_draws),
-                                                               n_inner = as.integer(args$n_inner), quiet = TRUE),
+                                     sampler = sampler_of(args),
                                      chains = as.integer(args$chains), seed = 1))
     dt <- diff(fit$basis$t[1:2])
     wf <- where_fails(fit)
