@@ -4,7 +4,7 @@
 # --- CSV storage ---------------------------------------------------------------
 
 testbed_files <- function() {
-  c("testbed_iu.csv", "testbed_design.csv", "testbed_runs.csv.xz", "testbed_field.csv.xz",
+  c("testbed_iu.csv", "testbed_design.csv.xz", "testbed_runs.csv.xz", "testbed_field.csv.xz",
     "testbed_reality.csv.xz", "testbed_truth.csv", "testbed_warps.csv")
 }
 
@@ -38,7 +38,7 @@ write_testbed <- function(tb, dir, digits = 6L) {
   design <- do.call(rbind, lapply(conds, function(cd) {
     cbind(condition = cd, run = seq_len(nrow(tb[[cd]]$runs$design)), tb[[cd]]$runs$design)
   }))
-  utils::write.csv(design, file.path(dir, "testbed_design.csv"), row.names = FALSE)
+  write_xz(design, "testbed_design.csv.xz")
   write_xz(do.call(rbind, lapply(conds, function(cd) wide(tb[[cd]]$runs$curves, "run", cd))),
            "testbed_runs.csv.xz")
   write_xz(do.call(rbind, lapply(conds, function(cd) wide(tb[[cd]]$field$curves, "replicate", cd))),
@@ -79,7 +79,7 @@ read_testbed <- function(dir) {
   iu_df <- rd("testbed_iu.csv")
   iu <- iu_map(iu_df$name, iu_df$type, iu_df$lower, iu_df$upper, iu_df$nominal,
                ifelse(is.na(iu_df$prior_sd), 1, iu_df$prior_sd))
-  design <- rd("testbed_design.csv")
+  design <- rd("testbed_design.csv.xz")
   runs <- rd_curves("testbed_runs.csv.xz", c("condition", "run", "site"))
   field <- rd_curves("testbed_field.csv.xz", c("condition", "replicate", "site"))
   real <- rd_curves("testbed_reality.csv.xz", c("condition", "site"))
