@@ -44,7 +44,7 @@ run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global =
 # twice the draws held while R-hat is above its target. Inputs held to a
 # point are not judged. The runs carry attribute `stopping`.
 chain_rounds <- function(run, spec, sm, chains) {
-  n <- min(sm$max_draws, max(20L, as.integer(ceiling(sm$ess / chains))))
+  n <- first_round_draws(sm, chains)
   runs <- run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = n, resume = NULL)))
   judged <- judged_inputs(spec)
   rounds <- 1L
@@ -69,6 +69,12 @@ chain_rounds <- function(run, spec, sm, chains) {
   attr(runs, "stopping") <- list(ess_target = sm$ess, rhat_target = sm$rhat, max_draws = sm$max_draws, met = met,
                                  draws = n, rounds = rounds, ess = chk$ess, rhat = chk$rhat, slowest = chk$slowest)
   runs
+}
+
+# Draws per chain of the stopping rule's first round: ess / chains, at least
+# 20, at most the ceiling (calibrate() sizes the burn-in to it).
+first_round_draws <- function(sm, chains) {
+  min(sm$max_draws, max(20L, as.integer(ceiling(sm$ess / chains))))
 }
 
 # The inputs whose draws the stopping rule judges: those with a range wider

@@ -359,7 +359,7 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
   check_sigma2(bias$sigma2, names(field$curves))
   sm <- sampler
   if (is.null(sm$burnin)) {
-    n <- sm$n_draws %||% min(sm$max_draws, max(20, ceiling(sm$ess / chains)))
+    n <- sm$n_draws %||% first_round_draws(sm, chains)
     sm$burnin <- if (sm$proposal == "adaptive") max(5000, floor(n * sm$n_inner / 4)) else 0
   }
   free <- free_cores()
