@@ -129,7 +129,7 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   # what the C++ sampler reads: by site the emulators' banks and the field's
   # coefficients, and the priors (not the basis nor the I/U map)
-  spec <- list(sites = spec$sites, priors = spec$priors, groups = spec$groups["name"], z_init = spec$z_init,
+  spec <- list(sites = shared_banks(spec$sites), priors = spec$priors, groups = spec$groups["name"], z_init = spec$z_init,
                informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight,
                reg_shift_var = spec$reg_shift_var)
   rm(tau)
@@ -154,4 +154,22 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                      resume = job$resume)
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
+}
+
+# Sites that evaluate the same emulators (the sites of an experiment and of
+# the base at the same gauge) carry one copy: a later site's bank is dropped
+# for `bank_of`, the earlier site's position (from 0), which the sampler
+# reads as that site's bank. What a chain's future carries shrinks by as
+# much.
+shared_banks <- function(sites) {
+  for (s in seq_along(sites)[-1L]) {
+    for (t in seq_len(s - 1L)) {
+      if (is.null(sites[[t]][["bank_of"]]) && identical(sites[[s]][["bank"]], sites[[t]][["bank"]])) {
+        sites[[s]][["bank"]] <- NULL
+        sites[[s]][["bank_of"]] <- t - 1L
+        break
+      }
+    }
+  }
+  sites
 }

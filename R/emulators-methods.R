@@ -343,7 +343,11 @@ loo_residuals <- function(emulators, ...) {
 bank_loo <- function(b) {
   k <- nrow(b$X)
   n <- length(b$mu)
-  Ri_diag <- matrix(vapply(seq_len(n), function(i) colSums(forwardsolve(b$chol[, , i], diag(k))^2), numeric(k)), k)
+  # diag(R^-1) once per distinct factor
+  of <- b$chol_of %||% seq_len(n)
+  m <- dim(b$chol)[3]
+  own <- matrix(vapply(seq_len(m), function(u) colSums(forwardsolve(b$chol[, , u], diag(k))^2), numeric(k)), k)
+  Ri_diag <- own[, of, drop = FALSE]
   list(e = b$weights / Ri_diag, sd = sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
 }
 

@@ -88,8 +88,10 @@
 #'
 #'   Each bank holds `X` (scaled design), `beta`, `alpha` (n x p), `mu`,
 #'   `lambda`, `nugget` (n), `weights` (K x n, `R^-1 (y - mu)`), `chol`
-#'   (K x K x n lower Cholesky factors of `R`), `y` (K x n coefficients),
-#'   `lower`, `width` (p).
+#'   (K x K x m lower Cholesky factors of `R`, each distinct factor once:
+#'   the coefficients of a level share theirs with engine `"gasp_level"`),
+#'   `chol_of` (n, the factor of each coefficient), `y` (K x n
+#'   coefficients), `lower`, `width` (p).
 #' @export
 #' @examples
 #' t <- seq(0, 1, length.out = 64)
@@ -205,7 +207,9 @@ validate_wv_emulators <- function(x, call = rlang::caller_env()) {
     b <- x$banks[[s]]
     n <- length(b$mu)
     k <- nrow(b$X)
-    if (!identical(dim(b$chol), c(k, k, n)) || !identical(dim(b$weights), c(k, n)) ||
+    m <- if (is.null(b$chol_of)) n else dim(b$chol)[3]
+    if (!identical(dim(b$chol), c(k, k, m)) || !identical(dim(b$weights), c(k, n)) ||
+        (!is.null(b$chol_of) && (length(b$chol_of) != n || anyNA(b$chol_of) || any(b$chol_of < 1L | b$chol_of > m))) ||
         !identical(dim(b$beta), c(n, p)) || !identical(dim(b$alpha), c(n, p))) {
       wv_abort("The bank of site {.val {s}} has inconsistent dimensions.", class = "state", call = call)
     }
@@ -418,7 +422,10 @@ emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
   fit <- which(!flat)
   mu <- lambda <- loglik <- numeric(n)
   weights <- matrix(0, k, n)
-  chol <- array(0, c(k, k, n))
+  # the distinct Cholesky factors, each stored once, and each coefficient's
+  # (coefficients fitted per level share theirs)
+  chol <- array(0, c(k, k, 0))
+  chol_of <- integer(n)
   if (length(fit)) {
     f <- gasp_finalize_cpp(X, Y[, fit, drop = FALSE], beta[fit, , drop = FALSE],
                            alpha[fit, , drop = FALSE], nugget[fit])
@@ -427,10 +434,12 @@ emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
     nugget[fit] <- f$nugget
     loglik[fit] <- f$loglik
     weights[, fit] <- f$weights
-    chol[, , fit] <- f$chol
+    chol <- f$chol
+    chol_of[fit] <- f$chol_of
   }
   if (any(flat)) {
-    L1 <- t(chol(matrix(1, k, k) + diag(k)))
+    m <- dim(chol)[3]
+    chol <- array(c(chol, t(chol(matrix(1, k, k) + diag(k)))), c(k, k, m + 1L))
     for (i in which(flat)) {
       mu[i] <- Y[1, i]
       lambda[i] <- 1 / (1e-8 * max(1, abs(Y[1, i])))^2
@@ -438,12 +447,16 @@ emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
       loglik[i] <- NA_real_
       beta[i, ] <- 0
       alpha[i, ] <- 0
-      chol[, , i] <- L1
+      chol_of[i] <- m + 1L
     }
   }
   list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = nugget,
-       weights = weights, chol = chol, y = Y, lower = lower, width = width, loglik = loglik)
+       weights = weights, chol = chol, chol_of = chol_of, y = Y, lower = lower, width = width, loglik = loglik)
 }
+
+# Coefficient i's Cholesky factor in bank b (K x K): its own slice of `chol`,
+# or the shared one `chol_of` points to.
+bank_factor <- function(b, i) b$chol[, , if (is.null(b$chol_of)) i else b$chol_of[i]]
 
 emulator_params <- function(site, basis, bank, converged, inputs) {
   n <- length(bank$mu)

@@ -258,8 +258,70 @@ run_one <- function(size, out_file) {
           out_file)
 }
 
+# --- validate() itself with every default, then where_fails() and the report ---
+# One call of validate() as a user makes it (windows and the second
+# experiment given, seed = 1, every other argument its default: the stopping
+# rule, two chains under the plan set in the environment variable
+# WAVEVALID_BENCH_PLAN: "sequential" (future's default) or "multisession"
+# (two workers)), its phases as fit$timing records them, the chains' rounds,
+# ESS and R-hat (fit$stopping); the process's peak RSS over validate() (the
+# workers' own, under multisession, are read from their /proc entries while
+# they run, not here: see the output's note); then where_fails() and
+# validation_report() on the fit.
+run_default <- function(size, out_file) {
+  d <- sizes_all[[size]]
+  pr <- problem(d[["S"]], d[["T"]], d[["K"]], d[["E"]])
+  plan <- Sys.getenv("WAVEVALID_BENCH_PLAN", "sequential")
+  if (plan == "multisession") future::plan(future::multisession, workers = 2)
+  options(wavevalid.quiet = FALSE)
+  fit <- measure("validate_default", validate(pr$runs, pr$field, pr$iu, windows = pr$windows,
+                                              experiments = pr$experiments, seed = 1), reps = 1L)
+  options(wavevalid.quiet = TRUE)
+  invisible(measure("where_fails", suppressWarnings(where_fails(fit)), reps = 1L))
+  if (requireNamespace("rmarkdown", quietly = TRUE) && rmarkdown::pandoc_available()) {
+    f <- tempfile(fileext = ".html")
+    invisible(measure("validation_report", suppressMessages(suppressWarnings(validation_report(fit, f))), reps = 1L))
+    unlink(f)
+  }
+  tab <- do.call(rbind, phases)
+  rownames(tab) <- NULL
+  saveRDS(list(size = size, dims = d, phases = tab, timing = fit$timing, stopping = fit$stopping, plan = plan,
+               n_coef = length(fit$basis$index %||% integer(0)), findings = nrow(where_fails(fit))),
+          out_file)
+}
+
 if (child) {
-  run_one(args[2], args[3])
+  if (length(args) >= 4L && args[4] == "default") run_default(args[2], args[3]) else run_one(args[2], args[3])
+  quit(save = "no")
+}
+
+# with "default" as the second argument: validate() with every default at
+# each size, instead of the phases one by one
+if (length(args) >= 2L && args[2] == "default") {
+  sizes <- strsplit(args[1], ",", fixed = TRUE)[[1]]
+  script <- sub("^--file=", "", grep("^--file=", commandArgs(FALSE), value = TRUE))
+  for (size in sizes) {
+    f <- tempfile(fileext = ".rds")
+    status <- system2(file.path(R.home("bin"), "Rscript"), c(script, "--one", size, f, "default"))
+    if (status != 0L || !file.exists(f)) {
+      cat(sprintf("size %s: failed (exit status %d)\n", size, status))
+      next
+    }
+    r <- readRDS(f)
+    d <- r$dims
+    cat(sprintf("\n== %s: %d sites x %d points x %d runs x %d experiment%s, validate() with every default (plan %s)\n",
+                size, d[["S"]], d[["T"]], d[["K"]], d[["E"]], if (d[["E"]] > 1) "s" else "", r$plan))
+    print(data.frame(call = r$phases$phase, elapsed_s = round(r$phases$sec, 1), cpu_s = round(r$phases$cpu, 1),
+                     R_peak_MiB = round(r$phases$r_mib), RSS_peak_MiB = round(r$phases$rss_mib)), row.names = FALSE)
+    cat("validate()'s phases (fit$timing):\n")
+    print(r$timing, row.names = FALSE)
+    st <- r$stopping
+    if (!is.null(st)) {
+      cat(sprintf("chains: %d draws each in %d round(s); smallest ESS %.0f (%s), largest R-hat %.3f; targets met: %s; findings %d\n",
+                  st$draws, st$rounds, st$ess, st$slowest, st$rhat, st$met, r$findings))
+    }
+    if (nzchar(Sys.getenv("WAVEVALID_BENCH_SAVE"))) saveRDS(r, Sys.getenv("WAVEVALID_BENCH_SAVE"))
+  }
   quit(save = "no")
 }
 

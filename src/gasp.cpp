@@ -121,24 +121,57 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
   }
   const Eigen::MatrixXd Xc = X;
   Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
+  Rcpp::IntegerVector chol_of(n);
   Eigen::MatrixXd weights(K, n);
-  Rcpp::NumericVector ch(static_cast<R_xlen_t>(K) * K * n);
+  // Coefficients with the same (beta, alpha, nugget) as an earlier one (a
+  // level's, fitted together) share its factorisation: factored once, the
+  // factor stored once (the same numbers as factoring each).
+  std::vector<int> rep;                        // the first coefficient of each factor
+  std::vector<wavevalid::GaspFactor> factors;  // kept while the coefficients are finished
+  auto same_hyper = [&](int i, int j) {
+    return nugget(i) == nugget(j) && beta.row(i) == beta.row(j) && alpha.row(i) == alpha.row(j);
+  };
+  int last = -1;
   for (int i = 0; i < n; ++i) {
     if (i % 16 == 0) Rcpp::checkUserInterrupt();
-    wavevalid::GaspFinal f = wavevalid::gasp_finalize(Xc, Y.col(i), beta.row(i).transpose(),
-                                                      alpha.row(i).transpose(), nugget(i));
+    int u = -1;
+    if (last >= 0 && same_hyper(i, rep[last])) {
+      u = last;
+    } else {
+      for (std::size_t v = 0; v < rep.size(); ++v) {
+        if (same_hyper(i, rep[v])) {
+          u = static_cast<int>(v);
+          break;
+        }
+      }
+    }
+    if (u < 0) {
+      u = static_cast<int>(rep.size());
+      rep.push_back(i);
+      factors.push_back(wavevalid::gasp_factor(Xc, beta.row(i).transpose(), alpha.row(i).transpose(), nugget(i)));
+    }
+    last = u;
+    const wavevalid::GaspFinal f = wavevalid::gasp_finish(factors[u], Y.col(i), false);
     if (!f.ok) Rcpp::stop("the correlation matrix of coefficient %d is not positive definite", i + 1);
     mu[i] = f.mu;
     lambda[i] = f.lambda;
     nug[i] = f.nugget;
     loglik[i] = f.loglik;
     weights.col(i) = f.weights;
-    std::copy(f.L.data(), f.L.data() + K * K, ch.begin() + static_cast<R_xlen_t>(i) * K * K);
+    chol_of[i] = u + 1;
   }
-  ch.attr("dim") = Rcpp::IntegerVector::create(K, K, n);
+  const R_xlen_t KK = static_cast<R_xlen_t>(K) * K;
+  const int m = static_cast<int>(factors.size());
+  Rcpp::NumericVector ch(KK * m);
+  for (int u = 0; u < m; ++u) {
+    const Eigen::MatrixXd L = factors[u].llt.matrixL();
+    std::copy(L.data(), L.data() + KK, ch.begin() + u * KK);
+  }
+  ch.attr("dim") = Rcpp::IntegerVector::create(K, K, m);
   return Rcpp::List::create(Rcpp::Named("mu") = mu, Rcpp::Named("lambda") = lambda,
                             Rcpp::Named("nugget") = nug, Rcpp::Named("loglik") = loglik,
-                            Rcpp::Named("weights") = weights, Rcpp::Named("chol") = ch);
+                            Rcpp::Named("weights") = weights, Rcpp::Named("chol") = ch,
+                            Rcpp::Named("chol_of") = chol_of);
 }
 
 // Objective of the shared-parameter fit of the columns of Y (gasp_level.h) and

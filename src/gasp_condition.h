@@ -40,8 +40,8 @@ inline void predict_augmented(const GaspBank& g, const Eigen::VectorXd& zstar, c
     g.corr_vector(i, d1n, d2n, logdn, rn);
     const double m0s = g.mu(i) + rs.dot(g.weights.col(i));
     const double m0n = g.mu(i) + rn.dot(g.weights.col(i));
-    g.L[i].triangularView<Eigen::Lower>().solveInPlace(rs);
-    g.L[i].triangularView<Eigen::Lower>().solveInPlace(rn);
+    g.chol(i).triangularView<Eigen::Lower>().solveInPlace(rs);
+    g.chol(i).triangularView<Eigen::Lower>().solveInPlace(rn);
     const double q = 1.0 - rs.squaredNorm();
     const double s0 = 1.0 - rn.squaredNorm();
     const double cov = pair_corr(g, i, zstar, znew) - rn.dot(rs);

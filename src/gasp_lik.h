@@ -253,11 +253,19 @@ struct GaspFinal {
   bool ok = false;
 };
 
-inline GaspFinal gasp_finalize(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
-                               const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
-                               double nugget) {
+// The correlation matrix of the design at (beta, alpha) and its Cholesky
+// factorisation, with the nugget raised along the ladder until R is
+// positive definite and well conditioned (ok false if it never is).
+struct GaspFactor {
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  double nugget = 0.0;
+  bool ok = false;
+};
+
+inline GaspFactor gasp_factor(const Eigen::MatrixXd& X, const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
+                              double nugget) {
   const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
-  GaspFinal out;
+  GaspFactor out;
   Eigen::MatrixXd R(K, K);
   for (int k = 0; k < K; ++k) {
     R(k, k) = 1.0;
@@ -274,29 +282,44 @@ inline GaspFinal gasp_finalize(const Eigen::MatrixXd& X, const Eigen::VectorXd& 
   static const double ladder[] = {1e-8, 1e-6, 1e-4, 1e-2, 1.0};
   std::vector<double> tries(1, nugget);
   for (double g : ladder) if (g > nugget) tries.push_back(g);
-  Eigen::LLT<Eigen::MatrixXd> llt;
   for (double g : tries) {
     Eigen::MatrixXd Rg = R;
     Rg.diagonal().array() += g;
-    llt.compute(Rg);
-    if (llt.info() == Eigen::Success && llt.rcond() >= 1e-15) {
+    out.llt.compute(Rg);
+    if (out.llt.info() == Eigen::Success && out.llt.rcond() >= 1e-15) {
       out.nugget = g;
       out.ok = true;
       break;
     }
   }
-  if (!out.ok) return out;
+  return out;
+}
+
+// mu, lambda, weights and log-likelihood of coefficient values y under a
+// factorised correlation; the factor itself in L when `with_L`.
+inline GaspFinal gasp_finish(const GaspFactor& f, const Eigen::VectorXd& y, bool with_L = true) {
+  GaspFinal out;
+  if (!f.ok) return out;
+  out.ok = true;
+  out.nugget = f.nugget;
+  const int K = static_cast<int>(y.size());
   const Eigen::VectorXd ones = Eigen::VectorXd::Ones(K);
-  const Eigen::VectorXd a = llt.solve(ones), b = llt.solve(y);
+  const Eigen::VectorXd a = f.llt.solve(ones), b = f.llt.solve(y);
   out.mu = ones.dot(b) / ones.dot(a);
   out.weights = b - out.mu * a;
   const double s2 = (y.array() - out.mu).matrix().dot(out.weights) / K;
   out.lambda = 1.0 / s2;
-  out.L = llt.matrixL();
+  if (with_L) out.L = f.llt.matrixL();
   double logdet = 0.0;
-  for (int k = 0; k < K; ++k) logdet += std::log(out.L(k, k));
+  for (int k = 0; k < K; ++k) logdet += std::log(f.llt.matrixLLT()(k, k));
   out.loglik = -0.5 * K * std::log(2.0 * M_PI * s2) - logdet - 0.5 * K;
   return out;
+}
+
+inline GaspFinal gasp_finalize(const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                               const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
+                               double nugget) {
+  return gasp_finish(gasp_factor(X, beta, alpha, nugget), y, true);
 }
 
 }  // namespace wavevalid

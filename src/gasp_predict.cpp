@@ -1,5 +1,6 @@
 // R glue for the GASP bank predictor.
 #include <RcppEigen.h>
+#include <algorithm>
 #include "gasp_predict.h"
 
 // [[Rcpp::depends(RcppEigen)]]
@@ -8,7 +9,9 @@ namespace wavevalid {
 
 // Builds a bank from the list kept in a wv_emulators object for one site:
 // X (K x p scaled design), beta, alpha (n x p), mu, lambda (n), weights (K x n),
-// chol (K x K x n array of lower Cholesky factors), lower, width (p).
+// chol (K x K x m array of lower Cholesky factors) with chol_of (n, the
+// factor of each coefficient, from 1; without it m = n, one per
+// coefficient, and equal factors are stored once), lower, width (p).
 GaspBank bank_from_list(const Rcpp::List& b) {
   GaspBank g;
   g.X = Rcpp::as<Eigen::MatrixXd>(b["X"]);
@@ -21,7 +24,23 @@ GaspBank bank_from_list(const Rcpp::List& b) {
   g.width = Rcpp::as<Eigen::VectorXd>(b["width"]);
   Rcpp::NumericVector ch = b["chol"];
   const int K = g.X.rows(), n = g.mu.size();
-  if (ch.size() != static_cast<R_xlen_t>(K) * K * n) Rcpp::stop("chol has the wrong size");
+  const R_xlen_t KK = static_cast<R_xlen_t>(K) * K;
+  std::vector<int> of(n);
+  const bool indexed = b.containsElementNamed("chol_of") && !Rf_isNull(b["chol_of"]);
+  R_xlen_t m = n;
+  if (indexed) {
+    Rcpp::IntegerVector co = b["chol_of"];
+    if (co.size() != n) Rcpp::stop("emulator bank: chol_of has the wrong length");
+    if (KK == 0 || ch.size() % KK != 0) Rcpp::stop("chol has the wrong size");
+    m = ch.size() / KK;
+    for (int i = 0; i < n; ++i) {
+      if (co[i] == NA_INTEGER || co[i] < 1 || co[i] > m) Rcpp::stop("emulator bank: chol_of out of range");
+      of[i] = co[i] - 1;
+    }
+  } else {
+    if (ch.size() != KK * n) Rcpp::stop("chol has the wrong size");
+    for (int i = 0; i < n; ++i) of[i] = i;
+  }
   if (g.beta.rows() != n || g.alpha.rows() != n || g.weights.cols() != n || g.lambda.size() != n)
     Rcpp::stop("emulator bank: inconsistent number of coefficients");
   if (g.beta.cols() != g.X.cols() || g.alpha.cols() != g.X.cols() || g.weights.rows() != K)
@@ -32,13 +51,43 @@ GaspBank bank_from_list(const Rcpp::List& b) {
   } else {
     g.nugget.resize(n);
     for (int i = 0; i < n; ++i) {
-      const double l00 = ch[static_cast<R_xlen_t>(i) * K * K];
+      const double l00 = ch[static_cast<R_xlen_t>(of[i]) * KK];
       g.nugget(i) = l00 * l00 - 1.0;
     }
   }
-  g.L.resize(n);
+  // each stored factor once, the first time a coefficient uses it; a factor
+  // equal to one already kept (equal numbers) is not kept twice
+  std::vector<int> kept(m, -1);
+  g.lidx.assign(n, 0);
+  const double* base = ch.begin();
+  auto same = [&](R_xlen_t a, R_xlen_t c) {
+    return std::equal(base + a * KK, base + (a + 1) * KK, base + c * KK);
+  };
+  std::vector<R_xlen_t> source;  // the slice of each kept factor
   for (int i = 0; i < n; ++i) {
-    g.L[i] = Eigen::Map<const Eigen::MatrixXd>(&ch[static_cast<R_xlen_t>(i) * K * K], K, K);
+    const int f = of[i];
+    if (kept[f] < 0) {
+      int found = -1;
+      if (!indexed) {
+        if (i > 0 && same(f, source[g.lidx[i - 1]])) {
+          found = g.lidx[i - 1];
+        } else {
+          for (std::size_t u = 0; u < source.size(); ++u) {
+            if (same(f, source[u])) {
+              found = static_cast<int>(u);
+              break;
+            }
+          }
+        }
+      }
+      if (found < 0) {
+        found = static_cast<int>(g.L.size());
+        g.L.push_back(Eigen::Map<const Eigen::MatrixXd>(base + static_cast<R_xlen_t>(f) * KK, K, K));
+        source.push_back(f);
+      }
+      kept[f] = found;
+    }
+    g.lidx[i] = kept[f];
   }
   return g;
 }
@@ -46,15 +95,17 @@ GaspBank bank_from_list(const Rcpp::List& b) {
 // The list form of a bank (the fields bank_from_list reads).
 Rcpp::List bank_to_list(const GaspBank& g) {
   const int K = g.n_runs(), n = g.n_coef();
-  Rcpp::NumericVector ch(static_cast<R_xlen_t>(K) * K * n);
-  for (int i = 0; i < n; ++i) {
-    std::copy(g.L[i].data(), g.L[i].data() + K * K, ch.begin() + static_cast<R_xlen_t>(i) * K * K);
-  }
-  ch.attr("dim") = Rcpp::IntegerVector::create(K, K, n);
+  const R_xlen_t KK = static_cast<R_xlen_t>(K) * K;
+  const int m = static_cast<int>(g.L.size());
+  Rcpp::NumericVector ch(KK * m);
+  for (int u = 0; u < m; ++u) std::copy(g.L[u].data(), g.L[u].data() + KK, ch.begin() + u * KK);
+  ch.attr("dim") = Rcpp::IntegerVector::create(K, K, m);
+  Rcpp::IntegerVector of(n);
+  for (int i = 0; i < n; ++i) of[i] = g.lidx[i] + 1;
   return Rcpp::List::create(
     Rcpp::Named("X") = g.X, Rcpp::Named("beta") = g.beta, Rcpp::Named("alpha") = g.alpha,
     Rcpp::Named("mu") = g.mu, Rcpp::Named("lambda") = g.lambda, Rcpp::Named("nugget") = g.nugget,
-    Rcpp::Named("weights") = g.weights, Rcpp::Named("chol") = ch,
+    Rcpp::Named("weights") = g.weights, Rcpp::Named("chol") = ch, Rcpp::Named("chol_of") = of,
     Rcpp::Named("lower") = g.lower, Rcpp::Named("width") = g.width);
 }
 

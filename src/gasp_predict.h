@@ -28,11 +28,17 @@ struct GaspBank {
   Eigen::VectorXd mu;       // n
   Eigen::VectorXd lambda;   // n (precision)
   Eigen::MatrixXd weights;  // K x n, R_i^{-1}(y_i - mu_i)
-  std::vector<Eigen::MatrixXd> L;  // n lower Cholesky factors, K x K
+  // The distinct lower Cholesky factors (K x K) and, for each coefficient,
+  // the position of its own among them: coefficients that share their
+  // correlation (emulators fitted per level) share one stored factor.
+  std::vector<Eigen::MatrixXd> L;
+  std::vector<int> lidx;           // n
   Eigen::VectorXd lower, width;    // p: z_scaled = (z - lower) / width
   Eigen::VectorXd nugget;          // n, added to the diagonal of R_i
 
   int n_coef() const { return static_cast<int>(mu.size()); }
+  // Coefficient i's Cholesky factor.
+  const Eigen::MatrixXd& chol(int i) const { return L[lidx[i]]; }
   int n_runs() const { return static_cast<int>(X.rows()); }
   int n_inputs() const { return static_cast<int>(X.cols()); }
 
@@ -119,7 +125,7 @@ struct GaspBank {
         corr_vector(ri, d1, d2, logd, ru[u]);
         if (want_var) {
           r = ru[u];
-          L[ri].triangularView<Eigen::Lower>().solveInPlace(r);
+          chol(ri).triangularView<Eigen::Lower>().solveInPlace(r);
           const double q = 1.0 - r.squaredNorm();
           qu[u] = q > 0.0 ? q : 0.0;
         }
@@ -151,24 +157,34 @@ struct GaspBank {
     out.width = width;
     out.nugget = nugget;
     out.weights.resize(K + 1, n);
-    out.L.resize(n);
+    out.L.clear();
+    out.lidx.assign(n, 0);
     Eigen::MatrixXd d1, d2, logd;
     distances(z, d1, d2, logd);
     Eigen::VectorXd r;
     for (int i = 0; i < n; ++i) {
       corr_vector(i, d1, d2, logd, r);
-      Eigen::VectorXd l = L[i].triangularView<Eigen::Lower>().solve(r);
+      const Eigen::MatrixXd& Li = chol(i);
+      Eigen::VectorXd l = Li.triangularView<Eigen::Lower>().solve(r);
       double dd = 1.0 + nugget(i) - l.squaredNorm();
       if (!(dd > 1e-12)) dd = 1e-12;
       const double d = std::sqrt(dd);
-      Eigen::MatrixXd& L0 = out.L[i];
-      L0.setZero(K + 1, K + 1);
-      L0.topLeftCorner(K, K) = L[i];
-      L0.block(K, 0, 1, K) = l.transpose();
-      L0(K, K) = d;
+      // a coefficient with its predecessor's correlation has its augmented
+      // factor too (the same numbers)
+      if (i > 0 && same_correlation(i, i - 1)) {
+        out.lidx[i] = out.lidx[i - 1];
+      } else {
+        out.lidx[i] = static_cast<int>(out.L.size());
+        out.L.emplace_back();
+        Eigen::MatrixXd& L0 = out.L.back();
+        L0.setZero(K + 1, K + 1);
+        L0.topLeftCorner(K, K) = Li;
+        L0.block(K, 0, 1, K) = l.transpose();
+        L0(K, K) = d;
+      }
       const Eigen::VectorXd a = weights.col(i);
       const double c = (w(i) - mu(i) - r.dot(a)) / dd;
-      Eigen::VectorXd Rir = L[i].transpose().triangularView<Eigen::Upper>().solve(l);
+      Eigen::VectorXd Rir = Li.transpose().triangularView<Eigen::Upper>().solve(l);
       out.weights.col(i).head(K) = a - c * Rir;
       out.weights(K, i) = c;
     }
@@ -227,14 +243,17 @@ struct GaspBank {
       const int i = uniq[u];
       double* P = packed.data() + packed_stride() * u;
       for (int j = 0; j < K; ++j) {
-        *P++ = 1.0 / L[i](j, j);
-        for (int k = j + 1; k < K; ++k) *P++ = L[i](k, j);
+        const Eigen::MatrixXd& Li = chol(i);
+        *P++ = 1.0 / Li(j, j);
+        for (int k = j + 1; k < K; ++k) *P++ = Li(k, j);
       }
     }
     (void)n;
   }
 
-  // Exact equality of everything the correlation vector and its solve use.
+  // Exact equality of everything the correlation vector and its solve use
+  // (the factors are stored once per distinct value: the same position is
+  // the same factor).
   void find_shared() {
     const int n = n_coef();
     rep.assign(n, 0);
@@ -269,7 +288,7 @@ struct GaspBank {
     if (i == j) return true;
     if (nugget(i) != nugget(j)) return false;
     if (beta.row(i) != beta.row(j) || alpha.row(i) != alpha.row(j)) return false;
-    return L[i] == L[j];
+    return lidx[i] == lidx[j];
   }
 
   // Means m (length n) at raw input z; keeps the correlation vector of every

@@ -238,10 +238,19 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
   const int S = sites.size();
   std::vector<wavevalid::GaspBank> banks(S);
   std::vector<wavevalid::SiteData> data(S);
+  // a site with `bank_of` evaluates an earlier site's emulators (one copy)
+  std::vector<int> bank_at(S);
   for (int s = 0; s < S; ++s) {
     Rcpp::List si = sites[s];
-    banks[s] = wavevalid::bank_from_list(si["bank"]);
-    banks[s].pack();
+    bank_at[s] = s;
+    if (si.containsElementNamed("bank_of") && !Rf_isNull(si["bank_of"])) {
+      const int o = Rcpp::as<int>(si["bank_of"]);
+      if (o < 0 || o >= s || bank_at[o] != o) Rcpp::stop("site %d: bank_of must name an earlier site with its own bank", s + 1);
+      bank_at[s] = o;
+    } else {
+      banks[s] = wavevalid::bank_from_list(si["bank"]);
+      banks[s].pack();
+    }
     wavevalid::SiteData& d = data[s];
     d.wbar = Rcpp::as<Eigen::VectorXd>(si["wbar"]);
     d.s2 = Rcpp::as<Eigen::VectorXd>(si["s2"]);
@@ -275,7 +284,7 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       d.shift_U = Rcpp::as<Eigen::MatrixXd>(si["reg_U"]);
     Rcpp::IntegerVector grp = si["group"];
     d.group.assign(grp.begin(), grp.end());
-    const int n = banks[s].n_coef();
+    const int n = banks[bank_at[s]].n_coef();
     Rcpp::RObject ex = si.containsElementNamed("extra") ? si["extra"] : Rcpp::RObject(R_NilValue);
     d.extra = ex.isNULL() ? Eigen::VectorXd::Zero(n) : Rcpp::as<Eigen::VectorXd>(ex);
     if (d.wbar.size() != n || d.s2.size() != n || static_cast<int>(d.group.size()) != n ||
@@ -284,13 +293,13 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::stop("site %d: data do not match the emulator bank (%d coefficients)", s + 1, n);
     for (int i = 0; i < n; ++i)
       if (d.group[i] < 0 || d.group[i] >= n_groups) Rcpp::stop("group index out of range");
-    if (banks[s].n_inputs() != z_init.size()) Rcpp::stop("z_init has the wrong length");
+    if (banks[bank_at[s]].n_inputs() != z_init.size()) Rcpp::stop("z_init has the wrong length");
     if (d.shift.size() != 0 && d.shift.size() != z_init.size()) Rcpp::stop("site %d: shift has the wrong length", s + 1);
     if (!d.fixed_sigma2 && !d.learn_sigma2 && d.R < 2)
       Rcpp::stop("site %d: fewer than 2 replicates and no sigma2", s + 1);
   }
   for (int s = 0; s < S; ++s) {
-    data[s].bank = &banks[s];
+    data[s].bank = &banks[bank_at[s]];
     if (set.debug_break == 6) data[s].noise_mult.resize(0);
   }
 

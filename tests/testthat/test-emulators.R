@@ -151,11 +151,13 @@ test_that("the eq. 26 update equals the bank rebuilt on the augmented design", {
   rebuilt$X <- Xa
   rebuilt$weights <- Ya - matrix(b$mu, nrow(Ya), ncol(Ya), byrow = TRUE)
   for (i in seq_along(b$mu)) {
-    L <- ref$chol[, , i]
+    L <- wavevalid:::bank_factor(ref, i)
     rebuilt$weights[, i] <- backsolve(t(L), forwardsolve(L, Ya[, i] - b$mu[i]))
   }
   rebuilt$chol <- ref$chol
-  expect_equal(aug$banks$site1$chol, ref$chol, tolerance = 1e-10)
+  rebuilt$chol_of <- ref$chol_of
+  factors <- function(x) sapply(seq_along(b$mu), function(i) wavevalid:::bank_factor(x, i))
+  expect_equal(factors(aug$banks$site1), factors(ref), tolerance = 1e-10)
   expect_equal(unname(aug$banks$site1$weights), unname(rebuilt$weights), tolerance = 1e-8)
   Znew <- matrix(stats::runif(15), 5, 3, dimnames = list(NULL, c("x1", "x2", "x3")))
   p1 <- gasp_bank_predict_cpp(aug$banks$site1, Znew)
@@ -193,7 +195,7 @@ test_that("closed-form LOO residuals equal brute-force leave-one-out", {
   loo <- loo_residuals(em)
   b <- em$banks$site1
   for (i in seq_along(b$mu)) {
-    R <- b$chol[, , i] %*% t(b$chol[, , i])
+    R <- tcrossprod(wavevalid:::bank_factor(b, i))
     for (k in c(1, 7, 15)) {
       Rk <- R[-k, -k]
       r <- R[k, -k]
@@ -342,4 +344,36 @@ test_that("coefficients that share one correlation predict to the bit what one-c
     expect_identical(all$mean[, i], own$mean[, 1], label = sprintf("mean of coefficient %d", i))
     expect_identical(all$var[, i], own$var[, 1], label = sprintf("variance of coefficient %d", i))
   }
+})
+
+test_that("a level's coefficients store one Cholesky factor, and predict as with one factor each", {
+  withr::local_seed(5)
+  pr <- small_problem()
+  em <- fit_emulators(pr$runs, pr$basis)
+  b <- em$banks$site1
+  n <- length(b$mu)
+  expect_length(b$chol_of, n)
+  m <- dim(b$chol)[3]
+  # one factor per distinct (beta, alpha, nugget): per level with "gasp_level"
+  hyper <- unique(data.frame(b$beta, b$alpha, b$nugget))
+  expect_identical(m, nrow(hyper))
+  expect_lt(m, n)
+  # the same bank with every coefficient's factor stored on its own
+  own <- b
+  own$chol <- array(vapply(seq_len(n), function(i) wavevalid:::bank_factor(b, i), numeric(nrow(b$X)^2)),
+                    c(nrow(b$X), nrow(b$X), n))
+  own$chol_of <- NULL
+  Z <- matrix(stats::runif(30), 10, 3)
+  expect_identical(wavevalid:::gasp_bank_predict_cpp(b, Z), wavevalid:::gasp_bank_predict_cpp(own, Z))
+  # each factor is the Cholesky factor of its coefficients' correlation matrix
+  i <- which(b$chol_of == b$chol_of[n])[1]
+  Rm <- exp(-as.matrix(Reduce(`+`, lapply(seq_len(ncol(b$X)), function(q) {
+    b$beta[i, q] * as.matrix(stats::dist(b$X[, q]))^(2 - b$alpha[i, q])
+  }))))
+  diag(Rm) <- 1 + b$nugget[i]
+  expect_equal(tcrossprod(wavevalid:::bank_factor(b, i)), Rm, tolerance = 1e-10, ignore_attr = TRUE)
+  # a chol_of out of range is refused
+  bad <- b
+  bad$chol_of[1] <- m + 1L
+  expect_error(wavevalid:::gasp_bank_predict_cpp(bad, Z), "chol_of")
 })

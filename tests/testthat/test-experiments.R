@@ -257,3 +257,30 @@ test_that("the report shows each experiment", {
   expect_match(html, "Experiments</h2>", fixed = TRUE)
   expect_match(html, "loaded: inputs changed by x1 +0.1", fixed = TRUE)
 })
+
+test_that("an experiment's sites evaluate the base site's emulators from one copy, with the same draws", {
+  s <- sbc_two_experiments()
+  spec <- s$spec
+  withr::local_seed(3)
+  spec$sites$site1$wbar <- stats::rnorm(s$n)
+  spec$sites[["second/site1"]]$wbar <- stats::rnorm(s$n)
+  run <- function(sites) {
+    wavevalid:::calibrate_chain_cpp(sites, spec$priors, list(
+      n_groups = s$G, z_init = c(0.5, 0.5), tau2_init = rep(0.05, s$G), fix_tau2 = TRUE, n_draws = 30L,
+      n_inner = 5L, step = 0.5, seed = 4, chain = 1L, debug_break = 0L, adaptive = TRUE, burnin = 100L,
+      p_indep = 0.5, n_search = 10L))
+  }
+  shared <- wavevalid:::shared_banks(spec$sites)
+  expect_null(shared[["second/site1"]][["bank"]])
+  expect_identical(shared[["second/site1"]][["bank_of"]], 0L)
+  expect_lt(length(serialize(shared, NULL)), 0.75 * length(serialize(spec$sites, NULL)))
+  a <- run(spec$sites)
+  b <- run(shared)
+  expect_identical(b$inputs, a$inputs)
+  expect_identical(b$wb, a$wb)
+  expect_identical(b$wM, a$wM)
+  # a bank_of that does not name an earlier site with its own bank is refused
+  bad <- shared
+  bad[["second/site1"]][["bank_of"]] <- 1L
+  expect_error(run(bad), "bank_of")
+})
