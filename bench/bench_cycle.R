@@ -27,11 +27,21 @@
 # Run from the package root: R_LIBS=<lib> Rscript bench/bench_cycle.R
 # [reps=3] [cycles=20000]. The timing loops (bench/cpp/limit.cpp) are
 # compiled here against the package's headers in src/.
+#
+# With a third argument `large`: the same at the large size of
+# bench/bench_scale.R (4 sites x 4096 points x 200 runs, a second experiment
+# with x1 changed; its synthetic problem, read from that script), engine
+# "gasp_level" only, every site of both experiments in the sampler: the limit
+# is the sum over the 8 site-experiments of each one's limit (an
+# experiment's site evaluates the base site's emulators at its own inputs),
+# and the cycle is also measured with the base experiment alone, so that the
+# second experiment's cost is the difference.
 library(wavevalid)
 options(wavevalid.quiet = TRUE)
 args <- commandArgs(trailingOnly = TRUE)
 reps <- if (length(args) >= 1) as.integer(args[1]) else 3L
 n_cycles <- if (length(args) >= 2) as.integer(args[2]) else 20000L
+large <- length(args) >= 3 && args[3] == "large"
 
 # the package's flags (src/Makevars); make expands $(SHLIB_OPENMP_CXXFLAGS)
 Sys.setenv(PKG_CPPFLAGS = paste0("-I", shQuote(normalizePath("src"))),
@@ -39,6 +49,63 @@ Sys.setenv(PKG_CPPFLAGS = paste0("-I", shQuote(normalizePath("src"))),
                                 "-Wno-ignored-attributes $(SHLIB_OPENMP_CXXFLAGS)"),
            PKG_LIBS = "$(SHLIB_OPENMP_CXXFLAGS)")
 Rcpp::sourceCpp(file.path("bench", "cpp", "limit.cpp"))
+
+if (large) {
+  t0 <- proc.time()[["elapsed"]]
+  defs <- parse(file.path("bench", "bench_scale.R"))
+  keep <- c("sizes_all", "inputs", "u_true", "x_nom", "event_at", "windows", "doublet", "model", "lhs", "field_of",
+            "problem")
+  for (e in defs) {
+    if (is.call(e) && identical(e[[1]], as.name("<-")) && as.character(e[[2]]) %in% keep) eval(e, globalenv())
+  }
+  d <- sizes_all$large
+  pr <- problem(d[["S"]], d[["T"]], d[["K"]], d[["E"]])
+  ke <- diff(range(pr$field$t)) / 32
+  field <- register_curves(pr$field, pr$runs, pr$windows, features = c("min", "max"), knots_every = ke)
+  basis <- wavelet_basis(pr$runs, field)
+  em <- suppressWarnings(fit_emulators(pr$runs, basis, "gasp_level"))
+  ex <- wavevalid:::check_experiments(pr$experiments, em, field)
+  ex <- wavevalid:::register_experiments(ex, em, pr$runs, pr$windows, features = c("min", "max"), knots_every = ke,
+                                         quiet = TRUE)
+  cat(sprintf("Large size: %d sites x %d coefficients, %d runs, %d inputs, 2 experiments (built in %.0f s)\n\n",
+              length(em$banks), length(basis$index), nrow(em$design), length(em$inputs),
+              proc.time()[["elapsed"]] - t0))
+  prior <- as.data.frame(pr$iu)[match(em$inputs, pr$iu$name), ]
+  set.seed(1)
+  Z <- t(replicate(50, prior$lower + stats::runif(nrow(prior)) * (prior$upper - prior$lower)))
+  lims <- lapply(em$banks, function(bank) {
+    st <- bank_stage_times_cpp(bank, Z, 3L)
+    K <- st[["K"]]
+    n <- st[["n"]]
+    lim <- cycle_limit_cpp(st[["n_exp"]], K * st[["p"]] + 4 * n, K, st[["n_uniq"]], n * K, K, 10L)
+    c(lim, st[c("distances", "means", "variances", "n_uniq", "n")])
+  })
+  lim_site <- Reduce(`+`, lims)
+  per_cycle_large <- function(experiments) {
+    run <- function(n_draws) {
+      system.time(suppressWarnings(calibrate(em, field, pr$iu, experiments = experiments, chains = 1, seed = 1,
+                                             sampler = sampler_control(n_draws = n_draws, n_inner = 50, burnin = 1000,
+                                                                       threads = 1, quiet = TRUE))))[["elapsed"]]
+    }
+    extra <- max(1L, n_cycles %/% 50L)
+    d <- vapply(seq_len(reps), function(r) run(5L + extra) - run(5L), 0)
+    min(d) / (extra * 50)
+  }
+  cyc1 <- per_cycle_large(NULL)
+  cyc2 <- per_cycle_large(ex)
+  cat(sprintf("per site (sum of 4): %.0f distinct correlations, %.0f coefficients\n", lim_site[["n_uniq"]], lim_site[["n"]]))
+  cat(sprintf("  limit of one experiment: exp %.0f us + log %.0f us + factors %.0f us + means %.0f us = %.0f us\n",
+              1e6 * lim_site[["exp"]], 1e6 * lim_site[["log"]], 1e6 * lim_site[["stream"]], 1e6 * lim_site[["dot"]],
+              1e6 * sum(lim_site[c("exp", "log", "stream", "dot")])))
+  cat(sprintf("  prediction alone, one experiment: distances %.0f us, correlation vectors and means %.0f us, variances %.0f us\n",
+              1e6 * lim_site[["distances"]], 1e6 * lim_site[["means"]], 1e6 * lim_site[["variances"]]))
+  one <- sum(lim_site[c("exp", "log", "stream", "dot")])
+  out <- data.frame(experiments = c(1, 2), limit_us = 1e6 * c(one, 2 * one), cycle_us = 1e6 * c(cyc1, cyc2))
+  out$ratio <- out$cycle_us / out$limit_us
+  print(out, row.names = FALSE, digits = 3)
+  cat(sprintf("the second experiment costs %.2f x the first (its coefficients: 1.00 x)\n", (cyc2 - cyc1) / cyc1))
+  quit(save = "no")
+}
 
 t0 <- proc.time()[["elapsed"]]
 tb <- testbed_suspension(seed = 1)

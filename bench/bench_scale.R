@@ -61,6 +61,10 @@
 #   e.g. Rscript bench/bench_scale.R base,points; the exponents need base and
 #   the doubled sizes in one run; WAVEVALID_BENCH_SAVE=<file.rds> saves the
 #   results of every size
+#   R_LIBS=<lib> [WAVEVALID_BENCH_PLAN=multisession] Rscript bench/bench_scale.R large default
+#   runs validate() itself with every default at that size (its phases from
+#   fit$timing, the chains' rounds, ESS and R-hat), then where_fails() and
+#   validation_report() on its fit
 #
 # Measured on a 2-core machine shared with other jobs (load average 5-7, so
 # elapsed time ran at about 2.5 x CPU time; R 4.2, reference BLAS); CPU
@@ -286,7 +290,7 @@ run_default <- function(size, out_file) {
   tab <- do.call(rbind, phases)
   rownames(tab) <- NULL
   saveRDS(list(size = size, dims = d, phases = tab, timing = fit$timing, stopping = fit$stopping, plan = plan,
-               n_coef = length(fit$basis$index %||% integer(0)), findings = nrow(where_fails(fit))),
+               n_coef = length(fit$basis$index), findings = nrow(suppressWarnings(where_fails(fit)))),
           out_file)
 }
 
