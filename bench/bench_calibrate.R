@@ -122,7 +122,7 @@ r_predict <- function(bank, z) {
     s <- rowSums(sweep(D, 2, 2 - bank$alpha[i, ], "^") %*% diag(bank$beta[i, ], p))
     r <- exp(-s)
     m[i] <- bank$mu[i] + sum(r * bank$weights[, i])
-    u <- forwardsolve(bank$chol[, , i], r)
+    u <- forwardsolve(bank$chol[, , if (is.null(bank$chol_of)) i else bank$chol_of[i]], r)  # its factor
     v[i] <- max(1 - sum(u^2), 0) / bank$lambda[i]
   }
   list(m = m, v = v)
