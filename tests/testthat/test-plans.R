@@ -94,3 +94,21 @@ test_that("a chain's future carries the sampler's sites and priors, not its call
   }
   expect_lt(length(serialize(fit_caller(), NULL)), 1e5)
 })
+
+test_that("chains that ran one after the other for a minute with free cores get the plan that runs them at once", {
+  skip_if_not_installed("future")
+  old <- future::plan(future::sequential)
+  withr::defer(future::plan(old))
+  withr::local_options(wavevalid.quiet = FALSE)
+  hint <- wavevalid:::hint_parallel_chains
+  msg <- expect_message(hint(75, 2L, 2L, FALSE), class = "wavevalid_message_parallel")
+  expect_match(conditionMessage(msg), "multisession, workers = 2", fixed = TRUE)
+  expect_match(conditionMessage(msg), "75 s", fixed = TRUE)
+  # not when quiet, with one chain, one free core, a short run, or another plan
+  expect_no_message(expect_false(hint(75, 2L, 2L, TRUE)))
+  expect_no_message(expect_false(hint(75, 1L, 2L, FALSE)))
+  expect_no_message(expect_false(hint(75, 2L, 1L, FALSE)))
+  expect_no_message(expect_false(hint(30, 2L, 2L, FALSE)))
+  future::plan(future::multisession, workers = 2)
+  expect_no_message(expect_false(hint(75, 2L, 2L, FALSE)))
+})
