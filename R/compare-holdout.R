@@ -1,7 +1,8 @@
 # The held-out condition of compare_validations(): each model's prediction of
 # it (made here for a wv_field or an experiment(), given by the user
-# otherwise), its held-out field data registered to that model's runs, the
-# draws of its predictions, and the paired resampling behind the verdict.
+# otherwise), its held-out field data (an experiment's registered once, as
+# the first fit registers its own, for both), the draws of its predictions,
+# and the paired resampling behind the verdict.
 
 # A list `before`, `after`, each with `field` (the held-out data for that
 # model), `pred` (a wv_prediction whose summary has `mean` and `model`) and
@@ -15,7 +16,13 @@ holdout_predictions <- function(before, after, holdout, level, seed, call = rlan
       list(field = holdout, pred = pred, draws = fit_draws(f, unique(pred$summary$site)))
     }))
   }
-  if (inherits(holdout, "wv_experiment")) holdout <- list(before = holdout, after = holdout)
+  if (inherits(holdout, "wv_experiment")) {
+    # one target: the held-out data registered once, as the first fit that
+    # registers its own (before, else after) would, and graded so for both
+    judge <- if (!is.null(before$call_args$windows)) before else after
+    field <- holdout_registered(judge, holdout, call)
+    return(lapply(fits, function(f) experiment_prediction(f, holdout, level, seed, call, field = field)))
+  }
   if (is.list(holdout) && inherits(holdout$before, "wv_experiment") && inherits(holdout$after, "wv_experiment")) {
     return(stats::setNames(lapply(c("before", "after"), function(m) {
       experiment_prediction(fits[[m]], holdout[[m]], level, seed, call)
@@ -74,18 +81,9 @@ prediction_draws <- function(pred) {
 # experiment's condition, see register_experiments()), and the prediction at
 # the posterior draws of the inputs plus the change (predict(type =
 # "added_load", delta = change)) or through the experiment's own emulators.
-experiment_prediction <- function(fit, x, level, seed, call) {
-  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), iu = fit$iu, call = call)$holdout
-  miss <- setdiff(names(x$field$curves), base_sites(fit))
-  if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
-  args <- fit$call_args
-  field <- x$field
-  if (!is.null(args$windows)) {
-    ke <- args$knots_every
-    if (identical(ke, "auto")) ke <- diff(range(fit$basis$t)) / 32
-    field <- register_experiments(list(holdout = x), fit$emulators, args$runs, args$windows,
-                                  features = args$features, knots_every = ke, quiet = TRUE)$holdout$field
-  }
+experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
+  x <- check_holdout_experiment(fit, x, call)
+  field <- field %||% holdout_registered(fit, x, call)
   sites <- names(field$curves)
   if (!is.null(x$condition)) {
     pred <- stats::predict(fit, type = "new_condition", condition = x$condition, level = level, seed = seed)
@@ -116,15 +114,38 @@ experiment_prediction <- function(fit, x, level, seed, call) {
   list(field = field, pred = pred, draws = fit_draws(fit, sites, dW))
 }
 
+check_holdout_experiment <- function(fit, x, call) {
+  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), iu = fit$iu, call = call)$holdout
+  miss <- setdiff(names(x$field$curves), base_sites(fit))
+  if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
+  x
+}
+
+# The held-out experiment's field data registered as `fit` registered its
+# own (validate() with windows: to the model in the experiment's condition,
+# see register_experiments()); as given when the fit registered nothing.
+holdout_registered <- function(fit, x, call) {
+  x <- check_holdout_experiment(fit, x, call)
+  args <- fit$call_args
+  if (is.null(args$windows)) return(x$field)
+  ke <- args$knots_every
+  if (identical(ke, "auto")) ke <- max(diff(range(fit$basis$t)) / 32, 4 * diff(fit$basis$t[1:2]))
+  register_experiments(list(holdout = x), fit$emulators, args$runs, args$windows,
+                       features = args$features, knots_every = ke, quiet = TRUE)$holdout$field
+}
+
 # The paired comparison behind the verdict. Each of n_boot resamples takes
 # one draw index h (the same for both fits: draw h of before and of after)
-# and one resample of the held-out data (the same for both): its replicates
-# drawn with replacement when a site has two or more, else a moving-block
-# bootstrap over time of the single curve's residuals about each model's
-# bias-corrected mean prediction (the same blocks for both), blocks of
-# ceiling(sqrt(T)) time points. The ratio after / before of the RMSE, for the
-# model alone and for the bias-corrected prediction; its interval holds the
-# central `interval` share of the resamples.
+# and one resample of the held-out data (the same for both): at each site its
+# replicates drawn with replacement (when it has two or more), and within
+# each drawn curve a moving-block bootstrap over time of its residuals about
+# each model's bias-corrected mean prediction (the same blocks for both),
+# blocks of ceiling(sqrt(T)) time points. With few curves the replicates
+# alone give few distinct resamples (three of two curves); the blocks within
+# each curve give the verdict the power the record holds. The ratio after /
+# before of the RMSE, for the model alone and for the bias-corrected
+# prediction; its interval holds the central `interval` share of the
+# resamples.
 holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
   sites <- Reduce(intersect, list(unique(ho$before$pred$summary$site), unique(ho$after$pred$summary$site),
                                   names(ho$before$field$curves), names(ho$after$field$curves)))
@@ -142,38 +163,31 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
     if (is.null(d)) NA_integer_ else nrow(d$corrected)
   }, integer(1))
   H <- if (all(is.na(n_draws))) 0L else min(n_draws, na.rm = TRUE)
-  idx <- with_rng_seed(seed, list(
-    h = if (H > 0L) sample.int(H, n_boot, replace = TRUE),
-    rows = lapply(n_rep, function(R) if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot)),
-    time = if (any(n_rep < 2L)) t(replicate(n_boot, moving_blocks(n_t, block)))
-  ))
   sse <- array(0, c(n_boot, 2L, 2L), dimnames = list(NULL, c("before", "after"), c("model", "corrected")))
-  for (s in sites) {
-    R <- n_rep[[s]]
-    # the resampled data: counts of each replicate, or the block-resampled
-    # residuals of the single curve about the bias-corrected mean
-    counts <- if (R >= 2L) t(apply(idx$rows[[s]], 1L, tabulate, nbins = R))
-    for (m in c("before", "after")) {
-      p <- parts[[m]][[s]]
-      y <- p$y[seq_len(R), , drop = FALSE]
-      d <- p$draws
-      if (R < 2L) {
-        e <- y[1, ] - p$corrected
-        E <- matrix(e[idx$time], n_boot)
-        PE <- if (is.null(d$Psi)) E else E %*% d$Psi
+  with_rng_seed(seed, {
+    h <- if (H > 0L) sample.int(H, n_boot, replace = TRUE)
+    for (s in sites) {
+      R <- n_rep[[s]]
+      rows <- if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot) else matrix(1L, n_boot, 1L)
+      time <- lapply(seq_len(R), function(j) t(replicate(n_boot, moving_blocks(n_t, block))))
+      for (m in c("before", "after")) {
+        p <- parts[[m]][[s]]
+        for (kind in c("model", "corrected")) {
+          sse[, m, kind] <- sse[, m, kind] + resampled_sse(p$y[seq_len(R), , drop = FALSE], p[[kind]], p$corrected,
+                                                           rows, time, p$draws, kind, h)
+        }
       }
-      for (kind in c("model", "corrected")) {
-        sse[, m, kind] <- sse[, m, kind] + resampled_sse(y, p[[kind]], p$corrected, counts, if (R < 2L) E,
-                                                         if (R < 2L) PE, d, kind, idx$h)
-      }
+      rm(time)
     }
-  }
+  })
   ratio <- sqrt(sse[, "after", ] / sse[, "before", ])
   a <- (1 - interval) / 2
   q <- apply(ratio, 2L, stats::quantile, probs = c(a, 1 - a), names = FALSE)
+  n_blocks <- sum(n_rep) * floor(n_t / block)
   structure(data.frame(prediction = c("model", "corrected"), lower = q[1, ], upper = q[2, ], stringsAsFactors = FALSE),
             resampling = if (all(n_rep >= 2L)) "replicates" else if (all(n_rep < 2L)) "moving_block" else "mixed",
-            block = if (any(n_rep < 2L)) block, n_boot = n_boot, n_draws = H, interval = interval)
+            block = block, n_blocks = n_blocks, n_curves = sum(n_rep), n_boot = n_boot, n_draws = H,
+            interval = interval)
 }
 
 # Indices of a moving-block bootstrap of n points in blocks of length L.
@@ -184,28 +198,20 @@ moving_blocks <- function(n, L) {
 
 # Sum of squared errors of the prediction `center` plus draw h's deviation
 # (Psi d_h, or the curve deviation d_h when Psi is NULL) against each
-# resample of the data: the replicates of `y` taken `counts` times (n_boot x
-# R), or `corrected` plus the block-resampled residuals `E` (n_boot x T,
-# projected `PE`).
-# With G = Psi'Psi (d$G, NULL for the identity), ||r - Psi d||^2 = ||r||^2 - 2 (Psi'r).d + d'G d, so that
-# the curves of the draws are never built.
-resampled_sse <- function(y, center, corrected, counts, E, PE, d, kind, h) {
-  Psi <- d$Psi
-  proj <- function(X) if (is.null(Psi)) X else X %*% Psi
-  if (is.null(E)) {
-    r <- sweep(y, 2L, center)
-    A <- drop(counts %*% rowSums(r^2))
-    P <- counts %*% proj(r)
-    n_rep <- nrow(y)
-  } else {
-    shift <- corrected - center
-    A <- rowSums(sweep(E, 2L, shift, `+`)^2)
-    P <- sweep(PE, 2L, drop(proj(matrix(shift, 1L))), `+`)
-    n_rep <- 1L
-  }
+# resample of the data: for each of the R curve slots j, the replicate
+# rows[, j] (n_boot x R) rebuilt as `corrected` plus its residuals about
+# `corrected` taken at the block-resampled times time[[j]] (n_boot x T).
+resampled_sse <- function(y, center, corrected, rows, time, d, kind, h) {
+  e <- sweep(y, 2L, corrected)
+  n_boot <- nrow(rows)
+  n_t <- ncol(y)
   D <- if (!is.null(d) && !is.null(d[[kind]]) && !is.null(h)) d[[kind]][h, , drop = FALSE]
-  if (is.null(D)) return(A)
-  G <- d$G
-  quad <- if (is.null(G)) rowSums(D^2) else rowSums((D %*% G) * D)
-  A - 2 * rowSums(P * D) + n_rep * quad
+  dev <- if (is.null(D)) 0 else if (is.null(d$Psi)) D else tcrossprod(D, d$Psi)
+  shift <- matrix(corrected - center, n_boot, n_t, byrow = TRUE) - dev
+  out <- numeric(n_boot)
+  for (j in seq_len(ncol(rows))) {
+    E <- matrix(e[cbind(rep(rows[, j], times = n_t), as.vector(time[[j]]))], n_boot)
+    out <- out + rowSums((E + shift)^2)
+  }
+  out
 }

@@ -6,18 +6,19 @@
 #' how wide the bands of reality are, and, on held-out field data, how well
 #' each predicts.
 #'
-#' Each fit is judged against its own field data (`fit$field`). The field
-#' data are registered to a reference made of the model's runs, so a model
-#' that lacks a mechanism which moves the peaks of an event also moves the
-#' landmarks of the registered field; after adding the mechanism, the raw
-#' field data are registered again to the new model's runs, as
-#' `update(fit, runs = , iu = )` ([update.wv_fit()]) does, and each fit
-#' keeps its own registration. A held-out [experiment()] is registered to
-#' each model in the same way.
+#' One yardstick: both fits are graded against one target. Validated again
+#' with `update(fit, runs = , iu = )` ([update.wv_fit()]), the new model's
+#' field data are registered to the reference the first fit registered them
+#' to, so the two fits hold the same registered field; the fitted errors
+#' (`model_rmse`) are taken net of the registration's shifts as each fit's
+#' sampler drew them. A held-out [experiment()] is registered once, as
+#' `before` registered its own data (as `after` when only it registered),
+#' and both models are graded against it. When the two fits hold
+#' differently registered field data, the print says their fitted errors
+#' are not comparable.
 #'
-#' @param before,after `wv_fit` objects fitted to the same field data (each
-#'   possibly registered to its own model's runs), e.g. `fit` and
-#'   `update(fit, runs = , iu = )` ([update.wv_fit()]).
+#' @param before,after `wv_fit` objects fitted to the same field data, e.g.
+#'   `fit` and `update(fit, runs = , iu = )` ([update.wv_fit()]).
 #' @param holdout Optional held-out condition, in one of these forms:
 #'   * an [experiment()] with `change` (another load, mass or dose: the same
 #'     unit with a known change of some inputs): each model predicts it
@@ -45,11 +46,11 @@
 #'     model's runs. Predictions made with `keep_draws = TRUE` (best with
 #'     `noise = FALSE`) carry their uncertainty into the verdict.
 #'
-#'   The held-out field data of an experiment are registered to each model
-#'   as the fit registered its own: for a fit of [validate()] with
-#'   `windows`, to the model in the experiment's condition (see the argument
+#'   The held-out field data of one experiment are registered once, as
+#'   `before` registered its own: for a fit of [validate()] with `windows`,
+#'   to its model in the experiment's condition (see the argument
 #'   `experiments` of [validate()]); a fit of [calibrate()] takes them as
-#'   given.
+#'   given. Both models are graded against that one registered field.
 #' @param n_boot Number of paired resamples behind the verdict's intervals.
 #' @param seed `NULL` or a whole number: the seed of the predictions and of
 #'   the resampling.
@@ -61,7 +62,8 @@
 #'   part and for its record-wide part, the levels whose functions span the
 #'   whole record, as [where_fails()] splits them: `bias_rms` squared is the
 #'   sum of their squares), `bias_peak`, `band_width`, `model_rmse`
-#'   (pure-model prediction against the mean of the fitted field data) and,
+#'   (pure-model prediction against the mean of the fitted field data, net
+#'   of the registration's shifts at their posterior mean) and,
 #'   `inputs_in_conflict` (inputs in conflict with their prior, as
 #'   [where_fails()] judges them: an input that mimics a missing effect) and,
 #'   with a holdout, `holdout_rmse` (the bias-corrected prediction),
@@ -73,9 +75,11 @@
 #'   interval over the paired resamples); its attributes `resampling`
 #'   (`"replicates"`, `"moving_block"` or `"mixed"`), `block` (the block
 #'   length in time points), `n_boot` and `n_draws` (the posterior draws
-#'   paired). The attribute `holdout_field` holds the held-out field data as
-#'   each model saw them (`before`, `after`: registered to its runs when the
-#'   fit registered its own). The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
+#'   paired), `n_curves` and `n_blocks` (the held-out curves and the blocks
+#'   they hold in all). The attribute `holdout_field` holds the held-out
+#'   field data as each model was graded against them (`before`, `after`:
+#'   one registered field for an experiment). The attribute `same_field`
+#'   says whether the two fits hold the same registered field data. The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
 #'   change"` (`NA` without a holdout).
 #'
 #' @section The verdict:
@@ -85,10 +89,13 @@
 #' rule is a paired comparison. Each of `n_boot` resamples takes one
 #' posterior draw index h (draw h of `before` and draw h of `after`) and one
 #' resample of the held-out data, the same for both models: its replicates
-#' drawn with replacement when a site has two or more, else a moving-block
-#' bootstrap over time of the single curve's residuals about each model's
-#' bias-corrected mean prediction, in blocks of `ceiling(sqrt(T))` time
-#' points (T the grid's length). For each it computes the ratio after /
+#' drawn with replacement when a site has two or more, and within each
+#' drawn curve a moving-block bootstrap over time of its residuals about
+#' each model's bias-corrected mean prediction, in blocks of
+#' `ceiling(sqrt(T))` time points (T the grid's length), so that one or two
+#' held-out curves still give a verdict the record can support. When the
+#' held-out data hold fewer than 20 such blocks in all, the print says they
+#' are too few to judge firmly. For each it computes the ratio after /
 #' before of the held-out RMSE of the model alone and of the bias-corrected
 #' prediction. The change **helped** when the model-alone ratio's 90%
 #' interval lies below 1 and the bias-corrected ratio's lower limit is not
@@ -157,6 +164,7 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
   attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
   attr(out, "holdout_predictions") <- if (!is.null(holdout)) list(before = ho$before$pred$summary, after = ho$after$pred$summary)
   attr(out, "verdict") <- holdout_verdict(ratio)
+  attr(out, "same_field") <- same_field(before, after)
   class(out) <- c("wv_comparison", "data.frame")
   out
 }
@@ -170,6 +178,11 @@ holdout_verdict <- function(ratio) {
   if (m$upper < 1 && cc$lower <= 1.05) "helped" else if (m$lower > 1) "worse" else "no clear change"
 }
 
+# Fewer independent blocks of held-out data than this, in all the curves, and
+# the print says the data are too few to judge: a bootstrap of fewer than
+# about 20 blocks gives intervals of unreliable coverage.
+min_holdout_blocks <- 20L
+
 verdict_rule <- paste(
   "Rule: helped when the model-alone ratio (after / before of the held-out RMSE) has its 90% interval below 1",
   "and the bias-corrected ratio's lower limit is not above 1.05; worse when the model-alone ratio's lower limit",
@@ -181,7 +194,7 @@ validation_metrics <- function(fit, level) {
   r <- reality(fit, level)
   mp <- model_prediction(fit, level)
   fm <- do.call(rbind, lapply(names(fit$field$curves), function(s) {
-    data.frame(site = s, t = fit$field$t, y = colMeans(fit$field$curves[[s]]))
+    data.frame(site = s, t = fit$field$t, y = field_mean_curve(fit, s))
   }))
   mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
   wide <- fit$basis$level %in% record_wide_levels(fit$basis)
@@ -193,6 +206,27 @@ validation_metrics <- function(fit, level) {
     band_width = mean(r$upper - r$lower),
     model_rmse = sqrt(mean((mp$mean - mp$y)^2))
   )
+}
+
+# The registered field mean at site `s`, net of the registration's shifts
+# at their posterior mean when the fit samples them (the target the model's
+# error is taken against).
+field_mean_curve <- function(fit, s) {
+  y <- colMeans(fit$field$curves[[s]])
+  rs <- fit$registration_shifts
+  U <- rs$U[[s]]
+  if (is.null(U) || is.null(rs$draws)) return(y)
+  dw <- colMeans(as.matrix(rs$draws)) %*% t(U)
+  y - drop(tcrossprod(dw, fit$basis$Psi))
+}
+
+# Whether two fits grade their models against the same registered field
+# data (the same grid, sites and registered curves).
+same_field <- function(a, b) {
+  fa <- a$field$curves
+  fb <- b$field$curves
+  identical(names(fa), names(fb)) && isTRUE(all.equal(a$field$t, b$field$t)) &&
+    all(vapply(names(fa), function(s) isTRUE(all.equal(fa[[s]], fb[[s]], tolerance = 1e-8)), logical(1)))
 }
 
 # RMSE of the prediction mean against each held-out replicate, and the share
@@ -229,6 +263,11 @@ print.wv_comparison <- function(x, ...) {
       cli::cat_line("The localised bias fell; what grew is the record-wide part (an offset or a slow trend), which ",
                     "the calibrated inputs can trade against the events: see where_fails() of each fit.")
     }
+  }
+  if (isFALSE(attr(x, "same_field"))) {
+    cli::cat_line("The two fits' field data are registered differently: their fitted errors (model_rmse, bias_rms) ",
+                  "are taken against different targets and their ratio is not a change of the model alone. ",
+                  "Validate the new model with update(before, runs = , iu = ), which keeps the registration.")
   }
   for (line in comparison_verdict(x)) cli::cat_line(line)
   invisible(x)
@@ -280,14 +319,20 @@ holdout_lines <- function(hr, verdict) {
       "no clear change: the difference is within what the held-out data's noise and the predictions' uncertainty produce"
     })
   f <- function(z) format(round(z, 2), nsmall = 2)
+  blocks <- sprintf("a moving-block bootstrap of each curve's residuals, blocks of %d time points", attr(hr, "block"))
   how <- switch(attr(hr, "resampling") %||% "replicates",
-                replicates = "the held-out replicates resampled",
-                moving_block = sprintf("a moving-block bootstrap of the held-out curve's residuals, blocks of %d time points",
-                                       attr(hr, "block")),
-                mixed = sprintf("replicates resampled, single curves by moving blocks of %d time points", attr(hr, "block")))
+                replicates = paste("the held-out replicates resampled and", blocks),
+                moving_block = blocks,
+                mixed = paste("replicates resampled where a site has two or more, and", blocks))
+  few <- attr(hr, "n_blocks")
   c(sprintf("At the held-out condition the model alone errs %s times as much as before [90%%: %s, %s] and the bias-corrected prediction %s times [%s, %s]: %s.",
             f(m$ratio), f(m$lower), f(m$upper), f(cc$ratio), f(cc$lower), f(cc$upper), why),
     sprintf("(%d paired resamples: %s; %d posterior draw pairs.)", attr(hr, "n_boot"), how, attr(hr, "n_draws")),
+    if (!is.null(few) && few < min_holdout_blocks) {
+      sprintf(paste("The held-out data hold %d blocks in all (%d curve%s): too few to judge a change firmly; the",
+                    "intervals are rough. Measure more of the held-out condition, or a longer record."),
+              few, attr(hr, "n_curves"), if (attr(hr, "n_curves") == 1L) "" else "s")
+    },
     verdict_rule)
 }
 

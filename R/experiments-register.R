@@ -50,9 +50,11 @@ experiment_reference <- function(x, emulators, runs) {
 # one was registered to.
 register_experiments <- function(experiments, emulators, runs, windows, ..., quiet = FALSE) {
   how <- character(0)
+  refs <- list()
   for (e in names(experiments)) {
     x <- experiments[[e]]
     ref <- experiment_reference(x, emulators, runs)
+    refs[[e]] <- ref
     x$field <- register_curves(x$field, ref, windows, ...)
     experiments[[e]] <- x
     how[[e]] <- if (!is.null(x$reference)) {
@@ -76,6 +78,7 @@ register_experiments <- function(experiments, emulators, runs, windows, ..., qui
     wv_inform(c("i" = "The field data of the experiments were registered to the model in their own condition:",
                 stats::setNames(bullets, rep("*", length(bullets)))))
   }
+  attr(experiments, "references") <- refs
   experiments
 }
 

@@ -6,9 +6,15 @@
 #' seed, and the pipeline's `windows`, `reference`, `knots_every`,
 #' `features`, `basis_args`, `engine` and `experiments`), the field data it
 #' was given (before registration) and the new `runs` and I/U map. With
-#' `windows`, the raw field data are therefore registered to the new model's
-#' runs, as a mechanism that moves the events' peaks requires. The same
-#' settings and the same runs give the same fit, draw for draw.
+#' `windows`, the raw field data (and each experiment's) are registered to
+#' the reference `object` registered them to (the mean of its runs, or the
+#' model at the base condition), not to the new runs: both fits are then
+#' graded against one registered field, and what changes between them is
+#' the model, not the target. Where the new effect moves the events, the
+#' registration's shifts the sampler draws take it up, and the fit's errors
+#' ([compare_validations()]) are taken net of them. Give `reference = runs`
+#' to register to the new runs instead. The same settings and the same runs
+#' give the same fit, draw for draw.
 #'
 #' A fit of [calibrate()] (emulators given by hand) holds no runs nor
 #' pipeline settings: validate it with [validate()] first.
@@ -20,8 +26,9 @@
 #'   the inputs of `runs`' design, the added strength included (see
 #'   [iu_add()]).
 #' @param ... Arguments of [validate()] that replace the fit's own: `field`,
-#'   `windows`, `reference`, `knots_every`, `features`, `basis_args`,
-#'   `engine`, `experiments`, `bias`, `sampler`, `chains`, `seed`.
+#'   `windows`, `reference` (default: the reference `object`'s field data
+#'   were registered to), `knots_every`, `features`, `basis_args`, `engine`,
+#'   `experiments`, `bias`, `sampler`, `chains`, `seed`.
 #' @return A `wv_fit` (see [validate()]).
 #' @seealso [compare_validations()] to judge the change at a held-out
 #'   condition.
@@ -65,6 +72,7 @@ update.wv_fit <- function(object, runs = NULL, iu = NULL, ...) {
                    knots_every = args$knots_every, features = args$features, basis_args = args$basis_args,
                    engine = args$engine, experiments = args$experiments, bias = object$control$bias,
                    sampler = object$control$sampler, chains = args$chains, seed = object$seed)
+  settings <- keep_registration(settings, args$registered_to, names(over))
   settings[names(over)] <- over
   do.call(validate, c(list(runs = runs, iu = iu), settings))
 }
@@ -89,4 +97,21 @@ check_update_inputs <- function(runs, iu, fit, call = rlang::caller_env()) {
     ), class = "update", call = call)
   }
   invisible(runs)
+}
+
+# One yardstick: the field data (and each experiment's) registered to the
+# reference the former fit registered them to, unless `reference` (or
+# `experiments`) is given anew, so that the two fits are graded against the
+# same registered field.
+keep_registration <- function(settings, registered_to, given) {
+  if (is.null(registered_to)) return(settings)
+  if (!"reference" %in% given && !is.null(registered_to$field)) settings$reference <- registered_to$field
+  exps <- settings$experiments
+  if (!"experiments" %in% given && length(exps) && length(registered_to$experiments)) {
+    for (e in intersect(names(exps), names(registered_to$experiments))) {
+      if (is.null(exps[[e]]$reference)) exps[[e]]$reference <- registered_to$experiments[[e]]
+    }
+    settings$experiments <- exps
+  }
+  settings
 }

@@ -119,10 +119,12 @@
 #' @return A `wv_fit` object (see [calibrate()]). It keeps the arguments
 #'   of the pipeline in `call_args` (`runs`, the `field` as given, before its
 #'   registration, `windows`, `reference`, `knots_every`, `features`,
-#'   `basis_args`, `engine`, the `experiments` as given, `chains`), so that
-#'   [update()][update.wv_fit] validates again with the same settings and
-#'   [compare_validations()] registers held-out data as the fit registered
-#'   its own; and the time each phase took in `timing`, a data frame of
+#'   `basis_args`, `engine`, the `experiments` as given, `chains`, and
+#'   `registered_to`: the reference runs the field data were registered to,
+#'   and the experiments' by name), so that [update()][update.wv_fit]
+#'   validates again with the same settings against the same registered
+#'   field and [compare_validations()] registers held-out data as the fit
+#'   registered its own; and the time each phase took in `timing`, a data frame of
 #'   `phase` (`"preflight"`, `"registration"`, `"basis"`, `"emulators"`,
 #'   `"experiments"` (their field data's registration), `"calibration"`, those
 #'   that ran), `elapsed` and `cpu` seconds (user and system).
@@ -165,8 +167,10 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   if (identical(knots_every, "auto")) knots_every <- max(diff(range(field$t)) / 32, 4 * diff(field$t[1:2]))
   if (!is.null(experiments)) check_experiment_list(experiments)
   check_runs <- if (isTRUE(bias$registration_variance %in% c("auto", "check"))) 5L else 0L
+  registered_to <- NULL
   if (!is.null(windows)) {
-    field <- clock("registration", register_curves(field, reference %||% runs, windows, features = features,
+    registered_to <- list(field = reference %||% runs)
+    field <- clock("registration", register_curves(field, registered_to$field, windows, features = features,
                                                    knots_every = knots_every, check_runs = check_runs))
   }
   basis <- clock("basis", do.call(wavelet_basis, c(list(runs, field), basis_args)))
@@ -177,7 +181,8 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
     # model at its own condition, as the experiments at theirs
     base <- list(field = raw_field, change = stats::setNames(numeric(length(cond)), cond),
                  condition = condition_base(iu))
-    field <- clock("registration", register_curves(raw_field, experiment_reference(base, emulators, runs), windows,
+    registered_to$field <- experiment_reference(base, emulators, runs)
+    field <- clock("registration", register_curves(raw_field, registered_to$field, windows,
                                                    features = features, knots_every = knots_every,
                                                    check_runs = check_runs))
     if (!quiet) {
@@ -191,13 +196,15 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
       experiments <- clock("experiments", register_experiments(experiments, emulators, runs, windows,
                                                                features = features, knots_every = knots_every,
                                                                quiet = quiet))
+      registered_to$experiments <- attr(experiments, "references")
+      attr(experiments, "references") <- NULL
     }
   }
   fit <- clock("calibration", calibrate(emulators, field, iu, experiments = experiments, bias = bias,
                                         sampler = sampler, chains = chains, seed = seed))
   fit$call_args <- list(runs = runs, field = raw_field, windows = windows, reference = reference,
                         knots_every = knots_every_arg, features = features, basis_args = basis_args, engine = engine,
-                        experiments = raw_experiments, chains = chains)
+                        experiments = raw_experiments, chains = chains, registered_to = registered_to)
   fit$timing <- clock()
   fit
 }

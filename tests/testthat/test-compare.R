@@ -155,26 +155,30 @@ test_that("the resampled errors of the draws equal those of the curves built in 
   y <- matrix(stats::rnorm(3 * n_t), 3)
   center <- stats::rnorm(n_t)
   corrected <- center + 0.1
-  d <- list(Psi = basis$Psi, G = crossprod(basis$Psi), model = matrix(stats::rnorm(20 * k, sd = 0.1), 20))
+  d <- list(Psi = basis$Psi, model = matrix(stats::rnorm(20 * k, sd = 0.1), 20))
   h <- sample.int(20, 50, replace = TRUE)
   rows <- matrix(sample.int(3, 150, replace = TRUE), 50)
-  counts <- t(apply(rows, 1, tabulate, nbins = 3))
+  time <- lapply(1:3, function(j) t(replicate(50, moving_blocks(n_t, 6))))
+  # each resampled curve: the bias-corrected mean plus a replicate's residuals at block-resampled times
   brute <- vapply(1:50, function(b) {
-    sum(sweep(y[rows[b, ], ], 2, center + drop(basis$Psi %*% d$model[h[b], ]))^2)
+    sum(vapply(1:3, function(j) {
+      e <- y[rows[b, j], ] - corrected
+      sum((corrected + e[time[[j]][b, ]] - center - drop(basis$Psi %*% d$model[h[b], ]))^2)
+    }, numeric(1)))
   }, numeric(1))
-  expect_equal(resampled_sse(y, center, corrected, counts, NULL, NULL, d, "model", h), brute)
-  # one curve: block-resampled residuals about the bias-corrected mean
-  tm <- t(replicate(50, moving_blocks(n_t, 6)))
-  e <- y[1, ] - corrected
-  E <- matrix(e[tm], 50)
-  brute1 <- vapply(1:50, function(b) {
-    sum((corrected + e[tm[b, ]] - center - drop(basis$Psi %*% d$model[h[b], ]))^2)
-  }, numeric(1))
-  expect_equal(resampled_sse(y[1, , drop = FALSE], center, corrected, NULL, E, E %*% basis$Psi, d, "model", h), brute1)
+  expect_equal(resampled_sse(y, center, corrected, rows, time, d, "model", h), brute)
+  # identity resamples give the plain error of the data
+  ident <- list(matrix(seq_len(n_t), 50, n_t, byrow = TRUE))
+  plain <- sum((y[1, ] - center - drop(basis$Psi %*% d$model[h[1], ]))^2)
+  expect_equal(resampled_sse(y[1, , drop = FALSE], center, corrected, matrix(1L, 50, 1), ident, d, "model", h)[1],
+               plain)
   # curve draws without a basis
   dc <- list(Psi = NULL, corrected = matrix(stats::rnorm(20 * n_t, sd = 0.1), 20))
-  brute2 <- vapply(1:50, function(b) sum(sweep(y[rows[b, ], ], 2, corrected + dc$corrected[h[b], ])^2), numeric(1))
-  expect_equal(resampled_sse(y, corrected, corrected, counts, NULL, NULL, dc, "corrected", h), brute2)
+  brute2 <- vapply(1:50, function(b) {
+    sum(vapply(1:3, function(j) sum((y[rows[b, j], time[[j]][b, ]] - corrected[time[[j]][b, ]] - dc$corrected[h[b], ])^2),
+               numeric(1)))
+  }, numeric(1))
+  expect_equal(resampled_sse(y, corrected, corrected, rows, time, dc, "corrected", h), brute2)
   expect_length(moving_blocks(n_t, 6), n_t)
   # wavelet_basis()'s columns are orthonormal: its Gram matrix is taken as the identity
   runs <- model_runs(as.data.frame(example_problem()$emulators$design),
