@@ -16,7 +16,12 @@ report_verdict <- function(fit, fails, tolerance, expl = NULL, comparison = NULL
     paste(sprintf("%s at %s", fmt3(tol), names(tol)), collapse = ", ")
   n <- nrow(fails)
   level <- sprintf("%g%%", 100 * (attr(fails, "level") %||% 0.9))
-  adequacy <- if (!n) {
+  doubts <- adequacy_doubts(fails, expl)
+  adequacy <- if (!n && length(doubts)) {
+    sprintf("**Not shown adequate**: the %s band of the bias %s, but other readings of the same fit disagree: %s. The verdict rests on them: a wrong model whose misfit the noise, an input or the bias prior's shrinkage took up looks like this.",
+            level, if (all(tol == 0)) "holds zero everywhere" else sprintf("lies beyond the tolerance %s nowhere", tol_text),
+            paste(doubts, collapse = "; "))
+  } else if (!n) {
     if (all(tol == 0)) {
       sprintf("**Adequate**: the %s band of the bias holds zero everywhere and no input is in conflict with its prior (tolerance 0: any credible bias would count).", level)
     } else {
@@ -47,6 +52,25 @@ report_verdict <- function(fit, fails, tolerance, expl = NULL, comparison = NULL
                           format(round(100 * e$share_explained))))
   }
   if (!is.null(comparison)) out <- c(out, comparison_sentence(comparison))
+  out
+}
+
+# The readings of a fit that contradict "adequate" when the bias's band
+# finds nothing: a candidate effect the data include at probability 0.5 or
+# more, an input whose posterior piles up at a bound of its range, and a
+# failing check of where_fails() of another kind than the bias's band.
+adequacy_doubts <- function(fails, expl = NULL) {
+  out <- character()
+  if (!is.null(expl) && nrow(expl) && isTRUE(expl$inclusion_prob[1] >= 0.5)) {
+    out <- c(out, sprintf("the candidate effect %s is included at probability %s", expl$candidate[1],
+                          format(round(expl$inclusion_prob[1], 2), nsmall = 2)))
+  }
+  bd <- attr(fails, "boundary")
+  if (!is.null(bd) && any(bd$flagged)) {
+    piled <- unique(bd$input[bd$flagged])
+    out <- c(out, sprintf("the posterior of %s piles up at a bound of %s range (an input acting as a tuning knob)",
+                          paste(piled, collapse = ", "), if (length(piled) == 1L) "its" else "their"))
+  }
   out
 }
 

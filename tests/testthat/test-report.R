@@ -128,6 +128,30 @@ test_that("the verdict judges the model against the tolerance and names the top 
   expect_true(any(grepl("most probable candidate is **bump_early**, inclusion probability 0.93", v, fixed = TRUE)))
 })
 
+test_that("the verdict never says adequate while another reading of the fit disagrees", {
+  fit <- example_fit()
+  wide <- where_fails(fit, tolerance = 1)
+  expect_match(report_verdict(fit, wide, 1)[1], "Adequate for the tolerance 1", fixed = TRUE)
+  # a candidate the data include at probability 0.5 or more
+  expl <- structure(data.frame(candidate = "bump_early", inclusion_prob = 0.95, share_explained = 0.6),
+                    class = c("wv_explain", "data.frame"))
+  v <- report_verdict(fit, wide, 1, expl = expl)
+  expect_match(v[1], "Not shown adequate", fixed = TRUE)
+  expect_match(v[1], "bump_early is included at probability 0.95", fixed = TRUE)
+  expect_false(grepl("**Adequate", v[1], fixed = TRUE))
+  # below one half it does not decide
+  expl$inclusion_prob <- 0.4
+  expect_match(report_verdict(fit, wide, 1, expl = expl)[1], "Adequate for the tolerance 1", fixed = TRUE)
+  # an input piled at a bound of its range
+  piled <- wide
+  bd <- attr(piled, "boundary")
+  bd$flagged[1] <- TRUE
+  attr(piled, "boundary") <- bd
+  v <- report_verdict(fit, piled, 1)
+  expect_match(v[1], "Not shown adequate", fixed = TRUE)
+  expect_match(v[1], paste0("the posterior of ", bd$input[1], " piles up at a bound"), fixed = TRUE)
+})
+
 test_that("a finding's figure shows the bias and its band on the finding's interval with a margin", {
   fit <- example_fit()
   fails <- where_fails(fit)
