@@ -28,7 +28,7 @@ test_that("update() with the fit's own runs reproduces validate() with the same 
   expect_false(identical(fit$field$curves, p$ex$field$curves))
 })
 
-test_that("update() registers the raw field to the new runs, and its arguments override the fit's", {
+test_that("update() registers the raw field to the former fit's reference, and its arguments override the fit's", {
   p <- update_problem()
   fit <- update_validate(p, seed = 3)
   # a model with an added effect: a further input, its strength, moving the bump
@@ -36,7 +36,8 @@ test_that("update() registers the raw field to the new runs, and its arguments o
   withr::local_seed(2)
   d$s <- (sample(nrow(d)) - stats::runif(nrow(d))) / nrow(d)
   t <- p$runs$t
-  curves <- p$runs$curves$site1 + outer(0.2 * d$s, exp(-((t - 0.62) / 0.06)^2))
+  # a dip that moves the runs' mean minimum in the window by a grid step
+  curves <- p$runs$curves$site1 - outer(0.5 * d$s, exp(-((t - 0.7) / 0.06)^2))
   runs2 <- model_runs(d, curves, t, site = "site1")
   iu2 <- iu_add(p$ex$iu, "s", lower = 0, upper = 1, nominal = 0.5)
   # the runs' new input without the I/U map that names it: stopped before any fit
@@ -44,10 +45,21 @@ test_that("update() registers the raw field to the new runs, and its arguments o
   expect_error(update(fit, runs = runs2), "I/U map lacks")
   fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu2))
   expect_true("s" %in% fit2$inputs)
-  direct <- register_curves(p$ex$field, runs2, p$windows, knots_every = NULL)
-  expect_identical(fit2$field$curves, direct$curves)
-  expect_identical(fit2$field$warps, direct$warps)
+  # one yardstick: the field registered as the former fit registered it, not to the new runs
+  expect_identical(fit2$field$curves, fit$field$curves)
+  expect_identical(fit2$field$warps, fit$field$warps)
+  expect_identical(fit2$call_args$registered_to$field, p$runs)
   expect_identical(fit2$call_args$runs, runs2)
+  to_new <- register_curves(p$ex$field, runs2, p$windows, knots_every = NULL)
+  expect_false(isTRUE(all.equal(fit2$field$curves, to_new$curves)))
+  # registered to the new runs when told so
+  fit2n <- suppressWarnings(update(fit, runs = runs2, iu = iu2, reference = runs2))
+  expect_identical(fit2n$field$curves, to_new$curves)
+  # two fits on differently registered data: the comparison says their fitted errors are not comparable
+  expect_true(attr(compare_validations(fit, fit2), "same_field"))
+  cmp_n <- compare_validations(fit, fit2n)
+  expect_false(attr(cmp_n, "same_field"))
+  expect_true(any(grepl("registered differently", capture.output(print(cmp_n)), fixed = TRUE)))
   # overrides: the sampler, the chains and the seed
   fit3 <- suppressWarnings(update(fit, sampler = sampler_control(n_draws = 30, n_inner = 5, quiet = TRUE),
                                   chains = 2, seed = 4))
@@ -72,18 +84,48 @@ test_that("the loop in three calls: validate(), update(), compare_validations() 
   withr::local_seed(2)
   d$s <- (sample(nrow(d)) - stats::runif(nrow(d))) / nrow(d)
   t <- p$runs$t
-  runs2 <- model_runs(d, p$runs$curves$site1 + outer(0.2 * d$s, exp(-((t - 0.62) / 0.06)^2)), t, site = "site1")
+  runs2 <- model_runs(d, p$runs$curves$site1 - outer(0.5 * d$s, exp(-((t - 0.7) / 0.06)^2)), t, site = "site1")
   fit2 <- suppressWarnings(update(fit, runs = runs2, iu = iu_add(p$ex$iu, "s", lower = 0, upper = 1, nominal = 0.5)))
   held <- experiment(p$ex$field, change = c(x1 = 0.2))
   cmp <- compare_validations(fit, fit2, holdout = held, seed = 1)
   expect_true(attr(cmp, "verdict") %in% c("helped", "worse", "no clear change"))
-  # the held-out field data are registered to each model in the experiment's condition, as validate() registers
+  # one target: the held-out field data registered once, as the first fit registers its own (to its model in
+  # the experiment's condition), and both models graded against it
   hf <- attr(cmp, "holdout_field")
-  for (m in c("before", "after")) {
-    f <- list(before = fit, after = fit2)[[m]]
-    direct <- register_experiments(list(h = held), f$emulators, f$call_args$runs, p$windows, knots_every = NULL,
-                                   quiet = TRUE)$h$field
-    expect_identical(hf[[m]]$curves, direct$curves)
-  }
+  direct <- register_experiments(list(h = held), fit$emulators, fit$call_args$runs, p$windows, knots_every = NULL,
+                                 quiet = TRUE)$h$field
+  expect_identical(hf$before$curves, direct$curves)
+  expect_identical(hf$after$curves, direct$curves)
+  own <- register_experiments(list(h = held), fit2$emulators, fit2$call_args$runs, p$windows, knots_every = NULL,
+                              quiet = TRUE)$h$field
+  expect_false(isTRUE(all.equal(own$curves, direct$curves)))
   expect_false(identical(hf$before$curves, held$field$curves))
+  # the errors are those of each model against that one field
+  pr <- attr(cmp, "holdout_predictions")
+  rmse <- function(s) sqrt(mean(sweep(direct$curves$site1, 2, s$model)^2))
+  m <- stats::setNames(cmp$after, cmp$metric)
+  expect_equal(m[["holdout_rmse_model"]], rmse(pr$after))
+  expect_equal(stats::setNames(cmp$before, cmp$metric)[["holdout_rmse_model"]], rmse(pr$before))
+})
+
+test_that("model_rmse is taken net of the registration's shifts the sampler drew", {
+  fit <- example_fit()
+  k <- length(fit$wbar$site1)
+  n <- nrow(as.matrix(fit$draws))
+  # two landmark shifts with their coefficient directions, drawn away from zero
+  withr::local_seed(4)
+  U <- matrix(stats::rnorm(2 * k), k)
+  fit$registration_shifts <- list(U = list(site1 = U), draws = matrix(stats::rnorm(2 * n, mean = c(0.3, -0.2)), n,
+                                                                         byrow = TRUE))
+  shifted <- colMeans(fit$field$curves$site1) -
+    drop(tcrossprod(colMeans(fit$registration_shifts$draws) %*% t(U), fit$basis$Psi))
+  expect_equal(field_mean_curve(fit, "site1"), shifted)
+  expect_gt(max(abs(shifted - colMeans(fit$field$curves$site1))), 0.01)
+  # the same as the mean over the draws of the field mean the sampler's shifts moved
+  expect_equal(drop(colMeans(field_mean_draws(fit, "site1", seq_len(n))) %*% t(fit$basis$Psi)) +
+                 colMeans(fit$field$curves$site1) - drop(fit$wbar$site1 %*% t(fit$basis$Psi)), shifted)
+  mp <- model_prediction(fit, 0.9)
+  cmp <- compare_validations(fit, fit)
+  m <- stats::setNames(cmp$before, cmp$metric)
+  expect_equal(m[["model_rmse"]], sqrt(mean((mp$mean[mp$site == "site1"] - shifted)^2)))
 })
