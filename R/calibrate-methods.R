@@ -165,8 +165,11 @@ registration_lines <- function(fit) {
 measured_noise_text <- function(ev) {
   if (is.null(ev)) return("")
   f <- function(v) format(signif(v, 3), trim = TRUE)
+  ddf <- ev$detail_df %||% 0
   paste0("\n    from the measured curve on its ", ev$n_stamps, " time stamps: the prior's scale from its detail (sd ",
          f(ev$detail_sd), ")",
+         if (ddf > 0) sprintf("; its points' differences in the likelihood as data on the noise (%s df, their sd %s)",
+                              f(ddf), f(sqrt(ev$detail_ss / ddf))) else "",
          if (ev$df > 0) sprintf("; %d repeated measurements in the likelihood (%g df, their sd %s)", ev$n_repeated,
                                 ev$df, f(sqrt(ev$ss / ev$df))) else "",
          "; each coefficient's variance from the resampling onto the grid (", f(min(ev$mult)), " to ",

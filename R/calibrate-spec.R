@@ -279,11 +279,16 @@ measured_noise_scale <- function(field, basis, sites) {
 
 # What the sampler takes of the noise evidence field_runs() kept for a site
 # (NULL: none): each coefficient's noise variance in units of one
-# measurement's (mult) and the repeated measurements' scatter (ss, df).
+# measurement's (mult), and as data on that variance, ss / sigma2 ~
+# chi^2_df, the repeated measurements' scatter and the difference residuals
+# of the measured curve on its own stamps (their ss and df summed; the two
+# are independent under Gaussian noise, the residuals being those of the
+# values averaged by stamp).
 measured_noise_evidence <- function(nz, basis) {
   if (is.null(nz)) return(NULL)
   out <- list(mult = resampled_noise_multipliers(nz$map, basis$Psi))
-  if (nz$df > 0) out <- c(out, list(ss = nz$ss, df = nz$df))
+  df <- nz$df + (nz$detail_df %||% 0)
+  if (df > 0) out <- c(out, list(ss = nz$ss + (nz$detail_ss %||% 0), df = df))
   out
 }
 
@@ -294,6 +299,7 @@ noise_evidence_summary <- function(field, learned, site_data) {
     nz <- field$noise[[s]]
     if (is.null(nz)) return(NULL)
     list(n_stamps = nz$n_stamps, n_repeated = nz$n_repeated, df = nz$df, ss = nz$ss, detail_sd = nz$detail_sd,
+         detail_ss = nz$detail_ss %||% 0, detail_df = nz$detail_df %||% 0,
          mult = site_data[[s]]$noise$mult)
   })
   out <- stats::setNames(out, learned)

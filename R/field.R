@@ -28,7 +28,11 @@
 #'   point's deviation from the straight line through its two neighbours
 #'   (the difference-based estimate of Gasser, Sroka and Jennen-Steinmetz,
 #'   1986, made robust by the median absolute deviation). It is the default
-#'   scale of [noise_prior()] for the site.
+#'   scale of [noise_prior()] for the site, and the deviations themselves
+#'   (their squares capped at 3 of those sds) enter the likelihood of
+#'   `sigma2` as `detail_ss / sigma2 ~ chi^2_detail_df`, `detail_df` the
+#'   effective degrees of freedom of the correlated deviations (about
+#'   (stamps - 2) / 1.94): the curve's own points are data on its noise.
 #' * **The resampling.** Averaging and interpolation turn white measurement
 #'   noise of variance `sigma2` into noise of known covariance on the grid:
 #'   [calibrate()] gives each retained wavelet coefficient its own noise
@@ -48,7 +52,8 @@
 #' by site of vectors (one replicate), lists of vectors (one per replicate,
 #' of any lengths) or matrices. Each curve keeps its own noise evidence, as
 #' above, on its own times: the scatter of its repeated stamps (summed over
-#' the site's curves), its difference-based sd (averaged over them) and its
+#' the site's curves), its difference-based sd (averaged over them), the
+#' chi-square evidence of its deviations (summed over them) and its
 #' resampling onto the grid (each coefficient's noise multiplier averaged over
 #' the replicates, the noise of their mean). The curves then go onto the grid
 #' by linear interpolation: `grid` when given (it must lie within every
@@ -83,8 +88,9 @@
 #' finds the points that were measured: where two linear pieces meet, the
 #' breakpoint they share or the crossing of their lines. These points are
 #' the curve's own time stamps for the noise evidence above (its
-#' difference-based sd, the prior scale of [noise_prior()], and its
-#' resampling onto the grid). They are found exactly when the grid has about
+#' difference-based sd, the prior scale of [noise_prior()], the deviations of
+#' the points found exactly as data on the noise, and its resampling onto
+#' the grid). They are found exactly when the grid has about
 #' three or more points per measured interval (20 to 40 points on 128 or 512
 #' grid points in the tests); where measured points lie closer than about two
 #' grid steps the grid has lost them. When fewer than half of the points are
@@ -123,6 +129,8 @@
 #'   matrices), `x_nom`, and `noise` (by site, the noise evidence kept from
 #'   the measurements, `NULL` when the curves are on their own dyadic grid):
 #'   `ss`, `df` (repeated stamps), `n_stamps`, `n_repeated`, `detail_sd`,
+#'   `detail_ss`, `detail_df` (the difference residuals on the stamps as
+#'   data on the noise variance, see [noise_prior()]),
 #'   `map` (the resampling onto the grid; a list of them when the curves had
 #'   their own times) and, for curves read as interpolated, `interpolated`
 #'   (`n_points`, `n_breakpoints`, `n_measured`: the points read as measured,

@@ -85,11 +85,17 @@ field_noise <- function(field, basis) {
 #' scatter of repeated measurements at one time stamp, the noise of the curve
 #' on its own time stamps (the default `scale`), and each coefficient's noise
 #' variance after the measurements were averaged and interpolated onto the
-#' grid (`sigma2` is then the variance of one measurement). On a simulated
-#' curve interpolated onto a finer grid, the learned noise was still well
-#' below the truth with each time stamp measured once, and close to it with
-#' every other stamp measured twice (`studies/README.md` in the package's
-#' source repository).
+#' grid (`sigma2` is then the variance of one measurement). **The curve's own
+#' points enter as data on `sigma2`**, not only as the prior's scale: each
+#' inner point's deviation from the line through its neighbours, scaled to
+#' variance `sigma2` under white noise, gives `ss / sigma2 ~ chi^2_df` (the
+#' squared residuals capped at 3 MAD-based sds, `df` Satterthwaite's for
+#' their correlation, about (points - 2) / 1.94, times 0.95 for the cap).
+#' Where the true curve bends between the stamps the residuals hold that too,
+#' so this evidence bounds the noise from above rather than estimates it: a
+#' misfit of the model cannot make the noise grow far beyond what the points
+#' show, and goes to the bias. Noise correlated in time (a filtered record)
+#' has smaller difference residuals than its variance.
 #'
 #' In the sampler `log(sigma2)` moves by a Gaussian random walk (its step
 #' tuned during the burn-in, then frozen) in every cycle; its target is the
@@ -97,7 +103,9 @@ field_noise <- function(field, basis) {
 #' tau2_j(i))` (`c_i` the coefficient's noise multiplier, 1 for a curve on its
 #' own dyadic grid), with, for two or more replicates, the replicates' scatter
 #' about their mean (`s2_i / (c_i sigma2) ~ chi^2_(R-1)`), with repeated
-#' measurements their scatter (`ss / sigma2 ~ chi^2_df`), and this prior.
+#' measurements their scatter and with a curve on its own stamps its
+#' difference residuals (`ss / sigma2 ~ chi^2_df`, the two summed), and this
+#' prior.
 #' The bias variances' prior `1 / (tau2_j + mean(sigma2_j) / R)` takes the
 #' learned noise at its prior's scale (`c_i scale^2`), so that it sets the
 #' scale of `tau2_j` without acting as a prior on `sigma2`: with the learned
