@@ -132,7 +132,13 @@
 #'   where their pull moves the model most, or with no place when the bias
 #'   was not read again; `"timing"`: an event whose time differs between the
 #'   field and the model, spanning the two times (see the section Events'
-#'   timing); `"term"`: a proposed term, with `proposals`), `site`, `start`,
+#'   timing); `"term"`: a proposed term, with `proposals`; `"misfit"`: a
+#'   stretch where the field mean lies beyond the model at the calibrated
+#'   inputs by more than the simultaneous band of its own pointwise error
+#'   and the tolerance, which the bias prior's shrinkage can hide where the
+#'   field's spread changes along the record (see [misfit_check()]; its
+#'   `size` is the largest misfit there, its `credible` the largest excess
+#'   over the band's edge)), `site`, `start`,
 #'   `end`, `size` (the peak of the absolute posterior mean bias over the
 #'   finding, in the curves' units; for an `"input"`, the largest move of
 #'   the model), `credible` (the largest distance of the finding's band from
@@ -150,11 +156,13 @@
 #'   (bias energy by site and wavelet level), `boundary` (inputs and the share of their posterior near
 #'   each bound, within 2% of the range from it; `flagged` when it piles up
 #'   there: at least 10% of the draws, and at least four times the prior's
-#'   share there), `bias` (the bias band),
+#'   share there), `bias` (the bias band), `misfit` (the [misfit_check()]
+#'   behind the findings of kind `"misfit"`),
 #'   `tolerance` (by site) and `credible` (by site, the largest distance of the
-#'   band from zero, `credible_bias`, and the time `t` where it is reached:
-#'   the bias is credibly at least that large there, and a tolerance above it
-#'   flags nothing), `record_wide` (by site: the `levels` that span the whole
+#'   band from zero, `credible_bias`, or of the misfit beyond its band in
+#'   [misfit_check()] where that is larger, and the time `t` where it is
+#'   reached: the bias is credibly at least that large there, and a
+#'   tolerance above it flags nothing), `record_wide` (by site: the `levels` that span the whole
 #'   record, the time-averaged record-wide bias `offset` with its credible
 #'   interval `offset_lower`, `offset_upper`, its `credible_bias`, the largest
 #'   distance of its whole-curve band from zero, and `credible`, whether that
@@ -193,6 +201,13 @@
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
                         tolerance = 0, scales = c("split", "whole"), hold = TRUE, proposals = NULL, ...) {
   check_dots_none(...)
+  fails_table(fit, level, band, min_steps, tolerance, scales, hold, proposals)
+}
+
+# where_fails() itself; `misfit`: whether to run misfit_check() (not for the
+# re-reading with inputs held, whose misfit is the fit's own).
+fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L, tolerance = 0,
+                        scales = c("split", "whole"), hold = TRUE, proposals = NULL, misfit = TRUE) {
   check_class(fit, "wv_fit")
   if (!is.null(proposals)) check_proposals_of(proposals, fit)
   check_level(level)
@@ -241,15 +256,17 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   held <- NULL
   if (hold && any(cf$conflict) && is.null(fit$experiments)) {
     hf <- reread_held(fit, cf$input[cf$conflict])
-    hw <- where_fails(hf, level = level, band = band, min_steps = min_steps, tolerance = tolerance,
-                      scales = scales, hold = FALSE)
+    hw <- fails_table(hf, level = level, band = band, min_steps = min_steps, tolerance = tolerance,
+                      scales = scales, hold = FALSE, misfit = FALSE)
     held <- list(inputs = hf$held$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
   tm <- timing_table(fit, level)
   if (!is.null(tm)) tm$flagged <- tm$flagged & tm$credible > tol[tm$site]
-  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals, tm)
+  mc <- if (misfit) misfit_check(fit, level)
+  ms <- if (!is.null(mc)) misfit_stretches(mc, tol, min_steps)
+  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals, tm, ms)
   if (!is.null(fit$conditions)) {
     # the condition of each finding's experiment ("base" without experiments)
     labs <- condition_labels(fit$conditions)
@@ -257,8 +274,9 @@ where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   }
   att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
-              tolerance = tol, credible = credible_bias(b, gap), pooled_level0 = 0 %in% fit$settings$pool_levels,
-              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held, timing = tm)
+              tolerance = tol, credible = credible_with_misfit(credible_bias(b, gap), mc), pooled_level0 = 0 %in% fit$settings$pool_levels,
+              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held, timing = tm,
+              misfit = mc)
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out
@@ -319,6 +337,24 @@ band_gap <- function(b) pmax(b$lower, -b$upper, 0)
 
 # The largest bias the band makes credible, by site: the largest `gap`, and
 # where. A tolerance above it flags nothing.
+# The credible bias by site, raised to the misfit check's where its
+# rejected stretches lie farther beyond their band than the bias's band
+# lies from zero (two readings of one quantity: a tolerance above the larger
+# flags nothing).
+credible_with_misfit <- function(cr, mc) {
+  if (is.null(mc)) return(cr)
+  gap <- ifelse(mc$rejected, pmax(abs(mc$misfit) - mc$crit * mc$se, 0), 0)
+  for (i in seq_len(nrow(cr))) {
+    k <- which(mc$site == cr$site[i])
+    j <- k[which.max(gap[k])]
+    if (length(j) && gap[j] > cr$credible_bias[i]) {
+      cr$credible_bias[i] <- gap[j]
+      cr$t[i] <- mc$t[j]
+    }
+  }
+  cr
+}
+
 credible_bias <- function(b, gap) {
   do.call(rbind, lapply(unique(b$site), function(s) {
     i <- which(b$site == s)

@@ -8,7 +8,8 @@
 # inputs' pull (where it moves the model most, by how much), and inputs in
 # conflict not read again. `r`: reality's pointwise mean (share of signal of the record-wide
 # part); `experiments`: the experiment of each site, or NULL.
-findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL, timing = NULL) {
+findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL, timing = NULL,
+                           misfit = NULL) {
   cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
             "inputs", "event")
   row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs, event = NA_character_) {
@@ -56,6 +57,28 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
                                ifelse(tm$shift > 0, "reality later than model", "reality earlier than model"),
                                NA_character_, timing_event(tm))))
   }
+  if (!is.null(misfit) && nrow(misfit)) {
+    # only what the bias's band left out: a stretch that overlaps a finding
+    # of the bias at its site (an interval, a covered interval, a record-wide
+    # part) says nothing new
+    found <- do.call(rbind, c(Filter(Negate(is.null), parts), list(NULL)))
+    found <- if (!is.null(found)) found[found$kind %in% c("interval", "covered", "record-wide"), , drop = FALSE]
+    new <- vapply(seq_len(nrow(misfit)), function(i) {
+      if (is.null(found) || !nrow(found)) return(TRUE)
+      f <- found[found$site %in% misfit$site[i], , drop = FALSE]
+      !any(f$start < misfit$end[i] & f$end > misfit$start[i])
+    }, logical(1))
+    misfit <- misfit[new, , drop = FALSE]
+  }
+  if (!is.null(misfit) && nrow(misfit)) {
+    signal <- vapply(seq_len(nrow(misfit)), function(i) {
+      k <- r$site == misfit$site[i] & r$t >= misfit$start[i] & r$t < misfit$end[i]
+      sum(abs(r$mean[k])) * diff(r$t[1:2])
+    }, numeric(1))
+    parts <- c(parts, list(row("misfit", misfit$site, misfit$start, misfit$end, misfit$size, misfit$credible,
+                               misfit$integrated, misfit$integrated / pmax(signal, .Machine$double.eps), misfit$sign,
+                               NA_character_)))
+  }
   out <- do.call(rbind, parts)
   if (is.null(out)) {
     out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
@@ -65,7 +88,7 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
   if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
   out$peak_abs_bias <- out$size
   out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held",
-                 term = "term", timing = "timing")[out$kind]
+                 term = "term", timing = "timing", misfit = "time")[out$kind]
   rownames(out) <- NULL
   out
 }
@@ -114,6 +137,8 @@ top_finding <- function(x, ...) {
     term = sprintf("a proposed term, %s (propose_terms()): its effect peaks at %s, %s",
                    r$inputs, f(r$size), place),
     timing = timing_finding_text(r, attr(x, "timing"), f),
+    misfit = sprintf("a misfit that the shrinkage of the bias left out, %s: the field mean lies beyond the model at the calibrated inputs by up to %s, credibly at least %s, beyond the %g%% simultaneous band of its own pointwise error (%s; see misfit_check())",
+                     place, f(r$size), f(r$credible), 100 * (attr(x, "level") %||% 0.9), r$sign),
     input = if (is.na(r$site)) {
       sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
               r$inputs)
@@ -132,8 +157,9 @@ no_finding_text <- function(x) {
   band <- sprintf("%g%% %s band", 100 * (attr(x, "level") %||% 0.9),
                   if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve")
   within <- if (is.null(tol) || all(tol == 0)) "holds zero everywhere" else "lies beyond the tolerance nowhere"
-  sprintf("No finding: the %s of the bias %s%s, %sno input is in conflict with its prior",
+  sprintf("No finding: the %s of the bias %s%s, %s%sno input is in conflict with its prior",
           band, within, if (identical(attr(x, "scales"), "split")) " (the record-wide part and the localised part)" else "",
+          if (is.null(attr(x, "misfit"))) "" else "the field mean lies inside the simultaneous band of its pointwise error about the calibrated model, ",
           if (is.null(attr(x, "timing"))) "and " else "no event's timing differs from the model's, and ")
 }
 
@@ -153,6 +179,10 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
   r <- finding[1L, ]
   label <- if (is.na(r$site)) sprintf("%s (%s)", r$kind, r$inputs) else
     sprintf("%s at %s [%s, %s]", r$kind, r$site, format(signif(r$start, 4)), format(signif(r$end, 4)))
+  if (r$kind == "misfit") {
+    # read as the localised interval it lies on
+    r$kind <- "interval"
+  }
   if (r$kind == "timing") {
     wv_abort(c("The finding {label} is a shift of an event's timing, which the registration takes out of the bias.",
                "i" = "Judge a candidate effect by the time it moves that event to: simulate the model with it."),

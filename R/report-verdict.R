@@ -192,6 +192,7 @@ html_table <- function(d, caption = NULL) {
 finding_figure <- function(fails, i) {
   r <- fails[i, ]
   if (is.na(r$site) || is.na(r$start) || r$kind == "timing") return(NULL)
+  if (r$kind == "misfit") return(misfit_figure(fails, i))
   b <- switch(r$kind, `record-wide` = attr(fails, "bias_whole"),
               covered = attr(attr(fails, "held")$fails, "bias"), attr(fails, "bias"))
   if (is.null(b)) b <- attr(fails, "bias")
@@ -214,5 +215,28 @@ finding_figure <- function(fails, i) {
   p + ggplot2::labs(x = "time", y = "bias",
                     title = sprintf("Finding %d: %s at %s [%s, %s]", i, r$kind, r$site, fmt3(r$start), fmt3(r$end)),
                     subtitle = sprintf("%s band, the interval shaded", if (simultaneous) "whole-curve" else "pointwise")) +
+    ggplot2::theme_bw(base_size = 10)
+}
+
+# A misfit finding: the field mean less the calibrated model on the
+# stretch with a margin, and its simultaneous band (misfit_check()).
+misfit_figure <- function(fails, i) {
+  r <- fails[i, ]
+  mc <- attr(fails, "misfit")
+  d <- as.data.frame(unclass(mc)[c("site", "t", "misfit", "se", "crit")])
+  d <- d[d$site == r$site, , drop = FALSE]
+  dt <- diff(d$t[1:2])
+  margin <- max((r$end - r$start) / 2, 2 * dt)
+  d <- d[d$t >= r$start - margin & d$t <= r$end + margin, , drop = FALSE]
+  d$lo <- d$misfit - d$crit * d$se
+  d$hi <- d$misfit + d$crit * d$se
+  ggplot2::ggplot(d, ggplot2::aes(.data$t)) +
+    ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf, fill = "#f4cccc", alpha = 0.6) +
+    ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lo, ymax = .data$hi), fill = "grey75") +
+    ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$misfit), linewidth = 0.4) +
+    ggplot2::labs(x = "time", y = "field mean - model",
+                  title = sprintf("Finding %d: misfit at %s [%s, %s]", i, r$site, fmt3(r$start), fmt3(r$end)),
+                  subtitle = "the field mean less the model at the calibrated inputs, its simultaneous band; the stretch shaded") +
     ggplot2::theme_bw(base_size = 10)
 }
