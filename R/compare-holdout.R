@@ -130,8 +130,11 @@ holdout_registered <- function(fit, x, call) {
   if (is.null(args$windows)) return(x$field)
   ke <- args$knots_every
   if (identical(ke, "auto")) ke <- max(diff(range(fit$basis$t)) / 32, 4 * diff(fit$basis$t[1:2]))
-  register_experiments(list(holdout = x), fit$emulators, args$runs, args$windows,
-                       features = args$features, knots_every = ke, quiet = TRUE)$holdout$field
+  # as validate() registers: landmarks of every site; a fit made before it
+  # did so is registered as it was
+  how <- if (identical(attr(fit$field$warps, "landmark_site"), "all")) list(landmark_site = "all")
+  do.call(register_experiments, c(list(list(holdout = x), fit$emulators, args$runs, args$windows,
+                                        features = args$features, knots_every = ke, quiet = TRUE), how))$holdout$field
 }
 
 # The paired comparison behind the verdict. Each of n_boot resamples takes

@@ -102,7 +102,8 @@ landmark_times <- function(Y, t, windows, features, refine, window, feature) {
 # of those the set nearest the reference's times; `keep` marks the rows of
 # `ref_lm` used and `t_rep` gives the replicate's time of each of them.
 warp_knots_from <- function(rep_lm, ref_lm, t, site, replicate, call = rlang::caller_env()) {
-  t_rep <- rep_lm$t[match(paste(ref_lm$window, ref_lm$feature), paste(rep_lm$window, rep_lm$feature))]
+  key <- function(d) paste(d$site %||% "", d$window, d$feature)
+  t_rep <- rep_lm$t[match(key(ref_lm), key(rep_lm))]
   keep <- rep(TRUE, nrow(ref_lm))
   for (w in unique(ref_lm$window)) {
     i <- which(ref_lm$window == w)

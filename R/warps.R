@@ -47,7 +47,7 @@ print.wv_warps <- function(x, ...) {
   ls <- attr(x, "landmark_site")
   lm <- x$feature != "fitted"
   shift <- abs(x$t_before - x$t_after)[lm]
-  n_lm <- length(unique(paste(x$window, x$feature)[lm]))
+  n_lm <- length(unique(paste(if (identical(ls, "all")) x$site else "", x$window, x$feature)[lm]))
   cli::cat_line(sprintf("<wv_warps> piecewise-linear warps of %d replicate%s, %d window%s, %d landmark%s each",
                         n_rep, if (n_rep == 1) "" else "s", length(attr(x, "windows")),
                         if (length(attr(x, "windows")) == 1) "" else "s", n_lm, if (n_lm == 1) "" else "s"))
@@ -56,6 +56,7 @@ print.wv_warps <- function(x, ...) {
     cli::cat_line(sprintf("  plus %s knots per replicate fitted between the windows", format(round(n_fit, 1))))
   }
   cli::cat_line(if (is.na(ls)) "  landmarks found on each site separately"
+                else if (ls == "all") "  landmarks found on every site, one warp per replicate through them all, applied to all sites"
                 else sprintf("  landmarks found on site %s, warps applied to all sites", ls))
   cli::cat_line(sprintf("  landmark shift: median %s, max %s", format(signif(stats::median(shift), 3)),
                         format(signif(max(shift), 3))))
@@ -124,6 +125,7 @@ print.summary_wv_warps <- function(x, ...) {
 autoplot.wv_warps <- function(object, ...) {
   rg <- attr(object, "range")
   keys <- unique(as.data.frame(object)[, c("site", "replicate")])
+  if (identical(attr(object, "landmark_site"), "all")) keys <- keys[!duplicated(keys$replicate), , drop = FALSE]
   lines <- do.call(rbind, lapply(seq_len(nrow(keys)), function(k) {
     kn <- warp_knots(object, keys$replicate[k], keys$site[k])
     data.frame(site = keys$site[k], replicate = factor(keys$replicate[k]), t = kn$before,
@@ -255,7 +257,8 @@ apply_inverse_warp <- function(y, t, knots) {
 # Knots of the warp of one replicate from a wv_warps table.
 warp_knots <- function(warps, replicate, site = NULL) {
   d <- warps[warps$replicate == replicate, , drop = FALSE]
-  if (!is.null(site)) d <- d[d$site == site, , drop = FALSE]
+  # one warp from every site's landmarks: all of a replicate's rows
+  if (!is.null(site) && !identical(attr(warps, "landmark_site"), "all")) d <- d[d$site == site, , drop = FALSE]
   d <- d[order(d$t_after), , drop = FALSE]
   rg <- attr(warps, "range")
   before <- c(rg[1], d$t_before, rg[2])

@@ -206,21 +206,21 @@ test_that("validate() registers an experiment without reference to the model wit
   expect_equal(unname(fit$shift[["added_mass/site2"]][["x1"]]), 0.15)
   # the basis comes from the runs and condition A's field alone
   knots <- diff(range(tb$A$field$t)) / 32
-  field_A <- register_curves(tb$A$field, tb$A$runs, tb$windows, knots_every = knots)
+  field_A <- register_curves(tb$A$field, tb$A$runs, tb$windows, knots_every = knots, landmark_site = "all")
   expect_identical(fit$basis$index, wavelet_basis(tb$A$runs, field_A)$index)
 
   # registered as to the simulator's runs with the change, not as to condition A's runs
   d <- tb$A$runs$design
   d$x1 <- d$x1 + dm[["x1"]]
   true_runs <- simulate_suspension(d)
-  to_true <- register_curves(tb$added_mass$field, true_runs, tb$windows, knots_every = knots)
-  to_base <- register_curves(tb$added_mass$field, tb$A$runs, tb$windows, knots_every = knots)
+  to_true <- register_curves(tb$added_mass$field, true_runs, tb$windows, knots_every = knots, landmark_site = "all")
+  to_base <- register_curves(tb$added_mass$field, tb$A$runs, tb$windows, knots_every = knots, landmark_site = "all")
   rms <- function(a, b) sqrt(mean((a - b)^2))
   reg <- fit$field$curves[["added_mass/site1"]]
   expect_lt(rms(reg, to_true$curves$site1), 0.005)
   expect_gt(rms(to_base$curves$site1, to_true$curves$site1), 5 * rms(reg, to_true$curves$site1))
   again <- wavevalid:::register_experiments(exps, fit$emulators, tb$A$runs, tb$windows, knots_every = knots,
-                                            quiet = TRUE)$added_mass$field
+                                            landmark_site = "all", quiet = TRUE)$added_mass$field
   expect_equal(again$curves$site1, reg)
   # the landmarks and the warp knots between them
   expect_identical(again$warps$t_after, to_true$warps$t_after)
@@ -231,7 +231,8 @@ test_that("validate() registers an experiment without reference to the model wit
   # the reference the user gives is used as given
   given <- list(added_mass = experiment(tb$added_mass$field, change = dm, reference = true_runs))
   expect_identical(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
-                                                    knots_every = knots, quiet = TRUE)$added_mass$field, to_true)
+                                                    knots_every = knots, landmark_site = "all",
+                                                    quiet = TRUE)$added_mass$field, to_true)
   msg <- expect_message(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
                                                          knots_every = knots), class = "wavevalid_message")
   expect_match(said(msg), "\"added_mass\": its reference (66 runs)", fixed = TRUE)

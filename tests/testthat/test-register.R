@@ -148,6 +148,42 @@ test_that("bad windows and mismatched grids are refused", {
   expect_error(register_curves(field, ref, windows, features = "peak"), class = cls)
 })
 
+test_that("landmark_site = \"all\": one warp through the landmarks of every site, events the first site does not mark", {
+  t <- grid(2048)
+  fa <- function(x) event_curve(x, at = c(5, 14))
+  fb <- function(x) event_curve(x, at = c(6.5, 15.5), amp = c(0.8, 0.9))
+  lm_a <- curve_landmarks(fa(t), t, windows, c("min", "max"), refine = TRUE)
+  lm_b <- curve_landmarks(fb(t), t, windows, c("min", "max"), refine = TRUE)
+  after <- sort(c(0, lm_a$t, lm_b$t, 20))
+  # the replicate's clock runs early at site a's events and late at site b's
+  shift <- ifelse(after %in% lm_a$t, 0.25, ifelse(after %in% lm_b$t, -0.2, 0))
+  before <- after + shift
+  field <- field_runs(list(a = rbind(warped(fa, t, before, after), fa(t)),
+                           b = rbind(warped(fb, t, before, after), fb(t))), t)
+  ref <- list(a = fa(t), b = fb(t))
+  both <- register_curves(field, ref, windows, landmark_site = "all", refine = TRUE)
+  expect_identical(attr(both$warps, "landmark_site"), "all")
+  expect_setequal(unique(both$warps$site), c("a", "b"))
+  w1 <- both$warps[both$warps$replicate == 1, ]
+  expect_equal(nrow(w1), 8L)
+  expect_equal(sort(w1$t_before), sort(before[-c(1, length(before))]), tolerance = 2 * diff(t[1:2]))
+  one <- register_curves(field, ref, windows, landmark_site = "a", refine = TRUE)
+  err <- function(reg, s) rms(reg$curves[[s]][1, ] - ref[[s]])
+  # site b's events are pinned where site b sees them
+  expect_lt(err(both, "b"), 0.02 * diff(range(ref$b)))
+  expect_gt(err(one, "b"), 5 * err(both, "b"))
+  expect_lt(err(both, "a"), 0.02 * diff(range(ref$a)))
+  # the untouched replicate stays as it is, and the warps plot one line per replicate
+  expect_equal(both$curves$b[2, ], fb(t), tolerance = 1e-6)
+  expect_output(print(both$warps), "landmarks found on every site")
+  p <- ggplot2::ggplot_build(autoplot(both$warps))
+  expect_equal(length(unique(p$data[[3]]$group)), 2L)
+  # one site: the same as that site's own landmarks
+  f1 <- field_runs(list(a = field$curves$a), t)
+  expect_equal(register_curves(f1, ref["a"], windows, landmark_site = "all")$curves,
+               register_curves(f1, ref["a"], windows)$curves)
+})
+
 test_that("landmarks in another order than the reference's are left out, with a warning, keeping those nearest", {
   t <- grid()
   ref <- list(site1 = event_curve(t))
