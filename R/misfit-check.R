@@ -17,7 +17,7 @@
 #'
 #' The misfit is the posterior mean of the field mean's retained part (net
 #' of the registration's shifts the sampler drew) less the emulators' mean
-#' at the posterior draws of the inputs. Its uncertainty, simulated
+#' at 100 posterior draws of the inputs spread evenly over the chains. Its uncertainty, simulated
 #' `n_sim` times in the wavelet domain and carried to the time points: the
 #' posterior spread of that difference over the draws (the inputs, the
 #' registration's shifts), the emulators' predictive variance, the field
@@ -52,14 +52,14 @@
 #' chk <- misfit_check(fit)
 #' chk
 #' autoplot(chk)
-misfit_check <- function(fit, level = 0.9, n_sim = 500L, seed = 1L) {
+misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
   check_class(fit, "wv_fit")
   check_level(level)
   check_number(n_sim, min = 100, integer = TRUE)
   check_number(seed, integer = TRUE)
   sites <- names(fit$wb)
   X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
-  rows <- unique(round(seq(1, nrow(X), length.out = min(nrow(X), 200L))))
+  rows <- unique(round(seq(1, nrow(X), length.out = min(nrow(X), 100L))))
   Psi <- fit$basis$Psi
   sims <- with_rng_seed(seed, lapply(stats::setNames(sites, sites), function(s) {
     Z <- shift_inputs(fit, s, X[rows, , drop = FALSE])

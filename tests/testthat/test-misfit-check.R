@@ -1,0 +1,71 @@
+# example_problem()'s emulators (the model (1 + x/2) sin(2 pi t) + u bump(0.6)) with field data made here.
+misfit_fit <- function(extra, sd) {
+  ex <- example_problem()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + extra(t)
+  reps <- withr::with_seed(3, t(replicate(6, truth + stats::rnorm(length(t), sd = sd(t)))))
+  field <- field_runs(reps, t, x_nom = c(x1 = 0.5), site = "site1")
+  suppressWarnings(calibrate(ex$emulators, field, ex$iu, chains = 2, seed = 1,
+                             sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)),
+                   classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary"))
+}
+# a spread ten times larger early in the record than late, as units rather than repeats give
+spread <- function(t) ifelse(t < 0.5, 0.1, 0.01)
+
+test_that("a right model is not rejected, and each point's error follows the replicates' spread", {
+  fit <- misfit_fit(function(t) 0 * t, spread)
+  chk <- misfit_check(fit)
+  expect_s3_class(chk, "wv_misfit_check")
+  expect_false(any(chk$rejected))
+  expect_gt(attr(chk, "p_value"), 0.1)
+  expect_identical(unname(attr(chk, "noise")), "replicates")
+  t <- fit$field$t
+  # the standard error follows the replicates' spread along the record: against a fit whose spread is the
+  # late one everywhere, it grows where the spread does, by more than where it does not (the retained
+  # coarse coefficients span the record and carry some of the early spread late)
+  flat <- misfit_check(misfit_fit(function(t) 0 * t, function(t) 0.01 + 0 * t))
+  early <- t < 0.4
+  late <- t > 0.6
+  grow_early <- stats::median(chk$se[early] / flat$se[early])
+  grow_late <- stats::median(chk$se[late] / flat$se[late])
+  expect_gt(grow_early, 1.8)
+  expect_gt(grow_early, 1.3 * grow_late)
+  expect_equal(chk$z, chk$misfit / chk$se)
+  expect_output(print(chk), "Not rejected")
+  expect_false("misfit" %in% where_fails(fit)$kind)
+  p <- ggplot2::ggplot_build(autoplot(chk))
+  expect_equal(nrow(p$data[[3]]), length(t))
+})
+
+test_that("a small smooth misfit where the spread is small is rejected there and is a finding", {
+  late <- function(t) 0.08 * exp(-((t - 0.85) / 0.06)^2)
+  fit <- misfit_fit(late, spread)
+  chk <- misfit_check(fit)
+  expect_lt(attr(chk, "p_value"), 0.05)
+  hit <- chk$t[chk$rejected]
+  expect_gt(length(hit), 0L)
+  expect_true(all(hit > 0.6))
+  # the misfit there is what was added, within its error
+  k <- which.max(abs(chk$z))
+  expect_lt(abs(chk$misfit[k] - late(chk$t[k])), 3 * chk$se[k] + 0.02)
+  wf <- where_fails(fit)
+  ms <- wf[wf$kind == "misfit", ]
+  if (nrow(ms)) {
+    expect_true(all(ms$start > 0.6))
+    expect_identical(ms$sign[1], "reality above model")
+  } else {
+    # the bias's band found it first: the same stretch, not a second finding
+    expect_true(any(wf$kind == "interval" & wf$end > 0.75 & wf$start < 0.95))
+  }
+  expect_output(print(chk), "Rejected")
+  # the same misfit under the early spread everywhere: each point's own error hides nothing the spread does not
+  wide <- misfit_check(misfit_fit(late, function(t) 0.1 + 0 * t))
+  expect_gt(attr(wide, "p_value"), attr(chk, "p_value"))
+})
+
+test_that("misfit_check() refuses bad arguments before any computation", {
+  fit <- example_fit()
+  expect_error(misfit_check(1), class = "wavevalid_error_input")
+  expect_error(misfit_check(fit, level = 2), class = "wavevalid_error_input")
+  expect_error(misfit_check(fit, n_sim = 10), class = "wavevalid_error_input")
+})
