@@ -126,7 +126,12 @@ noise_lines <- function(fit) {
                         f(stats::quantile(sd_draws, 0.05, names = FALSE)),
                         f(stats::quantile(sd_draws, 0.95, names = FALSE)), measured_noise_text(ev)))
   }, character(1))
-  c("Field noise:", paste0("  ", lines), registration_lines(fit))
+  sp <- spread_text(spread_along_record(fit$field), "registered replicates")
+  if (!is.null(sp)) {
+    sp <- paste0("  ", sp, ": one variance per wavelet coefficient mixes it along the record; ",
+                 "misfit_check() (and where_fails()) read each point with its own")
+  }
+  c("Field noise:", paste0("  ", lines), sp, registration_lines(fit))
 }
 
 # The variance the registration adds to the field mean, and where it comes

@@ -280,3 +280,41 @@ report_interpolated <- function(noise) {
   }
   invisible(noise)
 }
+
+# How much the replicates' spread changes along the record, by site (sites
+# with two replicates or more): the root mean square of the pointwise
+# replicate sd over blocks of max(8, T / 32) points, and the ratio of its
+# largest to its smallest block (the smallest held above 1e-8 of the
+# largest). NULL when no site has two replicates.
+spread_along_record <- function(field) {
+  out <- lapply(names(field$curves), function(s) {
+    Y <- field$curves[[s]]
+    if (nrow(Y) < 2L) return(NULL)
+    v <- apply(Y, 2L, stats::var)
+    n <- length(v)
+    L <- max(8L, n %/% 32L)
+    block <- ceiling(seq_len(n) / L)
+    rms <- sqrt(tapply(v, block, mean))
+    hi <- max(rms)
+    lo <- max(min(rms), 1e-8 * hi)
+    k_hi <- which.max(rms)
+    k_lo <- which.min(rms)
+    t <- field$t
+    data.frame(site = s, ratio = hi / lo, largest = hi, smallest = min(rms),
+               at_largest = mean(t[block == k_hi]), at_smallest = mean(t[block == k_lo]), stringsAsFactors = FALSE)
+  })
+  out <- do.call(rbind, out)
+  if (is.null(out)) NULL else out
+}
+
+# A sentence on the sites whose replicates' spread changes more than
+# tenfold along the record, or NULL.
+spread_text <- function(sp, what = "replicates") {
+  if (is.null(sp)) return(NULL)
+  big <- sp[sp$ratio > 10, , drop = FALSE]
+  if (!nrow(big)) return(NULL)
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  paste0(sprintf("the %s' spread changes %s-fold along the record at %s (sd %s near t = %s, %s near t = %s)",
+                 what, f(big$ratio), big$site, f(big$largest), f(big$at_largest), f(big$smallest),
+                 f(big$at_smallest)), collapse = "; ")
+}

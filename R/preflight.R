@@ -27,7 +27,13 @@
 #'   "finest"`), or learned in the posterior ([noise_prior()], the default
 #'   with one replicate). One replicate with the noise learned is a warning
 #'   (class `wavevalid_warning_noise`): one curve tells noise from bias only
-#'   weakly.
+#'   weakly. When the replicates' spread changes more than tenfold along the
+#'   record (the root mean square of their pointwise sd over blocks of a
+#'   32nd of it), the figure says where: replicates that are different units
+#'   rather than repeats do this, and so does timing jitter at sharp events
+#'   before registration. One variance per wavelet coefficient mixes such a
+#'   spread along the record; [misfit_check()] reads each point with its
+#'   own.
 #' * **inputs**: the design of the runs and the I/U map have the same inputs
 #'   (else an error of class `wavevalid_error_inputs`, before any emulator is
 #'   fitted): an input of the map that the runs do not vary could only follow
@@ -74,6 +80,13 @@ preflight <- function(runs, field, iu, sigma2 = NULL, windows = NULL, basis_args
     rows$basis <- preflight_basis(basis, field, tolerance)
   }
   rows$noise <- preflight_noise(field, sigma2)
+  sp <- spread_text(spread_along_record(field))
+  if (!is.null(sp) && rows$noise$status == "ok") {
+    rows$noise$figure <- paste0(rows$noise$figure, "; ", sp,
+                                " (replicates that are different units, or timing jitter at the events before",
+                                " registration): one variance per wavelet coefficient mixes it, misfit_check()",
+                                " reads each point with its own")
+  }
   rows$inputs <- preflight_inputs(runs, iu)
   if (!is.null(windows)) {
     rows$windows <- tryCatch({

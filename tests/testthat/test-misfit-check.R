@@ -69,3 +69,23 @@ test_that("misfit_check() refuses bad arguments before any computation", {
   expect_error(misfit_check(fit, level = 2), class = "wavevalid_error_input")
   expect_error(misfit_check(fit, n_sim = 10), class = "wavevalid_error_input")
 })
+
+test_that("preflight() and the fit's print say when the replicates' spread changes tenfold along the record", {
+  ex <- example_problem()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2)
+  make <- function(sd) field_runs(withr::with_seed(3, t(replicate(6, truth + stats::rnorm(length(t), sd = sd)))), t,
+                                  x_nom = c(x1 = 0.5), site = "site1")
+  runs <- model_runs(as.data.frame(ex$emulators$design), ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), t)
+  varying <- make(ifelse(t < 0.5, 0.2, 0.005))
+  sp <- spread_along_record(varying)
+  expect_gt(sp$ratio, 10)
+  expect_lt(sp$at_largest, 0.5)
+  expect_gt(sp$at_smallest, 0.5)
+  pf <- preflight(runs, varying, ex$iu)
+  expect_match(pf$figure[pf$check == "noise"], "spread changes [0-9.]+-fold along the record at site1")
+  expect_null(spread_text(spread_along_record(make(0.03 + 0 * t))))
+  fit <- suppressWarnings(calibrate(ex$emulators, varying, ex$iu, chains = 1, seed = 1,
+                                    sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE)))
+  expect_true(any(grepl("registered replicates' spread changes", capture.output(print(fit)), fixed = TRUE)))
+})
