@@ -98,11 +98,18 @@
 #' are too few to judge firmly. For each it computes the ratio after /
 #' before of the held-out RMSE of the model alone and of the bias-corrected
 #' prediction. The change **helped** when the model-alone ratio's 90%
-#' interval lies below 1 and the bias-corrected ratio's lower limit is not
-#' above 1.05 (not credibly worse); it is **worse** when the model-alone
-#' ratio's lower limit is above 1; otherwise there is **no clear change**:
-#' the fall or rise is within what the held-out data's noise and the
-#' predictions' uncertainty produce. Predictions given by the user without
+#' interval lies below 1 / 1.05 (the error credibly falls by more than a
+#' margin of 5%) and the bias-corrected ratio's lower limit is not above
+#' 1.05 (not credibly worse by more than the margin); it is **worse** when
+#' the model-alone ratio's lower limit is above 1.05; otherwise there is
+#' **no clear change**: the fall or rise is within what the held-out data's
+#' noise and the predictions' uncertainty produce, or within the margin. An
+#' effect that is not the missing one can take up a little of the misfit
+#' and lower the held-out error by a few per cent; on the package's test
+#' beds such decoys moved the noise-free error by factors of 0.92 to 1.13,
+#' and without the margin one of ten was called "helped"
+#' (`studies/README.md` in the package's source repository,
+#' "yardstick.R"). Predictions given by the user without
 #' draws contribute only the data's resampling. When the bias grows but its
 #' localised part falls, the print says so: the calibrated inputs can trade
 #' an offset of the whole record against the events.
@@ -175,8 +182,17 @@ holdout_verdict <- function(ratio) {
   if (is.null(ratio)) return(NA_character_)
   m <- ratio[ratio$prediction == "model", ]
   cc <- ratio[ratio$prediction == "corrected", ]
-  if (m$upper < 1 && cc$lower <= 1.05) "helped" else if (m$lower > 1) "worse" else "no clear change"
+  if (m$upper < 1 / verdict_margin && cc$lower <= verdict_margin) "helped"
+  else if (m$lower > verdict_margin) "worse" else "no clear change"
 }
+
+# The verdict's margin: a change is judged to help (or to harm) only when
+# the model alone's held-out error moves by more than this factor credibly,
+# and the bias-corrected prediction may not be credibly worse by more than
+# it. A change of a few per cent is what a decoy effect that absorbs some of
+# the misfit makes: on the test beds the decoys' noise-free ratios were 0.92
+# to 1.13, the true effects' 0.21 to 0.98 (studies/README.md, "yardstick.R").
+verdict_margin <- 1.05
 
 # Fewer independent blocks of held-out data than this, in all the curves, and
 # the print says the data are too few to judge: a bootstrap of fewer than
@@ -184,9 +200,10 @@ holdout_verdict <- function(ratio) {
 min_holdout_blocks <- 20L
 
 verdict_rule <- paste(
-  "Rule: helped when the model-alone ratio (after / before of the held-out RMSE) has its 90% interval below 1",
-  "and the bias-corrected ratio's lower limit is not above 1.05; worse when the model-alone ratio's lower limit",
-  "is above 1; else no clear change (intervals over paired posterior draws and resamples of the held-out data)."
+  "Rule: helped when the model-alone ratio (after / before of the held-out RMSE) has its 90% interval below",
+  "1 / 1.05 (0.952) and the bias-corrected ratio's lower limit is not above 1.05; worse when the model-alone",
+  "ratio's lower limit is above 1.05; else no clear change (intervals over paired posterior draws and resamples",
+  "of the held-out data)."
 )
 
 validation_metrics <- function(fit, level) {

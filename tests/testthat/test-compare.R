@@ -136,7 +136,12 @@ test_that("the verdict's rule, branch by branch", {
   expect_identical(holdout_verdict(hr(c(0.5, 0.9), c(0.8, 1.1))), "helped")
   expect_identical(holdout_verdict(hr(c(0.5, 0.9), c(1.06, 1.2))), "no clear change")
   expect_identical(holdout_verdict(hr(c(0.9, 1.02), c(0.8, 0.9))), "no clear change")
-  expect_identical(holdout_verdict(hr(c(1.01, 1.3), c(0.8, 0.9))), "worse")
+  expect_identical(holdout_verdict(hr(c(1.06, 1.3), c(0.8, 0.9))), "worse")
+  # the margin of 5%: a credible fall or rise smaller than it is no clear change
+  expect_identical(holdout_verdict(hr(c(0.8, 0.95), c(0.8, 1.03))), "helped")
+  expect_identical(holdout_verdict(hr(c(0.9, 0.96), c(0.8, 1.03))), "no clear change")
+  expect_identical(holdout_verdict(hr(c(0.8, 0.95), c(1.051, 1.2))), "no clear change")
+  expect_identical(holdout_verdict(hr(c(1.01, 1.3), c(0.8, 0.9))), "no clear change")
   expect_identical(holdout_verdict(NULL), NA_character_)
 })
 
