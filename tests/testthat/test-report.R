@@ -31,6 +31,7 @@ test_that("the report renders for a fit whose emulators were given their paramet
 # the page's text with its lines joined, runs of white space made one and
 # characters outside ASCII as "?" (positions then count characters and
 # bytes alike).
+report_cmp <- NULL
 report_text <- local({
   text <- NULL
   function() {
@@ -39,7 +40,12 @@ report_text <- local({
       ex <- example_problem()
       moved <- ex$field
       moved$curves$site1 <- sweep(moved$curves$site1, 2, 0.1 * sin(2 * pi * moved$t), `+`)
-      cmp <- compare_validations(fit, fit, holdout = experiment(moved, change = c(x1 = 0.2)), n_boot = 100, seed = 1)
+      # a real pair: the same model with its bias variances held small
+      after <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1,
+                                          bias = bias_control(fix_tau2 = 1e-4),
+                                          sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))
+      cmp <- compare_validations(fit, after, holdout = experiment(moved, change = c(x1 = 0.2)), n_boot = 100, seed = 1)
+      report_cmp <<- cmp
       out <- withr::local_tempfile(fileext = ".html")
       suppressWarnings(validation_report(fit, file = out, comparison = cmp, quiet = TRUE))
       text <<- iconv(gsub("\\s+", " ", paste(readLines(out, warn = FALSE), collapse = " ")), "UTF-8", "ASCII", sub = "?")
@@ -95,10 +101,19 @@ test_that("with a comparison the verdict gives its verdict word and both held-ou
   skip_if_not(rmarkdown::pandoc_available())
   html <- report_text()
   verdict <- between(html, "id=\"verdict\"", "Inputs</h2>")
-  expect_true(grepl("no clear change", verdict, fixed = TRUE))
-  expect_true(grepl("the model alone errs 1.00 times as much as before (90% interval 1.00 to 1.00)", verdict,
-                    fixed = TRUE))
-  expect_true(grepl("the bias-corrected prediction 1.00 times (1.00 to 1.00)", verdict, fixed = TRUE))
+  # the comparison's own numbers, each in its place
+  hr <- attr(report_cmp, "holdout_ratio")
+  f <- function(z) format(round(z, 2), nsmall = 2)
+  expect_false(isTRUE(all.equal(hr$ratio, c(1, 1))))
+  expect_true(grepl(sprintf("verdict [^a-z]{1,3}%s[^a-z]{1,3};", attr(report_cmp, "verdict")), verdict))
+  expect_true(grepl(sprintf("the model alone errs %s times as much as before (90%% interval %s to %s)",
+                            f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1])), verdict, fixed = TRUE))
+  expect_true(grepl(sprintf("the bias-corrected prediction %s times (%s to %s)", f(hr$ratio[2]), f(hr$lower[2]),
+                            f(hr$upper[2])), verdict, fixed = TRUE))
+  # and the metrics' table of both fits
+  tab <- between(html, "Before and after the model change</h2>", "Appendix")
+  m <- stats::setNames(report_cmp$after, report_cmp$metric)
+  expect_true(grepl(format(signif(m[["holdout_rmse_model"]], 3)), tab, fixed = TRUE))
   # two figures after the comparison's tables: the bias before and after, and the held-out error
   compared <- between(html, "Before and after the model change</h2>", "Appendix")
   expect_identical(lengths(regmatches(compared, gregexpr("<img", compared, fixed = TRUE))), 2L)
