@@ -1,0 +1,161 @@
+# Mutation check of the test suite: each mutant is a deliberate breakage of the
+# package (a file, a fixed pattern found exactly once, its replacement). Each is
+# applied, one at a time, to a copy of the repository, the copy is installed
+# into a temporary library and the test file that should catch the breakage is
+# run against it. A mutant is killed when that file has a failure or an error.
+# Not part of R CMD check nor of CI.
+#
+# Usage (from the package's root):
+#   Rscript tools/mutants.R              every mutant
+#   Rscript tools/mutants.R NAME ...     the named mutants
+#   Rscript tools/mutants.R --list       the mutants' names
+#   Rscript tools/mutants.R --baseline   also run each test file on the unbroken copy
+# The compiled code is built once, in a first copy; each mutant's copy reuses
+# its object files (only R code is mutated), so an install takes seconds.
+# Runs one R process at a time.
+
+mutants <- list(
+  list(name = "stopping_never_early", file = "R/calibrate-chains.R",
+       pattern = "if (met || n >= sm$max_draws) break", replacement = "if (n >= sm$max_draws) break",
+       test = "test-stopping.R", what = "the stopping rule never stops before the ceiling"),
+  list(name = "stopping_first_round_20", file = "R/calibrate-chains.R",
+       pattern = "min(sm$max_draws, max(20L, as.integer(ceiling(sm$ess / chains))))",
+       replacement = "min(sm$max_draws, 20L)",
+       test = "test-stopping.R", what = "the stopping rule's first round holds 20 draws"),
+  list(name = "stopping_burnin_ceiling", file = "R/calibrate.R",
+       pattern = "n <- sm$n_draws %||% first_round_draws(sm, chains)", replacement = "n <- sm$n_draws %||% sm$max_draws",
+       test = "test-stopping.R", what = "the burn-in sized to the ceiling, not to the first round"),
+  list(name = "stopping_no_resume", file = "R/calibrate-chains.R",
+       pattern = "n_draws = more, resume = runs[[ch]]$state", replacement = "n_draws = more, resume = NULL",
+       test = "test-plans.R", what = "a further round starts each chain afresh instead of continuing it"),
+  list(name = "propose_strength_doubled", file = "R/propose-terms.R",
+       pattern = "c(mean(res$amp_m[, j]), stats::quantile(z, c(a, 1 - a), names = FALSE))",
+       replacement = "2 * c(mean(res$amp_m[, j]), stats::quantile(z, c(a, 1 - a), names = FALSE))",
+       test = "test-propose.R", what = "the proposed term's strength and its interval doubled"),
+  list(name = "conflict_threshold_0", file = "R/fit-diagnostics.R",
+       pattern = "beyond >= stats::qnorm(1 - alpha / (2 * p))", replacement = "beyond >= 0",
+       test = "test-conflicts.R", what = "a pile at a bound needs its centre only at the bound, not z sd beyond"),
+  list(name = "conflict_threshold_4", file = "R/fit-diagnostics.R",
+       pattern = "beyond >= stats::qnorm(1 - alpha / (2 * p))", replacement = "beyond >= 4",
+       test = "test-conflicts.R", what = "a pile at a bound needs its centre 4 sd beyond it"),
+  list(name = "verdict_margin_1", file = "R/compare.R",
+       pattern = "cc$lower <= 1.05", replacement = "cc$lower <= 1.0",
+       test = "test-compare.R", what = "the verdict 'helped' without the 1.05 margin"),
+  list(name = "print_term_library_families", file = "R/propose-library.R",
+       pattern = "paste(sprintf(\"%s %d\", names(fam), as.integer(fam)), collapse = \", \")",
+       replacement = "paste(names(fam), collapse = \", \")",
+       test = "test-propose.R", what = "the term library's print loses the families' counts"),
+  list(name = "autoplot_proposals_unscaled", file = "R/propose-methods.R",
+       pattern = "PLACEHOLDER", replacement = "PLACEHOLDER",
+       test = "test-propose.R", what = "placeholder")
+)
+
+# --- machinery ---------------------------------------------------------------
+
+args <- commandArgs(trailingOnly = TRUE)
+root <- normalizePath(".")
+if (!file.exists(file.path(root, "DESCRIPTION")) || !dir.exists(file.path(root, "tools"))) {
+  stop("Run from the package's root: Rscript tools/mutants.R [name ...]")
+}
+mutants <- Filter(function(m) m$pattern != "PLACEHOLDER", mutants)
+names(mutants) <- vapply(mutants, `[[`, "", "name")
+if ("--list" %in% args) {
+  for (m in mutants) cat(sprintf("%-30s %-22s %s\n", m$name, m$test, m$what))
+  quit(status = 0)
+}
+baseline <- "--baseline" %in% args
+chosen <- setdiff(args, c("--baseline", "--list"))
+unknown <- setdiff(chosen, names(mutants))
+if (length(unknown)) stop("Unknown mutant(s): ", paste(unknown, collapse = ", "))
+if (length(chosen)) mutants <- mutants[chosen]
+
+work <- tempfile("mutants-")
+dir.create(work)
+on.exit(unlink(work, recursive = TRUE), add = TRUE)
+rscript <- file.path(R.home("bin"), "Rscript")
+rcmd <- file.path(R.home("bin"), "R")
+Sys.setenv(MAKEFLAGS = "-j2", NOT_CRAN = "true")
+
+# the tracked files of the repository (with uncommitted changes), without .git
+copy_repo <- function(to) {
+  files <- system2("git", c("-C", shQuote(root), "ls-files", "--cached", "--others", "--exclude-standard"),
+                   stdout = TRUE)
+  files <- files[file.exists(file.path(root, files))]
+  for (d in unique(dirname(files))) dir.create(file.path(to, d), recursive = TRUE, showWarnings = FALSE)
+  ok <- file.copy(file.path(root, files), file.path(to, files), copy.date = TRUE)
+  if (!all(ok)) stop("Could not copy ", paste(files[!ok], collapse = ", "))
+}
+
+install <- function(src, lib, log) {
+  dir.create(lib, showWarnings = FALSE)
+  st <- system2(rcmd, c("CMD", "INSTALL", "--no-multiarch", "--strip", "--no-test-load", "-l", shQuote(lib),
+                        shQuote(src)), stdout = log, stderr = log)
+  if (!identical(st, 0L)) stop("Install of ", src, " failed; see ", log)
+}
+
+# failures + errors of one test file against the package in `lib`, or NA
+run_test <- function(src, lib, test, log) {
+  code <- sprintf(paste0("res <- as.data.frame(testthat::test_file(%s, package = 'wavevalid', ",
+                         "load_package = 'installed', reporter = 'silent', stop_on_failure = FALSE)); ",
+                         "cat('\\nRESULT', sum(res$failed) + sum(res$error), sum(res$passed), '\\n')"),
+                  deparse(file.path(src, "tests", "testthat", test)))
+  old <- Sys.getenv("R_LIBS")
+  Sys.setenv(R_LIBS = paste(c(lib, if (nzchar(old)) old), collapse = .Platform$path.sep))
+  on.exit(Sys.setenv(R_LIBS = old))
+  out <- suppressWarnings(system2(rscript, c("-e", shQuote(code)), stdout = TRUE, stderr = TRUE))
+  writeLines(out, log)
+  line <- grep("^RESULT ", out, value = TRUE)
+  if (!length(line)) return(NA_integer_)
+  as.integer(strsplit(line[length(line)], " ")[[1]][2])
+}
+
+# the base copy, compiled once: its object files serve every mutant
+base <- file.path(work, "base")
+dir.create(base)
+copy_repo(base)
+cat("Building the unbroken copy (compiles the C++ code once) ...\n")
+install(base, file.path(work, "lib-base"), file.path(work, "base-install.log"))
+
+rows <- list()
+if (baseline) {
+  for (test in unique(vapply(mutants, `[[`, "", "test"))) {
+    t0 <- proc.time()[["elapsed"]]
+    bad <- run_test(base, file.path(work, "lib-base"), test, file.path(work, paste0("base-", test, ".log")))
+    rows[[length(rows) + 1L]] <- data.frame(mutant = "(none)", test = test,
+                                            result = if (is.na(bad)) "error" else if (bad > 0) "FAILS" else "passes",
+                                            seconds = round(proc.time()[["elapsed"]] - t0))
+    cat(sprintf("%-30s %-22s %-9s %5.0f s\n", "(none)", test, rows[[length(rows)]]$result, rows[[length(rows)]]$seconds))
+  }
+}
+
+for (m in mutants) {
+  t0 <- proc.time()[["elapsed"]]
+  dir <- file.path(work, m$name)
+  system2("cp", c("-a", shQuote(base), shQuote(dir)))
+  path <- file.path(dir, m$file)
+  txt <- readLines(path, warn = FALSE)
+  hits <- grep(m$pattern, txt, fixed = TRUE)
+  n_hits <- sum(lengths(regmatches(txt, gregexpr(m$pattern, txt, fixed = TRUE))))
+  if (n_hits != 1L) {
+    result <- sprintf("pattern found %d times", n_hits)
+  } else {
+    txt[hits] <- sub(m$pattern, m$replacement, txt[hits], fixed = TRUE)
+    writeLines(txt, path)
+    lib <- file.path(work, paste0("lib-", m$name))
+    result <- tryCatch({
+      install(dir, lib, file.path(work, paste0(m$name, "-install.log")))
+      bad <- run_test(dir, lib, m$test, file.path(work, paste0(m$name, "-test.log")))
+      if (is.na(bad)) "killed (test file errored)" else if (bad > 0) "killed" else "survived"
+    }, error = function(e) paste("error:", conditionMessage(e)))
+    unlink(lib, recursive = TRUE)
+  }
+  unlink(dir, recursive = TRUE)
+  rows[[length(rows) + 1L]] <- data.frame(mutant = m$name, test = m$test, result = result,
+                                          seconds = round(proc.time()[["elapsed"]] - t0))
+  cat(sprintf("%-30s %-22s %-9s %5.0f s\n", m$name, m$test, result, rows[[length(rows)]]$seconds))
+}
+
+tab <- do.call(rbind, rows)
+cat("\n")
+print(tab, row.names = FALSE, right = FALSE)
+cat(sprintf("\n%d of %d mutants killed\n", sum(startsWith(tab$result, "killed")), sum(tab$mutant != "(none)")))
