@@ -45,9 +45,36 @@ mutants <- list(
        pattern = "paste(sprintf(\"%s %d\", names(fam), as.integer(fam)), collapse = \", \")",
        replacement = "paste(names(fam), collapse = \", \")",
        test = "test-propose.R", what = "the term library's print loses the families' counts"),
-  list(name = "autoplot_proposals_unscaled", file = "R/propose-methods.R",
-       pattern = "PLACEHOLDER", replacement = "PLACEHOLDER",
-       test = "test-propose.R", what = "placeholder")
+  list(name = "explain_no_occam", file = "R/bias-regression.R",
+       pattern = "logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)",
+       replacement = "logml[j + 1L] <- -n / 2 * log1p(-shrink * r2)",
+       test = "test-diagnose.R", what = "explain_bias() drops the g-prior's penalty on a subset's size"),
+  list(name = "shared_weight_1", file = "R/shared-errors.R",
+       pattern = "list(weight = min(1, sum(ok) / tr), p = sum(ok)", replacement = "list(weight = 1, p = sum(ok)",
+       test = "test-shared-errors.R", what = "the inputs' likelihood is not weighed for shared errors"),
+  list(name = "autoplot_band_to_mean", file = "R/calibrate-methods.R",
+       pattern = "ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = \"steelblue\"",
+       replacement = "ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$mean), fill = \"steelblue\"",
+       test = "test-bands.R", what = "the fit's band plot draws its ribbon from the lower limit to the mean"),
+  list(name = "autoplot_fails_no_intervals", file = "R/fails-methods.R",
+       pattern = "  if (nrow(regions)) {", replacement = "  if (FALSE) {",
+       test = "test-diagnose.R", what = "where_fails()'s plot no longer shades the intervals found"),
+  list(name = "autoplot_levels_wrong_bars", file = "R/fails-methods.R",
+       pattern = "ggplot2::aes(factor(.data$level), .data$share)",
+       replacement = "ggplot2::aes(factor(.data$level), 1 - .data$share)",
+       test = "test-diagnose.R", what = "the levels plot draws the wrong bar heights"),
+  list(name = "autoplot_prior_density_unscaled", file = "R/iu-methods.R",
+       pattern = "data.frame(input = object$name[k], value = v, density = iu_prior_density(object, k, v))",
+       replacement = "data.frame(input = object$name[k], value = v, density = 2 * iu_prior_density(object, k, v))",
+       test = "test-iu-map.R", what = "the I/U map's plot draws twice the prior density"),
+  list(name = "autoplot_runs_windows_ignored", file = "R/runs.R",
+       pattern = "add_window <- function(df) with_windows(df, windows, whole = \"whole record\")",
+       replacement = "add_window <- function(df) with_windows(df, NULL, whole = \"whole record\")",
+       test = "test-runs.R", what = "the runs' plot ignores the windows"),
+  list(name = "autoplot_trace_first_chain", file = "R/calibrate-methods.R",
+       pattern = "d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {",
+       replacement = "d <- do.call(rbind, lapply(1L, function(ch) {",
+       test = "test-calibrate.R", what = "the trace plot draws only the first chain")
 )
 
 # --- machinery ---------------------------------------------------------------
@@ -57,7 +84,6 @@ root <- normalizePath(".")
 if (!file.exists(file.path(root, "DESCRIPTION")) || !dir.exists(file.path(root, "tools"))) {
   stop("Run from the package's root: Rscript tools/mutants.R [name ...]")
 }
-mutants <- Filter(function(m) m$pattern != "PLACEHOLDER", mutants)
 names(mutants) <- vapply(mutants, `[[`, "", "name")
 if ("--list" %in% args) {
   for (m in mutants) cat(sprintf("%-30s %-22s %s\n", m$name, m$test, m$what))
@@ -133,14 +159,12 @@ for (m in mutants) {
   dir <- file.path(work, m$name)
   system2("cp", c("-a", shQuote(base), shQuote(dir)))
   path <- file.path(dir, m$file)
-  txt <- readLines(path, warn = FALSE)
-  hits <- grep(m$pattern, txt, fixed = TRUE)
-  n_hits <- sum(lengths(regmatches(txt, gregexpr(m$pattern, txt, fixed = TRUE))))
+  txt <- paste(readLines(path, warn = FALSE), collapse = "\n")
+  n_hits <- sum(gregexpr(m$pattern, txt, fixed = TRUE)[[1]] > 0)
   if (n_hits != 1L) {
     result <- sprintf("pattern found %d times", n_hits)
   } else {
-    txt[hits] <- sub(m$pattern, m$replacement, txt[hits], fixed = TRUE)
-    writeLines(txt, path)
+    writeLines(sub(m$pattern, m$replacement, txt, fixed = TRUE), path)
     lib <- file.path(work, paste0("lib-", m$name))
     result <- tryCatch({
       install(dir, lib, file.path(work, paste0(m$name, "-install.log")))
