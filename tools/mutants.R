@@ -49,6 +49,9 @@ mutants <- list(
        pattern = "logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)",
        replacement = "logml[j + 1L] <- -n / 2 * log1p(-shrink * r2)",
        test = "test-diagnose.R", what = "explain_bias() drops the g-prior's penalty on a subset's size"),
+  list(name = "explain_evidence_x100", file = "R/bias-regression.R",
+       pattern = "n <- g <- eta * n_all", replacement = "g <- eta * n_all\n  n <- 100 * g",
+       test = "test-diagnose.R", what = "explain_bias() counts the bias's evidence a hundred times over"),
   list(name = "shared_weight_1", file = "R/shared-errors.R",
        pattern = "list(weight = min(1, sum(ok) / tr), p = sum(ok)", replacement = "list(weight = 1, p = sum(ok)",
        test = "test-shared-errors.R", what = "the inputs' likelihood is not weighed for shared errors"),
@@ -123,7 +126,8 @@ install <- function(src, lib, log) {
 run_test <- function(src, lib, test, log) {
   code <- sprintf(paste0("res <- as.data.frame(testthat::test_file(%s, package = 'wavevalid', ",
                          "load_package = 'installed', reporter = 'silent', stop_on_failure = FALSE)); ",
-                         "cat('\\nRESULT', sum(res$failed) + sum(res$error), sum(res$passed), '\\n')"),
+                         "cat('\\nRESULT', sum(res$failed) + sum(res$error), sum(res$passed), '\\n'); ",
+                         "for (k in which(res$failed > 0 | res$error)) cat('FAILED', res$test[k], '\\n')"),
                   deparse(file.path(src, "tests", "testthat", test)))
   old <- Sys.getenv("R_LIBS")
   Sys.setenv(R_LIBS = paste(c(lib, if (nzchar(old)) old), collapse = .Platform$path.sep))
@@ -132,7 +136,8 @@ run_test <- function(src, lib, test, log) {
   writeLines(out, log)
   line <- grep("^RESULT ", out, value = TRUE)
   if (!length(line)) return(NA_integer_)
-  as.integer(strsplit(line[length(line)], " ")[[1]][2])
+  structure(as.integer(strsplit(line[length(line)], " ")[[1]][2]),
+            failed = trimws(sub("^FAILED ", "", grep("^FAILED ", out, value = TRUE))))
 }
 
 # the base copy, compiled once: its object files serve every mutant
@@ -159,6 +164,7 @@ for (m in mutants) {
   dir <- file.path(work, m$name)
   system2("cp", c("-a", shQuote(base), shQuote(dir)))
   path <- file.path(dir, m$file)
+  caught <- character()
   txt <- paste(readLines(path, warn = FALSE), collapse = "\n")
   n_hits <- sum(gregexpr(m$pattern, txt, fixed = TRUE)[[1]] > 0)
   if (n_hits != 1L) {
@@ -169,6 +175,7 @@ for (m in mutants) {
     result <- tryCatch({
       install(dir, lib, file.path(work, paste0(m$name, "-install.log")))
       bad <- run_test(dir, lib, m$test, file.path(work, paste0(m$name, "-test.log")))
+      caught <<- attr(bad, "failed")
       if (is.na(bad)) "killed (test file errored)" else if (bad > 0) "killed" else "survived"
     }, error = function(e) paste("error:", conditionMessage(e)))
     unlink(lib, recursive = TRUE)
@@ -177,6 +184,7 @@ for (m in mutants) {
   rows[[length(rows) + 1L]] <- data.frame(mutant = m$name, test = m$test, result = result,
                                           seconds = round(proc.time()[["elapsed"]] - t0))
   cat(sprintf("%-30s %-22s %-9s %5.0f s\n", m$name, m$test, result, rows[[length(rows)]]$seconds))
+  for (tt in caught) cat("    failed: ", tt, "\n", sep = "")
 }
 
 tab <- do.call(rbind, rows)

@@ -99,8 +99,22 @@ test_that("print and summary of a basis", {
   b <- wavelet_basis(bed$runs, bed$field)
   expect_snapshot(print(b))
   expect_snapshot(print(summary(b)))
-  expect_s3_class(autoplot(b), "ggplot")
-  expect_s3_class(autoplot(b, type = "reconstruction", curve = bed$field$curves$s1[1, ]), "ggplot")
+  # the levels: a point per retained coefficient at its level (the axis reversed: coarse at the top)
+  pb <- plot_drawn(autoplot(b))
+  expect_identical(pb$geoms, "GeomPoint")
+  expect_identical(nrow(pb$data[[1]]), length(b$index))
+  expect_equal(sort(-pb$data[[1]]$y), sort(b$level))
+  expect_true(all(pb$data[[1]]$x >= min(b$t) & pb$data[[1]]$x <= max(b$t)))
+  expect_identical(pb$labels$title, sprintf("%d retained wavelet coefficients", length(b$index)))
+  # the reconstruction: the curve and its projection on the basis, with their relative L2 error
+  y <- bed$field$curves$s1[1, ]
+  pr <- plot_drawn(autoplot(b, type = "reconstruction", curve = y))
+  expect_identical(pr$geoms, "GeomLine")
+  expect_identical(nrow(pr$data[[1]]), 2L * length(b$t))
+  expect_identical(length(unique(pr$data[[1]]$group)), 2L)
+  yhat <- drop(b$Psi %*% wavevalid:::basis_coef(b, y))
+  expect_equal(sort(pr$data[[1]]$y), sort(c(y, yhat)))
+  expect_identical(pr$labels$title, sprintf("Relative L2 error %.3g", sqrt(sum((y - yhat)^2) / sum(y^2))))
 })
 
 test_that("reconstruction errors are the norm of the part outside the basis", {
