@@ -128,7 +128,15 @@ test_that("reconstruction errors are the norm of the part outside the basis", {
   lost <- sqrt(sum(fc[-b$index]^2) / sum(y^2))
   row <- chk$site == "s2" & chk$source == "field" & chk$id == 3
   expect_equal(chk$rel_l2[row], lost, tolerance = 1e-9)
-  expect_s3_class(autoplot(chk), "ggplot")
+  # the plot of one reconstruction (by default the first field curve): the curve and its projection
+  first <- which(chk$source == "field")[1]
+  pc <- plot_drawn(autoplot(chk))
+  expect_identical(pc$geoms, "GeomLine")
+  expect_identical(nrow(pc$data[[1]]), 2L * length(b$t))
+  expect_identical(pc$labels$title, sprintf("%s field %d: relative L2 error %.3g", chk$site[first], chk$id[first],
+                                            chk$rel_l2[first]))
+  y3 <- plot_drawn(autoplot(chk, which = which(row)))
+  expect_equal(sort(y3$data[[1]]$y), sort(c(y, drop(b$Psi %*% c(wavevalid:::basis_coef(b, y))))))
   expect_s3_class(summary(chk), "summary_wv_reconstruction")
 })
 
