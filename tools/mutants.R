@@ -48,7 +48,7 @@ mutants <- list(
   list(name = "explain_no_occam", file = "R/bias-regression.R",
        pattern = "logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)",
        replacement = "logml[j + 1L] <- -n / 2 * log1p(-shrink * r2)",
-       test = "test-diagnose.R", what = "explain_bias() drops the g-prior's penalty on a subset's size"),
+       test = "test-bias-regression.R", what = "explain_bias() drops the g-prior's penalty on a subset's size"),
   list(name = "explain_evidence_x100", file = "R/bias-regression.R",
        pattern = "n <- g <- eta * n_all", replacement = "g <- eta * n_all\n  n <- 100 * g",
        test = "test-diagnose.R", what = "explain_bias() counts the bias's evidence a hundred times over"),
