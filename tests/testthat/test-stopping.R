@@ -40,7 +40,7 @@ test_that("a state that does not match the sampler is refused", {
 })
 
 test_that("the chains stop when every input's ESS and R-hat meet the targets, or warn at the ceiling", {
-  # seeded data: with this field the chains need three rounds (75, 150 and 300 draws each)
+  # seeded data: with this field the chains stop after three rounds, at 75, 150 and 300 draws each
   withr::local_seed(7)
   gp <- grid_problem()
   rounds <- character()
