@@ -33,8 +33,31 @@ test_that("bias(), reality() and model_prediction() give tidy bands built from t
   fr <- wavevalid:::curve_draws(fit, "site1", "field_run", seed = 1)
   expect_identical(fr, wavevalid:::curve_draws(fit, "site1", "field_run", seed = 1))
   expect_gt(mean(apply(fr, 2, stats::var)), mean(apply(yR, 2, stats::var)))
-  expect_s3_class(autoplot(fit, "bias", windows = list(c(0.1, 0.5))), "ggplot")
-  expect_s3_class(autoplot(fit, "reality"), "ggplot")
+  # the bias plot: the 90% band (its ribbon and dashed edges), zero, and the mean, in the window only
+  b90 <- bias(fit, 0.9)
+  win <- b90[b90$t >= 0.1 & b90$t <= 0.5, ]
+  pb <- plot_drawn(autoplot(fit, "bias", windows = list(c(0.1, 0.5))))
+  expect_identical(pb$geoms, c("GeomRibbon", "GeomHline", "GeomLine", "GeomLine", "GeomLine"))
+  expect_identical(nrow(pb$data[[1]]), nrow(win))
+  expect_equal(pb$data[[1]]$ymin, win$lower)
+  expect_equal(pb$data[[1]]$ymax, win$upper)
+  expect_equal(pb$data[[2]]$yintercept, 0)
+  expect_equal(pb$data[[3]]$y, win$lower)
+  expect_equal(pb$data[[4]]$y, win$upper)
+  expect_equal(pb$data[[5]]$y, win$mean)
+  expect_identical(pb$labels$title, "Bias with 90% pointwise band")
+  expect_identical(pb$labels$y, "bias")
+  # the reality plot: the field's replicates, the band of reality, the model's prediction, the mean
+  r90 <- reality(fit, 0.9)
+  pr <- plot_drawn(autoplot(fit, "reality"))
+  expect_identical(pr$geoms, c("GeomLine", "GeomRibbon", "GeomLine", "GeomLine", "GeomLine", "GeomLine"))
+  expect_identical(nrow(pr$data[[1]]), length(fit$field$curves$site1))
+  expect_identical(length(unique(pr$data[[1]]$group)), nrow(fit$field$curves$site1))
+  expect_equal(pr$data[[2]]$ymin, r90$lower)
+  expect_equal(pr$data[[2]]$ymax, r90$upper)
+  expect_equal(pr$data[[3]]$y, model_prediction(fit, 0.9)$mean)
+  expect_equal(pr$data[[6]]$y, r90$mean)
+  expect_identical(pr$labels$title, "Bias-corrected prediction with 90% band")
 })
 
 test_that("the field detail outside the basis gets bands with their nominal coverage", {

@@ -412,8 +412,22 @@ test_that("a fit has the documented layout, mcmc.list and print", {
   no_time <- function(s) sub("^Sampling took .*", "Sampling took <time>", s)
   expect_snapshot(print(fit), transform = no_time)
   expect_snapshot(print(summary(fit)))
-  expect_s3_class(autoplot(fit, "inputs"), "ggplot")
-  expect_s3_class(autoplot(fit, "trace"), "ggplot")
+  # the inputs: a histogram of each input's draws (30 bins, all draws) and its prior's density, one panel each
+  X <- as.matrix(fit$draws)
+  pin <- plot_drawn(autoplot(fit, "inputs"))
+  expect_identical(pin$geoms, c("GeomBar", "GeomLine"))
+  expect_identical(pin$panels, length(fit$inputs))
+  expect_identical(nrow(pin$data[[1]]), 30L * length(fit$inputs))
+  expect_equal(sum(pin$data[[1]]$count), length(X[, fit$inputs]))
+  expect_identical(nrow(pin$data[[2]]), 201L * length(fit$inputs))
+  expect_identical(pin$labels$title, "Posterior draws of each input with its prior")
+  # the trace: every saved draw of every chain, one line per chain in each input's panel
+  ptr <- plot_drawn(autoplot(fit, "trace"))
+  expect_identical(ptr$geoms, "GeomLine")
+  expect_identical(ptr$panels, length(fit$inputs))
+  expect_identical(nrow(ptr$data[[1]]), length(X[, fit$inputs]))
+  expect_identical(length(unique(ptr$data[[1]]$colour)), length(fit$draws))
+  expect_identical(ptr$labels$x, "saved draw")
 })
 
 test_that("an input piled at its bound is flagged with a classed warning", {

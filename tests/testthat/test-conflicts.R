@@ -82,6 +82,20 @@ test_that("a posterior piled at a bound is a conflict, a partial pile is not", {
   expect_false(near$piled[near$input == "u1"])
   expect_false(near$conflict[near$input == "u1"])
   expect_equal(near$beyond_bound_sd[near$input == "u1"], -0.5, tolerance = 0.1)
+  # on either side of the threshold z = qnorm(1 - 0.05 / (2 * 2)) = 2.24 sd (two inputs): a centre
+  # 1.5 sd beyond the bound is within chance, 3 sd beyond is a pile; both hold nearly all their
+  # draws within 2% of the range from the bound
+  z <- stats::qnorm(1 - 0.05 / 4)
+  expect_equal(z, 2.24, tolerance = 0.01)
+  chance <- with_draws(truncated(1.015, 0.01))
+  expect_gt(chance$share_at_bound[chance$input == "u1"], 0.9)
+  expect_equal(chance$beyond_bound_sd[chance$input == "u1"], 1.5, tolerance = 0.1)
+  expect_false(chance$piled[chance$input == "u1"])
+  beyond <- with_draws(truncated(1.03, 0.01))
+  expect_gt(beyond$share_at_bound[beyond$input == "u1"], 0.9)
+  expect_equal(beyond$beyond_bound_sd[beyond$input == "u1"], 3, tolerance = 0.1)
+  expect_true(beyond$piled[beyond$input == "u1"])
+  expect_true(beyond$conflict[beyond$input == "u1"])
 })
 
 test_that("bound_overshoot() reads the centre of a truncated normal from its draws", {

@@ -14,8 +14,24 @@ test_that("where_fails finds the interval where the missing bump acts", {
   lv <- attr(wf, "wavelet_levels")
   expect_equal(sum(lv$share), 1)
   expect_s3_class(attr(wf, "boundary"), "data.frame")
-  expect_s3_class(autoplot(wf), "ggplot")
-  expect_s3_class(autoplot(wf, type = "levels"), "ggplot")
+  # the bias plot: the intervals found shaded, the band, zero, the mean
+  pf <- plot_drawn(autoplot(wf))
+  iv <- wf[wf$kind == "interval", ]
+  expect_identical(pf$geoms[1], "GeomRect")
+  expect_identical(nrow(pf$data[[1]]), nrow(iv))
+  expect_equal(sort(pf$data[[1]]$xmin), sort(iv$start))
+  expect_equal(sort(pf$data[[1]]$xmax), sort(iv$end))
+  expect_identical(utils::tail(pf$geoms, 3), c("GeomRibbon", "GeomHline", "GeomLine"))
+  ribbon <- pf$data[[length(pf$geoms) - 2L]]
+  expect_true(all(ribbon$ymin <= ribbon$ymax))
+  expect_true(all(pf$data[[length(pf$geoms) - 1L]]$yintercept == 0))
+  expect_match(pf$labels$title, "^Where the model fails: intervals where the ")
+  # the levels plot: a bar per level and site, its height the level's share of the bias energy
+  pl <- plot_drawn(autoplot(wf, type = "levels"))
+  expect_identical(pl$geoms, "GeomCol")
+  expect_identical(nrow(pl$data[[1]]), nrow(lv))
+  expect_equal(pl$data[[1]]$y, lv$share)
+  expect_identical(pl$labels$title, "Which time scales carry the bias")
 })
 
 test_that("where_fails with a tolerance reports only where the band lies beyond it", {
@@ -150,7 +166,16 @@ test_that("explain_bias ranks the true mechanism first and the decoys low", {
   expect_true(ex$amplitude_lower[1] < 0.3 && ex$amplitude_upper[1] > 0.15)
   expect_true(any(grepl("^shift:", ex$candidate)))
   expect_identical(explain_bias(d$fit, d$candidates, seed = 1), ex)
-  expect_s3_class(autoplot(ex), "ggplot")
+  # the plot: zero, the posterior mean bias and the leading candidates' effects, a line each
+  cur <- attr(ex, "curves")
+  pe <- plot_drawn(autoplot(ex))
+  expect_identical(pe$geoms, c("GeomHline", "GeomLine"))
+  expect_identical(nrow(pe$data[[2]]), nrow(cur))
+  expect_identical(length(unique(pe$data[[2]]$colour)), length(unique(cur$curve)))
+  expect_true("posterior mean bias" %in% cur$curve)
+  expect_true(any(startsWith(as.character(cur$curve), "bump")))
+  expect_equal(sort(pe$data[[2]]$y), sort(cur$value))
+  expect_identical(pe$labels$title, "Posterior mean bias and the leading candidate effects, scaled")
 })
 
 test_that("explain_bias says how much of each candidate a parameter shift spans", {
@@ -309,7 +334,7 @@ test_that("adding the missing effect makes the error fall", {
   expect_false(any(grepl("localised bias fell", utils::capture.output(print(cmp)))))
 })
 
-test_that("on the test bed without a hidden mechanism, nothing is flagged or explained", {
+test_that("on the test bed without a hidden mechanism (the test-bed protocol's short chains), nothing is flagged or explained", {
   skip_on_cran()
   d <- testbed_diagnosis("none")
   dt <- diff(d$fit$basis$t[1:2])
@@ -321,6 +346,12 @@ test_that("on the test bed without a hidden mechanism, nothing is flagged or exp
   whole <- whole[whole$kind == "interval", ]
   steps <- (whole$end - whole$start) / dt
   expect_true(all(steps <= 3), label = paste(round(steps), collapse = ", "))
+  # nothing explained: no mechanism's signature, nor a shift of an input, reaches inclusion 0.5
+  # (the claim the slow tier makes over three test beds), and each amplitude's interval holds 0
+  expect_setequal(d$explain$candidate, testbed_mechanisms())
+  expect_gt(sum(startsWith(d$all$candidate, "shift:")), 0L)
+  expect_true(all(d$all$inclusion_prob < 0.5), label = paste(signif(d$all$inclusion_prob, 2), collapse = ", "))
+  expect_true(all(d$all$amplitude_lower <= 0 & d$all$amplitude_upper >= 0))
 })
 
 # explain_bias over three test beds: no false claim, the true mechanism first.

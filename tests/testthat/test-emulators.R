@@ -265,8 +265,22 @@ test_that("print, summary and plots work", {
   s <- summary(em)
   expect_s3_class(s, "summary_wv_emulators")
   expect_equal(sum(s$by_level$n), 4)
-  expect_s3_class(autoplot(em), "ggplot")
-  expect_s3_class(autoplot(em, type = "loo"), "ggplot")
+  # the parameters: a point per coefficient and input, at its beta (log scale) and alpha
+  pp <- plot_drawn(autoplot(em))
+  expect_identical(pp$geoms, "GeomPoint")
+  expect_identical(pp$panels, length(em$inputs))
+  expect_identical(nrow(pp$data[[1]]), nrow(em$params) * length(em$inputs))
+  beta <- unlist(lapply(em$inputs, function(v) em$params[[paste0("beta_", v)]]))
+  expect_equal(sort(pp$data[[1]]$x), sort(log10(pmax(beta, 1e-6))))
+  expect_identical(pp$labels$title, "GASP correlation parameters by input")
+  # the leave-one-out residuals: the +-2 lines and a point per finite residual
+  loo <- wavevalid:::loo_residuals(em)
+  pl <- plot_drawn(autoplot(em, type = "loo"))
+  expect_identical(pl$geoms, c("GeomHline", "GeomPoint"))
+  expect_equal(sort(pl$data[[1]]$yintercept), c(-2, 2))
+  expect_identical(nrow(pl$data[[2]]), sum(is.finite(loo$residual)))
+  expect_equal(sort(pl$data[[2]]$y), sort(loo$residual[is.finite(loo$residual)]))
+  expect_identical(pl$labels$title, "Leave-one-out residuals of the emulators")
 })
 
 test_that("summary() reports the studentised errors of the emulators at held-out runs", {

@@ -35,7 +35,19 @@ test_that("prior draws follow the truncated normal and uniform priors", {
   # the density integrates to one
   v <- seq(0.2, 0.8, length.out = 2001)
   expect_equal(sum(iu_prior_density(iu, 2, v)) * diff(v[1:2]), 1, tolerance = 1e-3)
-  expect_s3_class(autoplot(iu), "ggplot")
+  # each input's prior density over its range, one panel each, integrating to one
+  pd <- plot_drawn(autoplot(iu))
+  expect_identical(pd$geoms, "GeomLine")
+  expect_identical(pd$panels, 2L)
+  expect_identical(nrow(pd$data[[1]]), 2L * 201L)
+  area <- tapply(seq_len(nrow(pd$data[[1]])), pd$data[[1]]$PANEL, function(i) {
+    x <- pd$data[[1]]$x[i]
+    y <- pd$data[[1]]$y[i]
+    sum(diff(x) * (y[-1] + y[-length(y)]) / 2)
+  })
+  expect_equal(unname(as.numeric(area)), c(1, 1), tolerance = 1e-3)
+  expect_equal(range(pd$data[[1]]$x[pd$data[[1]]$PANEL == 2]), c(0.2, 0.8))
+  expect_identical(pd$labels$title, "Prior of each input")
 })
 
 test_that("design_maximin() gives a reproducible Latin hypercube on the ranges, nominal last", {

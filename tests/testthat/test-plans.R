@@ -112,3 +112,28 @@ test_that("chains that ran one after the other for a minute with free cores get 
   future::plan(future::multisession, workers = 2)
   expect_no_message(expect_false(hint(75, 2L, 2L, FALSE)))
 })
+
+test_that("chains that resume in rounds (n_draws = NULL) give the sequential draws under a multisession plan", {
+  skip_unless_installed()
+  skip_if_not_installed("future")
+  withr::local_seed(7)
+  gp <- grid_problem()
+  old <- future::plan(future::sequential)
+  withr::defer(future::plan(old))
+  run <- function(n_draws = NULL) {
+    calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
+              sampler = sampler_control(n_draws = n_draws, n_inner = 5, ess = 150, burnin = 2000, quiet = TRUE))
+  }
+  ref <- run()
+  # the stopping rule ran more than one round, and stopped before the ceiling
+  expect_gt(ref$stopping$rounds, 1L)
+  expect_lt(ref$stopping$draws, ref$stopping$max_draws)
+  future::plan(future::multisession, workers = 2)
+  par <- run()
+  expect_identical(as.matrix(par$draws), as.matrix(ref$draws))
+  expect_identical(par$stopping, ref$stopping)
+  # each chain continued from its state: the draws are those of chains run at once to the same length
+  future::plan(future::sequential)
+  whole <- run(ref$stopping$draws)
+  expect_identical(as.matrix(whole$draws), as.matrix(ref$draws))
+})

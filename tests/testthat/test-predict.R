@@ -29,7 +29,20 @@ test_that("predictions have the documented structure and are reproducible with a
   # measurement error widens the band
   expect_gt(median(p1$summary$upper - p1$summary$lower), median(r$summary$upper - r$summary$lower))
   expect_snapshot(print(p1))
-  expect_s3_class(autoplot(p1), "ggplot")
+  # the plot: the field's replicates, the model, the band's edges and the mean, on the summary's grid
+  s1 <- p1$summary
+  pp <- plot_drawn(autoplot(p1))
+  n_line <- length(pp$geoms)
+  expect_identical(utils::tail(pp$geoms, 4), rep("GeomLine", 4))
+  expect_equal(pp$data[[n_line - 3L]]$y, s1$model)
+  expect_equal(pp$data[[n_line - 2L]]$y, s1$lower)
+  expect_equal(pp$data[[n_line - 1L]]$y, s1$upper)
+  expect_equal(pp$data[[n_line]]$y, s1$mean)
+  expect_match(pp$labels$title, "^Prediction: field run \\(.* bias, 90% band\\)$")
+  # band = "curve" draws the simultaneous band's edges
+  pc <- plot_drawn(autoplot(p1, band = "curve"))
+  expect_equal(pc$data[[n_line - 2L]]$y, s1$lower_curve)
+  expect_equal(pc$data[[n_line - 1L]]$y, s1$upper_curve)
 })
 
 test_that("a new vehicle at the tested vehicle's inputs reproduces the reality prediction", {

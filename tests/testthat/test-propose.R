@@ -2,15 +2,17 @@
 # nothing is proposed without one, the simulated effect of a state term is
 # its derivative, and the nuisance directions are never proposed.
 
-propose_problem <- function(strength, seed = 1, windows = NULL) {
+# The planted term: strength * (output - c)_+, c = 0.8 or, with `q`, the
+# quantile q of the true output (a threshold the term library holds).
+propose_problem <- function(strength, seed = 1, windows = NULL, q = NULL) {
   t <- seq(0, 1, length.out = 128)
   model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * t) + u * exp(-((t - 0.6) / 0.08)^2)
   withr::with_seed(seed, {
     design <- data.frame(u1 = (0:29 + stats::runif(30)) / 30, x1 = (sample(30) - stats::runif(30)) / 30)
     runs <- model_runs(design, t(mapply(model, design$u1, design$x1)), t, site = "site1")
     truth <- model(0.4, 0.5)
-    # the planted term: a hinge of the output above 0.8
-    reality <- truth + strength * pmax(truth - 0.8, 0)
+    threshold <- if (is.null(q)) 0.8 else stats::quantile(truth, q, names = FALSE)
+    reality <- truth + strength * pmax(truth - threshold, 0)
     reps <- t(replicate(3, reality + stats::rnorm(length(t), sd = 0.01)))
   })
   field <- field_runs(reps, t, x_nom = c(x1 = 0.5))
@@ -19,22 +21,89 @@ propose_problem <- function(strength, seed = 1, windows = NULL) {
                             sampler = sampler_control(n_draws = 60, n_inner = 10, quiet = TRUE)))
 }
 
-test_that("a planted hinge is proposed as a hinge, with its strength inside the interval; none without it", {
-  fit_on <- propose_problem(2)
-  pr <- propose_terms(fit_on, term_library(fit_on), n_draws = 40, seed = 1)
+test_that("a planted hinge the library holds is proposed as that hinge, its strength inside the interval; none without it", {
+  # planted: 0.5 (output - c)_+ with c the 0.9 quantile of the true output, which is a version of the
+  # library's hinge_above family (its thresholds are quantiles of the output at the calibrated inputs)
+  fit_lib <- propose_problem(0.5, q = 0.9)
+  lib <- term_library(fit_lib)
+  pr <- propose_terms(fit_lib, lib, n_draws = 40, seed = 1)
   expect_s3_class(pr, "wv_proposals")
   expect_identical(pr$family[1], "hinge_above")
   expect_identical(pr$channel[1], "output")
   expect_gt(pr$inclusion_prob[1], 0.9)
-  expect_true(pr$strength_lower[1] < 2 && pr$strength_upper[1] > 1)
-  expect_true(pr$from[1] <= 0.25 && pr$to[1] >= 0.25)
-  expect_output(print(pr), "Proposed: hinge_above")
+  expect_lt(pr$inclusion_prob[2], 0.5)
+  # the version: linear (k = 1), at the library's 0.9 quantile of the output
+  out <- lib$channels$curves$output$site1
+  expect_identical(pr$term[1], sprintf("hinge_above(output; c = %s, k = 1)",
+                                       format(signif(stats::quantile(out, 0.9, names = FALSE), 3))))
+  expect_true(pr$strength_lower[1] <= 0.5 && pr$strength_upper[1] >= 0.5,
+              label = sprintf("[%.3f, %.3f]", pr$strength_lower[1], pr$strength_upper[1]))
+  expect_lt(pr$strength_upper[1] - pr$strength_lower[1], 0.5)
+  expect_output(print(pr), "Proposed: hinge_above(output; c = ", fixed = TRUE)
+
+  # planted 2 (output - 0.8)_+: no library version (the thresholds are quantiles) and the variation
+  # input x1, which scales the output's amplitude, absorbs part of it. A hinge above the output is
+  # proposed, where it acts, but its strength is not the planted one: the interval lies below 2
+  fit_on <- propose_problem(2)
+  pr2 <- propose_terms(fit_on, term_library(fit_on), n_draws = 40, seed = 1)
+  expect_identical(pr2$family[1], "hinge_above")
+  expect_identical(pr2$channel[1], "output")
+  expect_gt(pr2$inclusion_prob[1], 0.9)
+  expect_lt(pr2$strength_upper[1], 2)
+  expect_true(pr2$from[1] <= 0.25 && pr2$to[1] >= 0.25)
+  expect_gt(stats::coef(fit_on)[["x1"]], 0.6)
 
   fit_off <- propose_problem(0)
   pr0 <- propose_terms(fit_off, term_library(fit_off), n_draws = 40, seed = 1)
   expect_lt(pr0$inclusion_prob[1], 0.5)
   expect_gt(attr(pr0, "none"), 0.5)
   expect_output(print(pr0), "No term proposed")
+})
+
+test_that("the term library prints its terms, families and channels", {
+  fit <- propose_problem(0.5, q = 0.9)
+  lib <- term_library(fit)
+  out <- capture.output(print(lib))
+  fam <- table(factor(lib$terms$family, levels = unique(lib$terms$family)))
+  expect_identical(out[1], sprintf("<wv_term_library> %d terms in %d families of 2 channels", nrow(lib$terms),
+                                   length(unique(lib$terms$effect))))
+  expect_identical(out[2], "Channels: output (output), d/dt output (output)")
+  expect_identical(out[3], paste0("Families: ", paste(names(fam), as.integer(fam), collapse = ", ")))
+  # three powers and one linear term per channel, one product of the two channels
+  expect_match(out[3], "^Families: linear 2, power 6, ")
+  expect_match(out[3], ", product 1$")
+  # a state channel is named as such; without products there is no product family
+  st <- term_library(fit, states = list(s = cos(2 * pi * fit$basis$t)), outputs = FALSE, products = FALSE)
+  out_st <- capture.output(print(st))
+  expect_match(out_st[1], " of 1 channels$")
+  expect_identical(out_st[2], "Channels: s (state)")
+  expect_no_match(out_st[3], "product")
+})
+
+test_that("autoplot() of proposals draws the posterior mean bias and each leading term's effect", {
+  fit <- propose_problem(0.5, q = 0.9)
+  pr <- propose_terms(fit, term_library(fit), n_draws = 40, seed = 1)
+  cur <- attr(pr, "curves")
+  p <- autoplot(pr)
+  b <- ggplot2::ggplot_build(p)
+  expect_identical(vapply(p$layers, function(l) class(l$geom)[1], ""), "GeomLine")
+  expect_identical(nrow(b$data[[1]]), nrow(cur))
+  expect_identical(p$labels$title, "Posterior mean bias and the leading proposed terms")
+  expect_identical(p$labels$y, "bias")
+  # one line per curve: the bias and the leading term at its strength
+  curves <- unique(as.character(cur$curve))
+  expect_identical(length(unique(b$data[[1]]$group)), length(curves))
+  expect_true("posterior mean bias" %in% curves)
+  lead <- curves[startsWith(curves, pr$term[1])]
+  expect_length(lead, 1L)
+  expect_match(lead, sprintf("x %s$", format(signif(pr$strength[1], 3))))
+  # the lead term's line is its effect at its strength, and follows the bias
+  sig <- drop(fit$basis$Psi %*% attr(pr, "signatures")[, pr$term[1]])
+  bias <- cur$value[cur$curve == "posterior mean bias"]
+  eff <- cur$value[cur$curve == lead]
+  expect_equal(eff, pr$strength[1] * sig)
+  expect_gt(stats::cor(bias, eff), 0.8)
+  expect_equal(sort(unique(b$data[[1]]$y)), sort(unique(cur$value)))
 })
 
 test_that("a proposal becomes a candidate that explain_bias() weighs first", {

@@ -53,7 +53,7 @@ test_that("simulation-based calibration with registration shifts: the input, a b
   withr::local_seed(20261129)
   U <- cbind(sin(seq_len(n)), cos(0.5 * seq_len(n))) * 2
   v <- c(0.3, 0.6)
-  reps <- if (slow_tier()) 3000L else 600L
+  reps <- 600L
   L <- 49L
   # `told`: the shifts' variances the sampler is given (v: right)
   sbc <- function(told) {

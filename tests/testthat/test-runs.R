@@ -14,7 +14,17 @@ test_that("model_runs and field_runs hold one or several sites", {
   expect_equal(nrow(field$curves$site1), 3L)
   expect_snapshot(print(runs))
   expect_snapshot(print(summary(field)))
-  expect_s3_class(autoplot(runs, field = field, windows = list(c(0.1, 0.3), c(0.6, 0.8))), "ggplot")
+  # the runs' and the replicates' lines in each window, a panel per site and window
+  pc <- plot_drawn(autoplot(runs, field = field, windows = list(c(0.1, 0.3), c(0.6, 0.8))))
+  n_win <- sum(t >= 0.1 & t <= 0.3) + sum(t >= 0.6 & t <= 0.8)
+  expect_identical(pc$geoms, c("GeomLine", "GeomLine"))
+  expect_identical(nrow(pc$data[[1]]), 2L * 5L * n_win)
+  expect_identical(nrow(pc$data[[2]]), 3L * n_win)
+  expect_identical(length(unique(pc$data[[2]]$colour)), 3L)
+  expect_identical(pc$panels, 3L * 2L)
+  expect_equal(range(pc$data[[1]]$x), c(min(t[t >= 0.1]), max(t[t <= 0.8])))
+  expect_false(any(pc$data[[1]]$x > 0.3 & pc$data[[1]]$x < 0.6))
+  expect_identical(pc$labels$title, "Model runs (grey) and field replicates")
 })
 
 test_that("containers reject bad input with classed errors", {

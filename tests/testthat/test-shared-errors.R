@@ -116,8 +116,10 @@ test_that("with errors the coefficients share, the adjusted inputs' 95% interval
       adjusted = inside(shift_draws(sp, "adjusted", r, 400)$u1))
   }, logical(2))
   rate <- rowMeans(cover)
-  expect_gte(rate[["adjusted"]], 0.8)
-  expect_lt(rate[["independent"]], 0.8)
+  # at these seeds 55 and 37 of the 60 intervals cover (0.92 and 0.62); each bound is two binomial
+  # sd from its rate, on its own side of the gap, so that no one coverage passes both
+  expect_gte(rate[["adjusted"]], 0.85)
+  expect_lte(rate[["independent"]], 0.75)
 })
 
 test_that("the weight counts the emulators' errors of two sites that share a design as correlated across the sites", {

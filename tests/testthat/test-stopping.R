@@ -40,10 +40,17 @@ test_that("a state that does not match the sampler is refused", {
 })
 
 test_that("the chains stop when every input's ESS and R-hat meet the targets, or warn at the ceiling", {
+  # seeded data: with this field the chains stop after three rounds, at 75, 150 and 300 draws each
+  withr::local_seed(7)
   gp <- grid_problem()
-  fit <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3,
-                   bias = bias_control(sigma2 = gp$sigma2),
-                   sampler = sampler_control(n_inner = 5, ess = 150, quiet = TRUE))
+  rounds <- character()
+  fit <- withCallingHandlers(
+    calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
+              sampler = sampler_control(n_inner = 5, ess = 150, quiet = FALSE)),
+    wavevalid_message = function(m) {
+      rounds[length(rounds) + 1L] <<- conditionMessage(m)
+      invokeRestart("muffleMessage")
+    })
   st <- fit$stopping
   expect_true(st$met)
   expect_identical(nrow(fit$draws[[1]]), as.integer(st$draws))
@@ -52,8 +59,27 @@ test_that("the chains stop when every input's ESS and R-hat meet the targets, or
   expect_gte(min(ess), 150)
   expect_equal(unname(min(ess)), st$ess)
   expect_lte(st$rhat, 1.05)
-  # the first round holds ess / chains draws; a round more only when the targets were not met there
-  expect_gte(st$draws, 75L)
+  # the chains stopped before the ceiling, in more than one round
+  expect_lt(st$draws, st$max_draws)
+  expect_gt(st$rounds, 1L)
+  # the first round held ess / chains = 75 draws; each further round says how many it added
+  more <- as.integer(sub(".*continued by ([0-9]+) draws each.*", "\\1", rounds[grepl("continued by", rounds)]))
+  expect_length(more, st$rounds - 1L)
+  expect_identical(as.integer(st$draws - sum(more)), 75L)
+  # the round before the last missed the targets (a chain continued from its state draws what
+  # the chain run at once draws, so the draws held then are the first `before` of each chain)
+  before <- st$draws - more[length(more)]
+  held <- coda::mcmc.list(lapply(fit$draws, function(d) coda::mcmc(as.matrix(d)[seq_len(before), "u1", drop = FALSE])))
+  missed <- coda::effectiveSize(held) < 150 ||
+    coda::gelman.diag(held, autoburnin = FALSE, multivariate = FALSE)$psrf[1, 1] > 1.05
+  expect_true(missed)
+  # the burn-in is sized to the first round, max(5000, 75 * n_inner / 4)
+  expect_identical(as.integer(fit$settings$burnin), 5000L)
+  thin <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
+                    sampler = sampler_control(n_inner = 400, ess = 150, quiet = TRUE))
+  expect_identical(as.integer(thin$settings$burnin), 7500L)
+  expect_identical(thin$stopping$rounds, 1L)
+  expect_identical(nrow(thin$draws[[1]]), 75L)
   expect_match(capture.output(print(fit)), "Chains stopped at [0-9]+ draws each", all = FALSE)
   # a target the ceiling cannot reach: the chains stop there and warn
   warned <- list()

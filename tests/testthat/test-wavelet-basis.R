@@ -99,8 +99,22 @@ test_that("print and summary of a basis", {
   b <- wavelet_basis(bed$runs, bed$field)
   expect_snapshot(print(b))
   expect_snapshot(print(summary(b)))
-  expect_s3_class(autoplot(b), "ggplot")
-  expect_s3_class(autoplot(b, type = "reconstruction", curve = bed$field$curves$s1[1, ]), "ggplot")
+  # the levels: a point per retained coefficient at its level (the axis reversed: coarse at the top)
+  pb <- plot_drawn(autoplot(b))
+  expect_identical(pb$geoms, "GeomPoint")
+  expect_identical(nrow(pb$data[[1]]), length(b$index))
+  expect_equal(sort(-pb$data[[1]]$y), sort(b$level))
+  expect_true(all(pb$data[[1]]$x >= min(b$t) & pb$data[[1]]$x <= max(b$t)))
+  expect_identical(pb$labels$title, sprintf("%d retained wavelet coefficients", length(b$index)))
+  # the reconstruction: the curve and its projection on the basis, with their relative L2 error
+  y <- bed$field$curves$s1[1, ]
+  pr <- plot_drawn(autoplot(b, type = "reconstruction", curve = y))
+  expect_identical(pr$geoms, "GeomLine")
+  expect_identical(nrow(pr$data[[1]]), 2L * length(b$t))
+  expect_identical(length(unique(pr$data[[1]]$group)), 2L)
+  yhat <- drop(b$Psi %*% c(wavevalid:::basis_coef(b, y)))
+  expect_equal(sort(pr$data[[1]]$y), sort(c(y, yhat)))
+  expect_identical(pr$labels$title, sprintf("Relative L2 error %.3g", sqrt(sum((y - yhat)^2) / sum(y^2))))
 })
 
 test_that("reconstruction errors are the norm of the part outside the basis", {
@@ -114,7 +128,15 @@ test_that("reconstruction errors are the norm of the part outside the basis", {
   lost <- sqrt(sum(fc[-b$index]^2) / sum(y^2))
   row <- chk$site == "s2" & chk$source == "field" & chk$id == 3
   expect_equal(chk$rel_l2[row], lost, tolerance = 1e-9)
-  expect_s3_class(autoplot(chk), "ggplot")
+  # the plot of one reconstruction (by default the first field curve): the curve and its projection
+  first <- which(chk$source == "field")[1]
+  pc <- plot_drawn(autoplot(chk))
+  expect_identical(pc$geoms, "GeomLine")
+  expect_identical(nrow(pc$data[[1]]), 2L * length(b$t))
+  expect_identical(pc$labels$title, sprintf("%s field %d: relative L2 error %.3g", chk$site[first], chk$id[first],
+                                            chk$rel_l2[first]))
+  y3 <- plot_drawn(autoplot(chk, which = which(row)))
+  expect_equal(sort(y3$data[[1]]$y), sort(c(y, drop(b$Psi %*% c(wavevalid:::basis_coef(b, y))))))
   expect_s3_class(summary(chk), "summary_wv_reconstruction")
 })
 
