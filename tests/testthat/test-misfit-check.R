@@ -31,6 +31,14 @@ test_that("a right model is not rejected, and each point's error follows the rep
   expect_gt(grow_early, 1.8)
   expect_gt(grow_early, 1.3 * grow_late)
   expect_equal(chk$z, chk$misfit / chk$se)
+  # with replicates, their own scatter: not the per-coefficient noise variances of the fit
+  loud <- fit
+  loud$sigma2$site1 <- 100 * loud$sigma2$site1
+  expect_equal(misfit_check(loud)$se, chk$se)
+  one <- fit
+  one$n_rep$site1 <- 1L
+  expect_identical(unname(attr(misfit_check(one), "noise")), "learned")
+  expect_false(isTRUE(all.equal(misfit_check(one)$se, chk$se)))
   expect_output(print(chk), "Not rejected")
   expect_false("misfit" %in% where_fails(fit)$kind)
   p <- ggplot2::ggplot_build(autoplot(chk))
