@@ -24,7 +24,8 @@ nested_p <- function(Y, unit) {
     y <- as.vector(t(Y[unit == u, , drop = FALSE]))
     tt <- rep(t, sum(unit == u))
     m0 <- stats::nls(y ~ a * exp(-k * tt), start = list(a = 1, k = 0.4))
-    m1 <- stats::nls(y ~ a * exp(-k * tt) + c * (tt / 10)^2, start = list(a = 1, k = 0.4, c = 0))
+    m1 <- stats::nls(y ~ a * exp(-k * tt) + c * (tt / 10)^2, start = c(as.list(stats::coef(m0)), c = 0),
+                     control = stats::nls.control(minFactor = 1e-10, maxiter = 200))
     stats::anova(m0, m1)[2, "Pr(>F)"]
   }, numeric(1))
   stats::pchisq(-2 * sum(log(p)), 2 * length(p), lower.tail = FALSE)
