@@ -79,8 +79,10 @@
 #'   they hold in all). The attribute `holdout_field` holds the held-out
 #'   field data as each model was graded against them (`before`, `after`:
 #'   one registered field for an experiment). The attribute `same_field`
-#'   says whether the two fits hold the same registered field data. The attribute `verdict` is `"helped"`, `"worse"` or `"no clear
-#'   change"` (`NA` without a holdout).
+#'   says whether the two fits hold the same registered field data, and
+#'   `unmixed` names, by fit, the inputs whose R-hat is above 1.1. The
+#'   attribute `verdict` is `"helped"`, `"worse"`, `"no clear change"` or
+#'   `"not judged"` (`NA` without a holdout).
 #'
 #' @section The verdict:
 #' The print ends with a verdict: whether the conflicts were resolved and,
@@ -103,7 +105,10 @@
 #' 1.05 (not credibly worse by more than the margin); it is **worse** when
 #' the model-alone ratio's lower limit is above 1.05; otherwise there is
 #' **no clear change**: the fall or rise is within what the held-out data's
-#' noise and the predictions' uncertainty produce, or within the margin. An
+#' noise and the predictions' uncertainty produce, or within the margin.
+#' When the chains of either fit did not mix (an input's R-hat above 1.1),
+#' the verdict is **not judged**: their draws do not yet describe the
+#' posterior; the print names the inputs (attribute `unmixed`). An
 #' effect that is not the missing one can take up a little of the misfit
 #' and lower the held-out error by a few per cent; on the package's test
 #' beds most such decoys moved the noise-free error of the model alone by
@@ -171,7 +176,9 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
   attr(out, "holdout_ratio") <- ratio
   attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
   attr(out, "holdout_predictions") <- if (!is.null(holdout)) list(before = ho$before$pred$summary, after = ho$after$pred$summary)
-  attr(out, "verdict") <- holdout_verdict(ratio)
+  unmixed <- unmixed_inputs(list(before = before, after = after))
+  attr(out, "verdict") <- if (!is.null(ratio) && length(unmixed)) "not judged" else holdout_verdict(ratio)
+  attr(out, "unmixed") <- unmixed
   attr(out, "same_field") <- same_field(before, after)
   class(out) <- c("wv_comparison", "data.frame")
   out
@@ -185,6 +192,19 @@ holdout_verdict <- function(ratio) {
   cc <- ratio[ratio$prediction == "corrected", ]
   if (m$upper < 1 / verdict_margin && cc$lower <= verdict_margin) "helped"
   else if (m$lower > verdict_margin) "worse" else "no clear change"
+}
+
+# The inputs whose chains did not mix (R-hat above 1.1, as the fit's print
+# flags them), by fit: a named list of the fits that have any; empty when
+# all mixed (or ran one chain).
+unmixed_inputs <- function(fits) {
+  out <- lapply(fits, function(f) {
+    r <- f$rhat
+    if (is.null(r)) return(NULL)
+    r <- r[is.finite(r) & r > 1.1]
+    if (length(r)) r
+  })
+  Filter(Negate(is.null), out)
 }
 
 # The verdict's margin: a change is judged to help (or to harm) only when
@@ -289,6 +309,13 @@ print.wv_comparison <- function(x, ...) {
                   "are taken against different targets and their ratio is not a change of the model alone. ",
                   "Validate the new model with update(before, runs = , iu = ), which keeps the registration.")
   }
+  um <- attr(x, "unmixed")
+  if (length(um)) {
+    cli::cat_line("Chains that did not mix (R-hat above 1.1): ",
+                  paste(sprintf("%s: %s", names(um), vapply(um, function(r) paste(sprintf("%s %.2f", names(r), r),
+                                                                                   collapse = ", "), "")),
+                        collapse = "; "), ".")
+  }
   for (line in comparison_verdict(x)) cli::cat_line(line)
   invisible(x)
 }
@@ -330,6 +357,8 @@ holdout_lines <- function(hr, verdict) {
     helped = paste("the change helped: the model alone predicts the held-out data better by more than the data's",
                    "noise and the predictions' uncertainty produce, and the bias-corrected prediction is not credibly worse"),
     worse = "the change did not help at the held-out condition: the model alone predicts the held-out data credibly worse",
+    `not judged` = paste("not judged: the chains of a fit did not mix (R-hat above 1.1), so its draws do not yet",
+                         "describe its posterior; run them longer (sampler_control(max_draws = )) and compare again"),
     if (m$upper < 1) {
       paste("no clear change: the model alone predicts the held-out data better, but the bias-corrected prediction",
             "is credibly worse: the calibration compensates elsewhere (see the inputs' posteriors of each fit)")

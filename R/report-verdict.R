@@ -96,7 +96,8 @@ comparison_sentence <- function(comparison) {
   f <- function(z) format(round(z, 2), nsmall = 2)
   m <- hr[hr$prediction == "model", ]
   cc <- hr[hr$prediction == "corrected", ]
-  word <- switch(verdict, helped = "**helped**", worse = "**did not help** (worse)", "made **no clear change**")
+  word <- switch(verdict, helped = "**helped**", worse = "**did not help** (worse)",
+                 `not judged` = "is **not judged** (the chains of a fit did not mix)", "made **no clear change**")
   sprintf("Model change: at the held-out condition it %s: verdict \"%s\"; the model alone errs %s times as much as before (90%% interval %s to %s), the bias-corrected prediction %s times (%s to %s).",
           word, verdict, f(m$ratio), f(m$lower), f(m$upper), f(cc$ratio), f(cc$lower), f(cc$upper))
 }

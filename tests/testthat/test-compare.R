@@ -192,3 +192,26 @@ test_that("the resampled errors of the draws equal those of the curves built in 
   expect_false(is.null(wb$settings))
   expect_equal(crossprod(wb$Psi), diag(ncol(wb$Psi)), ignore_attr = TRUE)
 })
+
+test_that("no verdict from chains that did not mix: 'not judged', and the print names the inputs", {
+  reality <- function(x, t) (1 + 0.5 * x) * sin(2 * pi * t) + 1.2 * x * bump(t, 0.6)
+  fixed <- function(u, x, t) (1 + 0.5 * x) * sin(2 * pi * t) + 2 * u * x * bump(t, 0.6)
+  field <- loop_field(reality, 0.5, 4, seed = 1)
+  before <- loop_fit(base_model, field)
+  after <- loop_fit(fixed, field)
+  held <- experiment(loop_field(reality, 0.9, 4, seed = 2), change = c(x1 = 0.4))
+  mixed <- compare_validations(before, after, holdout = held, seed = 1)
+  expect_identical(attr(mixed, "verdict"), "helped")
+  expect_length(attr(mixed, "unmixed"), 0L)
+  stuck <- after
+  stuck$rhat[["u1"]] <- 1.24
+  cmp <- compare_validations(before, stuck, holdout = held, seed = 1)
+  expect_identical(attr(cmp, "verdict"), "not judged")
+  expect_equal(attr(cmp, "unmixed"), list(after = c(u1 = 1.24)))
+  # the numbers are those of the same comparison; only the verdict is withheld
+  expect_equal(attr(cmp, "holdout_ratio"), attr(mixed, "holdout_ratio"))
+  out <- capture.output(print(cmp))
+  expect_true(any(grepl("Chains that did not mix (R-hat above 1.1): after: u1 1.24.", out, fixed = TRUE)))
+  expect_true(any(grepl("not judged: the chains of a fit did not mix", out, fixed = TRUE)))
+  expect_match(comparison_sentence(cmp), "is **not judged**", fixed = TRUE)
+})
