@@ -405,6 +405,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   cond <- iu_conditions(iu)
   spec$x_nom[cond] <- condition_base(iu)
   experiments <- check_experiments(experiments, emulators, field, spec$x_nom, iu = iu)
+  if (!is.null(experiments)) check_not_base_data(experiments, field)
   if (!is.null(experiments)) {
     spec <- add_experiments(spec, experiments, emulators, iu_run, pool_levels, registration_variance, bias$level_variances,
                             bias$experiment_bias)

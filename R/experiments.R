@@ -247,3 +247,27 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
   })
   stats::setNames(out, names(experiments))
 }
+
+# An experiment whose field data are the base field's own curves (the same
+# replicates at a site) would count the same data twice: refused, naming
+# the experiments (as experiments_at() of all the data, the base condition
+# among them, makes).
+check_not_base_data <- function(experiments, field, call = rlang::caller_env()) {
+  same <- vapply(names(experiments), function(e) {
+    x <- experiments[[e]]
+    xf <- if (inherits(x, "wv_field")) x else x$field
+    if (!inherits(xf, "wv_field")) return(FALSE)
+    any(vapply(intersect(names(xf$curves), names(field$curves)), function(s) {
+      a <- xf$curves[[s]]
+      b <- field$curves[[s]]
+      identical(dim(a), dim(b)) && isTRUE(all.equal(a, b, tolerance = 1e-12)) &&
+        isTRUE(all.equal(xf$t, field$t))
+    }, logical(1)))
+  }, logical(1))
+  if (any(same)) {
+    wv_abort(c("Experiment{?s} {.val {names(experiments)[same]}} hold{?s/} the base field's own curves: the same data would be counted twice.",
+               "i" = "Leave out the experiment at the base condition (e.g. from {.fn experiments_at} of all the data) and give its curves once, as {.arg field}."),
+             class = "experiment", call = call)
+  }
+  invisible(experiments)
+}

@@ -103,8 +103,9 @@
 #' # x1 a test condition: 0.5 in the base experiment, 0.7 in a second one
 #' iu <- iu_map(c("u1", "x1"), c("calibration", "condition"), lower = c(0, 0), upper = c(1, 1),
 #'              nominal = c(0.5, 0.5))
+#' hot <- example_problem(seed = 2)$field  # other measurements, at x1 = 0.7
 #' fit <- calibrate(ex$emulators, ex$field, iu, chains = 1, seed = 1,
-#'                  experiments = list(hot = experiment(ex$field, condition = c(x1 = 0.7))),
+#'                  experiments = list(hot = experiment(hot, condition = c(x1 = 0.7))),
 #'                  sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' # x1 = 0.6 was never tested
 #' p <- predict(fit, type = "new_condition", condition = c(x1 = 0.6), noise = FALSE)

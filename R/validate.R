@@ -172,7 +172,10 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   raw_experiments <- experiments
   knots_every_arg <- knots_every
   if (identical(knots_every, "auto")) knots_every <- max(diff(range(field$t)) / 32, 4 * diff(field$t[1:2]))
-  if (!is.null(experiments)) check_experiment_list(experiments)
+  if (!is.null(experiments)) {
+    check_experiment_list(experiments)
+    check_not_base_data(experiments, field)
+  }
   check_runs <- if (isTRUE(bias$registration_variance %in% c("auto", "check"))) 5L else 0L
   registered_to <- NULL
   if (!is.null(windows)) {

@@ -249,7 +249,9 @@ test_that("validate() registers an experiment without reference to the model wit
 test_that("the report shows each experiment", {
   skip_if_not(rmarkdown::pandoc_available())
   ex <- example_problem(1)
-  exps <- list(loaded = experiment(ex$field, change = c(x1 = 0.1)))
+  loaded <- ex$field
+  loaded$curves$site1 <- loaded$curves$site1 + 0.02
+  exps <- list(loaded = experiment(loaded, change = c(x1 = 0.1)))
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 3, experiments = exps,
                                     sampler = sampler_control(n_draws = 20, n_inner = 5, burnin = 100, n_search = 5, quiet = TRUE)))
   out <- withr::local_tempfile(fileext = ".html")
@@ -284,4 +286,18 @@ test_that("an experiment's sites evaluate the base site's emulators from one cop
   bad <- shared
   bad[["second/site1"]][["bank_of"]] <- 1L
   expect_error(run(bad), "bank_of")
+})
+
+test_that("an experiment holding the base field's own curves is refused before any fit: the data would count twice", {
+  ex <- example_problem()
+  dup <- list(again = experiment(ex$field, change = c(x1 = 0.1)))
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, experiments = dup), class = "wavevalid_error_experiment")
+  expect_error(calibrate(ex$emulators, ex$field, ex$iu, experiments = dup), "counted twice")
+  runs <- model_runs(as.data.frame(ex$emulators$design), ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi),
+                     ex$field$t, site = "site1")
+  expect_error(validate(runs, ex$field, ex$iu, experiments = dup), class = "wavevalid_error_experiment")
+  # other replicates of the same condition are new data
+  other <- ex$field
+  other$curves$site1 <- other$curves$site1[1:2, , drop = FALSE] + 0.01
+  expect_silent(check_not_base_data(list(more = experiment(other, change = c(x1 = 0.1))), ex$field))
 })
