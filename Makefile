@@ -1,5 +1,6 @@
 # Entry points (see README.md):
 #   make demo       install every dependency and the package, run the validation demo on the test bed
+#   make readme     write README.md's paragraph on the demo from the demo's results
 #   make test       install every dependency, build the package (running the vignettes: an error in one fails
 #                   the build) and run R CMD check with the default test tier, its files spread over two
 #                   processes; the check does not run the vignettes' code a second time
@@ -32,7 +33,7 @@ R_PKGS   = Rcpp RcppEigen wavethresh coda ggplot2 future future.apply knitr rmar
 # The benchmarks' peers, installed by `make bench` only
 BENCH_PKGS = RobustGaSP
 
-.PHONY: deps document install demo test test-slow check bench report-check sanitize clean
+.PHONY: deps document install demo readme test test-slow check bench report-check sanitize clean
 
 deps:
 	@if [ "$$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then \
@@ -49,6 +50,10 @@ install: deps
 
 demo: install
 	$(RSCRIPT) inst/scripts/demo.R $(OUT)
+
+# README.md's paragraph on the demo, written from the demo's own results (tools/readme-demo.R)
+readme: install
+	$(RSCRIPT) tools/readme-demo.R
 
 $(TARBALL): deps
 	rm -f $(PKG)_*.tar.gz
