@@ -96,3 +96,103 @@ sampling_speed_lines <- function(x) {
   sprintf("Sampling took %s s: %s effective draws per second for the slowest input (%s, ESS %s)",
           format(signif(sec, 3)), format(signif(ess[[k]] / sec, 3)), names(ess)[k], round(ess[[k]]))
 }
+
+# The prior of every input, one line each, and the correlations of joint priors.
+prior_lines <- function(prior_iu, conditions = NULL) {
+  if (is.null(prior_iu)) return(character(0))
+  lab <- prior_labels(prior_iu)
+  cond <- prior_iu$name %in% conditions$inputs
+  if (any(cond)) {
+    lab[cond] <- sprintf("none: a condition, known (%s in the base experiment; each experiment at its own)",
+                         format(signif(conditions$base[prior_iu$name[cond]], 4), trim = TRUE))
+  }
+  c("Priors:", paste0("  ", formatC(prior_iu$name, width = -max(nchar(prior_iu$name))), "  ", lab),
+    joint_prior_text(prior_iu))
+}
+
+# How the field noise was set at each site, one line each, with its size.
+noise_lines <- function(fit) {
+  sites <- names(fit$wb)
+  setting <- fit$noise_setting %||%
+    stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  lines <- vapply(sites, function(s) {
+    ev <- fit$noise_evidence[[s]]
+    sd_draws <- sqrt(fit$sigma2[[s]][, 1] / (ev$mult %||% 1)[1])
+    switch(setting[[s]],
+      replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
+                           s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),
+      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(fit$sigma2[[s]][1, ])))),
+      finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
+                       s, f(sqrt(fit$sigma2[[s]][1, 1]))),
+      learned = sprintf("%s: learned, %s; %s prior on its sd, scale %s; posterior sd %s [%s, %s]%s",
+                        s, if (is.null(ev)) "one variance for all coefficients" else "the variance of one measurement",
+                        fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
+                        f(stats::quantile(sd_draws, 0.05, names = FALSE)),
+                        f(stats::quantile(sd_draws, 0.95, names = FALSE)), measured_noise_text(ev)))
+  }, character(1))
+  sp <- spread_text(spread_along_record(fit$field), "registered replicates")
+  if (!is.null(sp)) {
+    sp <- paste0("  ", sp, ": one variance per wavelet coefficient mixes it along the record; ",
+                 "misfit_check() (and where_fails()) read each point with its own")
+  }
+  c("Field noise:", paste0("  ", lines), sp, registration_lines(fit))
+}
+
+# How the inputs' likelihood counted the coefficients, for print() and the
+# report.
+shared_error_lines <- function(x) {
+  se <- x$shared_errors
+  if (is.null(se)) {
+    return(c("Inputs' likelihood: the coefficients taken as independent (the method's). Errors they share (the emulators' at one input, a replicate's registration) then count many times: the inputs' intervals are too narrow (input_likelihood = \"adjusted\" weighs them)."))
+  }
+  sprintf("Inputs' likelihood: the coefficients' shared errors counted once, the likelihood raised to %s in the inputs' steps (%d inputs / %s, the magnitude adjustment of a composite likelihood; errors across %d coefficients from the emulators' leave-one-out errors and the replicates' scatter)",
+          format(signif(se$weight, 3)), se$p, format(signif(se$trace, 3)), se$n_coef)
+}
+
+# The variance the registration adds to the field mean, and where it comes
+# from (bias_control(registration_variance =)).
+registration_lines <- function(fit) {
+  if (is.null(fit$registration_var)) {
+    if (is.null(fit$field$warps)) return(character())
+    return(paste("Registration: nothing added to the variance of the field mean for the registration's own error",
+                 if (isFALSE(fit$settings$registration_variance)) "(registration_variance = FALSE)" else
+                   "(the field carries no check of it: register it to model runs with register_curves(check_runs = 5))"))
+  }
+  share <- vapply(names(fit$registration_var), function(s) {
+    e <- colMeans(fit$sigma2[[s]]) / fit$n_rep[[s]]
+    r <- fit$registration_var[[s]]
+    sum(r) / sum(r + e)
+  }, numeric(1))
+  src <- if (!isTRUE(fit$settings$registration_variance)) {
+    n <- nrow(fit$field$registration_check[[1L]] %||% matrix(0, 0, 0))
+    sprintf("the registration's own error (what it changed in the %d model run%s nearest the field)", n,
+            if (n == 1L) "" else "s")
+  } else {
+    "the spread of the reference's landmarks over the model runs"
+  }
+  shares <- paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", ")
+  rs <- fit$registration_shifts
+  if (is.null(rs)) return(sprintf("Registration: %s added to the variance of the field mean, %s of it", src, shares))
+  K <- length(rs$variance)
+  sprintf(paste("Registration: %s taken as %d shift%s of the landmarks along the curves' time-shift directions",
+                "(prior sd %s, sampled with the inputs), the rest added to the variance of the field mean, %s of it"),
+          src, K, if (K == 1L) "" else "s", paste(format(signif(sqrt(rs$variance), 2), trim = TRUE), collapse = ", "),
+          shares)
+}
+
+# What the learned noise took from the measurements on their own time stamps
+# (field_runs()), as the end of its print line.
+measured_noise_text <- function(ev) {
+  if (is.null(ev)) return("")
+  f <- function(v) format(signif(v, 3), trim = TRUE)
+  ddf <- ev$detail_df %||% 0
+  paste0("\n    from the measured curve on its ", ev$n_stamps, " time stamps: the prior's scale from its detail (sd ",
+         f(ev$detail_sd), ")",
+         if (ddf > 0) sprintf("; its points' differences in the likelihood as data on the noise (%s df, their sd %s)",
+                              f(ddf), f(sqrt(ev$detail_ss / ddf))) else "",
+         if (ev$df > 0) sprintf("; %d repeated measurements in the likelihood (%g df, their sd %s)", ev$n_repeated,
+                                ev$df, f(sqrt(ev$ss / ev$df))) else "",
+         "; each coefficient's variance from the resampling onto the grid (", f(min(ev$mult)), " to ",
+         f(max(ev$mult)), " times one measurement's)")
+}

@@ -241,3 +241,16 @@ misfit_figure <- function(fails, i) {
                   subtitle = "the field mean less the model at the calibrated inputs, its simultaneous band; the stretch shaded") +
     ggplot2::theme_bw(base_size = 10)
 }
+
+# A data frame for a report table: numeric columns as text with `digits`
+# significant digits (ranges of 1e-7 and of 300 side by side keep their
+# figures, which fixed decimals would round to zero), missing values empty.
+signif_table <- function(d, digits = 4) {
+  d[] <- lapply(d, function(v) {
+    if (!is.numeric(v)) return(v)
+    out <- trimws(formatC(v, digits = digits, format = "g"))
+    out[is.na(v)] <- ""
+    out
+  })
+  d
+}

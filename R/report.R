@@ -104,19 +104,6 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   invisible(out_file)
 }
 
-# A data frame for a report table: numeric columns as text with `digits`
-# significant digits (ranges of 1e-7 and of 300 side by side keep their
-# figures, which fixed decimals would round to zero), missing values empty.
-signif_table <- function(d, digits = 4) {
-  d[] <- lapply(d, function(v) {
-    if (!is.numeric(v)) return(v)
-    out <- trimws(formatC(v, digits = digits, format = "g"))
-    out[is.na(v)] <- ""
-    out
-  })
-  d
-}
-
 # Text for HTML: the characters that markup reads escaped.
 html_escape <- function(x) {
   x <- gsub("&", "&amp;", x, fixed = TRUE)

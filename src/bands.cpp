@@ -1,4 +1,4 @@
-// Curve summaries of the bands (R/bands.R, R/draws.R): curve draws rebuilt
+// Curve summaries of the bands (R/predict-bands.R, R/fit-draws.R): curve draws rebuilt
 // from coefficient draws block by block of time points, and the statistics of
 // one block (pointwise mean and spread, quantiles, each curve's largest
 // standardised distance from the mean, and the candidates for the envelope of

@@ -296,26 +296,6 @@ check_stamps <- function(t, call = rlang::caller_env()) {
   as.numeric(t)
 }
 
-# `grid` for field_runs(): dyadic, within the stamps' range up to one step at
-# either end.
-check_field_grid <- function(grid, stamps, call = rlang::caller_env()) {
-  grid <- check_grid(grid, call = call)
-  if (!is_dyadic_grid(grid)) {
-    wv_abort(c("{.arg grid} must be dyadic: 2^k equally spaced points.",
-               "x" = "It has {length(grid)} points{if (bitwAnd(length(grid), length(grid) - 1L) == 0L) ', unequally spaced' else ''}.",
-               "i" = "Give the model runs' grid ({.code runs$t}), which {.fn model_runs} makes dyadic."),
-             class = "grid", call = call)
-  }
-  h <- max(diff(stamps))
-  if (grid[1] < stamps[1] - h || grid[length(grid)] > stamps[length(stamps)] + h) {
-    wv_abort(c("{.arg grid} reaches beyond the measured times by more than one step.",
-               "x" = "{.arg grid} spans [{signif(grid[1], 5)}, {signif(grid[length(grid)], 5)}]; the measurements [{signif(stamps[1], 5)}, {signif(stamps[length(stamps)], 5)}].",
-               "i" = "Give a grid inside the measured times (cut the model runs to them)."),
-             class = "grid", call = call)
-  }
-  grid
-}
-
 new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL) {
   structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise), class = "wv_field")
 }
