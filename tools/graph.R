@@ -98,6 +98,18 @@ cat("Layers (each file calls only files of lower layers):\n")
 for (l in sort(unique(file_layer), decreasing = TRUE)) {
   cat(sprintf("  %2d: %s\n", l, paste(sort(names(file_layer)[file_layer == l]), collapse = ", ")))
 }
+# the modules: a file's prefix (data-field.R is in "data"), and which modules each calls
+module <- function(f) sub("-.*", "", sub("[.]R$", "", f))
+medges <- unique(data.frame(from = module(edges$from), to = module(edges$to)))
+medges <- medges[medges$from != medges$to, ]
+mods <- sort(unique(module(nodes)))
+cat(sprintf("Modules (%d), each with the modules it calls:\n", length(mods)))
+for (m in mods) {
+  to <- sort(medges$to[medges$from == m])
+  back <- to[vapply(to, function(o) any(medges$from == o & medges$to == m), logical(1))]
+  cat(sprintf("  %-12s %s%s\n", m, paste(to, collapse = ", "),
+              if (length(back)) paste0("   (calls back: ", paste(back, collapse = ", "), ")") else ""))
+}
 cat("Largest functions (lines):\n")
 top <- sizes[order(-sizes$lines), ][1:5, ]
 cat(sprintf("  %-28s %-22s %4d\n", top$fun, top$file, top$lines), sep = "")

@@ -88,7 +88,7 @@ mutants <- list(
   list(name = "shared_weight_1", file = "R/calibrate-shared-errors.R",
        pattern = "list(weight = min(1, sum(ok) / tr), p = sum(ok)", replacement = "list(weight = 1, p = sum(ok)",
        test = "test-shared-errors.R", what = "the inputs' likelihood is not weighed for shared errors"),
-  list(name = "autoplot_band_to_mean", file = "R/fit-methods.R",
+  list(name = "autoplot_band_to_mean", file = "R/report-fit.R",
        pattern = "ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = \"steelblue\"",
        replacement = "ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$mean), fill = \"steelblue\"",
        test = "test-bands.R", what = "the fit's band plot draws its ribbon from the lower limit to the mean"),
@@ -107,7 +107,7 @@ mutants <- list(
        pattern = "add_window <- function(df) with_windows(df, windows, whole = \"whole record\")",
        replacement = "add_window <- function(df) with_windows(df, NULL, whole = \"whole record\")",
        test = "test-runs.R", what = "the runs' plot ignores the windows"),
-  list(name = "autoplot_trace_first_chain", file = "R/fit-methods.R",
+  list(name = "autoplot_trace_first_chain", file = "R/report-fit.R",
        pattern = "d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {",
        replacement = "d <- do.call(rbind, lapply(1L, function(ch) {",
        test = "test-calibrate.R", what = "the trace plot draws only the first chain")

@@ -110,19 +110,6 @@ site_shift <- function(fit, s) {
   sh
 }
 
-# The inputs Z (rows, own units) moved to site s's experiment.
-shift_inputs <- function(fit, s, Z) {
-  sh <- fit$shift[[s]]
-  if (is.null(sh) || all(sh == 0)) return(Z)
-  sweep(Z, 2L, sh[colnames(Z) %||% fit$inputs], `+`)
-}
-
-# The experiment of each site of a fit ("base" for all with one experiment).
-fit_experiments <- function(fit) {
-  sites <- names(fit$wb)
-  fit$experiments %||% data.frame(site = sites, experiment = "base", field_site = sites, stringsAsFactors = FALSE)
-}
-
 # Share of draws whose inputs, moved by an experiment's change, leave the
 # range of the emulators' runs: a classed warning when above 1%.
 warn_experiment_extrapolation <- function(fit) {
@@ -144,8 +131,3 @@ warn_experiment_extrapolation <- function(fit) {
   invisible()
 }
 
-# The sites of the base experiment (every site with one experiment).
-base_sites <- function(fit) {
-  ex <- fit_experiments(fit)
-  ex$site[ex$experiment == "base"]
-}
