@@ -233,13 +233,15 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
       }
     }
     if (!is.null(x$change) && !is.null(x_nom)) {
-      rng <- apply(emulators$design[, names(x$change), drop = FALSE], 2L, range)
+      des <- emulators$design[, names(x$change), drop = FALSE]
+      rng <- apply(des, 2L, range)
+      reach <- apply(des, 2L, design_gap)
       at <- x_nom[names(x$change)] + x$change
-      out_rng <- at < rng[1L, ] | at > rng[2L, ]
+      out_rng <- at < rng[1L, ] - reach | at > rng[2L, ] + reach
       if (any(out_rng)) {
-        wv_abort(c("The change of experiment {.val {e}} takes the nominal inputs outside the emulators' design.",
-                   "x" = "{.val {names(at)[out_rng]}} at {signif(at[out_rng], 4)}; the runs span {signif(rng[1L, out_rng], 4)} to {signif(rng[2L, out_rng], 4)}.",
-                   "i" = "Run the model for this experiment and give its emulators: {.code experiment(field, emulators = )}."),
+        wv_abort(c("The change of experiment {.val {e}} takes the nominal inputs beyond the emulators' reach.",
+                   "x" = "{.val {names(at)[out_rng]}} at {signif(at[out_rng], 4)}; the runs span {signif(rng[1L, out_rng], 4)} to {signif(rng[2L, out_rng], 4)}, and reach {signif(reach[out_rng], 3)} beyond (the widest gap between runs).",
+                   "i" = "Add runs there ({.code design_maximin(iu, n, conditions = list({names(at)[out_rng][1]} = ...))} places runs at the tested values), or give the experiment's own emulators: {.code experiment(field, emulators = )}."),
                  class = "experiment", call = call)
       }
     }
@@ -270,4 +272,13 @@ check_not_base_data <- function(experiments, field, call = rlang::caller_env()) 
              class = "experiment", call = call)
   }
   invisible(experiments)
+}
+
+# How far beyond its runs an input's emulators reach: the widest gap between
+# consecutive distinct run values, the largest step the emulators already
+# bridge between two runs inside the design.
+design_gap <- function(x) {
+  x <- sort(unique(x))
+  if (length(x) < 2L) return(0)
+  max(diff(x))
 }

@@ -11,9 +11,18 @@
 #' their errors away from the runs exceed their predictive variances and the
 #' calibrated inputs compensate. Adding runs is the remedy.
 #'
+#' With `conditions`, the tested values of test conditions (or of any
+#' input) are given: for each tested value, the run of the hypercube nearest
+#' to it in that input is moved onto it, so the emulators see the model at
+#' every tested condition (the range's ends included) and the design stays a
+#' Latin hypercube up to those moves (each to the nearest run not yet moved).
+#'
 #' @inheritParams calibrate
 #' @param n Number of runs, including the nominal point when `nominal = TRUE`.
 #' @param nominal Add the nominal point as the last run.
+#' @param conditions `NULL`, or a named list: for each named input of `iu`,
+#'   the values at which the field was measured (the tested conditions), each
+#'   inside the input's range; at most as many values as runs.
 #' @return A data frame with one column per input of `iu` and `n` rows, in the
 #'   inputs' own units.
 #' @export
@@ -23,19 +32,74 @@
 #' d <- design_maximin(iu, 12, seed = 1)
 #' d
 #' plot(d)
-design_maximin <- function(iu, n, nominal = TRUE, seed = NULL) {
+#' # runs at the temperatures of the tests
+#' iu_T <- iu_map(c("A", "T"), c("calibration", "condition"),
+#'                lower = c(0, 293), upper = c(1, 1203), nominal = c(0.5, 293))
+#' d_T <- design_maximin(iu_T, 20, seed = 1, conditions = list(T = c(293, 673, 1203)))
+#' sort(d_T$T)
+design_maximin <- function(iu, n, nominal = TRUE, seed = NULL, conditions = NULL) {
   check_class(iu, "wv_iu")
   check_number(n, min = if (isTRUE(nominal)) 3 else 2, max = 1e5, integer = TRUE)
   if (!is.logical(nominal) || length(nominal) != 1L || is.na(nominal)) {
     wv_abort("{.arg nominal} must be TRUE or FALSE.")
   }
-  seed <- resolve_seed(seed)
   n_lhd <- as.integer(n) - as.integer(nominal)
+  conditions <- check_design_conditions(conditions, iu, n_lhd)
+  seed <- resolve_seed(seed)
   cube <- with_rng_seed(seed, maximin_lhd(n_lhd, nrow(iu)))
   d <- sweep(sweep(cube, 2L, iu$upper - iu$lower, `*`), 2L, iu$lower, `+`)
+  colnames(d) <- iu$name
+  for (nm in names(conditions)) d[, nm] <- runs_at_values(d[, nm], conditions[[nm]])
   if (nominal) d <- rbind(d, iu$nominal)
   colnames(d) <- iu$name
   as.data.frame(d)
+}
+
+# The tested values given to design_maximin(): a named list of inputs of the
+# map, each a vector of finite values inside the input's range, at most as
+# many in all per input as the hypercube has runs.
+check_design_conditions <- function(conditions, iu, n_lhd, call = rlang::caller_env()) {
+  if (is.null(conditions)) return(NULL)
+  if (!is.list(conditions) || is.null(names(conditions)) || any(!nzchar(names(conditions)))) {
+    wv_abort(c("{.arg conditions} must be a named list: for each input, its tested values.",
+               "i" = "For example {.code conditions = list(T = c(293, 673, 1203))}."), call = call)
+  }
+  unknown <- setdiff(names(conditions), iu$name)
+  if (length(unknown)) {
+    wv_abort(c("{.arg conditions} names input{?s} the I/U map lacks: {.val {unknown}}.",
+               "i" = "Inputs: {.val {iu$name}}."), call = call)
+  }
+  for (nm in names(conditions)) {
+    v <- conditions[[nm]]
+    k <- match(nm, iu$name)
+    if (!is.numeric(v) || !length(v) || anyNA(v) || any(!is.finite(v))) {
+      wv_abort("The tested values of {.val {nm}} must be finite numbers.", call = call)
+    }
+    out <- v < iu$lower[k] | v > iu$upper[k]
+    if (any(out)) {
+      wv_abort(c("Tested values of {.val {nm}} outside its range: {.val {v[out]}}.",
+                 "i" = "{.val {nm}} spans {iu$lower[k]} to {iu$upper[k]} in the I/U map: widen it there."),
+               call = call)
+    }
+    conditions[[nm]] <- sort(unique(v))
+    if (length(conditions[[nm]]) > n_lhd) {
+      wv_abort(c("{length(conditions[[nm]])} tested values of {.val {nm}} for {n_lhd} run{?s} of the hypercube.",
+                 "i" = "Ask for at least as many runs as tested values."), call = call)
+    }
+  }
+  conditions
+}
+
+# One column of a hypercube with, for each tested value (in turn), the run
+# nearest to it among those not yet moved set to it exactly.
+runs_at_values <- function(x, values) {
+  free <- rep(TRUE, length(x))
+  for (v in values) {
+    i <- which(free)[which.min(abs(x[free] - v))]
+    x[i] <- v
+    free[i] <- FALSE
+  }
+  x
 }
 
 #' More model runs where the posterior lies

@@ -252,3 +252,37 @@ test_that("an experiment at a condition is registered to a reference whose fine 
   expect_lte(max(abs(landmarks(reg) - landmarks(to_true))), dt * 1.01)
   expect_gt(max(abs(landmarks(to_all) - landmarks(to_true))), 3 * dt)
 })
+
+test_that("design_maximin() places runs at the tested conditions, and the reach check takes what the runs bridge", {
+  iu <- iu_map(c("A", "T"), c("calibration", "condition"), lower = c(0, 293), upper = c(1, 1203),
+               nominal = c(0.5, 293))
+  tested <- c(293, 473, 673, 873, 1203)
+  d0 <- design_maximin(iu, 31, seed = 2)
+  d <- design_maximin(iu, 31, seed = 2, conditions = list(T = tested))
+  expect_true(all(tested %in% d$T[1:30]))
+  # only the tested condition's column moves, and only the runs moved onto a tested value
+  expect_identical(d$A, d0$A)
+  moved <- d$T != d0$T
+  expect_lte(sum(moved), length(tested))
+  expect_true(all(d$T[moved] %in% tested))
+  # each moved run was the nearest of those free to its value
+  expect_true(all(abs(d0$T[moved] - d$T[moved]) <= (1203 - 293) / 30 * 2))
+  expect_error(design_maximin(iu, 31, conditions = list(T = 2000)), class = "wavevalid_error_input")
+  expect_error(design_maximin(iu, 31, conditions = list(P = 1)), class = "wavevalid_error_input")
+  expect_error(design_maximin(iu, 31, conditions = c(T = 300)), class = "wavevalid_error_input")
+  expect_error(design_maximin(iu, 4, conditions = list(T = tested)), class = "wavevalid_error_input")
+
+  # an experiment's condition a hair beyond the runs is within their reach; far beyond, refused
+  ex <- example_problem(1)
+  iu2 <- iu_map(c("u1", "x1"), c("calibration", "condition"), lower = c(0, 0), upper = c(1, 2),
+                nominal = c(0.5, 0.5))
+  x1 <- ex$emulators$design[, "x1"]
+  gap <- max(diff(sort(x1)))
+  near <- list(near = experiment(ex$field, condition = c(x1 = max(x1) + gap / 2)))
+  expect_silent(check_experiments(near, ex$emulators, list(curves = list()), x_nom = c(u1 = 0.5, x1 = 0.5),
+                                  iu = iu2))
+  far <- list(far = experiment(ex$field, condition = c(x1 = max(x1) + 2 * gap)))
+  err <- expect_error(check_experiments(far, ex$emulators, list(curves = list()), x_nom = c(u1 = 0.5, x1 = 0.5),
+                                        iu = iu2), class = "wavevalid_error_experiment")
+  expect_match(conditionMessage(err), "design_maximin", fixed = TRUE)
+})
