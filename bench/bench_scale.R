@@ -4,8 +4,8 @@
 # them: preflight(), register_curves() of the field curves (windows on the
 # events, knots_every = "auto"), wavelet_basis(), fit_emulators() (engine
 # "gasp_level"), for E = 2 the registration of the second experiment's field
-# data (the package's internal check_experiments() and
-# register_experiments(), as validate() does it), calibrate() with a short
+# data (as validate() registers it, on exported functions:
+# register_experiment() below), calibrate() with a short
 # sampler, sampler_control(n_draws = 100, n_inner = 20), two chains
 # (validate()'s default), then the reality band (predict(fit, type =
 # "reality")), where_fails() and validation_report() (to a temporary file;
@@ -218,6 +218,25 @@ measure <- function(phase, expr, reps = 3L) {
   res
 }
 
+# An experiment with a change (experiment(field, change = )) with its field
+# data registered as validate() registers them: to the mean of the model
+# runs with the change, each run's retained wavelet coefficients the
+# emulators' means at its inputs changed, the part of the run the basis
+# leaves out kept from the run itself (the arguments of register_curves()
+# in `...`).
+register_experiment <- function(x, emulators, runs, windows, ...) {
+  design <- runs$design
+  for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
+  basis <- emulators$basis
+  sites <- names(x$field$curves)
+  curves <- lapply(stats::setNames(sites, sites), function(s) {
+    y <- runs$curves[[s]]
+    rest <- y - wavelet_reconstruct(basis, wavelet_coef(basis, y))
+    wavelet_reconstruct(basis, predict(emulators, design, site = s)$mean) + rest
+  })
+  experiment(register_curves(x$field, model_runs(design, curves, runs$t), windows, ...), change = x$change)
+}
+
 # --- one size, in its own process ----------------------------------------------
 run_one <- function(size, out_file) {
   d <- sizes_all[[size]]
@@ -227,18 +246,17 @@ run_one <- function(size, out_file) {
   knots_every <- diff(range(pr$field$t)) / 32
   short <- sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE)
   longer <- sampler_control(n_draws = 100, n_inner = n_inner_long[[size]], quiet = TRUE)
-  measure("preflight", wavevalid:::enforce_preflight(preflight(runs, pr$field, pr$iu, windows = windows)))
+  pf <- measure("preflight", preflight(runs, pr$field, pr$iu, windows = windows))
+  if (any(pf$status == "error")) stop("the pre-flight check failed: ", paste(pf$check[pf$status == "error"], collapse = ", "))
   field <- measure("register", register_curves(pr$field, runs, windows, features = c("min", "max"),
                                                knots_every = knots_every))
   basis <- measure("wavelet_basis", wavelet_basis(runs, field))
   emulators <- measure("fit_emulators", suppressWarnings(fit_emulators(runs, basis, "gasp_level")), reps = 1L)
   experiments <- NULL
   if (!is.null(pr$experiments)) {
-    experiments <- measure("register_experiments", {
-      ex <- wavevalid:::check_experiments(pr$experiments, emulators, field)
-      wavevalid:::register_experiments(ex, emulators, runs, windows, features = c("min", "max"),
-                                       knots_every = knots_every, quiet = TRUE)
-    })
+    experiments <- measure("register_experiments", lapply(pr$experiments, register_experiment, emulators, runs,
+                                                          windows, features = c("min", "max"),
+                                                          knots_every = knots_every))
   }
   fit <- measure("calibrate", suppressWarnings(calibrate(emulators, field, pr$iu, experiments = experiments,
                                                          sampler = short, chains = 2, seed = 1)), reps = 1L)

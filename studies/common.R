@@ -1,8 +1,9 @@
 # Pieces shared by the studies, on the package's exported functions. Source
 # from the package's root after library(wavevalid); it sources the argument
-# parser (studies/args.R). The test bed protocol the diagnosis tests use is
-# the package's (?testbed_protocol).
+# parser (studies/args.R) and the test bed protocol the diagnosis tests use
+# (tests/testthat/helper-protocol.R).
 source("studies/args.R")
+source("tests/testthat/helper-protocol.R")
 
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 

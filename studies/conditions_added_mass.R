@@ -17,7 +17,7 @@ at <- 0.5 + tb$added_mass$delta[["x1"]]
 fit_c <- suppressWarnings(calibrate(em, tb$A$field, iu_c, chains = 1, seed = 1, sampler = sc,
                                     experiments = list(added_mass = experiment(tb$added_mass$field,
                                                                                condition = c(x1 = at)))))
-fit_h <- suppressWarnings(calibrate(em, tb$A$field, wavevalid:::hold_at(tb$iu, c(x1 = 0.5)), chains = 1,
+fit_h <- suppressWarnings(calibrate(em, tb$A$field, iu_hold(tb$iu, c(x1 = 0.5)), chains = 1,
                                     seed = 1, sampler = sc,
                                     experiments = list(added_mass = experiment(tb$added_mass$field,
                                                                                change = c(x1 = at - 0.5)))))

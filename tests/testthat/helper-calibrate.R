@@ -37,7 +37,7 @@ make_bank <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
 
 # Basis of wavethresh coefficients `index` on a grid of n_t points.
 make_basis <- function(n_t, index = seq_len(n_t), level = NULL) {
-  b <- wavevalid:::basis_from_index(seq(0, 1, length.out = n_t + 1)[-(n_t + 1)], index)
+  b <- basis_from_index(seq(0, 1, length.out = n_t + 1)[-(n_t + 1)], index)
   if (!is.null(level)) b$level <- as.integer(rep_len(level, length(index)))
   b
 }
@@ -87,7 +87,7 @@ small_problem <- function(n_t = 16, index = 1:8, level = NULL, two_inputs = TRUE
 
 # Field replicates (R x T) whose coefficients are W (R x n).
 field_from_coef <- function(basis, W, site = "site1") {
-  wavevalid:::new_wv_field(basis$t, stats::setNames(list(W %*% t(basis$Psi)), site))
+  new_wv_field(basis$t, stats::setNames(list(W %*% t(basis$Psi)), site))
 }
 
 # small_problem() with 24 coefficients and 30 runs, and seven field replicates
@@ -109,9 +109,9 @@ narrow_problem <- function() {
 sbc_setup <- function(R, sigma2, iu = NULL, two_inputs = FALSE) {
   pb <- small_problem(two_inputs = two_inputs)
   n <- length(pb$basis$index)
-  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)),
-                                       if (is.null(iu)) pb$iu else iu,
-                                       sigma2 = sigma2)
+  spec <- calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, R, n)),
+                           if (is.null(iu)) pb$iu else iu,
+                           sigma2 = sigma2)
   list(pb = pb, n = n, spec = spec, G = nrow(spec$groups), bank = pb$emulators$banks$site1)
 }
 
@@ -151,7 +151,7 @@ grid_problem <- function() {
   R <- 3
   sd_eps <- 0.6
   bank <- pb$emulators$banks$site1
-  pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(0.3, 1))
+  pr <- gasp_bank_predict_cpp(bank, matrix(0.3, 1))
   W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) +
     matrix(stats::rnorm(R * n, 0, sd_eps), R, n)
   list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = sd_eps^2, R = R, wbar = colMeans(W))

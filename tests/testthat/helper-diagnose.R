@@ -1,7 +1,7 @@
 # The example problem of the diagnosis tests: reality has a bump at t = 0.25
 # that the model lacks. The fit, and three candidate curves on its grid.
 diag_setup <- function(bias = bias_control()) {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_calibration_inputs()
   t <- ex$field$t
   truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) +
     0.3 * exp(-((t - 0.25) / 0.05)^2)

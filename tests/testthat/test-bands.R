@@ -1,11 +1,11 @@
 test_that("pointwise bands cover the stated fraction of draws at each t", {
   withr::local_seed(1)
   Y <- matrix(stats::rnorm(2000 * 30, sd = rep(seq(0.5, 2, length.out = 30), each = 2000)), 2000, 30)
-  q <- wavevalid:::pointwise_quantiles(Y, c(0.05, 0.95))
+  q <- pointwise_quantiles(Y, c(0.05, 0.95))
   inside <- sweep(Y, 2, q[1, ], ">=") & sweep(Y, 2, q[2, ], "<=")
   expect_true(all(abs(colMeans(inside) - 0.9) < 0.002))
   expect_equal(q[1, ], unname(apply(Y, 2, stats::quantile, 0.05)))
-  sim <- wavevalid:::simultaneous_band(Y, 0.9)
+  sim <- simultaneous_band(Y, 0.9)
   whole <- apply(sweep(Y, 2, sim$lower, ">=") & sweep(Y, 2, sim$upper, "<="), 1, all)
   expect_gte(mean(whole), 0.9)
   expect_true(all(sim$lower <= q[1, ] & sim$upper >= q[2, ]))
@@ -27,11 +27,11 @@ test_that("bias(), reality() and model_prediction() give tidy bands built from t
   m <- model_prediction(fit)
   expect_true(all(c("site", "t", "mean", "lower", "upper", "error_lower", "error_upper") %in% names(m)))
   zhat <- colMeans(as.matrix(fit$draws)[, c("u1", "x1")])
-  mhat <- wavevalid:::gasp_bank_predict_cpp(fit$emulators$banks$site1, matrix(zhat, 1))$mean
+  mhat <- gasp_bank_predict_cpp(fit$emulators$banks$site1, matrix(zhat, 1))$mean
   expect_equal(m$mean, drop(fit$basis$Psi %*% t(mhat)))
   expect_equal(m$lower, m$mean + m$error_lower)
-  fr <- wavevalid:::curve_draws(fit, "site1", "field_run", seed = 1)
-  expect_identical(fr, wavevalid:::curve_draws(fit, "site1", "field_run", seed = 1))
+  fr <- curve_draws(fit, "site1", "field_run", seed = 1)
+  expect_identical(fr, curve_draws(fit, "site1", "field_run", seed = 1))
   expect_gt(mean(apply(fr, 2, stats::var)), mean(apply(yR, 2, stats::var)))
   # the bias plot: the 90% band (its ribbon and dashed edges), zero, and the mean, in the window only
   b90 <- bias(fit, 0.9)
@@ -71,7 +71,7 @@ test_that("the field detail outside the basis gets bands with their nominal cove
     Y <- matrix(truth, R, n_t, byrow = TRUE) + matrix(stats::rnorm(R * n_t, sd = 0.2), R)
     fit <- list(field = list(curves = list(a = Y)), basis = list(Psi = Psi),
                 sigma2 = list(a = matrix(0.04, 10, 16)))
-    E <- wavevalid:::residual_draws(fit, "a", H)
+    E <- residual_draws(fit, "a", H)
     q <- apply(E, 2, stats::quantile, c(0.05, 0.95))
     mean(detail >= q[1, ] & detail <= q[2, ])
   }
@@ -88,16 +88,16 @@ test_that("the field detail outside the basis gets bands with their nominal cove
   # replicates without spread: every draw is the mean's detail itself
   fit3 <- list(field = list(curves = list(a = matrix(truth, 3, n_t, byrow = TRUE))),
                basis = list(Psi = Psi), sigma2 = list(a = matrix(0.04, 10, 16)))
-  expect_equal(colMeans(wavevalid:::residual_draws(fit3, "a", 5)), detail)
+  expect_equal(colMeans(residual_draws(fit3, "a", 5)), detail)
 })
 
 test_that("curve summaries built by blocks of time points match the whole-matrix formulas", {
   withr::local_seed(4)
   # more values than one block holds
   Y <- matrix(stats::rnorm(2100 * 520), 2100)
-  expect_gt(length(wavevalid:::col_blocks(ncol(Y), nrow(Y))), 1L)
-  expect_identical(unlist(wavevalid:::col_blocks(ncol(Y), nrow(Y))), seq_len(ncol(Y)))
-  sim <- wavevalid:::simultaneous_band(Y, 0.9)
+  expect_gt(length(col_blocks(ncol(Y), nrow(Y))), 1L)
+  expect_identical(unlist(col_blocks(ncol(Y), nrow(Y))), seq_len(ncol(Y)))
+  sim <- simultaneous_band(Y, 0.9)
   centre <- colMeans(Y)
   s <- sqrt(colSums(sweep(Y, 2L, centre)^2) / (nrow(Y) - 1))
   score <- apply(abs(sweep(sweep(Y, 2L, centre), 2L, s, "/")), 1L, max)
@@ -105,7 +105,7 @@ test_that("curve summaries built by blocks of time points match the whole-matrix
   expect_identical(sim$score, score)
   expect_identical(sim$lower, apply(Y[keep, ], 2L, min))
   expect_identical(sim$upper, apply(Y[keep, ], 2L, max))
-  expect_equal(wavevalid:::pointwise_quantiles(Y, 0.95)[1, ], unname(apply(Y, 2L, stats::quantile, 0.95)))
+  expect_equal(pointwise_quantiles(Y, 0.95)[1, ], unname(apply(Y, 2L, stats::quantile, 0.95)))
 
   # detail draws: G D scaled by draw, or white noise drawn block by block
   n_t <- 128
@@ -116,8 +116,8 @@ test_that("curve summaries built by blocks of time points match the whole-matrix
   reps <- matrix(truth, 3, n_t, byrow = TRUE) + matrix(stats::rnorm(3 * n_t, sd = 0.2), 3)
   fit <- list(field = list(curves = list(a = reps)), basis = list(Psi = Psi),
               sigma2 = list(a = matrix(0.04, 10, 16)))
-  expect_gt(length(wavevalid:::col_blocks(n_t, H)), 1L)
-  E <- withr::with_seed(7, wavevalid:::residual_draws(fit, "a", H))
+  expect_gt(length(col_blocks(n_t, H)), 1L)
+  E <- withr::with_seed(7, residual_draws(fit, "a", H))
   expected <- withr::with_seed(7, {
     G <- matrix(stats::rnorm(H * 3, sd = sqrt(1 / 3 / 2)), H)
     chi <- sqrt(2 / stats::rchisq(H, 2))
@@ -126,14 +126,14 @@ test_that("curve summaries built by blocks of time points match the whole-matrix
   })
   expect_equal(E, expected)
   fit$field$curves$a <- reps[1, , drop = FALSE]
-  E1 <- withr::with_seed(7, wavevalid:::residual_draws(fit, "a", H, new_run = TRUE))
+  E1 <- withr::with_seed(7, residual_draws(fit, "a", H, new_run = TRUE))
   expected1 <- withr::with_seed(7, matrix(stats::rnorm(H * n_t), H) * sqrt(2 * 0.04))
   expect_equal(E1, sweep(expected1, 2L, drop(outside(reps[1, , drop = FALSE])), `+`))
   # a second pass over the blocks gives the same draws, and the stream ends as after one pass
   withr::with_seed(7, {
-    src <- wavevalid:::curve_source(H, n_t, wavevalid:::residual_source(fit, "a", H, new_run = TRUE))
-    first <- wavevalid:::source_matrix(src)
-    second <- wavevalid:::source_matrix(src)
+    src <- curve_source(H, n_t, residual_source(fit, "a", H, new_run = TRUE))
+    first <- source_matrix(src)
+    second <- source_matrix(src)
     after <- stats::runif(1)
   })
   expect_identical(second, first)
@@ -153,7 +153,7 @@ test_that("predictions rebuilt by blocks of time points match the draws computed
   idx <- rep_len(seq_len(nrow(fit$wM$site1)), H)
   for (w in c("wM", "wb", "sigma2")) fit[[w]]$site1 <- fit[[w]]$site1[idx, , drop = FALSE]
   Psi <- fit$basis$Psi
-  expect_gt(length(wavevalid:::col_blocks(nrow(Psi), H)), 1L)
+  expect_gt(length(col_blocks(nrow(Psi), H)), 1L)
   yM <- fit$wM$site1 %*% t(Psi)
   yR <- (fit$wM$site1 + fit$wb$site1) %*% t(Psi)
   re <- predict(fit, type = "reality", residual = FALSE, keep_draws = TRUE, seed = 1)
@@ -164,7 +164,7 @@ test_that("predictions rebuilt by blocks of time points match the draws computed
   expect_identical(predict(fit, type = "field_run", seed = 2)$summary, fr$summary)
   cols <- c("lower", "upper", "lower_curve", "upper_curve")
   expect_identical(as.list(fr$summary[cols]),
-                   as.list(wavevalid:::band_frame(fr$draws$site1, fit$basis$t, "site1", 0.9)[cols]))
+                   as.list(band_frame(fr$draws$site1, fit$basis$t, "site1", 0.9)[cols]))
   model <- function(u, x) (1 + 0.5 * x) * sin(2 * pi * ex$field$t) + u * exp(-((ex$field$t - 0.6) / 0.08)^2)
   pair <- model_runs(data.frame(u1 = c(0.5, 0.5), x1 = c(0.5, 0.7)), rbind(model(0.5, 0.5), model(0.5, 0.7)),
                      ex$field$t, site = "site1")

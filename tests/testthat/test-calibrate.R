@@ -17,11 +17,11 @@ sbc_pvalues <- function(reps, debug_break = 0L, step = 0.5, n_draws = 60L, n_inn
   ranks <- matrix(NA_integer_, reps, 3, dimnames = list(NULL, c("u1", "wb1", "wM2")))
   for (r in seq_len(reps)) {
     z <- stats::runif(1)
-    pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(z, 1))
+    pr <- gasp_bank_predict_cpp(bank, matrix(z, 1))
     wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
     wb <- stats::rnorm(n, 0, sqrt(tau2))
     spec$sites$site1$wbar <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = step, seed = r, chain = 1L, debug_break = debug_break,
       adaptive = adaptive, burnin = if (adaptive) burnin else 0L, p_global = p_global, p_indep = p_indep,
@@ -79,7 +79,7 @@ grid_marginals <- function(gp, temper = 1) {
   bank <- gp$pb$emulators$banks$site1
   u <- seq(0.0005, 0.9995, by = 0.001)
   lt <- seq(-12, 6, by = 0.01)
-  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
+  P <- gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
   e <- gp$sigma2 / gp$R
   logp <- outer(seq_along(u), seq_along(lt), Vectorize(function(a, b) {
     t2 <- exp(lt[b])
@@ -105,11 +105,11 @@ grid_check <- function(proposal, n_draws, n_inner) {
   # the posterior is informative: not the uniform prior
   expect_lt(stats::ks.test(X[, "u1"], "punif")$p.value, 0.01)
 
-  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
-  tau <- wavevalid:::resolve_fix_tau2(NULL, spec$groups)
+  spec <- calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  tau <- resolve_fix_tau2(NULL, spec$groups)
   sm <- sampler_control(n_draws = n_draws, n_inner = n_inner, proposal = proposal, burnin = fit$settings$burnin,
                         quiet = TRUE)
-  broken <- wavevalid:::run_chains(spec, sm, 1, 5, tau, debug_break = 2L)[[1]]
+  broken <- run_chains(spec, sm, 1, 5, tau, debug_break = 2L)[[1]]
   expect_lt(stats::ks.test(log(broken$tau2[, 1]), cdf_lt)$p.value, 0.01)
 }
 
@@ -212,8 +212,8 @@ test_that("with inform_levels, the levels left out do not move the inputs but ke
   base <- cut_problem()
   off <- cut_problem(fine = 2)
   # the shift sits in the level-3 coefficients of the field mean only
-  d <- wavevalid:::calibration_spec(off$pb$emulators, off$field, off$pb$iu)$wbar$site1 -
-    wavevalid:::calibration_spec(base$pb$emulators, base$field, base$pb$iu)$wbar$site1
+  d <- calibration_spec(off$pb$emulators, off$field, off$pb$iu)$wbar$site1 -
+    calibration_spec(base$pb$emulators, base$field, base$pb$iu)$wbar$site1
   expect_equal(unname(d), ifelse(base$pb$basis$level == 3, 2, 0), tolerance = 1e-10)
   for (proposal in c("adaptive", "report")) {
     run <- function(cp, inform_levels) {
@@ -301,7 +301,7 @@ test_that("w^b and w^M draws follow eq. 16-17 at fixed inputs", {
   fit <- calibrate(gp$pb$emulators, gp$field, iu1, chains = 1, seed = 2,
                    bias = bias_control(sigma2 = gp$sigma2, fix_tau2 = 0.2),
                    sampler = sampler_control(n_draws = 4000, n_inner = 1, quiet = TRUE))
-  pr <- wavevalid:::gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(0.3, 1))
+  pr <- gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(0.3, 1))
   S <- drop(pr$var) + gp$sigma2 / gp$R
   mb <- 0.2 / (S + 0.2) * (gp$wbar - drop(pr$mean))
   vb <- 0.2 * S / (S + 0.2)
@@ -356,9 +356,9 @@ test_that("bad input gives classed errors", {
   ex <- example_problem()
   em <- ex$emulators
   f <- ex$field
-  bad_grid <- wavevalid:::new_wv_field(seq(0, 2, length.out = 32), f$curves)
+  bad_grid <- new_wv_field(seq(0, 2, length.out = 32), f$curves)
   expect_error(calibrate(em, bad_grid, ex$iu, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
-  one <- wavevalid:::new_wv_field(f$t, list(site1 = f$curves$site1[1, , drop = FALSE]))
+  one <- new_wv_field(f$t, list(site1 = f$curves$site1[1, , drop = FALSE]))
   expect_error(calibrate(em, one, ex$iu, bias = bias_control(sigma2 = c(1e-3, -1)),
                          sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_s3_class(calibrate(em, one, ex$iu, chains = 1, seed = 1, bias = bias_control(sigma2 = 1e-3),
@@ -370,13 +370,13 @@ test_that("bad input gives classed errors", {
   expect_error(calibrate(em, f, ex$iu, chains = 1.5, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_error(calibrate(em, f, ex$iu, sampler = sampler_control(threads = 0, quiet = TRUE)), class = "wavevalid_error_input")
   # never more threads than free cores
-  free <- wavevalid:::free_cores()
+  free <- free_cores()
   expect_true(is.integer(free) && free >= 1L && free <= max(1L, parallel::detectCores(), na.rm = TRUE))
-  expect_identical(withr::with_options(list(wavevalid.free_cores = 3), wavevalid:::free_cores()), 3L)
+  expect_identical(withr::with_options(list(wavevalid.free_cores = 3), free_cores()), 3L)
   expect_error(calibrate(em, f, ex$iu, bias = bias_control(fix_tau2 = -1),
                          sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")
-  other_site <- wavevalid:::new_wv_field(f$t, list(rear = f$curves$site1))
+  other_site <- new_wv_field(f$t, list(rear = f$curves$site1))
   expect_error(calibrate(em, other_site, ex$iu, sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
 })
 

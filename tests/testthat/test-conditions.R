@@ -40,7 +40,7 @@ test_that("a condition input has no prior, prints as a condition and keeps its d
 test_that("the condition path gives the same draws as experiment(change =) with the input held", {
   s <- cond_fit()
   ex <- s$ex
-  held <- wavevalid:::hold_at(ex$iu, c(x1 = 0.5))
+  held <- iu_hold(ex$iu, c(x1 = 0.5))
   # the change the condition stands for, computed as the condition path does
   exps <- list(hot = experiment(s$f2, change = c(x1 = 0.7 - 0.5)))
   ref <- suppressWarnings(calibrate(ex$emulators, ex$field, held, experiments = exps, chains = 1, seed = 3,
@@ -102,12 +102,12 @@ test_that("a new condition: a tested one is that experiment's prediction, an unt
   expect_identical(p$bias_from, "pooled")
   expect_true(is.na(p$tested))
   z <- colMeans(as.matrix(fit$draws)[, fit$inputs])
-  m <- wavevalid:::gasp_bank_predict_cpp(fit$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
+  m <- gasp_bank_predict_cpp(fit$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
   expect_equal(p$summary$model, drop(fit$basis$Psi %*% t(m)))
   expect_true(all(p$summary$model_lower <= p$summary$model_upper))
   expect_output(print(p), "untested, the tested conditions' biases pooled")
   # each draw's bias is the same draw's bias of one tested condition, in equal shares
-  set <- withr::with_seed(2, wavevalid:::new_condition_setup(fit, c(x1 = 0.6)))
+  set <- withr::with_seed(2, new_condition_setup(fit, c(x1 = 0.6)))
   B <- set$sites$site1$B
   from_base <- rowSums(abs(B - fit$wb$site1)) == 0
   from_hot <- rowSums(abs(B - fit$wb[["hot/site1"]])) == 0
@@ -115,7 +115,7 @@ test_that("a new condition: a tested one is that experiment's prediction, an unt
   expect_equal(sum(from_base), nrow(B) / 2)
   # one bias shared by the experiments: carried as it is
   sh <- cond_fit(bias_control(experiment_bias = "shared"))$fit
-  set <- withr::with_seed(2, wavevalid:::new_condition_setup(sh, c(x1 = 0.6)))
+  set <- withr::with_seed(2, new_condition_setup(sh, c(x1 = 0.6)))
   expect_identical(set$bias_from, "shared")
   expect_identical(set$sites$site1$B, sh$wb$site1)
   # same seed, same bands
@@ -225,12 +225,12 @@ test_that("an experiment at a condition is registered to a reference whose fine 
   field_250 <- tb$doses$fields$dose_250
   basis <- wavelet_basis(runs, tb$A$field)
   em <- suppressWarnings(fit_emulators(runs, basis))
-  x <- wavevalid:::check_experiments(list(d250 = experiment(field_250, condition = c(dose = 250))), em, tb$A$field,
-                                     iu = tb$doses$iu)
+  x <- check_experiments(list(d250 = experiment(field_250, condition = c(dose = 250))), em, tb$A$field,
+                         iu = tb$doses$iu)
   knots <- 48 / 32
-  reg <- wavevalid:::register_experiments(x, em, runs, tb$windows, knots_every = knots)$d250$field
+  reg <- register_experiments(x, em, runs, tb$windows, knots_every = knots)$d250$field
   # the runs nearest 250 mg give the detail the basis leaves out (8 of 80)
-  near <- wavevalid:::condition_neighbours(runs$design, c(dose = 250))
+  near <- condition_neighbours(runs$design, c(dose = 250))
   expect_length(near, 8L)
   expect_true(all(abs(runs$design$dose[near] - 250) <= sort(abs(runs$design$dose - 250))[8]))
   # registered as to the simulator's runs at 250 mg
@@ -238,10 +238,10 @@ test_that("an experiment at a condition is registered to a reference whose fine 
   d$dose <- 250
   to_true <- register_curves(field_250, simulate_dosing(d), tb$windows, knots_every = knots)
   # against the emulated curves with every run's detail (each at its own dose)
-  ref_all <- wavevalid:::experiment_reference(x$d250, em, runs)
+  ref_all <- experiment_reference(x$d250, em, runs)
   pred <- stats::predict(em, d, site = "plasma")$mean
-  ref_all$curves$plasma <- wavevalid:::basis_curves(basis, pred) +
-    wavevalid:::basis_remainder(basis, runs$curves$plasma)
+  ref_all$curves$plasma <- basis_curves(basis, pred) +
+    basis_remainder(basis, runs$curves$plasma)
   to_all <- register_curves(field_250, ref_all, tb$windows, knots_every = knots)
   rms <- function(a, b) sqrt(mean((a - b)^2))
   landmarks <- function(f) f$warps$t_after[f$warps$feature != "fitted" & f$warps$replicate == 1]

@@ -165,7 +165,7 @@ test_that("compare_validations() reports the conflicts, the model alone at the h
   t <- ex$field$t
   model2 <- function(z) (1 + 0.5 * z[2]) * sin(2 * pi * t) + 3 * z[1] * exp(-((t - 0.6) / 0.08)^2)
   Y <- t(apply(em$design, 1, model2)) %*% em$basis$Psi
-  bank <- wavevalid:::bank_fixed_hyper(em$design, Y, beta = c(2, 2), alpha = c(0, 0))
+  bank <- bank_fixed_hyper(em$design, Y, beta = c(2, 2), alpha = c(0, 0))
   ex2$emulators$banks$site1 <- bank
   ex2$emulators$params$mu <- bank$mu
   after <- conflict_fit(ex2)

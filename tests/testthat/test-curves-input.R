@@ -29,10 +29,10 @@ test_that("curves on their own times are the interpolation by hand plus each cur
   expect_equal(nz$detail_sd, mean(c(one[[1]]$detail_sd, one[[2]]$detail_sd)))
   expect_identical(nz$n_stamps, 30L + 17L)
   Psi <- qr.Q(qr(matrix(stats::rnorm(64 * 5), 64, 5)))
-  expect_equal(wavevalid:::resampled_noise_multipliers(nz$map, Psi),
-               (wavevalid:::resampled_noise_multipliers(one[[1]]$map, Psi) +
-                  wavevalid:::resampled_noise_multipliers(one[[2]]$map, Psi)) / 2)
-  expect_equal(f$noise$b$detail_sd, wavevalid:::detail_noise_sd(rbind(yb), tb, rep(1, 40)))
+  expect_equal(resampled_noise_multipliers(nz$map, Psi),
+               (resampled_noise_multipliers(one[[1]]$map, Psi) +
+                  resampled_noise_multipliers(one[[2]]$map, Psi)) / 2)
+  expect_equal(f$noise$b$detail_sd, detail_noise_sd(rbind(yb), tb, rep(1, 40)))
   # without `grid`: the range every curve covers, the next power of two of the most times of a curve
   expect_message(d <- field_runs(list(a = ya, b = yb), list(a = ta, b = tb)), "range every curve covers")
   expect_length(d$t, 64L)

@@ -117,7 +117,7 @@ test_that("where_fails reports an offset of the record as one record-wide findin
   expect_output(print(where_fails(fit(pool_levels = NULL))), "mean of the record \\(level 0\\) is credibly off at site1")
   # the record-wide part and the localised part add up to the whole bias
   whole <- attr(wf, "bias_whole")
-  wide <- wavevalid:::bias_part(f, f$basis$level %in% 0:2, 0.9)
+  wide <- bias_part(f, f$basis$level %in% 0:2, 0.9)
   expect_equal(whole$mean, wide$mean + attr(wf, "bias")$mean, tolerance = 1e-10)
   # read whole, the record is flagged end to end, by about the offset
   wf_whole <- where_fails(f, scales = "whole")
@@ -298,7 +298,7 @@ test_that("adding the missing effect makes the error fall", {
     expect_equal(v[["bias_rms"]]^2, v[["bias_rms_local"]]^2 + v[["bias_rms_record"]]^2, tolerance = 1e-8)
     expect_gt(v[["bias_rms_local"]], 0)
   }
-  wide <- d$fit$basis$level %in% wavevalid:::record_wide_levels(d$fit$basis)
+  wide <- d$fit$basis$level %in% record_wide_levels(d$fit$basis)
   rec <- attr(where_fails(d$fit), "record_wide")
   expect_equal(cmp$before[cmp$metric == "bias_rms_record"],
                sqrt(mean(drop(d$fit$basis$Psi[, wide] %*% colMeans(d$fit$wb$site1[, wide]))^2)))

@@ -45,7 +45,7 @@ test_that("rescaled emulators are better calibrated at other held-out runs", {
   em2 <- rescale_emulators(p$em, p$runs_of(p$held(11, 25)))
   other <- p$runs_of(p$held(12, 40))
   ms <- function(em) {
-    h <- wavevalid:::heldout_residuals(em, other)
+    h <- heldout_residuals(em, other)
     mean(h$residual[is.finite(h$residual)]^2)
   }
   before <- ms(p$em)

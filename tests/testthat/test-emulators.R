@@ -1,7 +1,7 @@
 # A small problem: K runs of p inputs, curves on 64 points, and a wv_basis
 # built by hand (scaling coefficient and the first detail levels).
 hand_basis <- function(t, index) {
-  b <- wavevalid:::basis_from_index(t, index)
+  b <- basis_from_index(t, index)
   b$sites <- "site1"
   b
 }
@@ -151,12 +151,12 @@ test_that("the eq. 26 update equals the bank rebuilt on the augmented design", {
   rebuilt$X <- Xa
   rebuilt$weights <- Ya - matrix(b$mu, nrow(Ya), ncol(Ya), byrow = TRUE)
   for (i in seq_along(b$mu)) {
-    L <- wavevalid:::bank_factor(ref, i)
+    L <- bank_factor(ref, i)
     rebuilt$weights[, i] <- backsolve(t(L), forwardsolve(L, Ya[, i] - b$mu[i]))
   }
   rebuilt$chol <- ref$chol
   rebuilt$chol_of <- ref$chol_of
-  factors <- function(x) sapply(seq_along(b$mu), function(i) wavevalid:::bank_factor(x, i))
+  factors <- function(x) sapply(seq_along(b$mu), function(i) bank_factor(x, i))
   expect_equal(factors(aug$banks$site1), factors(ref), tolerance = 1e-10)
   expect_equal(unname(aug$banks$site1$weights), unname(rebuilt$weights), tolerance = 1e-8)
   Znew <- matrix(stats::runif(15), 5, 3, dimnames = list(NULL, c("x1", "x2", "x3")))
@@ -195,7 +195,7 @@ test_that("closed-form LOO residuals equal brute-force leave-one-out", {
   loo <- loo_residuals(em)
   b <- em$banks$site1
   for (i in seq_along(b$mu)) {
-    R <- tcrossprod(wavevalid:::bank_factor(b, i))
+    R <- tcrossprod(bank_factor(b, i))
     for (k in c(1, 7, 15)) {
       Rk <- R[-k, -k]
       r <- R[k, -k]
@@ -274,7 +274,7 @@ test_that("print, summary and plots work", {
   expect_equal(sort(pp$data[[1]]$x), sort(log10(pmax(beta, 1e-6))))
   expect_identical(pp$labels$title, "GASP correlation parameters by input")
   # the leave-one-out residuals: the +-2 lines and a point per finite residual
-  loo <- wavevalid:::loo_residuals(em)
+  loo <- loo_residuals(em)
   pl <- plot_drawn(autoplot(em, type = "loo"))
   expect_identical(pl$geoms, c("GeomHline", "GeomPoint"))
   expect_equal(sort(pl$data[[1]]$yintercept), c(-2, 2))
@@ -295,13 +295,13 @@ test_that("summary() reports the studentised errors of the emulators at held-out
   s <- summary(em, new_runs = new_runs)
   expect_true(all(c("heldout_rms", "heldout_beyond_3") %in% names(s$by_level)))
   expect_identical(s$n_new, 40L)
-  held <- wavevalid:::heldout_residuals(em, new_runs)
+  held <- heldout_residuals(em, new_runs)
   rms <- sqrt(mean(held$residual^2, na.rm = TRUE))
   # the errors scale with the predictive sd: dividing the variances by 10
   # multiplies the studentised errors by sqrt(10)
   em_small <- em
   em_small$banks$site1$lambda <- em$banks$site1$lambda * 10
-  held_small <- wavevalid:::heldout_residuals(em_small, new_runs)
+  held_small <- heldout_residuals(em_small, new_runs)
   expect_equal(sqrt(mean(held_small$residual^2, na.rm = TRUE)), sqrt(10) * rms, tolerance = 1e-8)
   # held-out errors agree with predict() and wavelet_coef()
   pr <- predict(em, new_design[1:2, ], site = "site1")
@@ -322,14 +322,14 @@ test_that("the wide-vector kernels give Eigen's results to the bit", {
   x <- c(seq(-745, 710, length.out = 100001), stats::runif(1e5, -30, 1), 0, -0, 1e-300, -1e-300, 709.437, -709.5)
   for (K in c(66L, 67L, 5L, 1L)) {
     X <- matrix(stats::runif(K * 9), K, 9)
-    res <- wavevalid:::vexp_identity_cpp(x, X)
+    res <- vexp_identity_cpp(x, X)
     if (!res$in_use) skip("this build keeps Eigen's own expressions")
     expect_identical(unlist(res[c("exp", "inverse", "gram")]), c(exp = 0L, inverse = 0L, gram = 0L),
                      label = paste("K =", K))
   }
   # and the exp is the exp: within 2 units in the last place where the result is a normal number
   e <- x[x > -708 & x < 709]
-  v <- wavevalid:::vexp_identity_cpp(e, matrix(0.5, 2, 1))$values
+  v <- vexp_identity_cpp(e, matrix(0.5, 2, 1))$values
   expect_true(all(abs(v - exp(e)) <= 2 * .Machine$double.eps * exp(e)))
 })
 
@@ -352,9 +352,9 @@ test_that("coefficients that share one correlation predict to the bit what one-c
     b
   }
   Z <- cbind(stats::runif(40), stats::runif(40))
-  all <- wavevalid:::gasp_bank_predict_cpp(bank, Z)
+  all <- gasp_bank_predict_cpp(bank, Z)
   for (i in seq_along(shared)) {
-    own <- wavevalid:::gasp_bank_predict_cpp(one(i), Z)
+    own <- gasp_bank_predict_cpp(one(i), Z)
     expect_identical(all$mean[, i], own$mean[, 1], label = sprintf("mean of coefficient %d", i))
     expect_identical(all$var[, i], own$var[, 1], label = sprintf("variance of coefficient %d", i))
   }
@@ -374,20 +374,20 @@ test_that("a level's coefficients store one Cholesky factor, and predict as with
   expect_lt(m, n)
   # the same bank with every coefficient's factor stored on its own
   own <- b
-  own$chol <- array(vapply(seq_len(n), function(i) wavevalid:::bank_factor(b, i), numeric(nrow(b$X)^2)),
+  own$chol <- array(vapply(seq_len(n), function(i) bank_factor(b, i), numeric(nrow(b$X)^2)),
                     c(nrow(b$X), nrow(b$X), n))
   own$chol_of <- NULL
   Z <- matrix(stats::runif(30), 10, 3)
-  expect_identical(wavevalid:::gasp_bank_predict_cpp(b, Z), wavevalid:::gasp_bank_predict_cpp(own, Z))
+  expect_identical(gasp_bank_predict_cpp(b, Z), gasp_bank_predict_cpp(own, Z))
   # each factor is the Cholesky factor of its coefficients' correlation matrix
   i <- which(b$chol_of == b$chol_of[n])[1]
   Rm <- exp(-as.matrix(Reduce(`+`, lapply(seq_len(ncol(b$X)), function(q) {
     b$beta[i, q] * as.matrix(stats::dist(b$X[, q]))^(2 - b$alpha[i, q])
   }))))
   diag(Rm) <- 1 + b$nugget[i]
-  expect_equal(tcrossprod(wavevalid:::bank_factor(b, i)), Rm, tolerance = 1e-10, ignore_attr = TRUE)
+  expect_equal(tcrossprod(bank_factor(b, i)), Rm, tolerance = 1e-10, ignore_attr = TRUE)
   # a chol_of out of range is refused
   bad <- b
   bad$chol_of[1] <- m + 1L
-  expect_error(wavevalid:::gasp_bank_predict_cpp(bad, Z), "chol_of")
+  expect_error(gasp_bank_predict_cpp(bad, Z), "chol_of")
 })

@@ -26,7 +26,7 @@ test_that("example_fit() is a small calibrated fit, the same for the same seed",
   # package's current defaults (a stored fit made under other defaults fails here)
   expect_identical(fit$field, example_problem(seed = 1)$field)
   expect_identical(fit$control$bias, bias_control())
-  expect_identical(fit$settings$pool_levels, wavevalid:::coarse_levels(fit$basis))
+  expect_identical(fit$settings$pool_levels, coarse_levels(fit$basis))
   ex <- example_problem(seed = 2)
   direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 2,
                                        sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))

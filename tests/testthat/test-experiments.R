@@ -9,9 +9,9 @@ sbc_two_experiments <- function(R = 2, sigma2 = 4, change = 0.2, bias = "own") {
   n <- length(pb$basis$index)
   blank <- field_from_coef(pb$basis, matrix(0, R, n))
   ex <- list(second = experiment(blank, change = c(x1 = change)))
-  spec <- wavevalid:::calibration_spec(pb$emulators, blank, pb$iu, sigma2 = sigma2)
-  ex <- wavevalid:::check_experiments(ex, pb$emulators, blank, spec$x_nom)
-  spec <- wavevalid:::add_experiments(spec, ex, pb$emulators, pb$iu, NULL, FALSE, "shared", bias)
+  spec <- calibration_spec(pb$emulators, blank, pb$iu, sigma2 = sigma2)
+  ex <- check_experiments(ex, pb$emulators, blank, spec$x_nom)
+  spec <- add_experiments(spec, ex, pb$emulators, pb$iu, NULL, FALSE, "shared", bias)
   spec$sites[["second/site1"]]$sigma2 <- rep(sigma2, n)
   list(pb = pb, n = n, spec = spec, G = nrow(spec$groups), bank = pb$emulators$banks$site1)
 }
@@ -41,16 +41,16 @@ sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inne
   # quantity then takes the marginal of each experiment on its own, which is
   # still a fixed function of the inputs and the data)
   loglik2 <- function(Z, wbar) {
-    pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, sweep(Z, 2L, sh, `+`))
+    pr <- gasp_bank_predict_cpp(s$bank, sweep(Z, 2L, sh, `+`))
     tot <- pr$var + e
     -0.5 * rowSums(log(tot) + sweep(pr$mean, 2L, wbar)^2 / tot)
   }
   for (r in seq_len(reps)) {
-    z <- wavevalid:::iu_prior_draws(s$pb$iu, 1L)[1, ]
+    z <- iu_prior_draws(s$pb$iu, 1L)[1, ]
     wbar <- list()
     truth <- list()
     for (k in 1:2) {
-      pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, matrix(z + if (k == 2) sh else 0, 1))
+      pr <- gasp_bank_predict_cpp(s$bank, matrix(z + if (k == 2) sh else 0, 1))
       wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
       wb <- if (k == 2 && data_bias == "shared") truth[[1]]$wb else stats::rnorm(n, 0, sqrt(tau2))
       wbar[[k]] <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
@@ -58,7 +58,7 @@ sbc_experiment_pvalues <- function(reps, debug_break = 0L, n_draws = 49L, n_inne
     }
     spec$sites$site1$wbar <- wbar[[1]]
     spec$sites[["second/site1"]]$wbar <- wbar[[2]]
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = s$G, z_init = c(0.5, 0.5), tau2_init = rep(tau2, s$G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break,
       adaptive = TRUE, burnin = 300L, p_indep = 0.5, n_search = 20L))
@@ -127,10 +127,10 @@ test_that("a second experiment: sites, shared level variances, bands and where_f
   expect_output(print(shared), "one bias shared by the experiments")
   # the second experiment's model coefficients follow the emulators at the changed inputs
   z <- colMeans(as.matrix(fit$draws)[, fit$inputs])
-  m2 <- wavevalid:::gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
-  m1 <- wavevalid:::gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z, 1))$mean
-  expect_equal(wavevalid:::pure_model_curve(fit, "loaded/site1", z), drop(fit$basis$Psi %*% t(m2)))
-  expect_equal(wavevalid:::pure_model_curve(fit, "site1", z), drop(fit$basis$Psi %*% t(m1)))
+  m2 <- gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z + c(0, 0.1), 1))$mean
+  m1 <- gasp_bank_predict_cpp(ex$emulators$banks$site1, matrix(z, 1))$mean
+  expect_equal(pure_model_curve(fit, "loaded/site1", z), drop(fit$basis$Psi %*% t(m2)))
+  expect_equal(pure_model_curve(fit, "site1", z), drop(fit$basis$Psi %*% t(m1)))
   b <- bias(fit)
   expect_setequal(unique(b$site), c("site1", "loaded/site1"))
   wf <- where_fails(fit)
@@ -219,8 +219,8 @@ test_that("validate() registers an experiment without reference to the model wit
   reg <- fit$field$curves[["added_mass/site1"]]
   expect_lt(rms(reg, to_true$curves$site1), 0.005)
   expect_gt(rms(to_base$curves$site1, to_true$curves$site1), 5 * rms(reg, to_true$curves$site1))
-  again <- wavevalid:::register_experiments(exps, fit$emulators, tb$A$runs, tb$windows, knots_every = knots,
-                                            landmark_site = "all", quiet = TRUE)$added_mass$field
+  again <- register_experiments(exps, fit$emulators, tb$A$runs, tb$windows, knots_every = knots,
+                                landmark_site = "all", quiet = TRUE)$added_mass$field
   expect_equal(again$curves$site1, reg)
   # the landmarks and the warp knots between them
   expect_identical(again$warps$t_after, to_true$warps$t_after)
@@ -230,17 +230,17 @@ test_that("validate() registers an experiment without reference to the model wit
 
   # the reference the user gives is used as given
   given <- list(added_mass = experiment(tb$added_mass$field, change = dm, reference = true_runs))
-  expect_identical(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
-                                                    knots_every = knots, landmark_site = "all",
-                                                    quiet = TRUE)$added_mass$field, to_true)
-  msg <- expect_message(wavevalid:::register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
-                                                         knots_every = knots), class = "wavevalid_message")
+  expect_identical(register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
+                                        knots_every = knots, landmark_site = "all",
+                                        quiet = TRUE)$added_mass$field, to_true)
+  msg <- expect_message(register_experiments(given, fit$emulators, tb$A$runs, tb$windows,
+                                             knots_every = knots), class = "wavevalid_message")
   expect_match(said(msg), "\"added_mass\": its reference (66 runs)", fixed = TRUE)
   # an experiment with emulators of its own: their prediction at their design
   sub <- model_runs(true_runs$design[1:30, ], lapply(true_runs$curves, function(m) m[1:30, ]), true_runs$t)
   em_own <- withr::with_options(list(wavevalid.quiet = TRUE), suppressWarnings(fit_emulators(sub, fit$basis)))
-  ref_own <- wavevalid:::experiment_reference(experiment(tb$added_mass$field, emulators = em_own), fit$emulators,
-                                              tb$A$runs)
+  ref_own <- experiment_reference(experiment(tb$added_mass$field, emulators = em_own), fit$emulators,
+                                  tb$A$runs)
   expect_identical(ref_own$design, as.data.frame(em_own$design))
   expect_lt(rms(colMeans(ref_own$curves$site1), colMeans(sub$curves$site1)), 0.05)
   expect_gt(rms(colMeans(tb$A$runs$curves$site1), colMeans(sub$curves$site1)), 0.2)
@@ -268,12 +268,12 @@ test_that("an experiment's sites evaluate the base site's emulators from one cop
   spec$sites$site1$wbar <- stats::rnorm(s$n)
   spec$sites[["second/site1"]]$wbar <- stats::rnorm(s$n)
   run <- function(sites) {
-    wavevalid:::calibrate_chain_cpp(sites, spec$priors, list(
+    calibrate_chain_cpp(sites, spec$priors, list(
       n_groups = s$G, z_init = c(0.5, 0.5), tau2_init = rep(0.05, s$G), fix_tau2 = TRUE, n_draws = 30L,
       n_inner = 5L, step = 0.5, seed = 4, chain = 1L, debug_break = 0L, adaptive = TRUE, burnin = 100L,
       p_indep = 0.5, n_search = 10L))
   }
-  shared <- wavevalid:::shared_banks(spec$sites)
+  shared <- shared_banks(spec$sites)
   expect_null(shared[["second/site1"]][["bank"]])
   expect_identical(shared[["second/site1"]][["bank_of"]], 0L)
   expect_lt(length(serialize(shared, NULL)), 0.75 * length(serialize(spec$sites, NULL)))

@@ -26,7 +26,7 @@ exact_log_bf <- function(fit, sigma2, tau2, upper) {
   Z <- as.matrix(expand.grid(u1 = g, x1 = g, s_bump = upper * g))
   pr <- fit$prior_iu
   lx <- dnorm(Z[, "x1"], pr$nominal[pr$name == "x1"], pr$prior_sd[pr$name == "x1"], log = TRUE)
-  P <- wavevalid:::gasp_bank_predict_cpp(fit$emulators$banks$site1, Z)
+  P <- gasp_bank_predict_cpp(fit$emulators$banks$site1, Z)
   tot <- sweep(P$var, 2, sigma2 / fit$n_rep$site1 + tau2, "+")
   ll <- -0.5 * rowSums(log(tot) + sweep(P$mean, 2, fit$wbar$site1)^2 / tot) + lx
   lse <- function(x, wt) max(x) + log(sum(wt * exp(x - max(x))))
@@ -129,7 +129,7 @@ test_that("re-validated models on another basis or field, without a strength, or
                                       sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_error(explain_bias(base, list(bump = moved)), "field data", class = "wavevalid_error_input")
   runs <- model_runs(p$em$design, p$em$design[, 1:3] %*% matrix(rnorm(3 * 32), 3), p$t, site = "site1")
-  b2 <- wavevalid:::basis_from_index(p$t, 1:8)
+  b2 <- basis_from_index(p$t, 1:8)
   em2 <- suppressWarnings(fit_emulators(runs, b2))
   f2 <- p$ex$field
   expect_error(explain_bias(base, list(bump = suppressWarnings(calibrate(em2, f2, p$iu, chains = 1, seed = 1,

@@ -6,7 +6,7 @@ test_that("explain_bias weighs each coefficient by the tau2 of its group, pooled
                    bias = bias_control(pool_levels = pool),
                    sampler = sampler_control(n_draws = 20, n_inner = 5, quiet = TRUE))
   d <- as.matrix(fit$draws)
-  V <- wavevalid:::bias_level_variances(fit, d)
+  V <- bias_level_variances(fit, d)
   name <- sprintf("tau2[site1:%d-%d]", pool[1], pool[2])
   pooled <- fit$basis$level %in% pool
   expect_equal(unname(V[, pooled]), matrix(d[, name], nrow(d), sum(pooled)))

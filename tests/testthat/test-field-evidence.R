@@ -12,7 +12,7 @@ test_that("a curve interpolated before it came in is detected and its noise evid
     by_hand <- stats::approx(xs, ys, xout = g)$y
     expect_message(f <- field_runs(rbind(by_hand), g), class = "wavevalid_message_interpolated")
     # the points the interpolation went through are found again, exactly
-    kn <- wavevalid:::interpolation_knots(g, by_hand)
+    kn <- interpolation_knots(g, by_hand)
     expect_equal(kn$x, xs, tolerance = 1e-8)
     expect_equal(kn$y, ys, tolerance = 1e-8)
     expect_true(all(kn$exact))
@@ -21,11 +21,11 @@ test_that("a curve interpolated before it came in is detected and its noise evid
     nz <- f$noise$site1
     expect_equal(nz$detail_sd, own$detail_sd, tolerance = 1e-6)
     expect_identical(nz$n_stamps, as.integer(m))
-    expect_equal(wavevalid:::resampled_noise_multipliers(nz$map, Psi),
-                 wavevalid:::resampled_noise_multipliers(own$map, Psi), tolerance = 1e-6)
+    expect_equal(resampled_noise_multipliers(nz$map, Psi),
+                 resampled_noise_multipliers(own$map, Psi), tolerance = 1e-6)
     # ... and near the true noise sd, where the curve on the grid shows none
     expect_lt(abs(log(nz$detail_sd / 2)), log(2))
-    expect_lt(wavevalid:::detail_noise_sd(rbind(by_hand), g, rep(1, 512)), 0.01)
+    expect_lt(detail_noise_sd(rbind(by_hand), g, rep(1, 512)), 0.01)
   }
 })
 
@@ -35,14 +35,14 @@ test_that("a noisy curve, a smooth noise-free one and a measured flat stretch ar
   expect_silent(f <- field_runs(rbind(gentle(g) + stats::rnorm(512, sd = 0.5)), g))
   expect_null(f$noise)
   g4 <- seq(0, 1, length.out = 4096)
-  expect_null(wavevalid:::interpolation_knots(g4, sin(2 * pi * g4)))
-  expect_null(wavevalid:::interpolation_knots(g, 1.2 * stats::plogis((g - 0.5) / 0.025)))
+  expect_null(interpolation_knots(g4, sin(2 * pi * g4)))
+  expect_null(interpolation_knots(g, 1.2 * stats::plogis((g - 0.5) / 0.025)))
   quiet_then_noisy <- c(rep(0, 200), 5 + stats::rnorm(312, sd = 0.1))
-  expect_null(wavevalid:::interpolation_knots(g, quiet_then_noisy))
+  expect_null(interpolation_knots(g, quiet_then_noisy))
   # an interpolated stretch among noisy ones is found
   noisy <- gentle(g) + stats::rnorm(512, sd = 0.5)
   noisy[100:300] <- seq(noisy[100], noisy[300], length.out = 201)
-  expect_false(is.null(wavevalid:::interpolation_knots(g, noisy)))
+  expect_false(is.null(interpolation_knots(g, noisy)))
 })
 
 test_that("where too few measured points can be told the noise is not learned from the curve until a prior is given", {
@@ -62,8 +62,8 @@ test_that("where too few measured points can be told the noise is not learned fr
   expect_s3_class(fit, "wv_fit")
   # preflight() says so before anything is fitted
   reps <- c(site1 = 1L)
-  expect_false(wavevalid:::describe_noise(NULL, reps, field$noise)$ok[["site1"]])
-  expect_true(wavevalid:::describe_noise(noise_prior(scale = 0.03), reps, field$noise)$ok[["site1"]])
+  expect_false(describe_noise(NULL, reps, field$noise)$ok[["site1"]])
+  expect_true(describe_noise(noise_prior(scale = 0.03), reps, field$noise)$ok[["site1"]])
   # 40 points on a 64-point grid: measured points closer than two grid steps cannot be told apart
   g <- seq(0, 1, length.out = 64)
   withr::local_seed(2)
@@ -73,9 +73,9 @@ test_that("where too few measured points can be told the noise is not learned fr
   expect_identical(f$noise$site1$detail_sd, 0)
   # enough residuals of exact points, but most points read as measured are not exact
   kn <- list(x = seq(0, 1, length.out = 40), y = stats::rnorm(40), exact = rep(c(TRUE, FALSE), c(15, 25)))
-  expect_identical(wavevalid:::knots_noise_sd(kn), 0)
+  expect_identical(knots_noise_sd(kn), 0)
   kn$exact[] <- TRUE
-  expect_gt(wavevalid:::knots_noise_sd(kn), 0)
+  expect_gt(knots_noise_sd(kn), 0)
 })
 
 test_that("the noise learned from a curve interpolated by the user does not collapse", {

@@ -130,10 +130,10 @@ test_that("explain_bias() of an interval regresses only the coefficients of its 
   wf <- where_fails(fit)
   one <- explain_bias(fit, cand, seed = 1, finding = wf[1, ])
   expect_identical(unclass(explain_bias(fit, cand, seed = 1, finding = wf)), unclass(one))
-  scope <- wavevalid:::finding_scope(fit, wf[1, ])
+  scope <- finding_scope(fit, wf[1, ])
   # the support of each coefficient kept overlaps the interval, of the others not
   inside <- t >= wf$start[1] - 1e-9 & t < wf$end[1] - 1e-9
-  wide <- fit$basis$level %in% wavevalid:::record_wide_levels(fit$basis)
+  wide <- fit$basis$level %in% record_wide_levels(fit$basis)
   touches <- colSums(abs(fit$basis$Psi[inside, , drop = FALSE])) > 0
   kept <- touches & !wide
   expect_identical(scope$use, kept)
@@ -152,7 +152,7 @@ test_that("explain_bias() of an interval regresses only the coefficients of its 
   # a record-wide finding regresses the record-wide levels
   rw <- wf[1, ]
   rw$kind <- "record-wide"
-  expect_identical(wavevalid:::finding_scope(fit, rw)$use, wide)
+  expect_identical(finding_scope(fit, rw)$use, wide)
   expect_error(explain_bias(fit, cand, finding = data.frame(kind = "interval")), class = "wavevalid_error_input")
   expect_error(explain_bias(fit, list(same = fit), finding = wf), class = "wavevalid_error_input")
   elsewhere <- wf[1, ]
@@ -170,7 +170,7 @@ test_that("explain_bias() of a covered misfit or an input explains the held re-r
   expect_false(is.na(k))
   hf <- attr(wf, "held")$fit
   # covered: the held fit, restricted to the interval
-  scope <- wavevalid:::finding_scope(fit, wf[k, ])
+  scope <- finding_scope(fit, wf[k, ])
   expect_identical(scope$fit, hf)
   got <- explain_bias(fit, cand, seed = 1, finding = wf[k, ])
   ref <- hf

@@ -94,3 +94,39 @@ test_that("iu_add refuses bad input with classed errors", {
   expect_error(iu_add(iu, "s", lower = 1, upper = 0), class = "wavevalid_error_input")
   expect_error(iu_add(iu, 3, lower = 0, upper = 1), class = "wavevalid_error_input")
 })
+
+test_that("iu_hold() fixes the inputs at the values and leaves the others as they were", {
+  iu <- iu_map(c("u1", "u2", "x1"), c("calibration", "calibration", "variation"), lower = c(0, 0, 1),
+               upper = c(1, 2, 3), prior = c("normal", "uniform", "normal"))
+  held <- iu_hold(iu, c(x1 = 2.5, u1 = 0))
+  expect_s3_class(held, "wv_iu")
+  k <- match(c("x1", "u1"), held$name)
+  expect_identical(held$type[k], c("calibration", "calibration"))
+  expect_identical(held$nominal[k], c(2.5, 0))
+  expect_identical(held$prior[k], c("uniform", "uniform"))
+  expect_true(all(held$lower[k] < c(2.5, 0) & held$upper[k] > c(2.5, 0)))
+  expect_lt(max(held$upper[k] - held$lower[k]), 1e-6)
+  expect_identical(as.data.frame(held)[2, ], as.data.frame(iu)[2, ])
+  # the held inputs' prior draws are their values; the others are drawn as before
+  d <- withr::with_seed(1, iu_prior_sample(held, 200))
+  expect_lt(max(abs(d[, "x1"] - 2.5)), 1e-6)
+  expect_lt(max(abs(d[, "u1"])), 1e-6)
+  expect_gt(stats::sd(d[, "u2"]), 0.3)
+})
+
+test_that("iu_hold() refuses an unknown input, a value outside the range and what cannot be held", {
+  iu <- iu_map(c("u1", "u2", "x1"), c("calibration", "calibration", "variation"), lower = c(0, 0, 1),
+               upper = c(1, 2, 3))
+  expect_error(iu_hold(iu, c(nope = 0.5)), class = "wavevalid_error_input")
+  expect_error(iu_hold(iu, c(x1 = 3.5)), class = "wavevalid_error_input")
+  expect_error(iu_hold(iu, c(u1 = -0.1)), class = "wavevalid_error_input")
+  expect_error(iu_hold(iu, 0.5), class = "wavevalid_error_input")
+  expect_error(iu_hold(iu, c(u1 = NA)), class = "wavevalid_error_input")
+  expect_error(iu_hold(iu, c(u1 = 0.2, u1 = 0.3)), class = "wavevalid_error_input")
+  expect_error(iu_hold(as.data.frame(iu), c(u1 = 0.5)), class = "wavevalid_error_input")
+  cond <- iu_add(iu, "dose", type = "condition", lower = 200, upper = 600, nominal = 400)
+  expect_error(iu_hold(cond, c(dose = 250)), class = "wavevalid_error_input")
+  joint <- iu_prior_joint(iu, c("u1", "u2"), mean = c(0.5, 1), cov = diag(c(0.04, 0.09)))
+  expect_error(iu_hold(joint, c(u1 = 0.5)), class = "wavevalid_error_input")
+  expect_snapshot(iu_hold(iu, c(x1 = 3.5, u2 = 1)), error = TRUE)
+})

@@ -98,30 +98,30 @@ test_that("the sampler's log prior is the densities written out, Jacobians inclu
                prior_mean = c(0.3, 0.2, NA, NA, NA, NA), prior_sd = c(0.2, 0.7, NA, NA, NA, 0.5))
   C <- matrix(c(0.3, 0.2, 0.2, 0.5), 2)
   iu <- iu_prior_joint(iu, c("d", "c"), mean = c(log(2e-5), 1), cov = C, scale = c("log", "identity"))
-  pri <- wavevalid:::sampler_priors(iu)
-  Z <- wavevalid:::iu_prior_draws(iu, 50)
+  pri <- sampler_priors(iu)
+  Z <- iu_prior_draws(iu, 50)
   direct <- function(z) {
     y <- c(log(z[["d"]]) - log(2e-5), z[["c"]] - 1)
     stats::dnorm(z[["a"]], 0.3, 0.2, log = TRUE) + stats::dlnorm(z[["b"]], log(0.2), 0.7, log = TRUE) -
       0.5 * drop(t(y) %*% solve(C) %*% y) - log(z[["d"]]) + stats::dnorm(z[["x"]], 3, 0.5, log = TRUE)
   }
   want <- apply(Z, 1, direct)
-  got <- wavevalid:::input_log_prior_cpp(pri, Z)
-  r_side <- wavevalid:::iu_log_prior(iu, Z)
+  got <- input_log_prior_cpp(pri, Z)
+  r_side <- iu_log_prior(iu, Z)
   # equal up to one constant (the normalising constants)
   expect_equal(got - got[1], want - want[1], tolerance = 1e-10)
   expect_equal(r_side - r_side[1], want - want[1], tolerance = 1e-10)
   # outside the box: -Inf; debug_break 3: the support alone
   Z[1, "a"] <- 1.5
-  expect_identical(wavevalid:::input_log_prior_cpp(pri, Z[1:2, ])[1], -Inf)
-  expect_identical(unique(wavevalid:::input_log_prior_cpp(pri, Z[2:5, ], 3L)), 0)
+  expect_identical(input_log_prior_cpp(pri, Z[1:2, ])[1], -Inf)
+  expect_identical(unique(input_log_prior_cpp(pri, Z[2:5, ], 3L)), 0)
   # prior draws follow the truncated normal and log-normal
-  D <- wavevalid:::iu_prior_draws(iu, 20000)
+  D <- iu_prior_draws(iu, 20000)
   expect_true(all(D[, "d"] >= 1e-7 & D[, "d"] <= 1e-3))
   ks_a <- stats::ks.test(D[, "a"], function(q) (pnorm(q, 0.3, 0.2) - pnorm(0, 0.3, 0.2)) / diff(pnorm(c(0, 1), 0.3, 0.2)))
   expect_gt(ks_a$p.value, 0.01)
   expect_equal(cor(log(D[, "d"]), D[, "c"]), 0.2 / sqrt(0.15), tolerance = 0.05)
-  expect_equal(sum(wavevalid:::iu_prior_density(iu, 2, seq(0.01, 2, length.out = 4001))) * (1.99 / 4000), 1,
+  expect_equal(sum(iu_prior_density(iu, 2, seq(0.01, 2, length.out = 4001))) * (1.99 / 4000), 1,
                tolerance = 2e-3)
 })
 
@@ -130,15 +130,15 @@ test_that("the flyer-plate Gaussian prior on seven strength parameters, one of t
   expect_identical(iu$prior, c("uniform", rep("joint", 7), "uniform", "uniform"))
   expect_snapshot(print(iu))
   withr::local_seed(5)
-  D <- wavevalid:::iu_prior_draws(iu, 4000)
+  D <- iu_prior_draws(iu, 4000)
   # log(gamma) has mean -11.11 and sd 0.52 before truncation; the box cuts little of it
   expect_equal(mean(log(D[, "gamma"])), -11.11, tolerance = 0.01)
   expect_equal(cor(D[, "theta0"], D[, "yinf"]), -0.87, tolerance = 0.05)
   expect_equal(cor(D[, "kappa"], log(D[, "gamma"])), -0.73, tolerance = 0.05)
-  pri <- wavevalid:::sampler_priors(iu)
-  lp <- wavevalid:::input_log_prior_cpp(pri, D[1:20, ])
+  pri <- sampler_priors(iu)
+  lp <- input_log_prior_cpp(pri, D[1:20, ])
   expect_true(all(is.finite(lp)))
-  expect_equal(lp - lp[1], wavevalid:::iu_log_prior(iu, D[1:20, ]) - wavevalid:::iu_log_prior(iu, D[1, , drop = FALSE]),
+  expect_equal(lp - lp[1], iu_log_prior(iu, D[1:20, ]) - iu_log_prior(iu, D[1, , drop = FALSE]),
                tolerance = 1e-8)
 })
 
@@ -152,15 +152,15 @@ test_that("the sampler draws the flyer-plate prior on the inputs' own scales (1e
   basis <- make_basis(16, 1:4)
   em <- make_emulators(list(site1 = make_bank(X, Y, beta = rep(0.5, 10), alpha = rep(0, 10))), basis, X)
   # data that say nothing: the posterior is the prior
-  spec <- wavevalid:::calibration_spec(em, field_from_coef(basis, matrix(0, 2, 4)), iu, sigma2 = 1e8)
-  out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+  spec <- calibration_spec(em, field_from_coef(basis, matrix(0, 2, 4)), iu, sigma2 = 1e8)
+  out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
     n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init), tau2_init = rep(0.05, nrow(spec$groups)),
     fix_tau2 = TRUE, n_draws = 4000L, n_inner = 5L, step = 0.1, seed = 3, chain = 1L, adaptive = TRUE,
     burnin = 5000L, n_search = 50L))
   M <- out$inputs
   colnames(M) <- spec$inputs
   withr::local_seed(6)
-  P <- wavevalid:::iu_prior_draws(spec$prior_iu, 20000)
+  P <- iu_prior_draws(spec$prior_iu, 20000)
   expect_equal(mean(log(M[, "gamma"])), mean(log(P[, "gamma"])), tolerance = 0.15 / 11)
   expect_equal(sd(log(M[, "gamma"])), sd(log(P[, "gamma"])), tolerance = 0.2)
   expect_equal(mean(M[, "kappa"]), mean(P[, "kappa"]), tolerance = 0.01 / 0.7)
@@ -186,12 +186,12 @@ sbc_prior_pvalues <- function(reps, iu, debug_break = 0L, n_draws = 60L, n_inner
   p <- length(spec$inputs)
   ranks <- matrix(NA_integer_, reps, p, dimnames = list(NULL, spec$inputs))
   for (r in seq_len(reps)) {
-    z <- wavevalid:::iu_prior_draws(spec$prior_iu, 1L)[1, ]
-    pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(z, 1))
+    z <- iu_prior_draws(spec$prior_iu, 1L)[1, ]
+    pr <- gasp_bank_predict_cpp(bank, matrix(z, 1))
     wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
     wb <- stats::rnorm(n, 0, sqrt(tau2))
     spec$sites$site1$wbar <- wM + wb + stats::rnorm(n, 0, sd_eps / sqrt(R))
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = G, z_init = as.numeric(spec$z_init), tau2_init = rep(tau2, G), fix_tau2 = TRUE,
       n_draws = n_draws, n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break,
       adaptive = adaptive, burnin = if (adaptive) 300L else 0L, n_search = 20L))

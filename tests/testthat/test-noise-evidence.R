@@ -4,23 +4,23 @@ test_that("difference residuals give chi-square evidence of the noise variance w
   withr::local_seed(1)
   t <- seq(0, 1, length.out = 102)
   # at even stamps the residuals' lag-1 and lag-2 correlations are -2/3 and 1/6
-  d <- wavevalid:::difference_residuals(rnorm(102), t, rep(1, 102))
+  d <- difference_residuals(rnorm(102), t, rep(1, 102))
   expect_equal(unique(round(d$r1, 10)), -2 / 3)
   expect_equal(unique(round(d$r2, 10)), 1 / 6)
-  ev <- wavevalid:::difference_evidence(rbind(rnorm(102)), t, rep(1, 102))
-  expect_equal(ev[["df"]], wavevalid:::difference_efficiency * 100^2 / (100 + 2 * 99 * 4 / 9 + 2 * 98 / 36))
+  ev <- difference_evidence(rbind(rnorm(102)), t, rep(1, 102))
+  expect_equal(ev[["df"]], difference_efficiency * 100^2 / (100 + 2 * 99 * 4 / 9 + 2 * 98 / 36))
   # ss / df estimates sigma2 at uneven stamps with averaged values (var 1 / n at a stamp)
   tu <- sort(c(0, 1, runif(60)))
   n_at <- sample(1:2, 62, replace = TRUE)
   est <- replicate(200, {
     y <- 3 * sin(2 * tu) + rnorm(62, sd = 0.1 / sqrt(n_at))
-    e <- wavevalid:::difference_evidence(rbind(y), tu, 1 / n_at)
+    e <- difference_evidence(rbind(y), tu, 1 / n_at)
     e[["ss"]] / e[["df"]]
   })
   expect_lt(abs(mean(est) / 0.01 - 1), 0.05)
   # a bend counts at most as a point 3 MAD-based sds out
   y <- rnorm(62, sd = 0.1) + 50 * (tu > 0.5)
-  e <- wavevalid:::difference_evidence(rbind(y), tu, rep(1, 62))
+  e <- difference_evidence(rbind(y), tu, rep(1, 62))
   expect_lt(sqrt(e[["ss"]] / e[["df"]]), 0.2)
   f <- suppressMessages(field_runs(rbind(y), tu, grid = seq(0, 1, length.out = 64)))
   expect_equal(f$noise$site1$detail_df, e[["df"]])

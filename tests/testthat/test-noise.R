@@ -74,14 +74,14 @@ sbc_noise_pvalues <- function(reps, R = 1L, debug_break = 0L, scale = 0.5, famil
   for (r in seq_len(reps)) {
     z <- stats::runif(1)
     sig <- if (family == "half-cauchy") abs(stats::rcauchy(1, 0, scale)) else abs(stats::rnorm(1, 0, scale))
-    pr <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(z, 1))
+    pr <- gasp_bank_predict_cpp(bank, matrix(z, 1))
     wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
     wb <- stats::rnorm(n, 0, sqrt(tau2))
     W <- matrix(wM + wb, R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, sig * sqrt(m)), R, n, byrow = TRUE)
     spec$sites$site1$wbar <- colMeans(W)
     spec$sites$site1$s2 <- colSums(sweep(W, 2L, colMeans(W))^2)
     if (df > 0) spec$sites$site1$noise[c("ss", "df")] <- list(sig^2 * stats::rchisq(1, df), df)
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = G, z_init = 0.5, tau2_init = rep(tau2, G), fix_tau2 = TRUE, n_draws = n_draws,
       n_inner = n_inner, step = 0.5, seed = r, chain = 1L, debug_break = debug_break, adaptive = TRUE,
       burnin = burnin, n_search = 20L))
@@ -137,15 +137,15 @@ learned_noise_grid <- function() {
   scale <- 0.3
   pb <- small_problem(two_inputs = FALSE, level = 4L)
   n <- length(pb$basis$index)
-  spec <- wavevalid:::calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, 1, n)), pb$iu,
-                                       sigma2 = noise_prior(scale = scale))
+  spec <- calibration_spec(pb$emulators, field_from_coef(pb$basis, matrix(0, 1, n)), pb$iu,
+                           sigma2 = noise_prior(scale = scale))
   bank <- pb$emulators$banks$site1
-  wbar <- drop(wavevalid:::gasp_bank_predict_cpp(bank, matrix(0.4, 1))$mean) + stats::rnorm(n, 0, sqrt(0.02 + 0.01))
+  wbar <- drop(gasp_bank_predict_cpp(bank, matrix(0.4, 1))$mean) + stats::rnorm(n, 0, sqrt(0.02 + 0.01))
   ss <- 0.01 * stats::rchisq(1, 6)
   spec$sites$site1$wbar <- wbar
   spec$sites$site1$noise[c("ss", "df")] <- list(ss, 6)
   run <- function(debug_break = 0L) {
-    out <- wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+    out <- calibrate_chain_cpp(spec$sites, spec$priors, list(
       n_groups = 1L, z_init = 0.5, tau2_init = numeric(0), fix_tau2 = FALSE, n_draws = 1500L, n_inner = 30L,
       step = 0.5, seed = 3, chain = 1L, debug_break = debug_break, adaptive = TRUE, burnin = 3000L, n_search = 50L))
     keep <- seq(1, 1500, by = 3)
@@ -154,7 +154,7 @@ learned_noise_grid <- function() {
   u <- seq(0.0025, 0.9975, by = 0.005)
   eta <- seq(log(1e-4), log(2), length.out = 60)
   lt <- seq(log(1e-6), log(3), length.out = 120)
-  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
+  P <- gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
   S <- outer(exp(eta), rep(1, length(lt)))
   Tt <- outer(rep(1, length(eta)), exp(lt))
   # the repeats' scatter, the half-Cauchy prior of the sd with the Jacobian of log sigma2, log tau2's Jacobian
@@ -250,7 +250,7 @@ test_that("field_runs() averages repeated time stamps and keeps their scatter, t
   A <- sapply(seq_along(t0), function(j) stats::approx(t0, as.numeric(seq_along(t0) == j), xout = grid, rule = 2)$y)
   D <- diag(1 / tabulate(k, length(t0)))
   Psi <- qr.Q(qr(matrix(rnorm(64 * 9), 64, 9)))
-  expect_equal(wavevalid:::resampled_noise_multipliers(nz$map, Psi), diag(t(Psi) %*% A %*% D %*% t(A) %*% Psi))
+  expect_equal(resampled_noise_multipliers(nz$map, Psi), diag(t(Psi) %*% A %*% D %*% t(A) %*% Psi))
   # on a dyadic grid without repeats there is nothing to keep
   expect_null(field_runs(Y[, !duplicated(t_obs)][, 1:32], t0[1:32])$noise)
   expect_error(field_runs(Y[, rev(seq_along(t_obs))], rev(t_obs)), class = "wavevalid_error")

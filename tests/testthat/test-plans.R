@@ -78,8 +78,8 @@ test_that("a chain's future carries the sampler's sites and priors, not its call
                z_init = 0.5, basis = list(Psi = big), informs = NULL, temper = 1, input_weight = 1)
   caller <- function() {
     unused <- big  # a large object in the calling frame
-    wavevalid:::chain_worker(spec, list(n_draws = 1L, quiet = TRUE), seed = 1 + 0, tau = list(fixed = FALSE),
-                             debug_break = 0L, p_global = 0.1)
+    chain_worker(spec, list(n_draws = 1L, quiet = TRUE), seed = 1 + 0, tau = list(fixed = FALSE),
+                 debug_break = 0L, p_global = 0.1)
   }
   worker <- caller()
   size <- length(serialize(worker, NULL))
@@ -89,8 +89,8 @@ test_that("a chain's future carries the sampler's sites and priors, not its call
   # the emulators' worker: the coefficients and the design, not the caller's runs
   fit_caller <- function() {
     unused <- big
-    wavevalid:::emulator_worker("gasp", X = matrix(0, 2, 1), W = list(s = matrix(0, 2, 1)), starts = 2L,
-                                log_beta_range = c(-1, 1), seed = 1 + 0, km_args = list())
+    emulator_worker("gasp", X = matrix(0, 2, 1), W = list(s = matrix(0, 2, 1)), starts = 2L,
+                    log_beta_range = c(-1, 1), seed = 1 + 0, km_args = list())
   }
   expect_lt(length(serialize(fit_caller(), NULL)), 1e5)
 })
@@ -100,7 +100,7 @@ test_that("chains that ran one after the other for a minute with free cores get 
   old <- future::plan(future::sequential)
   withr::defer(future::plan(old))
   withr::local_options(wavevalid.quiet = FALSE)
-  hint <- wavevalid:::hint_parallel_chains
+  hint <- hint_parallel_chains
   msg <- expect_message(hint(75, 2L, 2L, FALSE), class = "wavevalid_message_parallel")
   expect_match(conditionMessage(msg), "multisession, workers = 2", fixed = TRUE)
   expect_match(conditionMessage(msg), "75 s", fixed = TRUE)

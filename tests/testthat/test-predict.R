@@ -166,11 +166,11 @@ test_that("the bands for a new vehicle hold their share of new vehicles, at the 
   xn <- names(tb$B$x_nom)
   vehicles <- function(nominal, seed, n = 200L) {
     withr::with_seed(seed, {
-      d <- as.data.frame(wavevalid:::iu_prior_draws(tb$iu, n, nominal = nominal))
+      d <- as.data.frame(iu_prior_draws(tb$iu, n, nominal = nominal))
       d$u1 <- tb$truth$u[["u1"]]
       d$u2 <- tb$truth$u[["u2"]]
       curves <- simulate_suspension(d[c("u1", "u2", xn)])$curves
-      lapply(curves, function(y) y + t(replicate(n, wavevalid:::ar1_noise(ncol(y)))))
+      lapply(curves, function(y) y + t(replicate(n, ar1_noise(ncol(y)))))
     })
   }
   # the share of each vehicle's points inside the band, by site

@@ -125,9 +125,9 @@ test_that("a state term's simulated effect is the derivative of the output in it
   # a simulator whose output moves by strength * fun(state), then by its square
   lin <- function(channel, fun, strength) list(site1 = sin(2 * pi * t) + strength * fun(state))
   quad <- function(channel, fun, strength) list(site1 = sin(2 * pi * t) + strength * fun(state) + strength^2)
-  X_dir <- wavevalid:::term_signatures(fit, lib, NULL)$X
-  X_lin <- wavevalid:::term_signatures(fit, lib, lin)$X
-  X_quad <- wavevalid:::term_signatures(fit, lib, quad)$X
+  X_dir <- term_signatures(fit, lib, NULL)$X
+  X_lin <- term_signatures(fit, lib, lin)$X
+  X_quad <- term_signatures(fit, lib, quad)$X
   expect_equal(X_lin, X_dir, tolerance = 1e-8)
   # the central difference removes the strength's square exactly
   expect_equal(X_quad, X_dir, tolerance = 1e-8)
@@ -136,7 +136,7 @@ test_that("a state term's simulated effect is the derivative of the output in it
     if (identical(fun, lib$funs[[2]])) stop("the solver failed")
     lin(channel, fun, strength)
   }
-  expect_message(sig <- wavevalid:::term_signatures(fit, lib, flaky), "failed or was not finite")
+  expect_message(sig <- term_signatures(fit, lib, flaky), "failed or was not finite")
   expect_identical(sig$keep, seq_along(lib$funs) != 2L)
   expect_equal(sig$X, X_dir[, -2], tolerance = 1e-8)
   bad <- function(channel, fun, strength) list(other = t)
@@ -145,28 +145,28 @@ test_that("a state term's simulated effect is the derivative of the output in it
 
 test_that("terms the parameter shifts or the registration's error span are never proposed", {
   fit <- example_fit()
-  N <- wavevalid:::proposal_nuisance(fit, FALSE)$X
+  N <- proposal_nuisance(fit, FALSE)$X
   expect_identical(ncol(N), 3L)  # shift:u1, shift:x1 and the offset of site1
   X <- cbind(inside = drop(N %*% c(2, -1, 0.5)), outside = withr::with_seed(1, rnorm(nrow(N))))
-  expect_identical(unname(wavevalid:::outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
+  expect_identical(unname(outside_span(X, N, rep(1, nrow(N)))), c(FALSE, TRUE))
   # a registered field: a shift and a blur direction at each knot of the
   # warps, random, not fixed: a hinge of the output stays a term
   fit_r <- propose_problem(0, windows = list(c(0.15, 0.35), c(0.65, 0.85)))
-  nu <- wavevalid:::proposal_nuisance(fit_r, TRUE)
+  nu <- proposal_nuisance(fit_r, TRUE)
   expect_identical(ncol(nu$X), 3L)
   expect_identical(ncol(nu$R), length(nu$kind))
   expect_setequal(unique(nu$kind), c("shift", "blur"))
   expect_identical(sum(nu$kind == "shift"), nu$knots)
   lib <- term_library(fit_r)
-  X <- wavevalid:::term_signatures(fit_r, lib, NULL)$X
-  ok <- wavevalid:::outside_span(X, nu$X, rep(1, nrow(X)))
+  X <- term_signatures(fit_r, lib, NULL)$X
+  ok <- outside_span(X, nu$X, rep(1, nrow(X)))
   expect_true(all(ok[lib$terms$family == "hinge_above"]))
   pr <- propose_terms(fit_r, lib, n_draws = 10, seed = 1)
   expect_match(attr(pr, "nuisance")[3], "registration's error at its [0-9]+ warp knots")
   # abs(y - c) = 2 (y - c)_+ - (y - c): with the output's scale a shift of x1
   # and the offset in every model, the two are one effect, kept once
-  eq <- wavevalid:::equivalent_terms(X[, c("hinge_above(output; c = 0, k = 1)", "abs(output; c = 0)")], nu$X,
-                                     rep(1, nrow(X)))
+  eq <- equivalent_terms(X[, c("hinge_above(output; c = 0, k = 1)", "abs(output; c = 0)")], nu$X,
+                         rep(1, nrow(X)))
   expect_identical(unname(eq), c(NA, "hinge_above(output; c = 0, k = 1)"))
 })
 
@@ -193,7 +193,7 @@ test_that("the registration error's sizes are recovered by restricted maximum li
   est <- replicate(20, {
     Rs <- sweep(R, 2L, sqrt(colSums(R^2 * w)), `/`)
     y <- drop(F %*% c(1, -2) + Rs %*% stats::rnorm(60, sd = sqrt(lam[kind])) + stats::rnorm(n, sd = 1 / sqrt(w)))
-    wavevalid:::registration_scale(y, w, F, R, kind)$by_kind[c("shift", "blur")]
+    registration_scale(y, w, F, R, kind)$by_kind[c("shift", "blur")]
   })
   # the median over 20 data sets within 30% of the truth, each kind
   med <- apply(est, 1, stats::median)

@@ -193,9 +193,9 @@ test_that("landmarks in another order than the reference's are left out, with a 
   expect_snapshot(invisible(register_curves(flipped, ref, windows)))
   w <- as.data.frame(reg$warps)
   lo <- attr(reg$warps, "left_out")
-  ref_lm <- wavevalid:::curve_landmarks(ref$site1, t, windows, wavevalid:::check_features(c("min", "max")))
-  rep_lm <- wavevalid:::curve_landmarks(flipped$curves$site1[2, ], t, windows,
-                                        wavevalid:::check_features(c("min", "max")))
+  ref_lm <- curve_landmarks(ref$site1, t, windows, check_features(c("min", "max")))
+  rep_lm <- curve_landmarks(flipped$curves$site1[2, ], t, windows,
+                            check_features(c("min", "max")))
   # the first replicate keeps both landmarks of both windows
   expect_equal(nrow(w[w$replicate == 1, ]), 4L)
   for (k in unique(ref_lm$window)) {
@@ -223,7 +223,7 @@ test_that("landmarks in another order than the reference's are left out, with a 
 })
 
 test_that("the print of a fit on a field registered with landmarks left out says which", {
-  ex <- wavevalid:::example_calibration_inputs()
+  ex <- example_calibration_inputs()
   fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
                                     sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE)))
   expect_false(any(grepl("left out landmarks", utils::capture.output(print(fit)))))
@@ -236,7 +236,7 @@ test_that("the print of a fit on a field registered with landmarks left out says
 })
 
 test_that("the order-keeping set of landmarks is the largest, then the nearest", {
-  ol <- wavevalid:::ordered_landmarks
+  ol <- ordered_landmarks
   expect_equal(ol(c(1, 2, 3), c(1.1, 2.1, 3.1)), c(TRUE, TRUE, TRUE))
   # the third landmark jumped before the first two: dropping it alone restores the order
   expect_equal(ol(c(1, 2, 3), c(1.1, 2.1, 0.5)), c(TRUE, TRUE, FALSE))
@@ -290,7 +290,7 @@ test_that("knots fitted between the windows undo a smooth jitter that landmarks 
   expect_true(all(w$feature %in% c("min", "max", "fitted")))
   expect_true(all(is.na(w$window[w$feature == "fitted"])))
   # every warp stays increasing
-  for (r in 1:3) expect_true(all(diff(wavevalid:::warp_knots(w, r)$before) > 0))
+  for (r in 1:3) expect_true(all(diff(warp_knots(w, r)$before) > 0))
   expect_snapshot(print(fitted$warps[fitted$warps$replicate == 1 & fitted$warps$feature != "fitted", ]))
 })
 
@@ -341,7 +341,7 @@ test_that("knots fitted to the replicates' consensus are not misled by a shape t
     rms(w$t_before - truth)
   }
   expect_lt(knot_err(to_reps), 0.5 * knot_err(to_ref))
-  for (r in seq_along(a)) expect_true(all(diff(wavevalid:::warp_knots(to_reps$warps, r)$before) > 0))
+  for (r in seq_along(a)) expect_true(all(diff(warp_knots(to_reps$warps, r)$before) > 0))
   # the landmarks are the same either way
   lm <- function(reg) reg$warps[reg$warps$feature != "fitted", ]
   expect_equal(lm(to_reps)$t_before, lm(to_ref)$t_before)

@@ -10,7 +10,7 @@ shift_chain <- function(s, wbar, U = NULL, var = NULL, extra = NULL, seed = 1, n
   spec$sites$site1$wbar <- wbar
   spec$sites$site1$reg_U <- U
   if (!is.null(extra)) spec$sites$site1$extra <- extra
-  wavevalid:::calibrate_chain_cpp(spec$sites, spec$priors, list(
+  calibrate_chain_cpp(spec$sites, spec$priors, list(
     n_groups = s$G, z_init = 0.5, tau2_init = rep(tau2, s$G), fix_tau2 = TRUE, n_draws = n_draws,
     n_inner = 5L, step = 0.5, seed = seed, chain = 1L, adaptive = TRUE, burnin = 300L, n_search = 20L,
     reg_shift_var = var))
@@ -60,7 +60,7 @@ test_that("simulation-based calibration with registration shifts: the input, a b
     ranks <- matrix(NA_integer_, reps, 3, dimnames = list(NULL, c("u1", "wb1", "a1")))
     for (r in seq_len(reps)) {
       z <- stats::runif(1)
-      pr <- wavevalid:::gasp_bank_predict_cpp(s$bank, matrix(z, 1))
+      pr <- gasp_bank_predict_cpp(s$bank, matrix(z, 1))
       wM <- stats::rnorm(n, pr$mean, sqrt(pr$var))
       wb <- stats::rnorm(n, 0, sqrt(tau2))
       a <- stats::rnorm(2, 0, sqrt(v))

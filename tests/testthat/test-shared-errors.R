@@ -4,7 +4,7 @@ shared_grid_problem <- function() {
   pb <- small_problem(two_inputs = FALSE, level = 4L)
   n <- length(pb$basis$index)
   R <- 3
-  pr <- wavevalid:::gasp_bank_predict_cpp(pb$emulators$banks$site1, matrix(0.3, 1))
+  pr <- gasp_bank_predict_cpp(pb$emulators$banks$site1, matrix(0.3, 1))
   W <- matrix(drop(pr$mean) + stats::rnorm(n, 0, 0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.6), R, n)
   list(pb = pb, field = field_from_coef(pb$basis, W), sigma2 = 0.36, R = R, W = W, wbar = colMeans(W))
 }
@@ -13,7 +13,7 @@ test_that("with the inputs' weight and tau2 fixed, the sampler reproduces the gr
   withr::local_seed(11)
   gp <- shared_grid_problem()
   u <- seq(0.0005, 0.9995, by = 0.001)
-  P <- wavevalid:::gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(u, ncol = 1))
+  P <- gasp_bank_predict_cpp(gp$pb$emulators$banks$site1, matrix(u, ncol = 1))
   t2 <- 0.09
   post_cdf <- function(w) {
     lp <- w * vapply(seq_along(u), function(a) {
@@ -22,12 +22,12 @@ test_that("with the inputs' weight and tau2 fixed, the sampler reproduces the gr
     d <- exp(lp - max(lp))
     stats::approxfun(u, cumsum(d) / sum(d), yleft = 0, yright = 1)
   }
-  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  spec <- calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
   spec$input_weight <- 0.2
-  tau <- wavevalid:::resolve_fix_tau2(t2, spec$groups)
+  tau <- resolve_fix_tau2(t2, spec$groups)
   run <- function(debug_break) {
     sm <- sampler_control(n_draws = 1500, n_inner = 30, burnin = 5000, n_search = 200, quiet = TRUE)
-    wavevalid:::run_chains(spec, sm, 1, 5, tau, debug_break = debug_break)[[1]]$inputs[, 1]
+    run_chains(spec, sm, 1, 5, tau, debug_break = debug_break)[[1]]$inputs[, 1]
   }
   ok <- run(0L)
   expect_gt(suppressWarnings(stats::ks.test(ok, post_cdf(0.2))$p.value), 0.01)
@@ -40,18 +40,18 @@ test_that("with the inputs' weight and tau2 fixed, the sampler reproduces the gr
 test_that("the weight is p / tr(H^-1 J) of the errors' covariance, computed densely", {
   withr::local_seed(12)
   gp <- shared_grid_problem()
-  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  spec <- calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
   z <- 0.35
   tau2 <- 0.05
   sigma2 <- list(site1 = rep(gp$sigma2, length(gp$wbar)))
-  got <- wavevalid:::composite_weight(spec, gp$field, z, tau2, sigma2)
+  got <- composite_weight(spec, gp$field, z, tau2, sigma2)
   bank <- gp$pb$emulators$banks$site1
   h <- 1e-4
-  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(c(z, z + h, z - h), ncol = 1))
+  P <- gasp_bank_predict_cpp(bank, matrix(c(z, z + h, z - h), ncol = 1))
   G <- (P$mean[2, ] - P$mean[3, ]) / (2 * h)
   v <- P$var[1, ]
   d <- v + gp$sigma2 / gp$R + tau2
-  E <- wavevalid:::bank_loo_errors(bank)
+  E <- bank_loo_errors(bank)
   C <- crossprod(E) / nrow(E)
   C <- C / sqrt(outer(diag(C), diag(C)))
   S <- stats::cov(gp$W) / gp$R
@@ -135,18 +135,18 @@ test_that("the weight counts the emulators' errors of two sites that share a des
   R <- 3
   W <- list(site1 = matrix(pb$f(0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.01), R, n),
             site2 = matrix(f2(0.3), R, n, byrow = TRUE) + matrix(stats::rnorm(R * n, 0, 0.01), R, n))
-  field <- wavevalid:::new_wv_field(pb$basis$t, lapply(W, function(w) w %*% t(pb$basis$Psi)))
-  spec <- wavevalid:::calibration_spec(emu, field, pb$iu, sigma2 = list(site1 = 0.01^2, site2 = 0.01^2))
+  field <- new_wv_field(pb$basis$t, lapply(W, function(w) w %*% t(pb$basis$Psi)))
+  spec <- calibration_spec(emu, field, pb$iu, sigma2 = list(site1 = 0.01^2, site2 = 0.01^2))
   z <- 0.33
   tau2 <- 1e-4
   expect_identical(nrow(spec$groups), 2L)
   sigma2 <- list(site1 = rep(0.01^2, n), site2 = rep(0.01^2, n))
-  got <- wavevalid:::composite_weight(spec, field, z, c(tau2, tau2), sigma2)
+  got <- composite_weight(spec, field, z, c(tau2, tau2), sigma2)
   # dense: the studentised leave-one-out errors of both sites (same runs) give one correlation matrix
   h <- 1e-4
   parts <- lapply(names(banks), function(s) {
-    P <- wavevalid:::gasp_bank_predict_cpp(banks[[s]], matrix(c(z, z + h, z - h), ncol = 1))
-    list(G = (P$mean[2, ] - P$mean[3, ]) / (2 * h), v = P$var[1, ], E = wavevalid:::bank_loo_errors(banks[[s]]),
+    P <- gasp_bank_predict_cpp(banks[[s]], matrix(c(z, z + h, z - h), ncol = 1))
+    list(G = (P$mean[2, ] - P$mean[3, ]) / (2 * h), v = P$var[1, ], E = bank_loo_errors(banks[[s]]),
          S = stats::cov(W[[s]]) / R)
   })
   G <- unlist(lapply(parts, `[[`, "G"))
@@ -186,7 +186,7 @@ weighted_chain_stationary <- function(bank, wbar, s2, R, w, rw_var, half) {
   lt <- seq(log(1e-5), log(20), by = dl)
   Nu <- length(u)
   Nt <- length(lt)
-  P <- wavevalid:::gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
+  P <- gasp_bank_predict_cpp(bank, matrix(u, ncol = 1))
   L <- matrix(0, Nu, Nt)
   for (i in seq_along(wbar)) {
     tot <- outer(P$var[, i] + s2 / R, exp(lt), `+`)
@@ -235,14 +235,14 @@ test_that("the default chain (the weight in the inputs' steps alone, tau2 free) 
   skip_unless_slow()
   withr::local_seed(11)
   gp <- shared_grid_problem()
-  spec <- wavevalid:::calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
+  spec <- calibration_spec(gp$pb$emulators, gp$field, gp$pb$iu, sigma2 = gp$sigma2)
   spec$input_weight <- 0.3
-  tau <- wavevalid:::resolve_fix_tau2(NULL, spec$groups)
+  tau <- resolve_fix_tau2(NULL, spec$groups)
   sm <- sampler_control(n_draws = 1500, n_inner = 30, burnin = 5000, n_search = 200, quiet = TRUE)
   # every third draw: tau2's effective sample size is about 740 of the 1500
   keep <- seq(1, 1500, by = 3)
   run <- function(debug_break) {
-    ch <- wavevalid:::run_chains(spec, sm, 1, 5, tau, debug_break = debug_break)[[1]]
+    ch <- run_chains(spec, sm, 1, 5, tau, debug_break = debug_break)[[1]]
     list(u1 = ch$inputs[keep, 1], tau2 = log(ch$tau2[keep, 1]), rw_var = ch$proposal_cov[1, 1])
   }
   ks <- function(d, m) vapply(c("u1", "tau2"), function(q) suppressWarnings(stats::ks.test(d[[q]], m[[q]])$p.value), 1)

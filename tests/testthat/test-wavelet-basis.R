@@ -112,7 +112,7 @@ test_that("print and summary of a basis", {
   expect_identical(pr$geoms, "GeomLine")
   expect_identical(nrow(pr$data[[1]]), 2L * length(b$t))
   expect_identical(length(unique(pr$data[[1]]$group)), 2L)
-  yhat <- drop(b$Psi %*% c(wavevalid:::basis_coef(b, y)))
+  yhat <- drop(b$Psi %*% c(basis_coef(b, y)))
   expect_equal(sort(pr$data[[1]]$y), sort(c(y, yhat)))
   expect_identical(pr$labels$title, sprintf("Relative L2 error %.3g", sqrt(sum((y - yhat)^2) / sum(y^2))))
 })
@@ -136,7 +136,7 @@ test_that("reconstruction errors are the norm of the part outside the basis", {
   expect_identical(pc$labels$title, sprintf("%s field %d: relative L2 error %.3g", chk$site[first], chk$id[first],
                                             chk$rel_l2[first]))
   y3 <- plot_drawn(autoplot(chk, which = which(row)))
-  expect_equal(sort(y3$data[[1]]$y), sort(c(y, drop(b$Psi %*% c(wavevalid:::basis_coef(b, y))))))
+  expect_equal(sort(y3$data[[1]]$y), sort(c(y, drop(b$Psi %*% c(basis_coef(b, y))))))
   expect_s3_class(summary(chk), "summary_wv_reconstruction")
 })
 
