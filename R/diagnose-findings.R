@@ -100,57 +100,6 @@ finding_rows <- function(x, kinds = "interval") {
   x[x$kind %in% kinds, , drop = FALSE]
 }
 
-#' The first finding, in a sentence
-#'
-#' The sentence with which the print of [where_fails()], `summary()` of a fit
-#' and [validation_report()] begin: the largest finding (the first row of
-#' the `where_fails()` table), with its kind, site, place, size, credible
-#' size and the inputs that covered it, or, with no finding, that the bias
-#' band holds zero everywhere and no input is in conflict with its prior.
-#'
-#' @param x A `wv_fails` table ([where_fails()]) or a `wv_fit` (whose
-#'   `where_fails()` is read with its defaults).
-#' @param ... Must be empty: an unknown argument is an error.
-#' @return One string.
-#' @export
-#' @examples
-#' fit <- example_fit()
-#' top_finding(where_fails(fit))
-#' # a tolerance above every credible bias leaves no finding
-#' top_finding(where_fails(fit, tolerance = 1))
-top_finding <- function(x, ...) {
-  check_dots_none(...)
-  if (inherits(x, "wv_fit")) x <- where_fails(x)
-  check_class(x, "wv_fails")
-  f <- function(v, d = 3) format(signif(v, d))
-  if (is.null(x$kind) || !nrow(x)) return(no_finding_text(x))
-  r <- x[1L, ]
-  n <- nrow(x)
-  place <- sprintf("%s [%s, %s]", r$site, f(r$start, 4), f(r$end, 4))
-  what <- switch(r$kind,
-    interval = sprintf("an interval, %s: the localised bias peaks at |bias| %s and is credibly at least %s (%s)",
-                       place, f(r$size), f(r$credible), r$sign),
-    `record-wide` = sprintf("a record-wide bias (an offset or a slow trend), %s: it peaks at |bias| %s and is credibly at least %s (%s)",
-                            r$site, f(r$size), f(r$credible), r$sign),
-    covered = sprintf("a misfit covered by %s, %s: with %s held to the prior the localised bias peaks at |bias| %s and is credibly at least %s (%s)",
-                      r$inputs, place, r$inputs, f(r$size), f(r$credible), r$sign),
-    term = sprintf("a proposed term, %s (propose_terms()): its effect peaks at %s, %s",
-                   r$inputs, f(r$size), place),
-    timing = timing_finding_text(r, attr(x, "timing"), f),
-    misfit = sprintf("a misfit that the shrinkage of the bias left out, %s: the field mean lies beyond the model at the calibrated inputs by up to %s, credibly at least %s, beyond the %g%% simultaneous band of its own pointwise error (%s; see misfit_check())",
-                     place, f(r$size), f(r$credible), 100 * (attr(x, "level") %||% 0.9), r$sign),
-    input = if (is.na(r$site)) {
-      sprintf("an input in conflict with its prior, %s, not read again held to it (where_fails(fit, hold = TRUE) places what it covers)",
-              r$inputs)
-    } else {
-      sprintf("an input in conflict with its prior, %s: its pull moves the model most at %s, by %s; %s",
-              r$inputs, place, f(r$size),
-              if (any(x$kind == "covered")) "held to its prior, the bias band excludes zero where the findings of kind \"covered\" lie"
-              else "held to its prior, the bias band still holds zero")
-    })
-  sprintf("Top finding (1 of %d), %s", n, what)
-}
-
 # The first line when there is no finding.
 no_finding_text <- function(x) {
   tol <- attr(x, "tolerance")
