@@ -113,10 +113,11 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' Tuning of the calibration's sampler
 #'
 #' `sampler_control()` gathers the settings of the Metropolis-Hastings
-#' sampler of [calibrate()] and [validate()]: how many draws, how they are
-#' thinned, the proposal, the burn-in, the start's search and the threads.
-#' They change how well the posterior is explored, not which posterior it is.
-#' The number of chains and the seed stay arguments of [calibrate()].
+#' sampler of [calibrate()] and [validate()]: how many chains and draws, how
+#' they are thinned, the proposal, the burn-in, the start's search and the
+#' threads. They change how well the posterior is explored, not which
+#' posterior it is. The seed stays an argument of [calibrate()] and
+#' [validate()].
 #'
 #' @param n_draws Draws saved per chain: a number for chains of that
 #'   length, or `NULL` (default) for chains that stop when they have enough
@@ -158,6 +159,8 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #'   `threads` is cut.
 #' @param quiet Suppress the progress bars and messages (default
 #'   `getOption("wavevalid.quiet", FALSE)`).
+#' @param chains Number of chains (default 2), each with its own stream of
+#'   random numbers derived from the seed.
 #' @return A `wv_sampler_control` object: a list of the checked values.
 #' @seealso [bias_control()] for the statistical model's choices,
 #'   [calibrate()].
@@ -167,10 +170,13 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' sampler_control()
 #' # a fixed length
 #' sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
+#' # one chain
+#' sampler_control(chains = 1)
 sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1, proposal = c("adaptive", "report"),
                             global_moves = 0, burnin = NULL, n_search = 200,
                             threads = getOption("wavevalid.threads", 1L),
-                            quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05, max_draws = 1000) {
+                            quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05, max_draws = 1000,
+                            chains = 2) {
   if (!is.null(n_draws)) check_number(n_draws, min = 1, integer = TRUE)
   check_number(n_inner, min = 1, integer = TRUE)
   check_number(ess, min = 10, max = 1e7)
@@ -183,10 +189,105 @@ sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1, proposal =
   check_number(n_search, min = 0, max = 1e7, integer = TRUE)
   check_number(threads, min = 1, max = 1024, integer = TRUE)
   check_flag(quiet)
+  check_number(chains, min = 1, integer = TRUE)
   structure(list(n_draws = n_draws, n_inner = n_inner, step = step, proposal = proposal,
                  global_moves = global_moves, burnin = burnin, n_search = n_search, threads = threads,
-                 quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws),
+                 quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws, chains = chains),
             class = "wv_sampler_control")
+}
+
+#' How validate() registers the field curves
+#'
+#' `registration_control()` gathers the settings of the registration of the
+#' field curves on the model's event landmarks that [validate()] runs before
+#' the basis is built ([register_curves()]). Without `windows` nothing is
+#' registered.
+#'
+#' Choose as landmarks (`features`) the features that mark when an event
+#' happens, not those whose timing the model's own physics sets: the
+#' registration moves each landmark of a replicate onto the reference's, so
+#' a landmark the inputs move carries part of the model's error away with
+#' it, or adds one. The price of landmarks that mark only when an event
+#' happens: a mechanism that only delays an event (an absorption lag) is
+#' aligned away with the timing jitter, and only the landmarks' own timing,
+#' which [where_fails()] reads, keeps it.
+#'
+#' @param windows Optional list of `c(from, to)` event windows; when given,
+#'   the field curves are registered first.
+#' @param reference Reference curves for the registration (passed to
+#'   [register_curves()]; default: the mean of the model runs). When the I/U
+#'   map has test conditions (inputs of type `"condition"`), the runs span
+#'   them all, so by default the field is registered twice: first to the
+#'   mean of the runs, to build the basis and fit the emulators, then again
+#'   to the model at the base experiment's condition (the runs' inputs with
+#'   the conditions set to their nominal values, through the emulators), as
+#'   the experiments are registered to the model at theirs.
+#' @param knots_every Spacing of the further warp knots fitted between the
+#'   windows (passed to [register_curves()]): `"auto"` (default) a knot
+#'   every 1/32 of the record (at least four steps of the field's grid, the
+#'   closest spacing [register_curves()] takes), a number (in time units),
+#'   or `NULL` for the method's report's landmark warp (landmarks only).
+#' @param features The landmarks located in each window (passed to
+#'   [register_curves()]): `c("min", "max")` (default), or any of `"min"`,
+#'   `"max"`, `"rise"`, `"fall"`, `"cross"` that the physics of the events
+#'   makes sharp.
+#' @return A `wv_registration_control` object: a list of the checked values.
+#' @seealso [validate()], [register_curves()].
+#' @export
+#' @examples
+#' registration_control(windows = list(c(6, 11), c(37, 41)))
+#' # the method's report's landmark warp, on the steepest rise of each event
+#' registration_control(windows = list(c(6, 11)), knots_every = NULL, features = "rise")
+registration_control <- function(windows = NULL, reference = NULL, knots_every = "auto",
+                                 features = c("min", "max")) {
+  if (!is.null(windows)) {
+    pairs <- if (is.numeric(windows)) list(windows) else windows
+    ok <- is.list(pairs) && length(pairs) > 0L &&
+      all(vapply(pairs, function(x) is.numeric(x) && length(x) == 2L && all(is.finite(x)) && x[1] < x[2], logical(1)))
+    if (!ok) {
+      wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.")
+    }
+  }
+  if (!is.null(knots_every) && !identical(knots_every, "auto")) {
+    if (!is.numeric(knots_every) || length(knots_every) != 1L || !is.finite(knots_every) || knots_every <= 0) {
+      wv_abort("{.arg knots_every} must be {.val auto}, a positive number (in time units) or {.code NULL}.")
+    }
+  }
+  check_features(features)
+  structure(list(windows = windows, reference = reference, knots_every = knots_every, features = features),
+            class = "wv_registration_control")
+}
+
+#' How validate() builds the basis and the emulators
+#'
+#' `emulation_control()` gathers the settings of the wavelet basis
+#' ([wavelet_basis()]) and of the emulators ([fit_emulators()]) that
+#' [validate()] fits to the model runs.
+#'
+#' @param basis_args A list of further arguments to [wavelet_basis()]
+#'   (default: none, the basis that reconstructs the runs to 1% and each
+#'   field curve to 2% or its noise).
+#' @param engine The emulators' engine (see [fit_emulators()]):
+#'   `"gasp_level"` (default), whose predictive variances hold at runs away
+#'   from the design, or `"gasp"`, the method's report's per-coefficient fit,
+#'   or `"dicekriging"`.
+#' @return A `wv_emulation_control` object: a list of the checked values.
+#' @seealso [validate()], [wavelet_basis()], [fit_emulators()].
+#' @export
+#' @examples
+#' emulation_control()
+#' # the method's report: its basis rule and its emulators
+#' emulation_control(basis_args = list(retain = "report"), engine = "gasp")
+emulation_control <- function(basis_args = list(), engine = c("gasp_level", "gasp", "dicekriging")) {
+  if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  engine <- check_choice(engine)
+  structure(list(basis_args = basis_args, engine = engine), class = "wv_emulation_control")
+}
+
+# The spacing of the further warp knots of a registration on the grid `t`:
+# "auto" is a knot every 1/32 of the record, at least four grid steps.
+registration_knots <- function(knots_every, t) {
+  if (identical(knots_every, "auto")) max(diff(range(t)) / 32, 4 * diff(t[1:2])) else knots_every
 }
 
 #' @export
@@ -199,11 +300,22 @@ print.wv_bias_control <- function(x, ...) {
 #' @export
 print.wv_sampler_control <- print.wv_bias_control
 
+#' @export
+print.wv_registration_control <- print.wv_bias_control
+
+#' @export
+print.wv_emulation_control <- print.wv_bias_control
+
 # A setting of a control object as text: a run of whole numbers as `a:b`, a
 # noise prior by its constructor, named values as `name = value`.
 control_value_text <- function(v) {
   if (is.null(v)) return("NULL")
   if (inherits(v, "wv_noise_prior")) return("noise_prior()")
+  if (inherits(v, c("wv_runs", "wv_field"))) return(paste0("<", class(v)[1], ">"))
+  if (is.list(v) && is.null(names(v))) {
+    each <- function(e) paste0("(", if (is.numeric(e)) toString(trimws(format(e, digits = 3))) else control_value_text(e), ")")
+    return(paste(vapply(v, each, ""), collapse = ", "))
+  }
   if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, control_value_text, "")), collapse = ", "))
   if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
   if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)), collapse = ", "))
@@ -222,44 +334,70 @@ check_levels_arg <- function(x, arg, min_length = 1L, call = rlang::caller_env()
   invisible(x)
 }
 
-# The settings each control object holds, by the name they had as arguments
-# of calibrate() and validate() before the control objects.
-control_fields <- function() {
-  list(bias = names(formals(bias_control)), sampler = names(formals(sampler_control)))
+# The control objects by kind, and the settings each holds: the arguments
+# of its constructor, read from it (never typed again).
+control_kinds <- function() {
+  list(registration = registration_control, emulation = emulation_control, bias = bias_control,
+       sampler = sampler_control)
 }
 
-# The control objects of a call of `fun`, with the settings it still names
-# the old way (in `...`) moved into them, each with a deprecation warning;
-# an unknown name is an error. Returns list(bias, sampler).
-resolve_controls <- function(bias, sampler, dots, fun, call = rlang::caller_env()) {
-  check_class(bias, "wv_bias_control", call = call)
-  check_class(sampler, "wv_sampler_control", call = call)
-  if (!length(dots)) return(list(bias = bias, sampler = sampler))
-  nm <- names(dots) %||% rep("", length(dots))
-  fields <- control_fields()
-  unknown <- nm[!nm %in% unlist(fields)]
-  if (length(unknown)) do.call(check_dots_none, c(dots[!nm %in% unlist(fields)], list(call = call)))
-  for (what in c("bias", "sampler")) {
-    mine <- nm[nm %in% fields[[what]]]
-    if (!length(mine)) next
-    ctor <- paste0(what, "_control")
-    shown <- paste0("`", mine, "`", collapse = ", ")
-    wv_warn(c("{if (length(mine) > 1L) 'The arguments' else 'The argument'} {shown} of {.fn {fun}} {if (length(mine) > 1L) 'are' else 'is'} deprecated.",
-              "i" = "Give {if (length(mine) > 1L) 'them' else 'it'} to {.code {what} = {ctor}(...)} instead."),
-            class = "deprecated")
-    obj <- if (what == "bias") bias else sampler
-    args <- unclass(obj)
-    for (m in mine) args[m] <- list(dots[[m]])
-    rebuilt <- do.call(ctor, args)
-    if (what == "bias") bias <- rebuilt else sampler <- rebuilt
+control_fields <- function(kinds = names(control_kinds())) {
+  lapply(control_kinds()[kinds], function(f) names(formals(f)))
+}
+
+# A control object with the settings in `values` (a named list) replaced,
+# checked again by its constructor. A control made before a setting existed
+# gets that setting's default.
+modify_control <- function(x, values = list()) {
+  kind <- sub("^wv_(.*)_control$", "\\1", class(x)[1])
+  args <- unclass(x)[intersect(names(x), names(formals(control_kinds()[[kind]])))]
+  args[names(values)] <- values
+  do.call(control_kinds()[[kind]], args)
+}
+
+# The control objects `controls` (a named list by kind) of a call of `fun`,
+# with the settings named directly in the call (in `...`, `dots`) moved into
+# their control. A name no control takes is an error of class `class`.
+resolve_controls <- function(controls, dots, fun, class = "input", call = rlang::caller_env()) {
+  fields <- control_fields(names(controls))
+  for (kind in names(controls)) {
+    x <- controls[[kind]]
+    check_class(x, paste0("wv_", kind, "_control"), arg = kind, call = call)
+    if (!identical(names(x), fields[[kind]])) controls[[kind]] <- modify_control(x)
   }
-  list(bias = bias, sampler = sampler)
+  if (!length(dots)) return(controls)
+  nm <- names(dots) %||% rep("", length(dots))
+  unknown <- ifelse(nzchar(nm), nm, paste0("..", seq_along(nm)))[!nm %in% unlist(fields)]
+  if (length(unknown)) {
+    ctors <- paste0(names(controls), "_control")
+    wv_abort(c("{.fn {fun}} does not take {.arg {unknown}}.",
+               "i" = "Besides its own arguments, it takes those of {.fn {ctors}}, by name."),
+             class = class, call = call)
+  }
+  for (kind in names(controls)) {
+    mine <- nm %in% fields[[kind]]
+    if (any(mine)) controls[[kind]] <- modify_control(controls[[kind]], dots[mine])
+  }
+  controls
 }
 
-# The control objects a fit was made with; for a fit made before they were
-# stored, rebuilt from its settings.
+# The control objects a fit was made with (`registration` and `emulation`
+# NULL for a fit of calibrate()); for a fit made before they were stored,
+# rebuilt from its settings.
 fit_controls <- function(fit) {
-  if (!is.null(fit$control)) return(fit$control)
+  ctl <- fit$control
+  if (is.null(ctl)) ctl <- old_fit_controls(fit)
+  if (is.null(ctl$sampler$chains)) ctl$sampler <- modify_control(ctl$sampler, list(chains = fit$settings$chains %||% 2))
+  old <- fit$call_args
+  if (is.null(ctl$registration) && !is.null(old)) {
+    ctl$registration <- registration_control(old$windows, old$reference, old$knots_every,
+                                             old$features %||% c("min", "max"))
+    ctl$emulation <- emulation_control(old$basis_args %||% list(), old$engine %||% "gasp_level")
+  }
+  ctl
+}
+
+old_fit_controls <- function(fit) {
   st <- fit$settings
   args <- fit$calibrate_args %||% list()
   bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels, inform_levels = st$inform_levels,
@@ -269,7 +407,7 @@ fit_controls <- function(fit) {
                        experiment_bias = st$experiment_bias %||% "own")
   sampler <- sampler_control(n_draws = st$n_draws, n_inner = st$n_inner, step = st$step,
                              proposal = st$proposal %||% "report", global_moves = st$global_moves %||% 0,
-                             burnin = st$burnin, n_search = st$n_search %||% 200L)
+                             burnin = st$burnin, n_search = st$n_search %||% 200L, chains = st$chains %||% 2)
   list(bias = bias, sampler = sampler)
 }
 
@@ -285,7 +423,7 @@ control_call <- function(x, always = character(0)) {
     if (nchar(out) > 60L) "..." else out
   }
   keep <- vapply(names(x), function(nm) nm %in% always || !identical(x[[nm]], defaults[[nm]]), logical(1))
-  keep[names(x) %in% c("quiet", "threads")] <- FALSE
+  keep[names(x) %in% c("quiet", "threads", "chains")] <- FALSE
   args <- vapply(names(x)[keep], function(nm) paste(nm, "=", show(x[[nm]])), "")
   paste0(name, "(", paste(args, collapse = ", "), ")")
 }

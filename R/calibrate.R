@@ -193,7 +193,6 @@
 #'   the grid of the model runs and of the wavelet basis.
 #' @param iu A `wv_iu` object ([iu_map()]): the uncertain inputs with their
 #'   types, ranges, nominal values and priors.
-#' @param chains Number of chains.
 #' @param seed `NULL` (a seed drawn from R's random number generator, so
 #'   that [set.seed()] applies) or a whole number: the random draws depend on
 #'   it alone, not on the state of R's generator.
@@ -246,13 +245,12 @@
 #' @param bias A [bias_control()] object: how the field noise is set, the
 #'   bias variances' grouping over wavelet levels, the levels that inform
 #'   the inputs and the inputs' likelihood.
-#' @param sampler A [sampler_control()] object: draws, thinning,
+#' @param sampler A [sampler_control()] object: chains, draws, thinning,
 #'   proposal, burn-in, the start's search, threads and progress bar.
-#' @param ... Must be empty. The settings `bias_control()` and
-#'   `sampler_control()` hold were arguments of `calibrate()` before
-#'   them: a call that still names one (`n_draws = 200`) works for this
-#'   version, with a warning of class `wavevalid_warning_deprecated`;
-#'   any other name is an error.
+#' @param ... Settings of [bias_control()] and [sampler_control()] given
+#'   directly (`chains = 1`, `n_draws = 200`): each replaces that setting
+#'   of `bias` or `sampler`. Any other name is an error (class
+#'   `wavevalid_error_input`).
 #' @return A `wv_fit` object: a list with `draws` (a [coda::mcmc.list] of the
 #'   inputs in their own units and `tau2[site:level]`), `wM`, `wb`, `sigma2`
 #'   (named lists by site of H x n matrices, H = `n_draws * chains`, chains
@@ -263,7 +261,11 @@
 #'   steps for `"adaptive"`), `global` (the mixture steps of `"adaptive"`),
 #'   `burnin`), `start` (the burn-in start of each chain), `proposal_cov` (the
 #'   frozen random-walk covariance of each chain), `rhat`, `ess`, `flags`,
-#'   `seed`, `settings`, `registration_var` (by site, the `r_i` added, or
+#'   `seed`, `control` (the control objects the fit was made with, by kind:
+#'   `bias`, `sampler`, and from [validate()] `registration` and
+#'   `emulation`), `settings` (what the sampler ran with, resolved: the
+#'   draws per chain, the burn-in, the levels pooled, ...),
+#'   `registration_var` (by site, the `r_i` added, or
 #'   `NULL`), `registration_shifts` (when the registration's error is taken
 #'   as shifts: their prior `variance`, their `draws`, one column per
 #'   shift, and `U`, by site the change of the field mean's coefficients per
@@ -351,14 +353,14 @@
 #'                  sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' fit
 calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_control(),
-                      sampler = sampler_control(), chains = 2, seed = NULL, ...) {
-  ctl <- resolve_controls(bias, sampler, list(...), "calibrate")
+                      sampler = sampler_control(), seed = NULL, ...) {
+  ctl <- resolve_controls(list(bias = bias, sampler = sampler), list(...), "calibrate")
   bias <- ctl$bias
   sampler <- ctl$sampler
+  chains <- sampler$chains
   check_class(emulators, "wv_emulators")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
-  check_number(chains, min = 1, integer = TRUE)
   seed <- resolve_seed(seed)
   check_sigma2(bias$sigma2, names(field$curves))
   sm <- sampler

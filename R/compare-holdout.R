@@ -19,7 +19,7 @@ holdout_predictions <- function(before, after, holdout, level, seed, call = rlan
   if (inherits(holdout, "wv_experiment")) {
     # one target: the held-out data registered once, as the first fit that
     # registers its own (before, else after) would, and graded so for both
-    judge <- if (!is.null(before$call_args$windows)) before else after
+    judge <- if (!is.null(fit_controls(before)$registration$windows)) before else after
     field <- holdout_registered(judge, holdout, call)
     return(lapply(fits, function(f) experiment_prediction(f, holdout, level, seed, call, field = field)))
   }
@@ -126,15 +126,14 @@ check_holdout_experiment <- function(fit, x, call) {
 # see register_experiments()); as given when the fit registered nothing.
 holdout_registered <- function(fit, x, call) {
   x <- check_holdout_experiment(fit, x, call)
-  args <- fit$call_args
-  if (is.null(args$windows)) return(x$field)
-  ke <- args$knots_every
-  if (identical(ke, "auto")) ke <- max(diff(range(fit$basis$t)) / 32, 4 * diff(fit$basis$t[1:2]))
+  reg <- fit_controls(fit)$registration
+  if (is.null(reg$windows)) return(x$field)
+  ke <- registration_knots(reg$knots_every, fit$basis$t)
   # as validate() registers: landmarks of every site; a fit made before it
   # did so is registered as it was
   how <- if (identical(attr(fit$field$warps, "landmark_site"), "all")) list(landmark_site = "all")
-  do.call(register_experiments, c(list(list(holdout = x), fit$emulators, args$runs, args$windows,
-                                        features = args$features, knots_every = ke, quiet = TRUE), how))$holdout$field
+  do.call(register_experiments, c(list(list(holdout = x), fit$emulators, fit_pipeline(fit)$runs, reg$windows,
+                                        features = reg$features, knots_every = ke, quiet = TRUE), how))$holdout$field
 }
 
 # The paired comparison behind the verdict. Each of n_boot resamples takes

@@ -45,3 +45,10 @@ field_mean_draws <- function(fit, s, rows) {
 tau2_columns <- function(fit, s) {
   paste0("tau2[", fit$bias_group[[s]] %||% paste0(s, ":", fit$basis$level), "]")
 }
+
+# The data validate() was given (`runs`, `field` and `experiments` as given,
+# `registered_to`), or NULL for a fit of calibrate(); for a fit made before
+# they were kept apart from the settings, read from its `call_args`.
+fit_pipeline <- function(fit) {
+  fit$pipeline %||% (if (!is.null(fit$call_args)) fit$call_args[c("runs", "field", "experiments", "registered_to")])
+}

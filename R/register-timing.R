@@ -21,12 +21,12 @@
 # not registered by validate() or has fewer than two replicates.
 timing_table <- function(fit, level = 0.9) {
   w <- fit$field$warps
-  runs <- fit$call_args$runs
+  runs <- fit_pipeline(fit)$runs
   if (is.null(w) || !inherits(runs, "wv_runs") || !identical(runs$t, fit$field$t)) return(NULL)
   lw <- w[w$feature != "fitted", , drop = FALSE]
   if (!nrow(lw)) return(NULL)
   st <- attr(w, "landmark_settings") %||%
-    list(features = check_features(fit$call_args$features %||% c("min", "max")), refine = FALSE)
+    list(features = check_features(fit_controls(fit)$registration$features %||% c("min", "max")), refine = FALSE)
   windows <- attr(w, "windows")
   t <- fit$field$t
   keys <- unique(lw[, c("site", "window", "feature")])

@@ -47,6 +47,8 @@
 #' * **windows** (when given): the event windows of the registration.
 #'
 #' @inheritParams validate
+#' @inheritParams registration_control
+#' @inheritParams emulation_control
 #' @inheritParams bias_control
 #' @param tolerance The relative L2 reconstruction errors checked, as in
 #'   [wavelet_basis()]: `c(runs = 0.01, field = 0.02)` unless `basis_args`

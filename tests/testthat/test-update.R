@@ -21,10 +21,12 @@ test_that("update() with the fit's own runs reproduces validate() with the same 
   expect_identical(as.matrix(again$draws), as.matrix(fit$draws))
   expect_identical(again$wb, fit$wb)
   expect_identical(again$field$curves, fit$field$curves)
-  expect_identical(again$control, fit$control)
-  expect_identical(again$call_args$windows, p$windows)
+  expect_identical(again$control[c("emulation", "bias", "sampler")], fit$control[c("emulation", "bias", "sampler")])
+  expect_identical(again$control$registration$windows, p$windows)
+  # registered to the reference the former fit registered its field to
+  expect_identical(again$control$registration$reference, p$runs)
   # the raw field is kept, registered afresh (not the registered curves registered again)
-  expect_identical(fit$call_args$field, p$ex$field)
+  expect_identical(fit$pipeline$field, p$ex$field)
   expect_false(identical(fit$field$curves, p$ex$field$curves))
 })
 
@@ -48,8 +50,8 @@ test_that("update() registers the raw field to the former fit's reference, and i
   # one yardstick: the field registered as the former fit registered it, not to the new runs
   expect_identical(fit2$field$curves, fit$field$curves)
   expect_identical(fit2$field$warps, fit$field$warps)
-  expect_identical(fit2$call_args$registered_to$field, p$runs)
-  expect_identical(fit2$call_args$runs, runs2)
+  expect_identical(fit2$pipeline$registered_to$field, p$runs)
+  expect_identical(fit2$pipeline$runs, runs2)
   to_new <- register_curves(p$ex$field, runs2, p$windows, knots_every = NULL)
   expect_false(isTRUE(all.equal(fit2$field$curves, to_new$curves)))
   # registered to the new runs when told so
@@ -69,7 +71,37 @@ test_that("update() registers the raw field to the former fit's reference, and i
   direct <- suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, windows = p$windows, knots_every = NULL, chains = 2,
                                       seed = 4, sampler = sampler_control(n_draws = 30, n_inner = 5, quiet = TRUE)))
   expect_identical(as.matrix(fit3$draws), as.matrix(direct$draws))
-  expect_error(update(fit, n_draws = 10), class = "wavevalid_error_update")
+  expect_error(update(fit, n_draw = 10), class = "wavevalid_error_update")
+  expect_error(update(fit, n_draw = 10), "does not take `n_draw`", fixed = TRUE)
+  expect_error(update(fit, NULL, NULL, 10), class = "wavevalid_error_update")
+})
+
+test_that("update() replays the fit's control objects, and overrides a setting as validate() takes it", {
+  p <- update_problem()
+  sampler <- sampler_control(n_draws = 20, n_inner = 5, burnin = 100, n_search = 10, quiet = TRUE)
+  fit <- suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, seed = 2, sampler = sampler, chains = 1,
+                                   registration = registration_control(windows = p$windows, knots_every = NULL)))
+  expect_named(fit$control, c("registration", "emulation", "bias", "sampler"))
+  expect_identical(fit$control$sampler$chains, 1)
+  # the same settings given to validate() again: the same draws
+  again <- suppressWarnings(update(fit))
+  direct <- suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, seed = 2, registration = fit$control$registration,
+                                      emulation = fit$control$emulation, bias = fit$control$bias,
+                                      sampler = fit$control$sampler))
+  expect_identical(as.matrix(again$draws), as.matrix(direct$draws))
+  expect_identical(as.matrix(again$draws), as.matrix(fit$draws))
+  # one setting overridden directly, by the name of its control's argument
+  longer <- suppressWarnings(update(fit, n_draws = 30, seed = 5))
+  expect_identical(nrow(longer$draws[[1]]), 30L)
+  expect_identical(longer$control$sampler, modify_control(fit$control$sampler, list(n_draws = 30)))
+  expect_identical(longer$control$registration$windows, p$windows)
+  direct30 <- suppressWarnings(validate(p$runs, p$ex$field, p$ex$iu, seed = 5, windows = p$windows,
+                                        knots_every = NULL, sampler = sampler, n_draws = 30, chains = 1))
+  expect_identical(as.matrix(longer$draws), as.matrix(direct30$draws))
+  # a registration control given whole keeps the former fit's reference unless it names one
+  reg <- suppressWarnings(update(fit, registration = registration_control(windows = p$windows, knots_every = NULL)))
+  expect_identical(reg$control$registration$reference, p$runs)
+  expect_identical(as.matrix(reg$draws), as.matrix(fit$draws))
 })
 
 test_that("update() of a calibrate() fit says to validate first", {
@@ -92,11 +124,11 @@ test_that("the loop in three calls: validate(), update(), compare_validations() 
   # one target: the held-out field data registered once, as the first fit registers its own (to its model in
   # the experiment's condition), and both models graded against it
   hf <- attr(cmp, "holdout_field")
-  direct <- register_experiments(list(h = held), fit$emulators, fit$call_args$runs, p$windows, knots_every = NULL,
+  direct <- register_experiments(list(h = held), fit$emulators, fit$pipeline$runs, p$windows, knots_every = NULL,
                                  quiet = TRUE)$h$field
   expect_identical(hf$before$curves, direct$curves)
   expect_identical(hf$after$curves, direct$curves)
-  own <- register_experiments(list(h = held), fit2$emulators, fit2$call_args$runs, p$windows, knots_every = NULL,
+  own <- register_experiments(list(h = held), fit2$emulators, fit2$pipeline$runs, p$windows, knots_every = NULL,
                               quiet = TRUE)$h$field
   expect_false(isTRUE(all.equal(own$curves, direct$curves)))
   expect_false(identical(hf$before$curves, held$field$curves))
