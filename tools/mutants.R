@@ -46,7 +46,7 @@ mutants <- list(
        replacement = "holdout_verdict(ratio)",
        test = "test-compare.R", what = "a verdict from chains that did not mix"),
   list(name = "update_registers_to_new_runs", file = "R/validate-update.R",
-       pattern = "settings <- keep_registration(settings, args$registered_to, names(over))",
+       pattern = "settings <- keep_registration(settings, given$registered_to, over)",
        replacement = "settings <- settings",
        test = "test-update.R", what = "update() registers the field to the new runs, not the former fit's reference"),
   list(name = "holdout_registered_per_fit", file = "R/compare-holdout.R",
