@@ -217,6 +217,5 @@ validate <- function(runs, field, iu, windows = NULL, reference = NULL, knots_ev
   fit$call_args <- list(runs = runs, field = raw_field, windows = windows, reference = reference,
                         knots_every = knots_every_arg, features = features, basis_args = basis_args, engine = engine,
                         experiments = raw_experiments, chains = chains, registered_to = registered_to)
-  fit$timing <- clock()
-  fit
+  fit_set(fit, timing = clock())
 }

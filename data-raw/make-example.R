@@ -4,5 +4,5 @@
 # A test checks the stored fit against a fresh computation. The chains' wall
 # time depends on the machine, so the stored fit does not carry it.
 example_fit_1 <- wavevalid:::compute_example_fit(1)
-example_fit_1$sampling_seconds <- NULL
+example_fit_1 <- wavevalid:::fit_set(example_fit_1, sampling_seconds = NULL)
 save(example_fit_1, file = "R/sysdata.rda", compress = "xz")
