@@ -9,38 +9,6 @@ basis_from_index <- function(t, index, filter.number = 2, family = "DaubExPhase"
   new_wv_basis(index, index_level(index), basis_matrix(index, settings), t, sites = NULL, settings = settings)
 }
 
-# One bank of GASP emulators with fixed beta/alpha (n x p); mu and lambda by
-# profile maximum likelihood; design scaled to the unit cube.
-bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
-  X_raw <- as.matrix(X_raw)
-  K <- nrow(X_raw)
-  p <- ncol(X_raw)
-  n <- ncol(Y)
-  lower <- apply(X_raw, 2, min)
-  width <- apply(X_raw, 2, function(v) diff(range(v)))
-  X <- sweep(sweep(X_raw, 2, lower), 2, width, "/")
-  beta <- matrix(beta, n, p, byrow = is.null(dim(beta)))
-  alpha <- matrix(alpha, n, p, byrow = is.null(dim(alpha)))
-  mu <- lambda <- numeric(n)
-  weights <- matrix(0, K, n)
-  chol <- array(0, c(K, K, n))
-  for (i in seq_len(n)) {
-    D <- matrix(0, K, K)
-    for (q in seq_len(p)) D <- D + beta[i, q] * abs(outer(X[, q], X[, q], "-"))^(2 - alpha[i, q])
-    Rm <- exp(-D) + diag(nugget, K)
-    L <- t(base::chol(Rm))
-    Ri <- function(v) backsolve(t(L), forwardsolve(L, v))
-    one <- rep(1, K)
-    mu[i] <- sum(Ri(Y[, i])) / sum(Ri(one))
-    e <- Y[, i] - mu[i]
-    weights[, i] <- Ri(e)
-    lambda[i] <- K / sum(e * weights[, i])
-    chol[, , i] <- L
-  }
-  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = rep(nugget, n),
-       weights = weights, chol = chol, y = Y, lower = lower, width = width)
-}
-
 #' Example objects
 #'
 #' A small calibration problem and a fit of it, for examples, tests and
@@ -93,13 +61,7 @@ example_problem <- function(seed = 1) {
     curves <- t(apply(design, 1, function(z) model(z[1], z[2])))
     basis <- basis_from_index(t, 1:16)
     Y <- curves %*% basis$Psi
-    bank <- bank_fixed_hyper(design, Y, beta = c(2, 2), alpha = c(0, 0))
-    params <- data.frame(site = "site1", index = basis$index, level = basis$level, mu = bank$mu,
-                         lambda = bank$lambda, nugget = bank$nugget, loglik = NA_real_,
-                         beta_u1 = bank$beta[, 1], alpha_u1 = bank$alpha[, 1],
-                         beta_x1 = bank$beta[, 2], alpha_x1 = bank$alpha[, 2])
-    emulators <- validate_wv_emulators(new_wv_emulators(params, c("u1", "x1"), design, list(site1 = bank),
-                                                        basis, "gasp", t))
+    emulators <- fixed_hyper_emulators(design, Y, basis, t, beta = c(2, 2), alpha = c(0, 0))
     truth <- model(0.3, 0.55) + 0.1 * exp(-((t - 0.25) / 0.05)^2)
     reps <- t(replicate(4, truth + stats::rnorm(length(t), sd = 0.03)))
     field <- new_wv_field(t, list(site1 = reps), x_nom = c(x1 = 0.5))
@@ -111,7 +73,7 @@ example_problem <- function(seed = 1) {
 #' @export
 example_fit <- function(seed = 1) {
   check_number(seed, integer = TRUE)
-  if (seed == 1) return(example_fit_1)
+  if (seed == 1) return(validate_wv_fit(new_wv_fit(unclass(example_fit_1))))
   compute_example_fit(seed)
 }
 

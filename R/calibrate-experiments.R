@@ -75,7 +75,7 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
       site_experiment[[name]] <- e
       base_site[[name]] <- s
       shift[[name]] <- sh
-      banks[[name]] <- em$banks[[s]]
+      banks[[name]] <- site_bank(em, s)
     }
   }
   spec$experiments <- data.frame(site = names(site_experiment), experiment = unname(site_experiment),
@@ -90,13 +90,11 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
 experiment_fit_parts <- function(spec, emulators, field, experiments) {
   if (is.null(spec$experiments)) return(list(emulators = emulators, field = field))
   for (s in names(spec$experiment_banks)) {
-    emulators$banks[[s]] <- spec$experiment_banks[[s]]
     e <- spec$experiments$experiment[spec$experiments$site == s]
     fs <- spec$experiments$field_site[spec$experiments$site == s]
     em <- experiments[[e]]$emulators %||% emulators
-    rows <- em$params[em$params$site == fs, , drop = FALSE]
-    rows$site <- s
-    emulators$params <- rbind(emulators$params, rows[, names(emulators$params), drop = FALSE])
+    emulators <- emulators_add_site(emulators, s, spec$experiment_banks[[s]],
+                                    em$params[em$params$site == fs, , drop = FALSE])
     field$curves[[s]] <- experiments[[e]]$field$curves[[fs]]
   }
   list(emulators = emulators, field = field)

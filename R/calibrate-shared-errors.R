@@ -45,7 +45,7 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
     d <- spec$sites[[k]]
     zs <- z + (d$shift %||% 0)
     Z <- rbind(zs, t(zs + diag(h, p)), t(zs - diag(h, p)))
-    pr <- gasp_bank_predict_cpp(d$bank, Z)
+    pr <- bank_predict(d$bank, Z)
     G <- (pr$mean[1L + seq_len(p), , drop = FALSE] - pr$mean[1L + p + seq_len(p), , drop = FALSE]) / (2 * h)
     v <- pmax(pr$var[1L, ], 0)
     e <- sigma2[[k]] / d$R + (d$extra %||% 0)
@@ -60,7 +60,8 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
     loo <- bank_loo_errors(d$bank)[, keep, drop = FALSE]
     rms <- sqrt(colMeans(loo^2))
     list(G = t(G)[keep, , drop = FALSE], v = v[keep], e = e[keep], t2 = tau2[d$group[keep] + 1L],
-         loo = sweep(loo, 2L, ifelse(rms > 0, rms, 1), `/`), flat = rms == 0, X = d$bank$X, W = W)
+         loo = sweep(loo, 2L, ifelse(rms > 0, rms, 1), `/`), flat = rms == 0,
+         X = bank_design(d$bank), W = W)
   })
   A <- do.call(rbind, lapply(parts, function(q) q$G / (q$v + q$e + q$t2)))
   G <- do.call(rbind, lapply(parts, `[[`, "G"))
@@ -98,14 +99,4 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
   U <- eg$vectors[, ok, drop = FALSE]
   tr <- sum(diag(crossprod(U, J %*% U)) / eg$values[ok])
   list(weight = min(1, sum(ok) / tr), p = sum(ok), trace = tr, n_coef = nrow(G), at = z)
-}
-
-# The leave-one-out errors of an emulator bank's coefficients at its design
-# points, studentised (runs x coefficients; 0 for flat emulators).
-bank_loo_errors <- function(b) {
-  if (length(b$mu) == 0L) return(matrix(0, nrow(b$X), 0L))
-  lo <- bank_loo(b)
-  out <- lo$e / lo$sd
-  out[!is.finite(out)] <- 0
-  out
 }

@@ -61,9 +61,9 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     ), class = c("inputs", "input"), call = call)
   }
   sites <- names(field$curves)
-  nobank <- setdiff(sites, names(emulators$banks))
+  nobank <- setdiff(sites, emulator_sites(emulators))
   if (length(nobank)) {
-    wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {names(emulators$banks)}}.",
+    wv_abort("Field {cli::qty(length(nobank))}site{?s} {.val {nobank}} {?has/have} no emulators; emulated sites are {.val {emulator_sites(emulators)}}.",
              call = call)
   }
   iu <- iu_upgrade(iu)
@@ -162,7 +162,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     g0 <- if (is.null(groups)) 0L else nrow(groups)
     groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
                                        stringsAsFactors = FALSE))
-    site_data[[s]] <- list(bank = emulators$banks[[s]], wbar = wbar[[s]], s2 = s2[[s]], R = R,
+    site_data[[s]] <- list(bank = site_bank(emulators, s), wbar = wbar[[s]], s2 = s2[[s]], R = R,
                            sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]],
                            reg_U = shifts$U[[s]])
     if (noise_setting[[s]] == "learned") {

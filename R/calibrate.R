@@ -378,7 +378,7 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
   hint_parallel_chains(fit$sampling_seconds, chains, free, sm$quiet)
   warn_fit_flags(fit)
   warn_experiment_extrapolation(fit)
-  fit
+  validate_wv_fit(fit)
 }
 
 # When the chains ran one after the other (future's sequential plan) for a
@@ -436,16 +436,13 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
                                       inform_levels = spec$inform_levels, temper = bias$temper,
                                       n_search = sm$n_search, input_likelihood = bias$input_likelihood),
                       seed = seed)
-  fit$shared_errors <- shared
-  fit$sampling_seconds <- t_sampling
-  fit$stopping <- attr(runs, "stopping")
-  fit$prior_sd <- prior_sds(fit$prior_iu)
-  fit$conditions <- fit_condition_table(iu, experiments)
+  fit <- fit_set(fit, shared_errors = shared, sampling_seconds = t_sampling,
+                 stopping = attr(runs, "stopping"),
+                 conditions = fit_condition_table(iu, experiments))
   if (!is.null(experiments)) {
     fit$settings$level_variances <- bias$level_variances
     fit$settings$experiment_bias <- bias$experiment_bias
-    fit$experiments <- spec$experiments
-    fit$shift <- spec$shift
+    fit <- fit_set(fit, experiments = spec$experiments, shift = spec$shift)
   }
   fit
 }
@@ -487,16 +484,13 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
     seed = seed, settings = settings, registration_var = spec$extra,
     noise_setting = spec$noise_setting, noise_prior = spec$noise_prior,
-    noise_evidence = if (length(spec$noise_evidence)) spec$noise_evidence
+    noise_evidence = if (length(spec$noise_evidence)) spec$noise_evidence,
+    prior_sd = prior_sds(spec$prior_iu),
+    registration_shifts = if (length(spec$reg_shift_var)) {
+      list(variance = spec$reg_shift_var, draws = do.call(rbind, lapply(runs, `[[`, "reg_shift")),
+           U = Filter(Negate(is.null), lapply(spec$sites, `[[`, "reg_U")))
+    }
   ))
-  if (length(spec$reg_shift_var)) {
-    fit$registration_shifts <- list(variance = spec$reg_shift_var,
-                                    draws = do.call(rbind, lapply(runs, `[[`, "reg_shift")),
-                                    U = Filter(Negate(is.null), lapply(spec$sites, `[[`, "reg_U")))
-  }
   diag <- fit_diagnostics(fit)
-  fit$rhat <- diag$rhat
-  fit$ess <- diag$ess
-  fit$flags <- diag$flags
-  validate_wv_fit(fit)
+  fit_set(fit, rhat = diag$rhat, ess = diag$ess, flags = diag$flags)
 }

@@ -99,13 +99,13 @@ experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
   em <- x$emulators
   zbar <- matrix(colMeans(post)[em$inputs], 1L)
   Ms <- stats::setNames(lapply(sites, function(s) {
-    gasp_bank_predict_cpp(em$banks[[s]], post[, em$inputs, drop = FALSE])$mean
+    bank_predict(site_bank(em, s), post[, em$inputs, drop = FALSE])$mean
   }), sites)
   rows <- with_rng_seed(seed, lapply(sites, function(s) {
     M <- Ms[[s]]
     W <- M + fit$wb[[s]] + sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
     band <- band_frame(tcrossprod(W, fit$basis$Psi), fit$basis$t, s, level)
-    band$model <- drop(tcrossprod(gasp_bank_predict_cpp(em$banks[[s]], zbar)$mean, fit$basis$Psi))
+    band$model <- drop(tcrossprod(bank_predict(site_bank(em, s), zbar)$mean, fit$basis$Psi))
     band
   }))
   pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive", level = level,

@@ -118,26 +118,23 @@ pool_fits <- function(fit, fits, values, conflicts) {
     stats::setNames(lapply(names(out[[what]]), function(s) do.call(rbind, lapply(fits, function(f) f[[what]][[s]]))),
                     names(out[[what]]))
   }
-  out$draws <- coda::mcmc.list(lapply(fits, function(f) f$draws[[1L]]))
-  out$wM <- stack("wM")
-  out$wb <- stack("wb")
-  out$sigma2 <- stack("sigma2")
-  out$chain <- rep(seq_along(fits), vapply(fits, function(f) length(f$chain), integer(1)))
-  out$acceptance <- do.call(rbind, lapply(seq_along(fits), function(k) transform(fits[[k]]$acceptance, chain = k)))
-  out$start <- do.call(rbind, lapply(fits, `[[`, "start"))
-  out$proposal_cov <- do.call(c, lapply(fits, `[[`, "proposal_cov"))
-  out$iu <- fit$iu
-  out$prior_iu <- fit$prior_iu
-  out$prior_sd <- fit$prior_sd %||% prior_sds(fit$prior_iu)
-  out$seed <- fit$seed
+  draws <- coda::mcmc.list(lapply(fits, function(f) f$draws[[1L]]))
+  n_each <- vapply(fits, function(f) length(f$chain), integer(1))
+  acceptance <- lapply(seq_along(fits), function(k) transform(fits[[k]]$acceptance, chain = k))
+  out <- fit_set(out, draws = draws, wM = stack("wM"), wb = stack("wb"), sigma2 = stack("sigma2"),
+                 chain = rep(seq_along(fits), n_each), acceptance = do.call(rbind, acceptance),
+                 start = do.call(rbind, lapply(fits, `[[`, "start")),
+                 proposal_cov = do.call(c, lapply(fits, `[[`, "proposal_cov")),
+                 iu = fit$iu, prior_iu = fit$prior_iu,
+                 prior_sd = fit$prior_sd %||% prior_sds(fit$prior_iu), seed = fit$seed,
+                 ess = coda::effectiveSize(draws),
+                 rhat = stats::setNames(rep(NA_real_, length(out$inputs)), out$inputs),
+                 x_nom = fit$x_nom)
   out$settings$chains <- length(fits)
-  out$ess <- coda::effectiveSize(out$draws)
-  out$rhat <- stats::setNames(rep(NA_real_, length(out$inputs)), out$inputs)
-  out$x_nom <- fit$x_nom
-  out$flags <- boundary_flags(out, out$rhat)
-  out$flags$boundary <- out$flags$boundary[!out$flags$boundary$input %in% colnames(values), , drop = FALSE]
-  out$held <- list(inputs = colnames(values), values = values, original = conflicts)
-  validate_wv_fit(out)
+  flags <- boundary_flags(out, out$rhat)
+  flags$boundary <- flags$boundary[!flags$boundary$input %in% colnames(values), , drop = FALSE]
+  fit_set(out, flags = flags,
+          held = list(inputs = colnames(values), values = values, original = conflicts))
 }
 
 # The fit read again with the inputs `inputs` held to their prior: reality's
@@ -149,28 +146,30 @@ reread_held <- function(fit, inputs) {
   inputs_all <- fit$emulators$inputs
   post <- as.matrix(fit$draws)[, inputs_all, drop = FALSE]
   H <- nrow(post)
-  out <- fit
+  wb <- fit$wb
+  wM_all <- fit$wM
   with_rng_seed(fit$seed %||% 1L, {
     prior <- iu_prior_draws(fit$prior_iu, H)
     colnames(prior) <- fit$inputs
     Znew <- post
     Znew[, inputs] <- prior[, inputs]
     for (s in names(fit$wb)) {
-      pr <- gasp_bank_predict_augmented_cpp(fit$emulators$banks[[s]], post, fit$wM[[s]], Znew)
+      pr <- bank_predict_augmented(site_bank(fit$emulators, s), post, fit$wM[[s]], Znew)
       wM <- pr$mean + sqrt(pmax(pr$var, 0)) * matrix(stats::rnorm(length(pr$mean)), nrow(pr$mean))
       dimnames(wM) <- dimnames(fit$wM[[s]])
-      out$wb[[s]] <- fit$wM[[s]] + fit$wb[[s]] - wM
-      out$wM[[s]] <- wM
+      wb[[s]] <- fit$wM[[s]] + fit$wb[[s]] - wM
+      wM_all[[s]] <- wM
     }
   })
   X <- as.matrix(fit$draws)
   X[, inputs] <- Znew[, inputs]
-  out$draws <- coda::mcmc.list(lapply(unique(fit$chain), function(k) {
+  draws <- coda::mcmc.list(lapply(unique(fit$chain), function(k) {
     coda::mcmc(X[fit$chain == k, , drop = FALSE], thin = coda::thin(fit$draws[[k]]))
   }))
-  out$held <- list(inputs = inputs, how = "reread")
-  out$flags$boundary <- out$flags$boundary[!out$flags$boundary$input %in% inputs, , drop = FALSE]
-  validate_wv_fit(out)
+  flags <- fit$flags
+  flags$boundary <- flags$boundary[!flags$boundary$input %in% inputs, , drop = FALSE]
+  fit_set(fit, wb = wb, wM = wM_all, draws = draws, held = list(inputs = inputs, how = "reread"),
+          flags = flags)
 }
 
 # Where the inputs' pull moves the localised part of the model most, by

@@ -63,7 +63,7 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
   Psi <- fit$basis$Psi
   sims <- with_rng_seed(seed, lapply(stats::setNames(sites, sites), function(s) {
     Z <- shift_inputs(fit, s, X[rows, , drop = FALSE])
-    pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], Z)
+    pr <- bank_predict(site_bank(fit$emulators, s), Z)
     D <- field_mean_draws(fit, s, rows) - pr$mean
     dbar <- colMeans(D)
     k <- ncol(D)

@@ -351,6 +351,16 @@ bank_loo <- function(b) {
   list(e = b$weights / Ri_diag, sd = sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
 }
 
+# The leave-one-out errors of an emulator bank's coefficients at its design
+# points, studentised (runs x coefficients; 0 for flat emulators).
+bank_loo_errors <- function(b) {
+  if (length(b$mu) == 0L) return(matrix(0, nrow(b$X), 0L))
+  lo <- bank_loo(b)
+  out <- lo$e / lo$sd
+  out[!is.finite(out)] <- 0
+  out
+}
+
 #' Plot GASP emulators
 #'
 #' `type = "parameters"` draws the report's Figure 4: `(beta, alpha)` of every

@@ -454,6 +454,96 @@ emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
        weights = weights, chol = chol, chol_of = chol_of, y = Y, lower = lower, width = width, loglik = loglik)
 }
 
+# One bank of GASP emulators with fixed beta/alpha (n x p); mu and lambda by
+# profile maximum likelihood; design scaled to the unit cube.
+bank_fixed_hyper <- function(X_raw, Y, beta, alpha, nugget = 1e-8) {
+  X_raw <- as.matrix(X_raw)
+  K <- nrow(X_raw)
+  p <- ncol(X_raw)
+  n <- ncol(Y)
+  lower <- apply(X_raw, 2, min)
+  width <- apply(X_raw, 2, function(v) diff(range(v)))
+  X <- sweep(sweep(X_raw, 2, lower), 2, width, "/")
+  beta <- matrix(beta, n, p, byrow = is.null(dim(beta)))
+  alpha <- matrix(alpha, n, p, byrow = is.null(dim(alpha)))
+  mu <- lambda <- numeric(n)
+  weights <- matrix(0, K, n)
+  chol <- array(0, c(K, K, n))
+  for (i in seq_len(n)) {
+    D <- matrix(0, K, K)
+    for (q in seq_len(p)) D <- D + beta[i, q] * abs(outer(X[, q], X[, q], "-"))^(2 - alpha[i, q])
+    Rm <- exp(-D) + diag(nugget, K)
+    L <- t(base::chol(Rm))
+    Ri <- function(v) backsolve(t(L), forwardsolve(L, v))
+    one <- rep(1, K)
+    mu[i] <- sum(Ri(Y[, i])) / sum(Ri(one))
+    e <- Y[, i] - mu[i]
+    weights[, i] <- Ri(e)
+    lambda[i] <- K / sum(e * weights[, i])
+    chol[, , i] <- L
+  }
+  list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = rep(nugget, n),
+       weights = weights, chol = chol, y = Y, lower = lower, width = width)
+}
+
+# Emulators of one site with fixed beta/alpha (bank_fixed_hyper()) for the
+# coefficients Y (K x n) of the runs at `design` (K x p, named columns) on
+# `basis`: a `wv_emulators` object whose params carry no likelihood.
+fixed_hyper_emulators <- function(design, Y, basis, t, beta, alpha, site = "site1") {
+  bank <- bank_fixed_hyper(design, Y, beta = beta, alpha = alpha)
+  inputs <- colnames(design)
+  params <- data.frame(site = site, index = basis$index, level = basis$level, mu = bank$mu,
+                       lambda = bank$lambda, nugget = bank$nugget, loglik = NA_real_)
+  for (q in seq_along(inputs)) {
+    params[[paste0("beta_", inputs[q])]] <- bank$beta[, q]
+    params[[paste0("alpha_", inputs[q])]] <- bank$alpha[, q]
+  }
+  banks <- stats::setNames(list(bank), site)
+  validate_wv_emulators(new_wv_emulators(params, inputs, design, banks, basis, "gasp", t))
+}
+
+# --- the door to the emulator banks ---------------------------------------------
+# A bank holds one site's emulators (see fit_emulators(), Value). Other modules
+# take a bank from a `wv_emulators` object with site_bank(), hand it on (to
+# the sampler, to the functions below) and never read its fields nor call the
+# compiled emulator functions themselves.
+
+# The sites a `wv_emulators` object emulates (character).
+emulator_sites <- function(em) names(em$banks)
+
+# The bank of site `s` of a `wv_emulators` object (NULL for a site it does
+# not emulate).
+site_bank <- function(em, s) em$banks[[s]]
+
+# The emulators `em` with `bank` as the bank of site `s` and the rows
+# `params` (columns as em$params; their `site` set to `s`) added to its
+# parameters: how a fit's emulators gain a site per experiment.
+emulators_add_site <- function(em, s, bank, params) {
+  em$banks[[s]] <- bank
+  params$site <- rep(s, nrow(params))
+  em$params <- rbind(em$params, params[, names(em$params), drop = FALSE])
+  em
+}
+
+# Predictions (report eq. 11) of every coefficient of `bank` at the points
+# `Z` (N x p matrix, one row per point, the inputs in their own units and in
+# the emulators' order). Returns a list of `mean` and `var`, N x n matrices
+# (rows: points, columns: the bank's coefficients).
+bank_predict <- function(bank, Z) gasp_bank_predict_cpp(bank, Z)
+
+# Predictions with the design augmented draw by draw (report eq. 26): row h
+# of the result is the prediction at Znew[h, ] of the bank augmented with the
+# point Zstar[h, ] whose coefficients are Wstar[h, ], hyperparameters kept.
+# Zstar and Znew are H x p (inputs in their own units), Wstar is H x n.
+# Returns a list of `mean` and `var`, H x n matrices.
+bank_predict_augmented <- function(bank, Zstar, Wstar, Znew) {
+  gasp_bank_predict_augmented_cpp(bank, Zstar, Wstar, Znew)
+}
+
+# The design of `bank` scaled to the unit cube (K x p): two banks with the
+# same design share their emulators' errors.
+bank_design <- function(bank) bank$X
+
 # Coefficient i's Cholesky factor in bank b (K x K): its own slice of `chol`,
 # or the shared one `chol_of` points to.
 bank_factor <- function(b, i) b$chol[, , if (is.null(b$chol_of)) i else b$chol_of[i]]

@@ -157,12 +157,12 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
   site_of <- function(e, s) if (e == "base") s else paste0(e, "/", s)
   if (length(hit)) {
     e <- tab$experiment[hit[1]]
+    zbar <- matrix(posterior_mean_inputs(fit)[fit$inputs], 1L, dimnames = list(NULL, fit$inputs))
     out <- lapply(stats::setNames(base, base), function(s) {
       se <- site_of(e, s)
       list(M = fit$wM[[se]], B = fit$wb[[se]], S2 = fit$sigma2[[se]],
-           pure = drop(gasp_bank_predict_cpp(fit$emulators$banks[[se]],
-                                             shift_inputs(fit, se, matrix(posterior_mean_inputs(fit)[fit$inputs], 1L,
-                                                                          dimnames = list(NULL, fit$inputs))))$mean))
+           pure = drop(bank_predict(site_bank(fit$emulators, se),
+                                    shift_inputs(fit, se, zbar))$mean))
     })
     return(list(sites = out, tested = e, bias_from = "tested", condition = v))
   }
@@ -185,7 +185,7 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
       X
     }
     list(M = fit$wM[[s]] + moved[[s]], B = if (shared) fit$wb[[s]] else from("wb"), S2 = from("sigma2"),
-         pure = drop(gasp_bank_predict_cpp(fit$emulators$banks[[s]], matrix(znew, 1L))$mean))
+         pure = drop(bank_predict(site_bank(fit$emulators, s), matrix(znew, 1L))$mean))
   })
   list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled", condition = v,
        experiment = exps[pick])

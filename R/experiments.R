@@ -220,10 +220,10 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
                  "i" = "Fit them with {.code fit_emulators(runs, base_emulators$basis)}."),
                class = "experiment", call = call)
     }
-    miss <- setdiff(names(x$field$curves), names(em$banks))
+    miss <- setdiff(names(x$field$curves), emulator_sites(em))
     if (length(miss)) {
       wv_abort(c("Experiment {.val {e}} has field data at site{?s} {.val {miss}} without emulators.",
-                 "i" = "Emulated sites: {.val {names(em$banks)}}."), class = "experiment", call = call)
+                 "i" = "Emulated sites: {.val {emulator_sites(em)}}."), class = "experiment", call = call)
     }
     if (!is.null(x$change)) {
       unknown <- setdiff(names(x$change), emulators$inputs)

@@ -309,7 +309,7 @@ coefficient_segments <- function(fit, segments) {
 residual_regression_data <- function(fit, draws, keep) {
   Z <- draws[, fit$inputs, drop = FALSE]
   parts <- lapply(names(fit$wb), function(s) {
-    pr <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], shift_inputs(fit, s, Z))
+    pr <- bank_predict(site_bank(fit$emulators, s), shift_inputs(fit, s, Z))
     list(r = field_mean_draws(fit, s, keep) - pr$mean,
          v = pr$var + field_mean_variance(fit, s, keep))
   })

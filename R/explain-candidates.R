@@ -154,7 +154,7 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
     zm[p] <- zm[p] - h
     Z <- rbind(zp, zm)
     unlist(lapply(sites, function(s) {
-      pr <- gasp_bank_predict_cpp(em$banks[[s]], shift_inputs(fit, s, Z))$mean
+      pr <- bank_predict(site_bank(em, s), shift_inputs(fit, s, Z))$mean
       (pr[1, ] - pr[2, ]) / (2 * h) * width[p]
     }))
   }, numeric(sum(vapply(fit$wb, ncol, 1L))))

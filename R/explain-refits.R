@@ -122,14 +122,14 @@ refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
 }
 
 # Log likelihood of the coefficients that inform the inputs at each row of Z,
-# given one draw's field variances and bias variances (row h of the fit).
-refit_loglik <- function(rf, Z, h, informing) {
-  D <- rf$draw_matrix
+# given one draw's field variances and bias variances (row h of the fit and
+# of its draws as a matrix, D).
+refit_loglik <- function(rf, D, Z, h, informing) {
   ll <- numeric(nrow(Z))
   for (s in names(rf$wb)) {
     g <- rf$bias_group[[s]]
     use <- g %in% informing
-    pr <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], shift_inputs(rf, s, Z))
+    pr <- bank_predict(site_bank(rf$emulators, s), shift_inputs(rf, s, Z))
     e <- drop(field_mean_variance(rf, s, h)) + D[h, tau2_columns(rf, s)]
     tot <- sweep(pr$var, 2L, e, `+`)[, use, drop = FALSE]
     r2 <- sweep(pr$mean, 2L, drop(field_mean_draws(rf, s, h)))[, use, drop = FALSE]^2
@@ -144,7 +144,7 @@ refit_loglik <- function(rf, Z, h, informing) {
 # conditional is the likelihood over [lower, upper] (the strength's prior is
 # uniform there) on a grid of n_grid points refined around its largest value,
 # integrated by the trapezoidal rule.
-log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
+log_density_at_off <- function(rf, D, strength, keep, n_grid = 33L, tick = NULL) {
   p <- rf$prior_iu[match(strength, rf$prior_iu$name), ]
   lo <- p$lower
   hi <- p$upper
@@ -153,11 +153,11 @@ log_density_at_off <- function(rf, strength, keep, n_grid = 33L, tick = NULL) {
   grid <- seq(lo, hi, length.out = n_grid)
   step <- grid[2] - grid[1]
   out <- vapply(keep, function(h) {
-    z <- rf$draw_matrix[h, rf$inputs]
+    z <- D[h, rf$inputs]
     at <- function(v) {
       Z <- matrix(z, length(v), length(z), byrow = TRUE, dimnames = list(NULL, rf$inputs))
       Z[, strength] <- v
-      (rf$settings$temper %||% 1) * refit_loglik(rf, Z, h, informing)
+      (rf$settings$temper %||% 1) * refit_loglik(rf, D, Z, h, informing)
     }
     ll <- at(grid)
     j <- which.max(ll)
@@ -213,12 +213,12 @@ explain_refits <- function(fit, refits, n_draws, level) {
   }
   rows <- lapply(nm, function(k) {
     rf <- refits[[k]]
-    rf$draw_matrix <- as.matrix(rf$draws)
-    H <- nrow(rf$draw_matrix)
+    D <- as.matrix(rf$draws)
+    H <- nrow(D)
     keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
     p <- rf$prior_iu[match(strength[[k]], rf$prior_iu$name), ]
-    log_bf <- -log(p$upper - p$lower) - log_density_at_off(rf, strength[[k]], keep, tick = tick)
-    s <- rf$draw_matrix[, strength[[k]]]
+    log_bf <- -log(p$upper - p$lower) - log_density_at_off(rf, D, strength[[k]], keep, tick = tick)
+    s <- D[, strength[[k]]]
     data.frame(candidate = k, log_bf = log_bf, amplitude = mean(s),
                amplitude_lower = unname(stats::quantile(s, a)), amplitude_upper = unname(stats::quantile(s, 1 - a)),
                share_explained = 1 - bias_energy(rf, local) / e0_local, share_of_bias = 1 - bias_energy(rf) / e0,
@@ -268,7 +268,7 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
       k <- lead[i]
       rf <- refits[[k]]
       z <- at[[i]][1, ]
-      m <- gasp_bank_predict_cpp(rf$emulators$banks[[s]], shift_inputs(rf, s, at[[i]]))$mean
+      m <- bank_predict(site_bank(rf$emulators, s), shift_inputs(rf, s, at[[i]]))$mean
       v <- drop(fit$basis$Psi %*% (m[1, ] - m[2, ]))
       out <- rbind(out, data.frame(site = s, t = fit$basis$t,
                                    curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),

@@ -4,9 +4,9 @@
 
 # Pure-model curve of eq. (24) at one site: Psi m(z_hat).
 pure_model_curve <- function(fit, site, z = posterior_mean_inputs(fit)) {
-  bank <- fit$emulators$banks[[site]]
-  m <- gasp_bank_predict_cpp(bank, shift_inputs(fit, site, matrix(z[fit$inputs], nrow = 1L,
-                                                                    dimnames = list(NULL, fit$inputs))))$mean
+  bank <- site_bank(fit$emulators, site)
+  m <- bank_predict(bank, shift_inputs(fit, site, matrix(z[fit$inputs], nrow = 1L,
+                                                         dimnames = list(NULL, fit$inputs))))$mean
   drop(fit$basis$Psi %*% t(m))
 }
 

@@ -304,8 +304,8 @@ added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
   moved <- post
   for (p in names(delta)) moved[, p] <- moved[, p] + delta[[p]]
   Dw <- lapply(base_sites(fit), function(s) {
-    bank <- fit$emulators$banks[[s]]
-    gasp_bank_predict_cpp(bank, moved)$mean - gasp_bank_predict_cpp(bank, post)$mean
+    bank <- site_bank(fit$emulators, s)
+    bank_predict(bank, moved)$mean - bank_predict(bank, post)$mean
   })
   list(Dw = stats::setNames(Dw, base_sites(fit)), delta = delta)
 }
@@ -324,7 +324,7 @@ new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_e
   }
   new_runs$design <- new_runs$design[inputs]
   em_new <- fit_emulators(new_runs, fit$basis, engine = fit$emulators$engine, seed = seed)
-  predict_at_draws(fit, em_new$banks, x_nom, x_new = NULL, augmented = FALSE)
+  predict_at_draws(fit, em_new, x_nom, x_new = NULL, augmented = FALSE)
 }
 
 new_vehicle_setup <- function(fit, x_new, call = rlang::caller_env()) {
@@ -336,13 +336,14 @@ new_vehicle_setup <- function(fit, x_new, call = rlang::caller_env()) {
       wv_abort("{.arg x_new} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
     }
   }
-  predict_at_draws(fit, fit$emulators$banks, nominal, x_new = x_new, augmented = TRUE)
+  predict_at_draws(fit, fit$emulators, nominal, x_new = x_new, augmented = TRUE)
 }
 
 # Emulator means and variances, draw by draw, at the new vehicle's inputs:
 # variation inputs from their prior around `nominal` (or fixed at x_new),
-# calibration inputs from the posterior draws.
-predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
+# calibration inputs from the posterior draws; `em` the emulators to predict
+# with.
+predict_at_draws <- function(fit, em, nominal, x_new, augmented) {
   inputs <- fit$emulators$inputs
   iu <- fit$iu
   post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
@@ -359,12 +360,13 @@ predict_at_draws <- function(fit, banks, nominal, x_new, augmented) {
   nom_full[given] <- nominal[given]
   zpure[var_inputs] <- if (is.null(x_new)) nom_full else replace(nom_full, names(x_new), x_new)
   res <- lapply(base_sites(fit), function(s) {
+    bank <- site_bank(em, s)
     pr <- if (augmented) {
-      gasp_bank_predict_augmented_cpp(banks[[s]], post, fit$wM[[s]], Znew)
+      bank_predict_augmented(bank, post, fit$wM[[s]], Znew)
     } else {
-      gasp_bank_predict_cpp(banks[[s]], Znew)
+      bank_predict(bank, Znew)
     }
-    pr$pure <- drop(gasp_bank_predict_cpp(banks[[s]], matrix(zpure, 1))$mean)
+    pr$pure <- drop(bank_predict(bank, matrix(zpure, 1))$mean)
     pr
   })
   names(res) <- base_sites(fit)

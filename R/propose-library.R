@@ -142,7 +142,7 @@ output_channels <- function(fit) {
   Z <- matrix(z[fit$inputs], 1L, dimnames = list(NULL, fit$inputs))
   tb <- fit$basis$t
   y <- lapply(names(fit$wb), function(s) {
-    w <- gasp_bank_predict_cpp(fit$emulators$banks[[s]], shift_inputs(fit, s, Z))$mean
+    w <- bank_predict(site_bank(fit$emulators, s), shift_inputs(fit, s, Z))$mean
     drop(fit$basis$Psi %*% drop(w))
   })
   names(y) <- names(fit$wb)

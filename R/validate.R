@@ -160,8 +160,6 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   }
   fit <- clock("calibration", calibrate(emulators, field, iu, experiments = experiments, bias = bias,
                                         sampler = ctl$sampler, seed = seed))
-  fit$control <- ctl
-  fit$pipeline <- list(runs = runs, field = raw_field, experiments = raw_experiments, registered_to = registered_to)
-  fit$timing <- clock()
-  fit
+  fit_set(fit, control = ctl, timing = clock(),
+          pipeline = list(runs = runs, field = raw_field, experiments = raw_experiments, registered_to = registered_to))
 }

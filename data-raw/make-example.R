@@ -6,5 +6,5 @@
 # time depends on the machine, so the stored fit does not carry it.
 pkgload::load_all(".", quiet = TRUE)
 example_fit_1 <- compute_example_fit(1)
-example_fit_1$sampling_seconds <- NULL
+example_fit_1 <- fit_set(example_fit_1, sampling_seconds = NULL)
 save(example_fit_1, file = "R/sysdata.rda", compress = "xz")

@@ -41,7 +41,7 @@ test_that("the example fit shipped with the package is what its calibration give
   # here (remake it with data-raw/make-example.R)
   # (the stored fit keeps no wall time of its chains)
   expect_null(example_fit()$sampling_seconds)
-  expect_equal(example_fit(), `[[<-`(compute_example_fit(1), "sampling_seconds", NULL))
+  expect_equal(example_fit(), fit_set(compute_example_fit(1), sampling_seconds = NULL))
   ex <- example_problem(seed = 1)
   direct <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1,
                                        sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)))
