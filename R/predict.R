@@ -395,3 +395,91 @@ predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed
     condition = setup$condition, tested = setup$tested, bias_from = setup$bias_from
   ), class = "wv_prediction")
 }
+
+# The draws of a new condition, by base site: `M` (model coefficients), `B`
+# (bias coefficients), `S2` (field variances), `pure` (the model alone at the
+# posterior mean inputs, coefficients), `tested` (the experiment whose
+# condition it is, or NA) and `bias_from` (how the bias was carried).
+# At a tested condition: that experiment's own draws. Elsewhere: the model
+# coefficients of each posterior draw moved by the emulators' change from
+# the base condition to the new one (as predict(type = "added_load", delta
+# =) moves them); the bias and field variance of draw h those of draw h of
+# one tested condition, the conditions taking the draws in equal shares in a
+# random order (one bias when it is shared by the experiments).
+new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
+  if (is.null(fit$conditions)) {
+    wv_abort(c("The fit has no condition input, so a new condition cannot be predicted.",
+               "i" = "Declare the test condition with {.code iu_map(type = \"condition\")} and calibrate with an experiment at each tested condition."),
+             class = "condition", call = call)
+  }
+  if (is.null(condition)) {
+    wv_abort(c("{.code type = \"new_condition\"} needs {.arg condition}, the value of every condition input.",
+               "i" = "For example {.code condition = c({fit$conditions$inputs[1]} = {signif(fit$conditions$base[[1]], 4)})}."),
+             class = "condition", call = call)
+  }
+  check_condition_values(condition, call = call)
+  v <- check_condition_against_iu(condition, fit$iu, "the prediction", call = call)
+  tab <- fit$conditions$values
+  cond <- fit$conditions$inputs
+  tol <- 1e-9 * pmax(1, abs(v))
+  hit <- which(vapply(seq_len(nrow(tab)), function(r) all(abs(unlist(tab[r, cond]) - v) <= tol), logical(1)))
+  ex <- fit_experiments(fit)
+  base <- base_sites(fit)
+  site_of <- function(e, s) if (e == "base") s else paste0(e, "/", s)
+  if (length(hit)) {
+    e <- tab$experiment[hit[1]]
+    zbar <- matrix(posterior_mean_inputs(fit)[fit$inputs], 1L, dimnames = list(NULL, fit$inputs))
+    out <- lapply(stats::setNames(base, base), function(s) {
+      se <- site_of(e, s)
+      list(M = fit$wM[[se]], B = fit$wb[[se]], S2 = fit$sigma2[[se]],
+           pure = drop(bank_predict(site_bank(fit$emulators, se),
+                                    shift_inputs(fit, se, zbar))$mean))
+    })
+    return(list(sites = out, tested = e, bias_from = "tested", condition = v))
+  }
+  delta <- v - fit$conditions$base
+  moved <- added_load_emulated(fit, delta, call = call)$Dw
+  H <- nrow(fit$wM[[base[1]]])
+  exps <- tab$experiment
+  shared <- identical(fit$settings$experiment_bias, "shared") || length(exps) == 1L
+  pick <- sample(rep_len(seq_along(exps), H))
+  z <- posterior_mean_inputs(fit)[fit$inputs]
+  znew <- z
+  znew[names(delta)] <- znew[names(delta)] + delta
+  out <- lapply(stats::setNames(base, base), function(s) {
+    from <- function(what) {
+      X <- fit[[what]][[s]]
+      for (k in seq_along(exps)[-1L]) {
+        rows <- pick == k
+        X[rows, ] <- fit[[what]][[site_of(exps[k], s)]][rows, , drop = FALSE]
+      }
+      X
+    }
+    list(M = fit$wM[[s]] + moved[[s]], B = if (shared) fit$wb[[s]] else from("wb"), S2 = from("sigma2"),
+         pure = drop(bank_predict(site_bank(fit$emulators, s), matrix(znew, 1L))$mean))
+  })
+  list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled", condition = v,
+       experiment = exps[pick])
+}
+
+# Bands of a new condition at base site `s` from new_condition_setup()'s
+# draws: the bias-corrected prediction (mean, lower, upper, lower_curve,
+# upper_curve) and the model alone (model, model_lower, model_upper), both
+# with the field noise when `noise`.
+new_condition_site <- function(fit, s, setup, level, noise, keep_draws) {
+  d <- setup$sites[[s]]
+  Psi <- fit$basis$Psi
+  H <- nrow(d$M)
+  eps <- if (noise) sqrt(d$S2) * matrix(stats::rnorm(length(d$M)), H)
+  Wm <- if (noise) d$M + eps else d$M
+  Wc <- Wm + d$B
+  src <- curve_source(H, nrow(Psi), NULL, list(W = Wc, B = Psi, offset = numeric()))
+  draws <- if (keep_draws) source_matrix(src)
+  band <- band_frame(draws %||% src, fit$basis$t, s, level)
+  model <- band_frame(curve_source(H, nrow(Psi), NULL, list(W = Wm, B = Psi, offset = numeric())), fit$basis$t, s,
+                      level)
+  band$model <- drop(Psi %*% d$pure)
+  band$model_lower <- model$lower
+  band$model_upper <- model$upper
+  list(summary = band, draws = draws, n_guarded = 0)
+}

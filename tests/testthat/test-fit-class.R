@@ -1,5 +1,5 @@
 # The declared shape of a fit (R/fit-class.R) and the emulator bank's door
-# (R/emulators.R).
+# (R/emulator.R).
 
 expect_declared_fit <- function(fit) {
   expect_s3_class(fit, "wv_fit")
@@ -85,7 +85,7 @@ test_that("the setter re-checks, keeps emptied fields and refuses an undeclared 
   expect_identical(names(unclass(fit_set(out, sampling_seconds = NULL))), names(wv_fit_fields))
 })
 
-# Only the emulator module (R/emulators.R, R/emulators-methods.R,
+# Only the emulator module (R/emulator.R, R/emulator-methods.R,
 # R/emulator-variance.R) names the compiled emulator functions (gasp_*_cpp);
 # every other file goes through bank_predict() and its siblings. The check
 # reads the sources when the tests run from the package's source tree.
@@ -102,7 +102,7 @@ test_that("bank_predict() is the compiled bank prediction, and only the emulator
   src <- test_path("..", "..", "R")
   skip_if_not(dir.exists(src), "the package's R sources are not at hand")
   files <- setdiff(list.files(src, pattern = "[.]R$"),
-                   c("emulators.R", "emulators-methods.R", "emulator-variance.R", "RcppExports.R"))
+                   c("emulator.R", "emulator-methods.R", "emulator-variance.R", "RcppExports.R"))
   hits <- unlist(lapply(files, function(f) {
     code <- grep("^\\s*#", readLines(file.path(src, f), warn = FALSE), value = TRUE, invert = TRUE)
     if (any(grepl("gasp_[a-z_]*_cpp|\\$banks\\b", code))) f
