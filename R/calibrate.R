@@ -241,7 +241,9 @@
 #'   further experiments of the same unit, each made with [experiment()]: its
 #'   field data and either the known change of some inputs (the base
 #'   emulators then serve at the changed inputs) or its own emulators. See the
-#'   section Several experiments.
+#'   section Several experiments. The whole data set of several conditions,
+#'   [experiments_at()] with `base`, may be given as `field` instead: its
+#'   base field is `field`, its experiments come before those given here.
 #' @param bias A [bias_control()] object: how the field noise is set, the
 #'   bias variances' grouping over wavelet levels, the levels that inform
 #'   the inputs and the inputs' likelihood.
@@ -359,6 +361,9 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
   sampler <- ctl$sampler
   chains <- sampler$chains
   check_class(emulators, "wv_emulators")
+  given <- split_field_set(field, experiments)
+  field <- given$field
+  experiments <- given$experiments
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   seed <- resolve_seed(seed)

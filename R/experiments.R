@@ -104,17 +104,30 @@ experiment <- function(field, change = NULL, emulators = NULL, reference = NULL,
 #'   input. With long data: the names of its condition columns.
 #' @param ... With long data: the arguments of [field_runs()] that name its
 #'   columns (`t`, `y`, `site`, `replicate`) and `x_nom`.
-#' @return A named list of `wv_experiment` objects.
+#' @param base `NULL`, or the base condition: a named numeric vector, one
+#'   value per condition input (the I/U map's nominal values). Its field (the
+#'   curves measured there) is then not made an experiment but kept as the
+#'   base field, so that the whole data set is given once: pass the result
+#'   as `field` to [validate()] or [calibrate()] (with no `experiments`, or
+#'   with further ones), and the base field and the experiments are read
+#'   from it. A base condition that no field was measured at is an error.
+#' @return A named list of `wv_experiment` objects. With `base`, the list has
+#'   class `wv_experiments_at` and carries the base field in its attribute
+#'   `"field"`.
 #' @seealso [experiment()], [iu_map()] (section Conditions).
 #' @export
 #' @examples
 #' tb <- load_testbed()
 #' experiments_at(list(added_mass = tb$added_mass$field), data.frame(x1 = 0.65))
-#' # long data: two doses, two replicates each, on sixteen time points
-#' long <- expand.grid(t = 0:15, replicate = 1:2, dose = c(250, 550))
+#' # long data: three doses, two replicates each, on sixteen time points
+#' long <- expand.grid(t = 0:15, replicate = 1:2, dose = c(250, 400, 550))
 #' long$y <- long$dose / 400 * exp(-long$t / 2) + rnorm(nrow(long), sd = 0.01)
 #' experiments_at(long, "dose", t = "t", y = "y", replicate = "replicate")
-experiments_at <- function(fields, condition, ...) {
+#' # the whole data set, the 400 mg curves as the base field
+#' all_doses <- experiments_at(long, "dose", t = "t", y = "y", replicate = "replicate",
+#'                             base = c(dose = 400))
+#' all_doses
+experiments_at <- function(fields, condition, ..., base = NULL) {
   if (is.data.frame(fields)) {
     cols <- condition
     if (!is.character(cols) || !length(cols) || !all(cols %in% names(fields))) {
@@ -144,10 +157,73 @@ experiments_at <- function(fields, condition, ...) {
                "x" = if (is.data.frame(condition)) "It has {nrow(condition)} row{?s}." else
                  "It is {.obj_type_friendly {condition}}."), class = "condition")
   }
+  at_base <- base_condition_row(condition, base)
   out <- lapply(seq_along(fields), function(i) {
     experiment(fields[[i]], condition = unlist(condition[i, , drop = FALSE]))
   })
-  stats::setNames(out, names(fields))
+  out <- stats::setNames(out, names(fields))
+  if (is.null(base)) return(out)
+  structure(out[-at_base], field = fields[[at_base]], base = base[names(condition)],
+            class = c("wv_experiments_at", "list"))
+}
+
+# The row of `condition` (a data frame, one row per field) at the base
+# condition `base` (a named numeric, one value per column), or a classed
+# error when there is none, or more than one, or `base` is malformed.
+base_condition_row <- function(condition, base, call = rlang::caller_env()) {
+  if (is.null(base)) return(NULL)
+  cols <- names(condition)
+  if (!is.numeric(base) || is.null(names(base)) || anyNA(base) || !setequal(names(base), cols)) {
+    wv_abort(c("{.arg base} must be a named number for each condition: {.val {cols}}.",
+               "i" = "For example {.code base = c({cols[1]} = {signif(condition[[1]][1], 4)})}."),
+             class = "condition", call = call)
+  }
+  same <- vapply(seq_len(nrow(condition)), function(i) {
+    v <- unlist(condition[i, cols, drop = FALSE])
+    all(abs(v - base[cols]) <= 1e-9 * pmax(1, abs(base[cols])))
+  }, logical(1))
+  if (sum(same) != 1L) {
+    wv_abort(c("No field was measured at the base condition {.val {paste(cols, base[cols], sep = ' = ')}}.",
+               "i" = "The fields' conditions: {.val {unique(do.call(paste, c(condition, sep = ', ')))}}.",
+               "i" = "Give {.arg base} the condition the base field was measured at (the I/U map's nominal values)."),
+             class = "condition", call = call)
+  }
+  which(same)
+}
+
+#' @export
+print.wv_experiments_at <- function(x, ...) {
+  fld <- attr(x, "field")
+  reps <- vapply(fld$curves, nrow, integer(1))
+  base <- attr(x, "base")
+  cli::cat_line(sprintf("<wv_experiments_at> the base field at %s (%s) and %d experiment%s at other conditions:",
+                        paste(sprintf("%s = %g", names(base), base), collapse = ", "),
+                        paste(sprintf("%s: %d replicate%s", names(reps), reps, ifelse(reps == 1, "", "s")),
+                              collapse = ", "),
+                        length(x), if (length(x) == 1L) "" else "s"))
+  for (e in names(x)) {
+    cli::cat_line("  ", e, ": ", paste(utils::capture.output(print(x[[e]])), collapse = " "))
+  }
+  cli::cat_line("Give it as `field` to validate() or calibrate(): the base field and the experiments are read from it.")
+  invisible(x)
+}
+
+# `field` given as the whole data set (an experiments_at() result with its
+# base field): the base field, and its experiments before any others given.
+split_field_set <- function(field, experiments, call = rlang::caller_env()) {
+  if (!inherits(field, "wv_experiments_at")) return(list(field = field, experiments = experiments))
+  exps <- unclass(field)
+  attr(exps, "field") <- attr(exps, "base") <- NULL
+  if (!is.null(experiments)) {
+    check_experiment_list(experiments, call = call)
+    dup <- intersect(names(exps), names(experiments))
+    if (length(dup)) {
+      wv_abort(c("{.arg experiments} repeats experiment{?s} of {.arg field}: {.val {dup}}.",
+                 "i" = "{.arg field} holds the whole data set already; give only further experiments."),
+               class = "experiment", call = call)
+    }
+  }
+  list(field = attr(field, "field"), experiments = c(exps, experiments))
 }
 
 #' @export

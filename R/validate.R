@@ -42,7 +42,9 @@
 #' @inheritParams calibrate
 #' @param experiments `NULL` or a named list of further experiments of the
 #'   same unit ([experiment()]), calibrated jointly with `field` (see
-#'   [calibrate()]). With `windows`, their field data are registered like
+#'   [calibrate()]). The whole data set of several conditions,
+#'   [experiments_at()] with `base`, may be given as `field` instead: its
+#'   base field is `field`, its experiments come before those given here. With `windows`, their field data are registered like
 #'   `field`, after the basis (built from `runs` and `field` alone) and the
 #'   emulators are fitted: to the mean of the experiment's `reference` runs
 #'   when it has them, else to the model in the experiment's own condition
@@ -108,6 +110,9 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   bias <- ctl$bias
   quiet <- ctl$sampler$quiet
   check_class(runs, "wv_runs")
+  given <- split_field_set(field, experiments)
+  field <- given$field
+  experiments <- given$experiments
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
   sigma2 <- bias$sigma2

@@ -286,3 +286,35 @@ test_that("design_maximin() places runs at the tested conditions, and the reach 
                                         iu = iu2), class = "wavevalid_error_experiment")
   expect_match(conditionMessage(err), "design_maximin", fixed = TRUE)
 })
+
+test_that("experiments_at(base =) keeps the base condition's curves as the field, and validate() reads the whole set", {
+  ex <- example_problem(1)
+  t <- ex$field$t
+  y <- ex$field$curves$site1
+  long <- do.call(rbind, lapply(c(0.5, 0.7), function(x1) {
+    do.call(rbind, lapply(seq_len(nrow(y)), function(r) {
+      data.frame(x1 = x1, replicate = paste0("unit", r), t = t, y = y[r, ] + (x1 - 0.5))
+    }))
+  }))
+  all_data <- experiments_at(long, "x1", t = "t", y = "y", replicate = "replicate", base = c(x1 = 0.5))
+  expect_s3_class(all_data, "wv_experiments_at")
+  expect_named(all_data, "x1=0.7")
+  expect_equal(attr(all_data, "field")$curves$site1, y, ignore_attr = TRUE)
+  expect_output(print(all_data), "the base field at x1 = 0.5")
+  # without base, the base condition is an experiment too, and giving it beside the field is refused
+  both <- experiments_at(long, "x1", t = "t", y = "y", replicate = "replicate")
+  expect_named(both, c("x1=0.5", "x1=0.7"))
+  expect_error(experiments_at(long, "x1", t = "t", y = "y", replicate = "replicate", base = c(x1 = 0.6)),
+               class = "wavevalid_error_condition")
+  expect_error(experiments_at(long, "x1", t = "t", y = "y", replicate = "replicate", base = c(dose = 0.5)),
+               class = "wavevalid_error_condition")
+  # calibrate() with the whole set draws what it draws with the field and the experiment given apart
+  iu <- cond_iu()
+  whole <- suppressWarnings(calibrate(ex$emulators, all_data, iu, chains = 1, seed = 3, sampler = cond_sampler()))
+  apart <- suppressWarnings(calibrate(ex$emulators, attr(all_data, "field"), iu,
+                                      experiments = list(`x1=0.7` = all_data[["x1=0.7"]]),
+                                      chains = 1, seed = 3, sampler = cond_sampler()))
+  expect_identical(as.matrix(whole$draws), as.matrix(apart$draws))
+  expect_error(calibrate(ex$emulators, all_data, iu, experiments = list(`x1=0.7` = all_data[["x1=0.7"]])),
+               class = "wavevalid_error_experiment")
+})
