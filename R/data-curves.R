@@ -158,7 +158,7 @@ common_times <- function(pts) {
 # curve's times up to one step of that curve, or 2^k equally spaced points on
 # the range every curve covers, 2^k the next power of two of the most
 # distinct times of any curve.
-own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
+own_points_grid <- function(pts, grid, labels = NULL, call = rlang::caller_env()) {
   curves <- unlist(pts, recursive = FALSE)
   lo <- max(vapply(curves, function(cv) cv$t[1], numeric(1)))
   hi <- min(vapply(curves, function(cv) cv$t[length(cv$t)], numeric(1)))
@@ -170,7 +170,7 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
         stamps <- unique(pts[[s]][[r]]$t)
         tryCatch(check_field_grid(grid, stamps, call = call), wavevalid_error_grid = function(e) {
           msg <- cli::ansi_strip(conditionMessage(e))
-          wv_abort(c("Site {.val {s}}, curve {r}: {msg}"), class = "grid", call = call)
+          wv_abort(c("Site {.val {s}}, {curve_label(labels, s, r, 'curve')}: {msg}"), class = "grid", call = call)
         })
       }
     }
@@ -185,4 +185,11 @@ own_points_grid <- function(pts, grid, call = rlang::caller_env()) {
   grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n_range[2])))
   wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
   grid
+}
+
+# How a message names curves `r` of site `s`: by the user's id column
+# (`labels`, by site, e.g. "subject S07") when the data came with one, else
+# by position ("replicate 3").
+curve_label <- function(labels, s, r, what = "replicate") {
+  if (!is.null(labels[[s]])) labels[[s]][r] else paste(what, r)
 }

@@ -170,8 +170,10 @@
 #' f <- field_runs(rbind(y), grid)
 #' f$noise$site1[c("detail_sd", "n_stamps")]
 field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL, replicate = NULL) {
+  labels <- NULL
   if (is_long_form(curves, t)) {
     long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate", strict = FALSE)
+    if (!is.null(replicate)) labels <- lapply(long$ids, function(v) paste(replicate, v))
     curves <- long$curves
     t <- long$t
     site <- NULL
@@ -184,7 +186,7 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NU
   if (is.list(t)) {
     pts <- own_points(curves, t, site, strict = FALSE, what = "field")
     t <- common_times(pts)
-    if (is.null(t)) return(field_on_own_points(pts, x_nom, grid))
+    if (is.null(t)) return(field_on_own_points(pts, x_nom, grid, labels))
     curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
     site <- NULL
   }
@@ -193,10 +195,10 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NU
   for (s in names(curves)) {
     bad <- which(!is.finite(curves[[s]]), arr.ind = TRUE)
     if (nrow(bad)) {
-      reps <- unique(bad[, 1])
+      reps <- curve_label(labels, s, unique(bad[, 1]))
       wv_abort(c(
         "Field curves must be complete: site {.val {s}} has {nrow(bad)} missing or non-finite value{?s}.",
-        "x" = "{cli::qty(length(reps))}Replicate{?s} {reps}; the first gap is at t = {signif(t[bad[1, 2]], 5)}.",
+        "x" = "{.val {reps}}; the first gap is at t = {signif(t[bad[1, 2]], 5)}.",
         "i" = "Fill the gap (e.g. by interpolation) or remove the replicate."
       ), class = "input")
     }
@@ -232,19 +234,20 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NU
 
 # Field curves each on their own times (own_points()), onto one grid: each
 # curve's values averaged by time, its noise evidence, then interpolated.
-field_on_own_points <- function(pts, x_nom, grid, call = rlang::caller_env()) {
+field_on_own_points <- function(pts, x_nom, grid, labels = NULL, call = rlang::caller_env()) {
   for (s in names(pts)) {
     for (r in seq_along(pts[[s]])) {
       y <- pts[[s]][[r]]$y
       if (any(!is.finite(y))) {
-        wv_abort(c("Field curves must be complete: site {.val {s}}, replicate {r} has {sum(!is.finite(y))} missing or non-finite value{?s}.",
+        who <- curve_label(labels, s, r)
+        wv_abort(c("Field curves must be complete: site {.val {s}}, {who} has {sum(!is.finite(y))} missing or non-finite value{?s}.",
                    "x" = "The first is at t = {signif(pts[[s]][[r]]$t[which(!is.finite(y))[1]], 5)}.",
                    "i" = "Drop the missing values (each curve is on its own times) or remove the replicate."),
                  class = "input", call = call)
       }
     }
   }
-  grid <- own_points_grid(pts, grid, call = call)
+  grid <- own_points_grid(pts, grid, labels, call = call)
   evs <- lapply(pts, function(p) lapply(p, function(cv) curve_evidence(cv$y, cv$t, grid)))
   curves <- lapply(names(pts), function(s) {
     do.call(rbind, lapply(seq_along(pts[[s]]), function(r) {

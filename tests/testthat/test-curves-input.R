@@ -134,3 +134,22 @@ test_that("long data frames with bad columns or curves give classed errors that 
   expect_error(model_runs(lr, t = "time", y = "load", run = "run", design = data.frame(run = "p", a = 1)),
                class = "wavevalid_error_column")
 })
+
+test_that("messages about a field curve name it by the user's id column", {
+  t <- seq(0, 1, length.out = 16)
+  long <- do.call(rbind, lapply(c("S1", "S2", "S3"), function(id) data.frame(subject = id, t = t, y = sin(t))))
+  long$y[long$subject == "S2"][5] <- NA
+  err <- expect_error(field_runs(long, t = "t", y = "y", replicate = "subject"), class = "wavevalid_error_input")
+  expect_match(cli::ansi_strip(conditionMessage(err)), "subject S2", fixed = TRUE)
+  # curves on their own times: the same, by id
+  own <- do.call(rbind, lapply(c("S1", "S2", "S3"), function(id) {
+    tt <- sort(c(0, stats::runif(14), 1))
+    data.frame(subject = id, t = tt, y = sin(tt))
+  }))
+  own$y[own$subject == "S3"][3] <- NaN
+  err <- expect_error(field_runs(own, t = "t", y = "y", replicate = "subject"), class = "wavevalid_error_input")
+  expect_match(cli::ansi_strip(conditionMessage(err)), "subject S3", fixed = TRUE)
+  # without an id column, by position
+  err <- expect_error(field_runs(rbind(sin(t), c(NA, sin(t[-1]))), t), class = "wavevalid_error_input")
+  expect_match(cli::ansi_strip(conditionMessage(err)), "replicate 2", fixed = TRUE)
+})
