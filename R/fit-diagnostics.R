@@ -160,13 +160,16 @@ input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5, pr
     b <- bd[bd$input == nm, ]
     share <- if (side == "upper") b$near_upper else b$near_lower
     prior_share <- if (side == "upper") b$prior_near_upper else b$prior_near_lower
-    judged <- s > 0 && !(nm %in% held) &&
+    condition <- nm %in% iu_conditions(fit$iu)
+    judged <- s > 0 && !(nm %in% held) && !condition &&
       (fit$prior_iu$upper[k] - fit$prior_iu$lower[k]) > 1e-4 * max(abs(fit$prior_iu$upper[k]), 1)
     far <- judged && tail < alpha / (2 * p)
     beyond <- bound_overshoot(if (side == "upper") b$upper - x else x - b$lower)
     piled <- judged && share >= majority && share >= 4 * prior_share && beyond >= stats::qnorm(1 - alpha / (2 * p))
-    data.frame(input = nm, type = fit$prior_iu$type[k], median = med, prior_mean = mu, prior_sd = s,
-               prior_sds = if (s > 0) (med - mu) / s else 0, side = side, prior_tail = tail,
+    # a test condition is known, held at its value: no prior to be far from
+    data.frame(input = nm, type = if (condition) "condition" else fit$prior_iu$type[k], median = med,
+               prior_mean = mu, prior_sd = if (condition) NA_real_ else s,
+               prior_sds = if (condition) NA_real_ else if (s > 0) (med - mu) / s else 0, side = side, prior_tail = tail,
                share_at_bound = share, prior_share_at_bound = prior_share, beyond_bound_sd = beyond, far = far,
                piled = piled, conflict = far || piled, stringsAsFactors = FALSE)
   }))

@@ -57,6 +57,12 @@ test_that("the condition path gives the same draws as experiment(change =) with 
   expect_output(print(s$fit), "x1   condition")
   expect_output(print(s$fit), "none: a condition, known")
   expect_false(any(boundary_check_flags <- s$fit$flags$boundary$input == "x1"))
+  # a condition has no prior: the conflicts table names it a condition, with no distance and no conflict
+  cf <- input_conflicts(s$fit)
+  expect_identical(cf$type[cf$input == "x1"], "condition")
+  expect_true(is.na(cf$prior_sds[cf$input == "x1"]) && is.na(cf$prior_sd[cf$input == "x1"]))
+  expect_false(cf$conflict[cf$input == "x1"])
+  expect_identical(cf$type[cf$input == "u1"], "calibration")
 })
 
 test_that("bad conditions are classed errors naming the fix", {
