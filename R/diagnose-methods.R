@@ -3,6 +3,11 @@
 
 #' @export
 print.wv_fails <- function(x, ...) {
+  um <- attr(x, "unmixed")
+  if (length(um)) {
+    cli::cat_line(sprintf("The chains did not mix (R-hat %s, above 1.1): what follows is not to be trusted. Draw more (sampler_control(max_draws = )), narrow the input's prior or reparametrise it, and validate again.",
+                          paste(sprintf("%s %.2f", names(um), um), collapse = ", ")))
+  }
   cli::cat_line(top_finding(x))
   lev <- attr(x, "level")
   tol <- attr(x, "tolerance")

@@ -182,7 +182,9 @@
 #'   bias's root mean square as fitted and held), and `timing` (for a fit
 #'   registered by [validate()], one row per landmark: `site`, `window`,
 #'   `feature`, the `field` and `model` times, the `shift` field less model
-#'   with its interval `lower`, `upper`, `flagged`, `size` and `credible`).
+#'   with its interval `lower`, `upper`, `flagged`, `size` and `credible`),
+#'   and `unmixed` (the R-hat, above 1.1, of each input whose chains did not
+#'   mix; the print then leads with it, and the report gives no verdict).
 #'   `as.data.frame()` gives the table as a plain data frame, with a column
 #'   `covered_by` (the inputs of the `"held"` rows) when inputs were held.
 #' @export
@@ -276,7 +278,7 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
               tolerance = tol, credible = credible_with_misfit(credible_bias(b, gap), mc), pooled_level0 = 0 %in% fit$settings$pool_levels,
               experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held, timing = tm,
-              misfit = mc)
+              misfit = mc, unmixed = unmixed_inputs(list(fit = fit))$fit)
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out

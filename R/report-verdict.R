@@ -17,7 +17,11 @@ report_verdict <- function(fit, fails, tolerance, expl = NULL, comparison = NULL
   n <- nrow(fails)
   level <- sprintf("%g%%", 100 * (attr(fails, "level") %||% 0.9))
   doubts <- adequacy_doubts(fails, expl)
-  adequacy <- if (!n && length(doubts)) {
+  unmixed <- unmixed_inputs(list(fit = fit))$fit
+  adequacy <- if (length(unmixed)) {
+    sprintf("**Not judged**: the chains did not mix (R-hat %s, above 1.1), so neither the bias nor the inputs can be read off them; no verdict of adequacy is given. Draw more (`sampler_control(max_draws = )`), give the input a narrower prior, or reparametrise it, then validate again.",
+            paste(sprintf("%s %s", names(unmixed), format(round(unmixed, 2), nsmall = 2)), collapse = ", "))
+  } else if (!n && length(doubts)) {
     sprintf("**Not shown adequate**: the %s band of the bias %s, but other readings of the same fit disagree: %s. The verdict rests on them: a wrong model whose misfit the noise, an input or the bias prior's shrinkage took up looks like this.",
             level, if (all(tol == 0)) "holds zero everywhere" else sprintf("lies beyond the tolerance %s nowhere", tol_text),
             paste(doubts, collapse = "; "))

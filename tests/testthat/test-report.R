@@ -235,3 +235,18 @@ test_that("with proposals the report lists the proposed term among the findings 
   expect_true(grepl(">\\s*term\\s*</td>", between(html, "Where the model fails</h2>", "Proposed terms</h2>"), perl = TRUE))
   expect_error(validation_report(example_fit(2), file, proposals = pr), class = "wavevalid_error_input")
 })
+
+test_that("from chains that did not mix, no verdict: the report and where_fails() lead with it", {
+  fit <- example_fit()
+  wide <- where_fails(fit, tolerance = 1)
+  expect_match(report_verdict(fit, wide, 1)[1], "Adequate for the tolerance 1", fixed = TRUE)
+  expect_null(attr(wide, "unmixed"))
+  unmixed <- fit_set(fit, rhat = replace(fit$rhat, "u1", 1.24))
+  wf <- where_fails(unmixed, tolerance = 1)
+  expect_equal(attr(wf, "unmixed"), c(u1 = 1.24))
+  v <- report_verdict(unmixed, wf, 1)
+  expect_match(v[1], "**Not judged**: the chains did not mix (R-hat u1 1.24", fixed = TRUE)
+  expect_false(any(grepl("Adequate", v, fixed = TRUE)))
+  out <- capture.output(print(wf))
+  expect_match(out[1], "The chains did not mix (R-hat u1 1.24, above 1.1)", fixed = TRUE)
+})
