@@ -110,7 +110,28 @@ mutants <- list(
   list(name = "autoplot_trace_first_chain", file = "R/report-fit.R",
        pattern = "d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {",
        replacement = "d <- do.call(rbind, lapply(1L, function(ch) {",
-       test = "test-calibrate.R", what = "the trace plot draws only the first chain")
+       test = "test-calibrate.R", what = "the trace plot draws only the first chain"),
+  list(name = "explain_spanned_kept", file = "R/explain-candidates.R",
+       pattern = "out[j] <- sqrt(sum(r^2)) < 1e-6 * size", replacement = "out[j] <- FALSE",
+       test = "test-explain.R", what = "a candidate the shifts span is regressed (a singular system)"),
+  list(name = "report_verdict_from_unmixed", file = "R/report-verdict.R",
+       pattern = "unmixed <- unmixed_inputs(list(fit = fit))$fit", replacement = "unmixed <- NULL",
+       test = "test-report.R", what = "the report gives a verdict from chains that did not mix"),
+  list(name = "design_conditions_ignored", file = "R/inputs-design.R",
+       pattern = "for (nm in names(conditions)) d[, nm] <- runs_at_values(d[, nm], conditions[[nm]])",
+       replacement = "NULL", test = "test-conditions.R", what = "design_maximin() places no run at the tested conditions"),
+  list(name = "reach_is_the_range", file = "R/experiments.R",
+       pattern = "reach <- apply(des, 2L, design_gap)", replacement = "reach <- 0 * rng[1L, ]",
+       test = "test-conditions.R", what = "a condition a hair beyond the runs is refused"),
+  list(name = "base_field_is_an_experiment", file = "R/experiments.R",
+       pattern = "if (is.null(base)) return(out)", replacement = "return(out)",
+       test = "test-conditions.R", what = "experiments_at(base =) makes the base condition an experiment"),
+  list(name = "condition_given_a_prior_distance", file = "R/fit-diagnostics.R",
+       pattern = "condition <- nm %in% iu_conditions(fit$iu)", replacement = "condition <- FALSE",
+       test = "test-conditions.R", what = "a test condition is given a distance in prior sds"),
+  list(name = "ids_not_in_messages", file = "R/data-field.R",
+       pattern = "if (!is.null(replicate)) labels <- lapply(long$ids, function(v) paste(replicate, v))",
+       replacement = "NULL", test = "test-curves-input.R", what = "messages name curves by position, not the user's ids")
 )
 
 # --- machinery ---------------------------------------------------------------
