@@ -45,7 +45,9 @@ test_that("validate() with an experiment on the suspension test bed makes a fit 
   expect_declared_fit(fit)
   expect_false(is.null(fit$experiments))
   expect_true(all(fit$experiments$site %in% names(fit$wb)))
-  expect_false(is.null(fit$call_args))
+  expect_false(is.null(fit$pipeline))
+  expect_null(fit$call_args)
+  expect_identical(names(fit$control), c("registration", "emulation", "bias", "sampler"))
   expect_s3_class(fit$timing, "data.frame")
 })
 
