@@ -60,6 +60,7 @@ $(TARBALL): deps
 	$(RMAKE) $(R) CMD build .
 
 test: $(TARBALL)
+	$(RSCRIPT) tools/graph.R R > .graph.txt || { cat .graph.txt; echo "R/: files or modules call each other (tools/graph.R)"; exit 1; }
 	$(RMAKE) NOT_CRAN=true WAVEVALID_SLOW_TESTS=false _R_CHECK_FORCE_SUGGESTS_=false $(R) CMD check --no-manual --no-vignettes --install-args=--strip $(TARBALL)
 	@mkdir -p .test-counts && $(RSCRIPT) tools/test-summary.R $(PKG).Rcheck/tests/testthat.Rout .test-counts/default.txt
 

@@ -194,19 +194,6 @@ holdout_verdict <- function(ratio) {
   else if (m$lower > verdict_margin) "worse" else "no clear change"
 }
 
-# The inputs whose chains did not mix (R-hat above 1.1, as the fit's print
-# flags them), by fit: a named list of the fits that have any; empty when
-# all mixed (or ran one chain).
-unmixed_inputs <- function(fits) {
-  out <- lapply(fits, function(f) {
-    r <- f$rhat
-    if (is.null(r)) return(NULL)
-    r <- r[is.finite(r) & r > 1.1]
-    if (length(r)) r
-  })
-  Filter(Negate(is.null), out)
-}
-
 # The verdict's margin: a change is judged to help (or to harm) only when
 # the model alone's held-out error moves by more than this factor credibly,
 # and the bias-corrected prediction may not be credibly worse by more than

@@ -220,3 +220,16 @@ conflict_text <- function(cf) {
             format(round(r$prior_sds, 1), nsmall = 1), format(signif(r$prior_mean, 3)))
   }, character(1))
 }
+
+# The inputs whose chains did not mix (R-hat above 1.1, as the fit's print
+# flags them), by fit: a named list of the fits that have any; empty when
+# all mixed (or ran one chain).
+unmixed_inputs <- function(fits) {
+  out <- lapply(fits, function(f) {
+    r <- f$rhat
+    if (is.null(r)) return(NULL)
+    r <- r[is.finite(r) & r > 1.1]
+    if (length(r)) r
+  })
+  Filter(Negate(is.null), out)
+}

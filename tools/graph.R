@@ -3,7 +3,8 @@
 # (files that reach each other), then the files in layers: layer 0 calls no
 # other file, layer k only files of lower layers.
 #   Rscript tools/graph.R [R directory]
-# Exits with status 1 when there is a circle.
+# Exits with status 1 when there is a circle, or two modules (a file's prefix:
+# data-field.R is in "data") call each other.
 dir <- if (length(commandArgs(TRUE))) commandArgs(TRUE)[1] else "R"
 files <- sort(list.files(dir, pattern = "[.]R$", full.names = TRUE))
 # The functions an expression calls: names in call position, and names passed
@@ -104,9 +105,11 @@ medges <- unique(data.frame(from = module(edges$from), to = module(edges$to)))
 medges <- medges[medges$from != medges$to, ]
 mods <- sort(unique(module(nodes)))
 cat(sprintf("Modules (%d), each with the modules it calls:\n", length(mods)))
+calls_back <- FALSE
 for (m in mods) {
   to <- sort(medges$to[medges$from == m])
   back <- to[vapply(to, function(o) any(medges$from == o & medges$to == m), logical(1))]
+  calls_back <- calls_back || length(back) > 0L
   cat(sprintf("  %-12s %s%s\n", m, paste(to, collapse = ", "),
               if (length(back)) paste0("   (calls back: ", paste(back, collapse = ", "), ")") else ""))
 }
@@ -116,4 +119,4 @@ cat(sprintf("  %-28s %-22s %4d\n", top$fun, top$file, top$lines), sep = "")
 cat("Longest argument lists:\n")
 top <- sizes[order(-sizes$args), ][1:5, ]
 cat(sprintf("  %-28s %-22s %4d\n", top$fun, top$file, top$args), sep = "")
-quit(status = if (length(circles)) 1L else 0L)
+quit(status = if (length(circles) || calls_back) 1L else 0L)
