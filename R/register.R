@@ -6,60 +6,50 @@
 #' quoted below are in `studies/README.md` in the package's source
 #' repository, "registration.R" unless stated.
 #'
-#' In each window the landmarks are the location of the minimum and of the
-#' maximum (or only one of them, see `features`) of the reference curve and of
-#' each replicate, ordered by time, at a grid point (as in the report) or,
-#' with `refine = TRUE`, between grid points: the vertex of the parabola
-#' through the extreme grid value and its two neighbours. An event that is a
-#' monotone change (a shock's rise, a step) has no extremum in its window;
-#' `features` then names landmarks of its shape:
-#' * `"rise"` and `"fall"`: the steepest rise and fall, the grid point of the
-#'   largest (most negative) central difference; with `refine = TRUE`, the
-#'   vertex of the parabola through it and its neighbours;
-#' * `"cross"`: the first crossing, either way, of `cross_value` if given,
-#'   else of the value `cross_fraction` of the way from the curve's smallest
-#'   to its largest value in the window (so a replicate of another amplitude
-#'   is cut at the same stage of its rise): the first grid point past it, or
-#'   with `refine = TRUE` the linear crossing. A curve that does not cross is
-#'   refused.
+#' In each window the landmarks are the minimum and the maximum (or one of
+#' them, see `features`) of the reference and of each replicate, ordered by
+#' time, at a grid point (as in the report) or, with `refine = TRUE`, at the
+#' vertex of the parabola through the extreme grid value and its neighbours.
+#' An event that is a monotone change (a shock's rise, a step) has no
+#' extremum; `features` then names landmarks of its shape: `"rise"` and
+#' `"fall"`, the steepest rise and fall (largest central difference, refined
+#' likewise), and `"cross"`, the first crossing of `cross_value`, or of the
+#' value `cross_fraction` of the way from the curve's smallest to its largest
+#' value in the window, so that a replicate of another amplitude is cut at
+#' the same stage (refined by linear interpolation; a curve that does not
+#' cross is refused).
 #'
 #' Near a sharp event a landmark off by a fraction of a grid step misaligns
 #' the steep flanks; the refinement removes most of that error (more than an
-#' order of magnitude on the suspension test bed). The replicates then also
-#' agree more closely, so their field variance is smaller and differences of
-#' shape from the reference weigh more. The warp maps a replicate's landmarks
-#' onto the reference's, is linear in between and keeps the grid's ends
-#' fixed; the registered curve is the replicate at the inverse warp of the
-#' grid (linear interpolation).
-#'
-#' The time jitter of a field test belongs to the test run, not the site, so
-#' by default a replicate's landmarks are found on one site (`landmark_site`)
-#' and its warp applied to every site; `landmark_site = NULL` registers each
-#' site on its own.
+#' order of magnitude on the suspension test bed), and the replicates then
+#' agree more closely, so differences of shape from the reference weigh more.
+#' The warp maps a replicate's landmarks onto the reference's, is linear in
+#' between and keeps the grid's ends fixed; the registered curve is the
+#' replicate at the inverse warp of the grid (linear interpolation). The time
+#' jitter of a field test belongs to the test run, not the site, so by
+#' default a replicate's landmarks are found on one site (`landmark_site`)
+#' and its warp applied to every site.
 #'
 #' With `knots_every`, beyond the method's report, the warp gets further
-#' knots, one every `knots_every` time units outside the event windows, each
-#' placed by least squares between the registered replicate and the
-#' reference outside the windows (a grid search over a tenth of `knots_every`
-#' either side, then a one-dimensional refinement; two sweeps), so that small
-#' features between the events (road roughness) line up. Data inside the
-#' windows never move a knot, so a difference of shape at an event cannot be
-#' taken for a time shift. Where the system rings freely after an event, the
-#' mean of runs at many inputs is blurred there; `knots_to = "replicates"`
+#' knots every `knots_every` time units outside the event windows, each
+#' placed by least squares against the reference outside the windows (a grid
+#' search over a tenth of `knots_every` either side, then a one-dimensional
+#' refinement; two sweeps), so that small features between the events line
+#' up; data inside the windows never move a knot, so a difference of shape
+#' at an event is not taken for a time shift. Where the system rings freely
+#' after an event the runs' mean is blurred, and `knots_to = "replicates"`
 #' places the knots against the replicates' own consensus instead (two
-#' rounds, displacements centred to average zero at each knot), the landmarks
-#' alone tying them to the model's time. On the suspension test bed that
-#' placed the knots closer to the truth but made the diagnosis less reliable.
+#' rounds, displacements centred at each knot): closer to the truth on the
+#' suspension test bed, but the diagnosis was less reliable.
 #'
 #' A window that is not an increasing pair of times, falls outside the grid
 #' or overlaps another is refused (class `wavevalid_error_input`). When a
-#' replicate's landmarks in a window come in another order than the
-#' reference's (a change of shape at the event, as when a tire leaves the
-#' ground), a warp through all of them would fold time: that window is
-#' registered on the largest set of its landmarks that keep the order,
+#' replicate's landmarks come in another order than the reference's (a
+#' change of shape at the event, as when a tire leaves the ground), that
+#' window is registered on the largest set of landmarks that keep the order,
 #' nearest the reference's times, the others listed in the attribute
 #' `left_out` of the warps, with a warning (class
-#' `wavevalid_warning_landmarks`). The shape that differs stays in the
+#' `wavevalid_warning_landmarks`); the shape that differs stays in the
 #' registered curves, where the bias can show it.
 #'
 #' @param field A `wv_field` object, or a `wv_runs` object to register the
