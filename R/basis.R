@@ -337,9 +337,9 @@ interval_wd <- function(y, settings) {
 }
 
 # Column j: the curve whose only non-zero coefficient is index[j], equal to one.
-# On the interval, one inverse transform per column. In the periodic transform the k-th wavelet of detail level l is the first
-# one circularly shifted by (k - 1) T / 2^l points, so one inverse transform
-# per level suffices.
+# On the interval, one inverse transform per column. In the periodic transform
+# the k-th wavelet of detail level l is the first one circularly shifted by
+# (k - 1) T / 2^l points, so one inverse transform per level suffices.
 basis_matrix <- function(index, settings) {
   n <- settings$n_t
   if (identical(settings$boundary, "interval")) {

@@ -119,9 +119,57 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' posterior it is. The seed stays an argument of [calibrate()] and
 #' [validate()].
 #'
+#' @section Proposals:
+#' `proposal = "report"` is the sampler of the report (Appendix C): each cycle
+#' is a joint log-uniform step on every `tau2` (factor `e^0.7`) and a joint
+#' step on every input, each coordinate from a 50/50 mixture of a uniform on
+#' its support and a uniform on `current +/- step * range`, with the mixture
+#' densities in the Hastings ratio. These joint moves are almost never
+#' accepted when the posterior is narrow (many coefficients, several
+#' replicates), and the chains then stay where they start.
+#'
+#' `proposal = "adaptive"` (the default) departs from the report: each `tau2`
+#' group is updated on its own (no emulator prediction needed); the inputs
+#' move by a Gaussian random walk whose covariance is learned during the
+#' burn-in (adaptive Metropolis, Haario, Saksman and Tamminen 2001),
+#' `(2.38^2 / d) (Sigma_hat + eps)` times a scale tuned towards acceptance
+#' 0.234, from a diagonal of 2\% of each range; proposals outside the support
+#' are rejected. The burn-in starts from the best, by profile likelihood, of
+#' the nominal point and `n_search` draws from the inputs' prior, is not
+#' saved, and ends with the proposal frozen, so the saved chain is a
+#' time-homogeneous Metropolis-Hastings chain. A tenth of the cycles use the
+#' report's mixture step, for global moves.
+#'
+#' With `global_moves > 0`, that share of the cycles instead makes an
+#' independence move: a multivariate t (4 degrees of freedom) with the mean
+#' and covariance of the second half of the burn-in (weight 0.8), or the
+#' uniform on the inputs' box (weight 0.2). Where the posterior is close to
+#' that t the chains need fewer cycles per effective sample; where it is a
+#' curved ridge or has several modes the move is rarely accepted and costs
+#' random-walk steps. It helped on the test beds and not on the flyer plate
+#' of [load_flyer()] (`studies/README.md` in the package's source repository,
+#' "The sampler's independence moves"), hence it is not the default.
+#' `fit$acceptance$global` and the print give its acceptance; a burn-in of
+#' fewer than `40 d` cycles leaves too few points, and the report's step is
+#' used.
+#'
+#' @section Stopping:
+#' With `n_draws = NULL` (default) the chains stop when every input's
+#' effective sample size, all chains together, is at least `ess` and, with two
+#' chains or more, its R-hat at most `rhat`, or at `max_draws` draws per chain
+#' with a warning. The chains first run `ess / chains` draws each after a
+#' burn-in sized to them; while a target is unmet, every chain continues from
+#' where it stopped (the draws are those of the same chain run at once) by the
+#' draws the slowest input's ESS says are missing, a fifth more, or twice its
+#' draws while R-hat is above target. The print of the fit says where and why
+#' the chains stopped, and the slowest input's effective draws per second. On
+#' both test beds the chains stopped after two rounds, several times sooner
+#' than the former fixed 1000 draws of 200 cycles, with the same findings
+#' (`studies/README.md`, "stopping.R").
+#'
 #' @param n_draws Draws saved per chain: a number for chains of that
 #'   length, or `NULL` (default) for chains that stop when they have enough
-#'   (`ess`, `rhat`, `max_draws`; see the section Stopping of [calibrate()]).
+#'   (`ess`, `rhat`, `max_draws`; see the section Stopping).
 #' @param n_inner Metropolis-Hastings cycles between saved draws (the
 #'   thinning, default 50); `sigma2` is drawn anew every `n_inner` cycles.
 #'   On both test beds, with the chains stopping at 400 effective draws, a
@@ -138,7 +186,7 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' @param step Half-width of the local proposal as a fraction of each input's
 #'   range (the method's 0.05 on a coded range of about 0.5-0.75).
 #' @param proposal `"adaptive"` (default) or `"report"`; see the section
-#'   Proposals of [calibrate()].
+#'   Proposals.
 #' @param global_moves Probability, in `[0, 1)`, that a cycle of the
 #'   `"adaptive"` sampler makes an independence move; 0 (default) keeps the
 #'   report's mixture step as the global move, in a tenth of the cycles.

@@ -127,7 +127,8 @@ field_noise <- function(field, basis) {
 #' ex <- example_problem()
 #' one <- ex$field
 #' one$curves$site1 <- one$curves$site1[1, , drop = FALSE]
-#' fit <- calibrate(ex$emulators, one, ex$iu, chains = 1, seed = 1, bias = bias_control(sigma2 = noise_prior()),
+#' fit <- calibrate(ex$emulators, one, ex$iu, chains = 1, seed = 1,
+#'                  bias = bias_control(sigma2 = noise_prior()),
 #'                  sampler = sampler_control(n_draws = 50, n_inner = 10, quiet = TRUE))
 #' fit$noise_setting
 noise_prior <- function(scale = NULL, family = c("half-cauchy", "half-normal")) {

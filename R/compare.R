@@ -56,69 +56,49 @@
 #'   the resampling.
 #' @inheritParams bands
 #' @return A `wv_comparison` data frame with columns `metric`, `before`,
-#'   `after`, `change` (relative change, after / before - 1) and rows
-#'   `bias_rms` (root mean square of the posterior mean bias over sites and
-#'   time), `bias_rms_local` and `bias_rms_record` (the same for its localised
-#'   part and for its record-wide part, the levels whose functions span the
-#'   whole record, as [where_fails()] splits them: `bias_rms` squared is the
-#'   sum of their squares), `bias_peak`, `band_width`, `model_rmse`
-#'   (pure-model prediction against the mean of the fitted field data, net
-#'   of the registration's shifts at their posterior mean) and,
-#'   `inputs_in_conflict` (inputs in conflict with their prior, as
-#'   [where_fails()] judges them: an input that mimics a missing effect) and,
-#'   with a holdout, `holdout_rmse` (the bias-corrected prediction),
-#'   `holdout_rmse_model` (the model alone, the prediction's `model` column)
-#'   and `holdout_coverage`. With a holdout, the attribute `holdout_ratio` is
-#'   a data frame with rows `model` and `corrected` and columns `prediction`,
-#'   `ratio` (after / before of the held-out RMSE at the posterior mean
-#'   predictions on the data as observed), `lower` and `upper` (its 90%
-#'   interval over the paired resamples); its attributes `resampling`
-#'   (`"replicates"`, `"moving_block"` or `"mixed"`), `block` (the block
-#'   length in time points), `n_boot` and `n_draws` (the posterior draws
-#'   paired), `n_curves` and `n_blocks` (the held-out curves and the blocks
-#'   they hold in all). The attribute `holdout_field` holds the held-out
-#'   field data as each model was graded against them (`before`, `after`:
-#'   one registered field for an experiment). The attribute `same_field`
-#'   says whether the two fits hold the same registered field data, and
-#'   `unmixed` names, by fit, the inputs whose R-hat is above 1.1. The
-#'   attribute `verdict` is `"helped"`, `"worse"`, `"no clear change"` or
-#'   `"not judged"` (`NA` without a holdout).
+#'   `after`, `change` (after / before - 1) and rows `bias_rms` (root mean
+#'   square of the posterior mean bias over sites and time),
+#'   `bias_rms_local` and `bias_rms_record` (its localised and record-wide
+#'   parts, as [where_fails()] splits them; their squares sum to `bias_rms`
+#'   squared), `bias_peak`, `band_width`, `model_rmse` (the model alone
+#'   against the fitted field mean, net of the registration's shifts),
+#'   `inputs_in_conflict` (as [where_fails()] judges them) and, with a
+#'   holdout, `holdout_rmse` (the bias-corrected prediction),
+#'   `holdout_rmse_model` (the model alone) and `holdout_coverage`.
+#'   Attributes: `holdout_ratio` (rows `model` and `corrected`, columns
+#'   `prediction`, `ratio` after / before of the held-out RMSE, `lower` and
+#'   `upper` of its 90% interval over the paired resamples; with attributes
+#'   `resampling`, `block`, `n_boot`, `n_draws`, `n_curves`, `n_blocks`),
+#'   `holdout_field` (the held-out data as each model was graded against),
+#'   `same_field` (whether both fits hold the same registered field),
+#'   `unmixed` (by fit, inputs with R-hat above 1.1) and `verdict`
+#'   (`"helped"`, `"worse"`, `"no clear change"`, `"not judged"`, or `NA`
+#'   without a holdout).
 #'
 #' @section The verdict:
 #' The print ends with a verdict: whether the conflicts were resolved and,
 #' with a holdout, whether the change helped at the held-out condition, where
-#' an input that absorbs the missing effect cannot fake an improvement. The
-#' rule is a paired comparison. Each of `n_boot` resamples takes one
-#' posterior draw index h (draw h of `before` and draw h of `after`) and one
-#' resample of the held-out data, the same for both models: its replicates
-#' drawn with replacement when a site has two or more, and within each
-#' drawn curve a moving-block bootstrap over time of its residuals about
-#' each model's bias-corrected mean prediction, in blocks of
-#' `ceiling(sqrt(T))` time points (T the grid's length), so that one or two
-#' held-out curves still give a verdict the record can support. When the
-#' held-out data hold fewer than 20 such blocks in all, the print says they
-#' are too few to judge firmly. For each it computes the ratio after /
-#' before of the held-out RMSE of the model alone and of the bias-corrected
-#' prediction. The change **helped** when the model-alone ratio's 90%
-#' interval lies below 1 / 1.05 (the error credibly falls by more than a
-#' margin of 5%) and the bias-corrected ratio's lower limit is not above
-#' 1.05 (not credibly worse by more than the margin); it is **worse** when
-#' the model-alone ratio's lower limit is above 1.05; otherwise there is
-#' **no clear change**: the fall or rise is within what the held-out data's
-#' noise and the predictions' uncertainty produce, or within the margin.
-#' When the chains of either fit did not mix (an input's R-hat above 1.1),
-#' the verdict is **not judged**: their draws do not yet describe the
-#' posterior; the print names the inputs (attribute `unmixed`). An
-#' effect that is not the missing one can take up a little of the misfit
-#' and lower the held-out error by a few per cent; on the package's test
-#' beds most such decoys moved the noise-free error of the model alone by
-#' factors of 0.92 to 1.13, and without the margin two of ten were called
-#' "helped"
-#' (`studies/README.md` in the package's source repository,
-#' "yardstick.R"). Predictions given by the user without
-#' draws contribute only the data's resampling. When the bias grows but its
-#' localised part falls, the print says so: the calibrated inputs can trade
-#' an offset of the whole record against the events.
+#' an input that absorbs the missing effect cannot fake an improvement. Each
+#' of `n_boot` paired resamples takes one posterior draw index h of both fits
+#' and one resample of the held-out data, the same for both: replicates drawn
+#' with replacement when a site has two or more, and within each curve a
+#' moving-block bootstrap of its residuals about each model's bias-corrected
+#' mean, in blocks of `ceiling(sqrt(T))` points, so that one or two held-out
+#' curves still give a verdict (under 20 blocks in all, the print says they
+#' are too few to judge firmly). The ratios after / before of the held-out
+#' RMSE of the model alone and of the bias-corrected prediction decide:
+#' **helped** when the model-alone ratio's 90% interval lies below 1 / 1.05
+#' and the bias-corrected ratio's lower limit is not above 1.05; **worse**
+#' when the model-alone ratio's lower limit is above 1.05; else **no clear
+#' change**. When either fit's chains did not mix (an input's R-hat above
+#' 1.1, attribute `unmixed`) the verdict is **not judged**. The 5% margin is
+#' there because a decoy effect can take up a little of the misfit: on the
+#' test beds, without it, two decoys of ten were called "helped"
+#' (`studies/README.md` in the package's source repository, "yardstick.R").
+#' Predictions given without draws contribute only the data's resampling.
+#' When the bias grows but its localised part falls, the print says so: the
+#' calibrated inputs can trade an offset of the whole record against the
+#' events.
 #' @export
 #' @examples
 #' before <- example_fit()
@@ -127,7 +107,8 @@
 #' # with update(before, runs = , iu = ) (see
 #' # vignette("missing-effect", package = "wavevalid")); here the same model
 #' # with the bias variances held small, to show the layout
-#' after <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1, bias = bias_control(fix_tau2 = 1e-4),
+#' after <- calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 1,
+#'                    bias = bias_control(fix_tau2 = 1e-4),
 #'                    sampler = sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE))
 #' cmp <- compare_validations(before, after)
 #' cmp
@@ -137,7 +118,8 @@
 #' # are the fitted ones moved by the model's own change, for the layout)
 #' moved <- ex$field
 #' moved$curves$site1 <- sweep(moved$curves$site1, 2, 0.1 * sin(2 * pi * moved$t), `+`)
-#' cmp_held <- compare_validations(before, after, holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
+#' cmp_held <- compare_validations(before, after,
+#'                                 holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
 #' cmp_held
 #' autoplot(cmp_held, type = "holdout")
 compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_boot = 1000, seed = NULL) {

@@ -13,54 +13,40 @@
 #'
 #' @section Noise evidence kept from the measurements:
 #' A measured curve on its own grid holds evidence of the measurement noise
-#' that the interpolated curve loses, and `field_runs()` keeps it for the
-#' noise learned with one replicate ([noise_prior()], the default in
-#' [calibrate()] with one replicate):
-#' * **Repeated time stamps.** `t` may repeat a time stamp (a velocimeter
-#'   that records some times twice). The values at one time stamp are
-#'   averaged; their scatter about their mean, a sum of squares `ss` with
-#'   `df` degrees of freedom (the number of values less the number of
-#'   distinct stamps, summed over replicates), is independent of the averaged
-#'   curve and enters the likelihood of the noise variance `sigma2` of one
+#' that the interpolated curve loses; `field_runs()` keeps it for the noise
+#' learned with one replicate ([noise_prior()], the default in [calibrate()]
+#' with one replicate):
+#' * **Repeated time stamps.** Values at one repeated stamp are averaged; their
+#'   scatter, a sum of squares `ss` on `df` degrees of freedom (values less
+#'   distinct stamps), enters the likelihood of the variance `sigma2` of one
 #'   measurement as `ss / sigma2 ~ chi^2_df`.
-#' * **The detail of the measured curve.** The noise standard deviation is
-#'   estimated on the distinct time stamps before interpolation, from each
-#'   point's deviation from the straight line through its two neighbours
-#'   (the difference-based estimate of Gasser, Sroka and Jennen-Steinmetz,
-#'   1986, made robust by the median absolute deviation). It is the default
-#'   scale of [noise_prior()] for the site, and the deviations themselves
-#'   (their squares capped at 3 of those sds) enter the likelihood of
-#'   `sigma2` as `detail_ss / sigma2 ~ chi^2_detail_df`, `detail_df` the
-#'   effective degrees of freedom of the correlated deviations (about
-#'   (stamps - 2) / 1.94): the curve's own points are data on its noise.
-#' * **The resampling.** Averaging and interpolation turn white measurement
-#'   noise of variance `sigma2` into noise of known covariance on the grid:
-#'   [calibrate()] gives each retained wavelet coefficient its own noise
-#'   variance, `sigma2` times the diagonal of that covariance carried through
-#'   the basis (an interpolated curve's finest coefficients hold little of
-#'   the noise; its coarse ones hold more than `sigma2`). Correlations between
-#'   coefficients are left out, and so is the resampling of a later
-#'   registration ([register_curves()]).
+#' * **The detail of the measured curve.** The noise sd is estimated on the
+#'   distinct stamps before interpolation from each point's deviation from the
+#'   line through its neighbours (Gasser, Sroka and Jennen-Steinmetz 1986, made
+#'   robust by the median absolute deviation): the default scale of
+#'   [noise_prior()] for the site. The deviations (their squares capped at 3
+#'   sds) also enter as `detail_ss / sigma2 ~ chi^2_detail_df`, `detail_df`
+#'   about (stamps - 2) / 1.94 for their correlation.
+#' * **The resampling.** Averaging and interpolation give white noise a known
+#'   covariance on the grid; [calibrate()] gives each retained coefficient
+#'   `sigma2` times the diagonal of that covariance carried through the basis
+#'   (correlations between coefficients, and a later registration's
+#'   resampling, are left out).
 #'
 #' On a dyadic `t` without repeated stamps there is nothing to keep: the
-#' noise is then learned from the curve on its own grid, as in the method
-#' (unless the curve was interpolated before it came in, below).
+#' noise is learned from the curve on its own grid, as in the method.
 #'
 #' @section Curves each on their own times:
 #' Give `t` as a list by site, each element a vector (every replicate of the
 #' site on it) or a list with one vector per replicate, and `curves` as a list
 #' by site of vectors (one replicate), lists of vectors (one per replicate,
-#' of any lengths) or matrices. Each curve keeps its own noise evidence, as
-#' above, on its own times: the scatter of its repeated stamps (summed over
-#' the site's curves), its difference-based sd (averaged over them), the
-#' chi-square evidence of its deviations (summed over them) and its
-#' resampling onto the grid (each coefficient's noise multiplier averaged over
-#' the replicates, the noise of their mean). The curves then go onto the grid
-#' by linear interpolation: `grid` when given (it must lie within every
-#' curve's times up to one step of that curve), else 2^k equally spaced
-#' points on the range that every curve covers, 2^k the next power of two of
-#' the most times of any curve. To put them on the model runs' grid, give
-#' `grid = runs$t`. When every curve has the same times, the result is that
+#' of any lengths) or matrices. Each curve keeps its own noise evidence on its
+#' own times (scatter and deviations summed over the site's curves, sd
+#' averaged, resampling averaged as the noise of their mean). The curves go
+#' onto `grid` when given (within every curve's times up to one of its
+#' steps; `grid = runs$t` for the model runs' grid), else onto 2^k equally
+#' spaced points on the range every curve covers, 2^k the next power of two
+#' of the most times of any curve. Curves on the same times give the result
 #' of the one-`t` form.
 #'
 #' @section Long data frames:
@@ -76,33 +62,24 @@
 #' distinct times, or times out of order, one of class `wavevalid_error_stamps`.
 #'
 #' @section A curve interpolated before it came in:
-#' A curve that someone linearly interpolated onto a grid (from digitised or
-#' sparse measurements) is a straight line between the measured points: its
-#' finest wavelet details hold nothing, and a noise learned from them is
-#' close to zero. `field_runs()` reads a curve as interpolated when, at 5% of
-#' its inner points and at least 3, it lies on the line through its two
-#' neighbours within 1e-9 of its largest value while rising or falling by
-#' more than 1e-6 of it (a flat stretch, a measured baseline, is not taken as
-#' evidence; measured noise never puts three values exactly on a line). It
-#' then says so (a message of class `wavevalid_message_interpolated`) and
-#' finds the points that were measured: where two linear pieces meet, the
-#' breakpoint they share or the crossing of their lines. These points are
-#' the curve's own time stamps for the noise evidence above (its
-#' difference-based sd, the prior scale of [noise_prior()], the deviations of
-#' the points found exactly as data on the noise, and its resampling onto
-#' the grid). They are found exactly when the grid has about
-#' three or more points per measured interval (20 to 40 points on 128 or 512
-#' grid points in the tests); where measured points lie closer than about two
-#' grid steps the grid has lost them. When fewer than half of the points are
-#' found exactly, or fewer than 8 of them have both neighbours found exactly,
-#' the curve's noise cannot be told: `field_runs()` warns (class
-#' `wavevalid_warning_interpolated`) and keeps a difference-based sd of 0, so
-#' that a noise learned with the default prior scale is refused by
-#' [calibrate()] (an error of class `wavevalid_error_numeric`) until the scale
-#' is given, `bias_control(sigma2 = noise_prior(scale = ))`. An error rather
-#' than a floor: the curve holds no noise below its own resolution, and any
-#' floor would be a number made up. Better still, give the measured points
-#' themselves (curves on their own times, above).
+#' A curve linearly interpolated onto a grid (from digitised or sparse
+#' measurements) has empty finest details, and a noise learned from them is
+#' close to zero. `field_runs()` reads a curve as interpolated when at 5% of
+#' its inner points, and at least 3, it lies on the line through its
+#' neighbours (within 1e-9 of its largest value, while rising or falling by
+#' more than 1e-6 of it: measured noise never puts three values exactly on a
+#' line). It then says so (message class `wavevalid_message_interpolated`)
+#' and finds the measured points, where two linear pieces meet, and uses them
+#' as the curve's own stamps for the noise evidence above. They are found
+#' exactly when the grid has about three points or more per measured
+#' interval. When fewer than half are found exactly, or fewer than 8 have
+#' both neighbours found exactly, the noise cannot be told: a warning (class
+#' `wavevalid_warning_interpolated`) and a difference-based sd of 0, so that
+#' [calibrate()] refuses a noise learned with the default prior scale
+#' (`wavevalid_error_numeric`) until it is given,
+#' `bias_control(sigma2 = noise_prior(scale = ))`: the curve holds no noise
+#' below its resolution, and any floor would be made up. Better, give the
+#' measured points themselves (curves on their own times, above).
 #'
 #' @param curves An R x T matrix of replicate curves (one site) or a named list
 #'   of such matrices, one column per element of `t`; with `t` a list, a list
@@ -142,7 +119,8 @@
 #' field_runs(reps, t)
 #'
 #' # one curve with every fourth time stamp measured twice, onto 128 points
-#' t_obs <- sort(c(seq(0, 1, length.out = 100), seq(0, 1, length.out = 100)[c(TRUE, FALSE, FALSE, FALSE)]))
+#' t_100 <- seq(0, 1, length.out = 100)
+#' t_obs <- sort(c(t_100, t_100[c(TRUE, FALSE, FALSE, FALSE)]))
 #' y <- sin(2 * pi * t_obs) + rnorm(length(t_obs), sd = 0.05)
 #' f <- field_runs(rbind(y), t_obs, grid = seq(0, 1, length.out = 128))
 #' f

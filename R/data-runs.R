@@ -228,8 +228,10 @@ curves_long <- function(m, t, site, id_name = "run") {
 #' @export
 #' @examples
 #' t <- seq(0, 1, length.out = 64)
-#' first <- model_runs(data.frame(a = c(0.1, 0.5, 0.9)), t(sapply(c(0.1, 0.5, 0.9), function(a) sin(a * t))), t)
-#' more <- model_runs(data.frame(a = c(0.3, 0.7)), t(sapply(c(0.3, 0.7), function(a) sin(a * t))), t)
+#' first <- model_runs(data.frame(a = c(0.1, 0.5, 0.9)),
+#'                     t(sapply(c(0.1, 0.5, 0.9), function(a) sin(a * t))), t)
+#' more <- model_runs(data.frame(a = c(0.3, 0.7)),
+#'                    t(sapply(c(0.3, 0.7), function(a) sin(a * t))), t)
 #' c(first, more)
 c.wv_runs <- function(...) {
   runs <- list(...)
@@ -331,7 +333,8 @@ print.summary_wv_runs <- function(x, ...) {
 #' @name autoplot-curves
 #' @examples
 #' t <- seq(0, 1, length.out = 64)
-#' runs <- model_runs(data.frame(a = 1:4 / 5), t(sapply(1:4, function(k) sin(2 * pi * t * k / 4))), t)
+#' runs <- model_runs(data.frame(a = 1:4 / 5),
+#'                    t(sapply(1:4, function(k) sin(2 * pi * t * k / 4))), t)
 #' autoplot(runs, windows = list(c(0.1, 0.4), c(0.6, 0.9)))
 NULL
 

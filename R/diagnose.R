@@ -4,9 +4,10 @@
 #' largest first: a credible record-wide bias, the time intervals where the
 #' band of the (localised) bias excludes zero, the misfit that inputs in
 #' conflict with their prior covered, and those inputs themselves, where
-#' their pull moves the model most (what they took up). It also tells at which wavelet levels (time scales) the bias
-#' lives and which inputs have a posterior piled up at a bound of their range
-#' (an input used as a tuning knob, like the report's `x5`).
+#' their pull moves the model most (what they took up). It also tells at
+#' which wavelet levels (time scales) the bias lives and which inputs have a
+#' posterior piled up at a bound of their range (an input used as a tuning
+#' knob, like the report's `x5`).
 #'
 #' Every finding has one size in the units of the curves, the peak of the
 #' absolute posterior mean bias over it, so that kinds compare: an offset of
@@ -18,84 +19,54 @@
 #' explain that finding alone.
 #'
 #' The bias is read by scale. Its record-wide part, carried by the wavelet
-#' levels whose functions each span the whole record (the scaling
-#' coefficient and the coarsest detail levels: an offset or a slow trend), is
-#' reported as one finding of its own with its credible size (attribute
-#' `record_wide`, and a line of the print): a model off by a constant is off
-#' everywhere, and flagging every time point says no more than that. The
-#' intervals come from the rest of the bias, the localised part, so that they
-#' point at where the model fails rather than at the whole record. With
-#' `scales = "whole"` the intervals come from the whole bias, as in the
-#' method's report.
-#'
-#' A model is rarely exact; the question is whether it is accurate enough for
-#' its intended use. With `tolerance`, only the intervals where the band lies
-#' wholly beyond `tolerance` (above it or below its negative) are reported:
-#' there the bias is credibly larger than the error the user can accept. A
-#' small offset of the whole record, or a misfit at the scale of the field
-#' noise that many replicates make credible, then drops out.
+#' levels whose functions each span the whole record (an offset or a slow
+#' trend), is one finding of its own (attribute `record_wide`): a model off
+#' by a constant is off everywhere, and flagging every time point says no
+#' more. The intervals come from the rest, the localised part, so that they
+#' point at where the model fails. `scales = "whole"` finds them in the whole
+#' bias, as in the method's report. With `tolerance`, only intervals where
+#' the band lies wholly beyond `tolerance` are reported: there the bias is
+#' credibly larger than the error the intended use can accept.
 #'
 #' @section Inputs that cover a misfit:
 #' A calibrated input that can mimic a missing effect is pulled to the values
-#' that mimic it, and the bias then shrinks where the effect acts. Such an
-#' input is a finding of its own (attribute `conflicts`): it is in conflict
-#' with its prior when its posterior median lies in the prior's tail beyond
-#' `0.05 / (2 p)` on its side (`p` inputs, so that when the model is right
-#' some input is flagged by chance with probability about 5%), or when its
-#' posterior presses on a bound: at least half of it within 2% of the range
-#' from the bound (and four times the prior's share there), falling away
-#' from the bound as a normal posterior centred at least
-#' `qnorm(1 - 0.05 / (2 p))` of its sd beyond it would, once cut there
-#' (column `beyond_bound_sd`, read from the ratio of the mean to the sd of
-#' the draws' distances from the bound). A right model whose true input lies
-#' near a bound piles its posterior there too, but centred inside or beyond
-#' by chance, so both rules hold the same error. On the suspension test bed
-#' with nothing hidden, an input whose true value lay 3.7% of its range from
-#' a bound put 60% of its draws within 2% of it, centred 0.6 sd beyond it:
-#' no conflict now; a hidden saturable elimination on the dosing test bed
-#' pressed `u1` on its bound, centred 0.7, 2.0 and 10 or more sd beyond it
-#' (seeds 1-3), a conflict at one (the other two are found as record-wide
-#' bias).
+#' that mimic it, and the bias shrinks where the effect acts. Such an input
+#' is a finding (attribute `conflicts`) when its posterior median lies in the
+#' prior's tail beyond `0.05 / (2 p)` on its side (`p` inputs, so that a right
+#' model has some input flagged by chance with probability about 5%), or when
+#' its posterior presses on a bound: half of it or more within 2% of the range
+#' from the bound (and four times the prior's share there), falling away as a
+#' normal centred at least `qnorm(1 - 0.05 / (2 p))` of its sd beyond the
+#' bound would (`beyond_bound_sd`). A right model whose true input lies near
+#' a bound piles its posterior there too, but centred inside or just beyond,
+#' so both rules hold the same error (test-bed cases in `studies/README.md`
+#' in the package's source repository, "false_findings.R").
 #'
 #' With `hold = TRUE` (default) the bias is then read again with those inputs
-#' held to their prior: reality stays as the fit reads it (its coefficients
-#' `w^M + w^b`, draw by draw), and the model is evaluated with the inputs in
-#' conflict drawn from their prior and the others at their posterior draws
-#' (the emulators conditioned on the fit's model coefficients, as for a new
-#' vehicle). The difference is the bias of the model without the inputs'
-#' pull; its intervals are the findings of kind `"covered"` (the inputs in
-#' column `inputs`; also attribute `held`), and, when its band excludes zero
-#' nowhere, the inputs are a finding of kind `"input"` placed at their pull:
-#' where it moves the model most (`pull`, the stretch where the model moves
-#' by at least half its largest move), sized by that largest move. Give the
-#' row to [explain_bias()] (`finding =`), or `attr(x, "held")$fit`, to ask
-#' which effect is missing there. The other inputs keep the values they took
-#' beside the pull; [hold_inputs()] calibrates them again with the inputs held (where they
-#' may take up part of the misfit in turn).
+#' held to their prior: reality stays as the fit reads it (`w^M + w^b`, draw
+#' by draw), and the model is evaluated with the inputs in conflict drawn from
+#' their prior and the others at their posterior draws. The intervals of that
+#' bias are findings of kind `"covered"` (attribute `held`); when its band
+#' excludes zero nowhere, the inputs are a finding of kind `"input"` placed
+#' where their pull moves the model most, sized by that move. Give the row to
+#' [explain_bias()] (`finding =`), or `attr(x, "held")$fit`, to ask which
+#' effect is missing there; [hold_inputs()] calibrates the other inputs again
+#' with those held.
 #'
 #' @section Events' timing:
-#' Registration moves every field replicate's landmarks onto the
-#' reference's, so a difference of timing between reality and the model (a
-#' lag, a rate that moves an event) leaves no trace in the bias. The
-#' landmarks keep it. For a fit made by [validate()] with `windows`, each
-#' landmark's time in the field (the mean over the replicates, before
-#' registration, with the sampling error their scatter gives it: Student t
-#' on R - 1 degrees of freedom) is compared with its time in the model at
-#' the calibrated inputs (the landmark found on every model run, regressed on
-#' the runs' inputs, quadratic in each when the runs allow, taken at every
-#' posterior draw with the regression's residual error). A landmark is a
-#' finding of kind `"timing"` when the central interval of the difference at
-#' `1 - (1 - level) / K`, `K` the landmarks read, excludes zero (together the
-#' `K` readings hold the family's error at `1 - level`). Its `size` is the
-#' largest change that shift makes in the registered field mean near the
-#' event, in the curves' units; `credible` the same for the end of the
-#' interval nearest zero. Attribute `timing` holds every landmark's reading.
-#' It needs two or more replicates. On the dosing test bed a hidden
-#' absorption lag, which the registration on each dose's rise aligns away,
-#' is found at each dose (0.74 h at the first at seed 1, its interval 0.68 to
-#' 0.81);
-#' `studies/README.md` in the package's source repository gives the
-#' readings with nothing hidden.
+#' Registration moves every replicate's landmarks onto the reference's, so a
+#' difference of timing between reality and the model leaves no trace in the
+#' bias; the landmarks keep it. For a fit made by [validate()] with `windows`,
+#' each landmark's time in the field (the replicates' mean before
+#' registration, Student t on R - 1 degrees of freedom) is compared with its
+#' time in the model at the calibrated inputs (the landmark on every run,
+#' regressed on the runs' inputs, at every posterior draw). A landmark is a
+#' finding of kind `"timing"` when the interval of the difference at
+#' `1 - (1 - level) / K` (`K` landmarks) excludes zero; its `size` is the
+#' largest change that shift makes in the field mean near the event. It needs
+#' two replicates or more. On the dosing test bed a hidden absorption lag,
+#' which the registration aligns away, was found at every dose
+#' (`studies/README.md`, "false_findings.R").
 #'
 #' @inheritParams bands
 #' @param band `"simultaneous"` (default): the narrowest band holding whole
@@ -116,77 +87,40 @@
 #'   misfit). Fits of several experiments report their conflicts without it.
 #' @param proposals `NULL` or a `wv_proposals` table of [propose_terms()] on
 #'   this fit: each proposed term (inclusion probability 0.5 or more) joins
-#'   the table as a finding of kind `"term"`, placed where its effect is
-#'   largest and sized by that effect's peak. A term the regression proposes
-#'   is a finding even where the bias band holds zero everywhere, as when an
-#'   input with a flat prior has taken the effect up (no interval, and no
-#'   prior to be in conflict with).
+#'   the table as a finding of kind `"term"`, placed and sized where its
+#'   effect is largest, even where the bias band holds zero everywhere (an
+#'   input with a flat prior that took the effect up).
 #' @param ... Must be empty: an unknown argument is an error.
-#' @return A `wv_fails` data frame with one row per finding, ranked by
-#'   `size` (decreasing; an input in conflict not read again, which has no
-#'   size, last): `kind` (`"record-wide"`: a credible record-wide part, one
-#'   row per site, spanning the record; `"interval"`: an interval where the
-#'   band of the localised bias excludes zero, or lies beyond the tolerance;
-#'   `"covered"`: such an interval of the bias read with the inputs in
-#'   conflict held to their prior; `"input"`: the inputs in conflict, placed
-#'   where their pull moves the model most, or with no place when the bias
-#'   was not read again; `"timing"`: an event whose time differs between the
-#'   field and the model, spanning the two times (see the section Events'
-#'   timing); `"term"`: a proposed term, with `proposals`; `"misfit"`: a
-#'   stretch where the field mean lies beyond the model at the calibrated
-#'   inputs by more than the simultaneous band of its own pointwise error
-#'   and the tolerance, which the bias prior's shrinkage can hide where the
-#'   field's spread changes along the record (see [misfit_check()]; its
-#'   `size` is the largest misfit there, its `credible` the largest excess
-#'   over the band's edge)), `site`, `start`,
-#'   `end`, `size` (the peak of the absolute posterior mean bias over the
-#'   finding, in the curves' units; for an `"input"`, the largest move of
-#'   the model), `credible` (the largest distance of the finding's band from
-#'   zero), `integrated_abs_bias` (integral of the absolute posterior mean
-#'   bias over it), `share_of_signal` (that integral over the integral of the
-#'   absolute predicted reality there), `sign` (whether the model is above or
-#'   below reality), `inputs` (the inputs that covered it, `NA` otherwise),
-#'   `event` (for a `"timing"` finding, its landmark: the feature and the
-#'   window, such as `"max in window 2"`; `NA` otherwise), for a fit of several experiments `experiment`, for a fit with test
-#'   conditions ([iu_map()], section Conditions) `condition` (the finding's
-#'   experiment's condition, e.g. `"dose = 250"`), and, as before the kinds,
-#'   `peak_abs_bias` (equal to `size`) and `scale` (`"record"`, `"local"`,
-#'   `"held"`). Code that wants the intervals alone keeps the rows of kind
-#'   `"interval"`, as [flagged_share()] does. Attributes: `wavelet_levels`
-#'   (bias energy by site and wavelet level), `boundary` (inputs and the share of their posterior near
-#'   each bound, within 2% of the range from it; `flagged` when it piles up
-#'   there: at least 10% of the draws, and at least four times the prior's
-#'   share there), `bias` (the bias band), `misfit` (the [misfit_check()]
-#'   behind the findings of kind `"misfit"`),
-#'   `tolerance` (by site) and `credible` (by site, the largest distance of the
-#'   band from zero, `credible_bias`, or of the misfit beyond its band in
-#'   [misfit_check()] where that is larger, and the time `t` where it is
-#'   reached: the bias is credibly at least that large there, and a
-#'   tolerance above it flags nothing), `record_wide` (by site: the `levels` that span the whole
-#'   record, the time-averaged record-wide bias `offset` with its credible
-#'   interval `offset_lower`, `offset_upper`, its `credible_bias`, the largest
-#'   distance of its whole-curve band from zero, and `credible`, whether that
-#'   exceeds the tolerance, and its `peak_abs_bias`, `integrated_abs_bias`,
-#'   `start` and `end`), `bias_whole` (the band of the whole bias) and, for a
-#'   fit of several experiments, `experiments` (the experiment of each site),
-#'   `conflicts` (one row per input: its posterior `median`, the prior's `prior_mean` and
-#'   `prior_sd`, `prior_sds` (the median's distance from the prior mean in
-#'   prior sd), the `side`, `prior_tail` (the prior's mass beyond the
-#'   median), `share_at_bound` and `prior_share_at_bound` on that side,
-#'   `beyond_bound_sd` (how far beyond that bound the posterior's centre
-#'   lies, in its sd, from how its draws fall away from the bound; negative
-#'   inside), and `far`, `piled`, `conflict`) and `held` (when inputs were held: their
-#'   names `inputs`, the re-read `fit`, its `fails` (its own table), the
-#'   `pull` (by site, where the inputs' pull moves the model's localised part most: `start`,
-#'   `end`, `t` and the largest `shift`) and `bias_rms_local`, the localised
-#'   bias's root mean square as fitted and held), and `timing` (for a fit
-#'   registered by [validate()], one row per landmark: `site`, `window`,
-#'   `feature`, the `field` and `model` times, the `shift` field less model
-#'   with its interval `lower`, `upper`, `flagged`, `size` and `credible`),
-#'   and `unmixed` (the R-hat, above 1.1, of each input whose chains did not
-#'   mix; the print then leads with it, and the report gives no verdict).
-#'   `as.data.frame()` gives the table as a plain data frame, with a column
-#'   `covered_by` (the inputs of the `"held"` rows) when inputs were held.
+#' @return A `wv_fails` data frame with one row per finding, ranked by `size`
+#'   (an input in conflict not read again last): `kind` (`"record-wide"`,
+#'   `"interval"`, `"covered"`, `"input"`, `"timing"`, `"term"` with
+#'   `proposals`, or `"misfit"`: a stretch where the field mean lies beyond
+#'   the model at the calibrated inputs by more than its own error's band,
+#'   see [misfit_check()]), `site`, `start`, `end`, `size`, `credible`,
+#'   `integrated_abs_bias`, `share_of_signal` (that integral over the
+#'   integral of the absolute predicted reality), `sign` (model above or below
+#'   reality), `inputs` (those that covered it), `event` (for `"timing"`, e.g.
+#'   `"max in window 2"`), `experiment` (several experiments), `condition`
+#'   (with test conditions, [iu_map()]), `peak_abs_bias` (= `size`) and
+#'   `scale` (`"record"`, `"local"`, `"held"`). Keep the rows of kind
+#'   `"interval"` for the intervals alone, as [flagged_share()] does.
+#'   Attributes: `wavelet_levels` (bias energy by site and level), `boundary`
+#'   (each input's posterior share within 2% of each bound, `flagged` at 10%
+#'   and four times the prior's share), `bias` and `bias_whole` (the bands),
+#'   `misfit` (the [misfit_check()]), `tolerance`, `credible` (by site, the
+#'   largest credible bias and where), `record_wide` (by site: its `levels`,
+#'   `offset` with `offset_lower`, `offset_upper`, `credible_bias`,
+#'   `credible`, `peak_abs_bias`, `integrated_abs_bias`, `start`, `end`),
+#'   `experiments`, `conflicts` (one row per input: `median`, `prior_mean`,
+#'   `prior_sd`, `prior_sds`, `side`, `prior_tail`, `share_at_bound`,
+#'   `prior_share_at_bound`, `beyond_bound_sd`, `far`, `piled`, `conflict`),
+#'   `held` (the `inputs` held, the re-read `fit` and its `fails`, the `pull`
+#'   by site and `bias_rms_local` as fitted and held) and `timing` (one row per
+#'   landmark: `site`, `window`, `feature`, `field` and `model` times, `shift`
+#'   with `lower`, `upper`, `flagged`, `size`, `credible`) and `unmixed` (the
+#'   R-hat, above 1.1, of each input whose chains did not mix: the print then
+#'   leads with it, and the report gives no verdict). `as.data.frame()`
+#'   gives a plain data frame, with `covered_by` when inputs were held.
 #' @export
 #' @examples
 #' # a small problem whose field has a bump near t = 0.25 that the model lacks

@@ -43,7 +43,8 @@
 #' design <- data.frame(a = seq(0, 1, length.out = 8), b = c(3, 7, 1, 5, 8, 2, 6, 4) / 8)
 #' runs <- model_runs(design, t(apply(design, 1, f)), t)
 #' em <- fit_emulators(runs, wavelet_basis(runs))
-#' check_design <- data.frame(a = c(0.1, 0.35, 0.6, 0.85, 0.2, 0.7), b = c(0.5, 0.9, 0.2, 0.6, 0.1, 0.4))
+#' check_design <- data.frame(a = c(0.1, 0.35, 0.6, 0.85, 0.2, 0.7),
+#'                            b = c(0.5, 0.9, 0.2, 0.6, 0.1, 0.4))
 #' check <- model_runs(check_design, t(apply(check_design, 1, f)), t)
 #' em2 <- rescale_emulators(em, check)
 #' em2$variance_check

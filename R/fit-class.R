@@ -58,7 +58,8 @@
 # | pipeline            | list, opt.         | the data validate() was given: `runs`, `field`
 # |                     |                    | and `experiments` as given, `registered_to`
 # | call_args           | list, opt.         | a fit made before `control` and `pipeline`:
-# |                     |                    | validate()'s arguments (fit_controls(), fit_pipeline())
+# |                     |                    | validate()'s arguments (fit_controls(),
+# |                     |                    | fit_pipeline())
 # | timing              | data frame, opt.   | validate()'s time by phase
 # | held                | list, opt.         | the inputs held (hold_inputs(), the re-reading)
 wv_fit_fields <- c(

@@ -17,7 +17,7 @@
 #' | `linear` | `x` | one |
 #' | `power` | `x^2`, `x abs(x)`, `x^3` | three |
 #' | `abs` | `abs(x - c)` | `c` = 0 (when `x` changes sign) and its quartiles |
-#' | `sign` | `tanh((x - c) / e)`, a smoothed sign | `c` = 0 (when `x` changes sign) and its median |
+#' | `sign` | `tanh((x - c) / e)`, smoothed sign | `c` = 0 (when `x` changes sign) and its median |
 #' | `hinge_above` | `(x - c)_+^k` | `k` = 1, 2; `c` = 0 and the quantiles 0.5 to 0.997 |
 #' | `hinge_below` | `(c - x)_+^k` | `k` = 1, 2; `c` = 0 and the quantiles 0.003 to 0.5 |
 #' | `saturating` | `x abs(x) / (c + abs(x))` | `c` the quantiles 0.1, 0.5, 0.9 of `abs(x)` |

@@ -51,18 +51,14 @@
 #' pays for its size: with 50 families, one family needs a Bayes factor near
 #' 50 against none before its inclusion passes one half.
 #'
-#' **What it found on the test beds** (`studies/README.md` in the package's
-#' source repository; short chains, seeds 1-3): with the simulator's states,
-#' the family of the hidden mechanism on the suspension test bed for a bump
-#' stop (a hinge of the compression, 3 seeds of 3) and a digressive damper
-#' (2 of 3), at one seed of 3 for strut friction and the tire lift-off, and
-#' for no mechanism of the dosing bed; the bump stop proposed from the
-#' compression, added to the model, fixed it at a held-out condition as
-#' well as the true mechanism. With nothing hidden: no proposal on the
-#' dosing bed (5 seeds), proposals at 2 of 5 on the suspension, at the sharp
-#' events, where the registration's error is larger than its model above
-#' allows. Read a proposal beside [where_fails()] and check it by adding the
-#' term to the model and validating again.
+#' **What it found on the test beds.** With the simulator's states it
+#' proposed the right family for some hidden mechanisms of the suspension
+#' test bed (a bump stop, a damper) and for none of the dosing bed's, and
+#' with nothing hidden it made proposals at some suspension seeds, at the
+#' sharp events where the registration's error exceeds its model above
+#' (`studies/README.md` in the package's source repository,
+#' "propose_terms.R"). Read a proposal beside [where_fails()] and check it by
+#' adding the term to the model and validating again.
 #'
 #' @param fit A `wv_fit` from [calibrate()] or [validate()].
 #' @param library A `wv_term_library` from [term_library()] on this fit.

@@ -2,88 +2,54 @@
 #'
 #' Aligns the peaks and valleys of every field replicate with those of a
 #' reference curve by a piecewise-linear time warp, as in Appendix B of the
-#' method's report, generalised to any number of event windows.
+#' method's report, generalised to any number of event windows. The figures
+#' quoted below are in `studies/README.md` in the package's source
+#' repository, "registration.R" unless stated.
 #'
-#' In each window the landmarks are the location of the minimum and of the
-#' maximum (or only one of them, see `features`) of the reference curve and of
-#' each replicate, ordered by time, at a grid point (as in the report) or,
-#' with `refine = TRUE`, between grid points: the vertex of the parabola
-#' through the extreme grid value and its two neighbours.
+#' In each window the landmarks are the minimum and the maximum (or one of
+#' them, see `features`) of the reference and of each replicate, ordered by
+#' time, at a grid point (as in the report) or, with `refine = TRUE`, at the
+#' vertex of the parabola through the extreme grid value and its neighbours.
+#' An event that is a monotone change (a shock's rise, a step) has no
+#' extremum; `features` then names landmarks of its shape: `"rise"` and
+#' `"fall"`, the steepest rise and fall (largest central difference, refined
+#' likewise), and `"cross"`, the first crossing of `cross_value`, or of the
+#' value `cross_fraction` of the way from the curve's smallest to its largest
+#' value in the window, so that a replicate of another amplitude is cut at
+#' the same stage (refined by linear interpolation; a curve that does not
+#' cross is refused).
 #'
-#' An event that is a monotone change (a shock's rise, a step) has no minimum
-#' or maximum inside its window; `features` then names landmarks of its
-#' shape instead:
-#' * `"rise"` and `"fall"`: the steepest rise and the steepest fall, the grid
-#'   point of the largest (most negative) central difference
-#'   `(y[i + 1] - y[i - 1]) / (t[i + 1] - t[i - 1])`; with `refine = TRUE`, the
-#'   vertex of the parabola through that difference and its two neighbours,
-#'   as for an extremum;
-#' * `"cross"`: the first crossing, either way, of a value: `cross_value` if
-#'   given, else the value `cross_fraction` (default one half) of the way from
-#'   the curve's smallest to its largest value in the window, so that a
-#'   replicate of another amplitude than the reference is cut at the same
-#'   stage of its rise. The landmark is the first grid point past the level;
-#'   with `refine = TRUE`, the point where the straight line from the grid
-#'   point before crosses it. A curve that does not cross the level in the
-#'   window is refused.
+#' Near a sharp event a landmark off by a fraction of a grid step misaligns
+#' the steep flanks; the refinement removes most of that error (more than an
+#' order of magnitude on the suspension test bed), and the replicates then
+#' agree more closely, so differences of shape from the reference weigh more.
+#' The warp maps a replicate's landmarks onto the reference's, is linear in
+#' between and keeps the grid's ends fixed; the registered curve is the
+#' replicate at the inverse warp of the grid (linear interpolation). The time
+#' jitter of a field test belongs to the test run, not the site, so by
+#' default a replicate's landmarks are found on one site (`landmark_site`)
+#' and its warp applied to every site.
 #'
-#' Near a sharp event a
-#' landmark off by a fraction of a grid step misaligns the steep flanks of the
-#' curves; the refinement removes most of that error (on the package's
-#' suspension test bed it cuts the landmark error by more than an order of
-#' magnitude, to a small fraction of a grid step; `studies/README.md` in the
-#' package's source repository). It also makes the replicates agree more
-#' closely with each other, so the field variance estimated from them is
-#' smaller and differences of shape between the field data and the reference
-#' weigh more.
-#' The warp of a replicate maps its landmarks onto the reference's, is linear
-#' in between, and keeps the two ends of the grid fixed. The registered curve
-#' is the replicate evaluated at the inverse warp of the grid (linear
-#' interpolation between grid points).
+#' With `knots_every`, beyond the method's report, the warp gets further
+#' knots every `knots_every` time units outside the event windows, each
+#' placed by least squares against the reference outside the windows (a grid
+#' search over a tenth of `knots_every` either side, then a one-dimensional
+#' refinement; two sweeps), so that small features between the events line
+#' up; data inside the windows never move a knot, so a difference of shape
+#' at an event is not taken for a time shift. Where the system rings freely
+#' after an event the runs' mean is blurred, and `knots_to = "replicates"`
+#' places the knots against the replicates' own consensus instead (two
+#' rounds, displacements centred at each knot): closer to the truth on the
+#' suspension test bed, but the diagnosis was less reliable.
 #'
-#' The time jitter of a field test is a property of the test run, not of the
-#' measurement site, so by default the landmarks of a replicate are found on
-#' one site (`landmark_site`, the first site unless stated) and the same warp is
-#' applied to every site of that replicate. With `landmark_site = NULL` every
-#' site is registered on its own landmarks.
-#'
-#' The landmarks pin the events; between them the warp is linear, which
-#' leaves the small features of the curves between the events (road
-#' roughness, say) misaligned when the time jitter of a test is not linear
-#' there. With `knots_every` the warp gets further knots, one every
-#' `knots_every` time units outside the event windows, each placed by least
-#' squares between the registered replicate and the reference over the
-#' points outside the windows (a grid search over a tenth of `knots_every`
-#' either side of the landmark warp, then a one-dimensional refinement; two
-#' sweeps over the knots). The data inside the windows never move a knot, so
-#' the events keep the report's landmark registration and a difference of
-#' shape between reality and the model at an event cannot be taken for a
-#' time shift. This goes beyond the method's report.
-#'
-#' Where the events leave the system ringing freely, the timing of the
-#' reference depends on the model's inputs, and the mean of model runs at
-#' many inputs is a blurred curve there: a knot placed against it can take a
-#' difference of shape for a time shift. With `knots_to = "replicates"` the
-#' knots are placed against the replicates' own consensus instead (the mean of
-#' the replicates registered so far, by their landmarks first; two rounds),
-#' and at each knot the replicates' displacements from their landmark warps
-#' are centred to average zero. The replicates are warped copies of one
-#' reality, so they are aligned with each other without reference to the
-#' model; the landmarks alone tie them to the model's time.
-#'
-#' Registration is refused (error of class `wavevalid_error_input`) when a
-#' window is not an increasing pair of times, falls outside the grid, or
-#' overlaps another window.
-#'
-#' When the landmarks of a replicate come in another order than the
-#' reference's in a window (reality's deepest dip after the peak where the
-#' model's is before it: a change of shape at the event, as when a tire
-#' leaves the ground), a warp through all of them would fold time. That window
-#' of that replicate is then registered on the largest set of its landmarks
-#' that keep the reference's order, of those the set nearest the reference's
-#' times; the others are left out, listed in the attribute `left_out` of the
-#' warps and in their print, with a warning (class
-#' `wavevalid_warning_landmarks`). The shape that differs stays in the
+#' A window that is not an increasing pair of times, falls outside the grid
+#' or overlaps another is refused (class `wavevalid_error_input`). When a
+#' replicate's landmarks come in another order than the reference's (a
+#' change of shape at the event, as when a tire leaves the ground), that
+#' window is registered on the largest set of landmarks that keep the order,
+#' nearest the reference's times, the others listed in the attribute
+#' `left_out` of the warps, with a warning (class
+#' `wavevalid_warning_landmarks`); the shape that differs stays in the
 #' registered curves, where the bias can show it.
 #'
 #' @param field A `wv_field` object, or a `wv_runs` object to register the
@@ -99,11 +65,9 @@
 #'   warp per replicate tied to the landmarks of every site in every window
 #'   (an event that reaches the sites at different times, as a pothole the
 #'   front and then the rear axle, is pinned where each site sees it; what
-#'   [validate()] uses); or `NULL` to register each site on its own
-#'   landmarks with its own warp. On the package's suspension test bed,
-#'   landmarks of both sites halved the scatter of the registered
-#'   replicates at the rear site (root mean square sd 0.18 to 0.08 kN),
-#'   whose events the front site's landmarks do not mark.
+#'   [validate()] uses: on the suspension test bed it halved the replicates'
+#'   scatter at the rear site); or `NULL` to register each site on its own
+#'   landmarks with its own warp.
 #' @param features Which landmarks to use in each window: one or more of
 #'   `"min"`, `"max"` (both by default), `"rise"` (steepest rise), `"fall"`
 #'   (steepest fall) and `"cross"` (first crossing of a level); see Details.
@@ -130,55 +94,40 @@
 #' @return A registered `wv_field`: the same object with registered curves and
 #'   `warps`, a `wv_warps` data frame with one row per (site, replicate,
 #'   window, feature) and columns `site` (the site whose curve set the
-#'   landmark), `replicate`, `window`, `feature` (`"min"`, `"max"`, `"rise"`,
-#'   `"fall"` or `"cross"`),
-#'   `t_before` (landmark time in the replicate as measured) and `t_after` (the
-#'   reference's landmark time it is moved to). The warp of a replicate is the
-#'   piecewise-linear map through `(t_1, t_1)`, the `(t_before, t_after)` pairs
-#'   and `(t_T, t_T)`; attributes `range`, `windows`, `landmark_site` and
-#'   `sites` (the sites each warp was applied to) complete it. Plot the warps
-#'   with `autoplot(x$warps)`. For `wv_runs`, registered `wv_runs`: the same
-#'   design, the registered curves, and the `warps` of the runs (one
-#'   `replicate` per run, in the order of the design).
+#'   landmark), `replicate`, `window`, `feature`, `t_before` (the landmark's
+#'   time in the replicate as measured) and `t_after` (the reference's time it
+#'   is moved to). The warp of a replicate is the piecewise-linear map through
+#'   `(t_1, t_1)`, the `(t_before, t_after)` pairs and `(t_T, t_T)`;
+#'   attributes `range`, `windows`, `landmark_site` and `sites` complete it.
+#'   Plot them with `autoplot(x$warps)`. For `wv_runs`, registered `wv_runs`:
+#'   the same design, the registered curves and the runs' `warps` (one
+#'   `replicate` per run, in the design's order).
 #' @param ... Further arguments of the method; none is taken beyond those
 #'   above, and an unknown one is an error.
 #'
 #' @section The registration's own error:
 #' Every replicate is warped onto the same reference, so whatever the
-#' registration changes in the shape of a curve it changes alike in every
-#' replicate: the registered field mean carries an error that the
-#' replicates' scatter about each other does not show. On the suspension
-#' test bed with nothing hidden it was 2 to 6 times the sampling error of
-#' the mean that the scatter gives (`studies/README.md`). With model runs as
-#' the reference, `check_runs` runs of the model nearest the field data are
-#' registered like a replicate; what the registration changes in them
-#' (`registration_check`, by site a matrix of the registered run less the
-#' run) is the registration's error on a curve like the field's, which
-#' [calibrate()] takes into the registered field mean's error (by default,
-#' when the field carries it): as shifts of the events' times, sampled with
-#' the inputs, and a variance for what they leave (see its section
-#' Registration).
+#' registration changes in a curve's shape it changes alike in every
+#' replicate: the registered field mean carries an error the replicates'
+#' scatter does not show (several times the mean's sampling error on the
+#' suspension test bed). With model runs as the reference, `check_runs` runs
+#' nearest the field are registered like a replicate; what that changes in
+#' them (`registration_check`, by site the registered run less the run) is
+#' the registration's error on a curve like the field's, which [calibrate()]
+#' takes into the field mean's error by default (its section Registration).
 #'
 #' @section Registering the model runs:
-#' The field replicates are registered to the mean of the model runs, whose
-#' landmarks sit where the model puts the events on average, not where it puts
-#' them at the inputs that fit the data. Where the events' timing depends on
-#' the inputs, the registered replicates then differ from the model at those
-#' inputs around each event, and the calibration reads that difference as
-#' bias. Registering every run to the same reference with the same windows
-#' puts model and field on one time axis: what is left between them is a
-#' difference of amplitude and shape, not of timing. The price is that the
-#' timing of the events no longer informs the calibration inputs. On the
-#' package's suspension test bed, after a second wave of runs at
-#' [design_posterior()], registering the runs too left fewer flags with
-#' nothing hidden and still flagged hidden mechanisms where they act, but
-#' [explain_bias()] with re-validated mechanisms then over-claimed, giving
-#' some mechanism an inclusion probability above 0.5 with nothing hidden
-#' (`studies/README.md` in the package's source repository,
-#' "second_wave.R"). Read an explanation of runs registered this way with
-#' that in mind. The runs are registered like replicates: `landmark_site`
-#' sets one warp per run for all sites, and a run whose landmarks come in
-#' another order than the reference's is refused.
+#' The field is registered to the mean of the runs, whose landmarks sit where
+#' the model puts the events on average, not at the inputs that fit the data;
+#' where the events' timing depends on the inputs, the calibration reads the
+#' difference as bias. Registering every run to the same reference with the
+#' same windows puts model and field on one time axis, leaving differences of
+#' amplitude and shape, but the events' timing no longer informs the inputs.
+#' On the suspension test bed this left fewer flags with nothing hidden but
+#' made [explain_bias()] with re-validated mechanisms over-claim
+#' (`studies/README.md`, "second_wave.R"). The runs are registered like
+#' replicates: `landmark_site` sets one warp per run for all sites, and a run
+#' whose landmarks come in another order than the reference's is refused.
 #' @export
 #' @examples
 #' t <- seq(0, 10, length.out = 256)
@@ -192,7 +141,8 @@
 #' autoplot(reg$warps)
 #'
 #' # model runs registered to the same reference
-#' runs <- model_runs(data.frame(a = c(2.7, 3, 3.4)), rbind(bump(t, 2.7), bump(t, 3), bump(t, 3.4)), t)
+#' runs <- model_runs(data.frame(a = c(2.7, 3, 3.4)),
+#'                    rbind(bump(t, 2.7), bump(t, 3), bump(t, 3.4)), t)
 #' register_curves(runs, list(site1 = ref), windows = list(c(1, 7)))$warps
 #'
 #' # a rise with no extremum: the crossing of a fifth of its range, then its

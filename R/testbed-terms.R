@@ -19,12 +19,15 @@
 #' state and the same `fun`; the two axles' bump stops and friction are alike
 #' in the model):
 #'
-#' | `state` | value of the state | `fun` returns | enters | default `range` |
+#' | `state` | value of the state | `fun` returns | added to | default `range` |
 #' | --- | --- | --- | --- | --- |
-#' | `"compression"` | strut compression `d` (m) | force (kN) | added to the strut force | \[-0.25, 0.25\] |
-#' | `"velocity"` | strut compression velocity `v` (m/s) | force (kN) | added to the strut force | \[-14, 14\] |
-#' | `"damper"` | damper force (kN, compression positive) | velocity (m/s) | added to the damper's velocity at that force (the inverse of the damper law) | \[-32, 32\] |
-#' | `"tire"` | tire force before the term (kN) | force (kN) | added to the tire force | \[-70, 90\] |
+#' | `"compression"` | strut compression `d` (m) | force (kN) | the strut force | \[-0.25, 0.25\] |
+#' | `"velocity"` | strut compression rate `v` (m/s) | force (kN) | the strut force | \[-14, 14\] |
+#' | `"damper"` | damper force (kN, compression > 0) | velocity (m/s) | see below | \[-32, 32\] |
+#' | `"tire"` | tire force before the term (kN) | force (kN) | the tire force | \[-70, 90\] |
+#'
+#' A term of the damper force is added to the damper's velocity at that force
+#' (the inverse of the damper law).
 #'
 #' A term of the compression or the velocity is part of the strut force, so
 #' it shows in the strut loads the simulator reports (the total force in the

@@ -37,7 +37,8 @@
 #' @examples
 #' ex <- example_problem()
 #' runs <- model_runs(as.data.frame(ex$emulators$design),
-#'                    ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
+#'                    ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t,
+#'                    site = "site1")
 #' fit <- validate(runs, ex$field, ex$iu, seed = 1,
 #'                 sampler = sampler_control(chains = 1, n_draws = 50, n_inner = 5, quiet = TRUE))
 #' # the same settings with a longer chain

@@ -15,6 +15,29 @@
 #' [predict.wv_fit()], [where_fails()], [explain_bias()] and
 #' [compare_validations()].
 #'
+#' @section Where the work runs:
+#' The chains of [calibrate()], the emulators' fits in [fit_emulators()]
+#' (chunks of coefficients) and the strata of [hold_inputs()] are futures:
+#' [future::plan()] decides where they run, and the results are the same
+#' under every plan (sequential, `future::multisession`,
+#' `future.callr::callr`, `future.batchtools`). Each future carries only what
+#' its worker needs; a chain's payload grows with coefficients x runs^2 (tens
+#' of MiB on the test beds). Within a chain the sampler uses
+#' `sampler_control(threads = )` threads. On a cluster with Slurm:
+#' ```
+#' future::plan(future.batchtools::batchtools_slurm, template = "slurm-simple",
+#'              resources = list(walltime = 3600, memory = 4000, ncpus = 2))
+#' fit <- validate(runs, field, iu, windows = windows, chains = 4)
+#' ```
+#' submits each chain and each batch of emulator fits as a job, with the
+#' Slurm template that `batchtools` ships (or a path to one's own); on one
+#' machine, `future::plan(future::multisession, workers = 2)` or
+#' `future::plan(future.callr::callr, workers = 2)` runs two chains at once
+#' (about half the calibration's time on a large problem; figures in
+#' `studies/README.md` in the package's source repository, "Where the work
+#' runs"). When chains ran one after the other for a minute or more while
+#' other cores were free, [calibrate()] says so and names the plan.
+#'
 #' @keywords internal
 #' @useDynLib wavevalid, .registration = TRUE
 #' @importFrom Rcpp sourceCpp
