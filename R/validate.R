@@ -45,7 +45,8 @@
 #'   [calibrate()]). The whole data set of several conditions,
 #'   [experiments_at()] with `base`, may be given as `field` instead: its
 #'   base field is `field`, its experiments come before those given here.
-#'   With `windows`, their field data are registered like `field`, after the basis (built from `runs` and `field` alone) and the
+#'   With `windows`, their field data are registered like `field`, after the basis (built from
+#'   `runs` and `field` alone) and the
 #'   emulators are fitted: to the mean of the experiment's `reference` runs
 #'   when it has them, else to the model in the experiment's own condition
 #'   (for an experiment with `change`, the runs with their retained
