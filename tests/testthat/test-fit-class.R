@@ -45,7 +45,9 @@ test_that("validate() with an experiment on the suspension test bed makes a fit 
   expect_declared_fit(fit)
   expect_false(is.null(fit$experiments))
   expect_true(all(fit$experiments$site %in% names(fit$wb)))
-  expect_false(is.null(fit$call_args))
+  expect_false(is.null(fit$control))
+  expect_false(is.null(fit$pipeline))
+  expect_null(fit$call_args)
   expect_s3_class(fit$timing, "data.frame")
 })
 
@@ -108,4 +110,19 @@ test_that("bank_predict() is the compiled bank prediction, and only the emulator
     if (any(grepl("gasp_[a-z_]*_cpp|\\$banks\\b", code))) f
   }))
   expect_identical(hits, NULL)
+})
+
+test_that("fit_get() reads every declared field as [[ does and refuses an undeclared name", {
+  fit <- example_fit()
+  for (f in names(wv_fit_fields)) expect_identical(fit_get(fit, f), fit[[f]], info = f)
+  expect_identical(fit_sites(fit), names(fit$wb))
+  expect_identical(fit_draws_matrix(fit), as.matrix(fit$draws))
+  expect_error(fit_get(fit, "colour"), class = "wavevalid_error_internal")
+  expect_error(fit_get(fit, c("wb", "wM")), class = "wavevalid_error_internal")
+  expect_error(fit_get(fit, 1L), class = "wavevalid_error_internal")
+  expect_error(fit_get(unclass(fit), "wb"), class = "wavevalid_error_internal")
+  # a fit saved before a field was declared lacks it: the field reads as NULL
+  old <- structure(unclass(fit)[setdiff(names(wv_fit_fields), c("held", "timing", "pipeline"))], class = "wv_fit")
+  expect_null(fit_get(old, "held"))
+  expect_identical(fit_get(old, "wb"), fit$wb)
 })
