@@ -54,7 +54,7 @@ mutants <- list(
        replacement = "experiment_prediction(f, holdout, level, seed, call)",
        test = "test-update.R", what = "the held-out experiment registered to each fit's own runs"),
   list(name = "model_rmse_gross_of_shifts", file = "R/compare.R",
-       pattern = "y = field_mean_curve(fit, s)", replacement = "y = colMeans(fit$field$curves[[s]])",
+       pattern = "y = field_mean_curve(fit, s)", replacement = "y = colMeans(fit_get(fit, \"field\")$curves[[s]])",
        test = "test-update.R", what = "model_rmse against the field mean without the registration's shifts"),
   list(name = "holdout_no_time_blocks", file = "R/compare-holdout.R",
        pattern = "as.vector(time[[j]])", replacement = "rep(seq_len(n_t), each = n_boot)",
@@ -108,7 +108,7 @@ mutants <- list(
        replacement = "add_window <- function(df) with_windows(df, NULL, whole = \"whole record\")",
        test = "test-runs.R", what = "the runs' plot ignores the windows"),
   list(name = "autoplot_trace_first_chain", file = "R/report-fit.R",
-       pattern = "d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {",
+       pattern = "d <- do.call(rbind, lapply(seq_along(draws), function(ch) {",
        replacement = "d <- do.call(rbind, lapply(1L, function(ch) {",
        test = "test-calibrate.R", what = "the trace plot draws only the first chain")
 )
