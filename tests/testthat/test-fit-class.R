@@ -126,3 +126,33 @@ test_that("fit_get() reads every declared field as [[ does and refuses an undecl
   expect_null(fit_get(old, "held"))
   expect_identical(fit_get(old, "wb"), fit$wb)
 })
+
+# Outside the fit module (R/fit-*.R) a fit's fields are read through
+# fit_get() and its accessors: no `fit$<field>`, `before$`, `after$` (the
+# names that hold only fits there), nor `object$`/`x$` in the methods for
+# wv_fit. design_posterior() (R/inputs-design.R) reads a fit's fields
+# directly: the inputs module sits below the fit's, which calls it. The
+# check reads the sources when the tests run from the package's source tree.
+test_that("no file outside the fit module reads a fit's fields directly", {
+  src <- test_path("..", "..", "R")
+  skip_if_not(dir.exists(src), "the package's R sources are not at hand")
+  files <- setdiff(list.files(src, pattern = "[.]R$"), c("RcppExports.R", "inputs-design.R"))
+  files <- files[!startsWith(files, "fit-")]
+  walk <- function(e, vars) {
+    if (!is.call(e)) return(character())
+    hit <- if (identical(e[[1]], as.name("$")) && is.name(e[[2]]) && as.character(e[[2]]) %in% vars &&
+               as.character(e[[3]]) %in% names(wv_fit_fields)) {
+      paste0(as.character(e[[2]]), "$", as.character(e[[3]]))
+    }
+    c(hit, unlist(lapply(as.list(e)[-1], function(a) if (!missing(a)) walk(a, vars))))
+  }
+  hits <- unlist(lapply(files, function(f) {
+    unlist(lapply(parse(file.path(src, f), keep.source = FALSE), function(e) {
+      name <- if (is.call(e) && identical(e[[1]], as.name("<-")) && is.name(e[[2]])) as.character(e[[2]]) else ""
+      vars <- c("fit", "before", "after", if (endsWith(name, ".wv_fit")) c("object", "x"))
+      found <- walk(e, vars)
+      if (length(found)) paste0(f, ": ", name, ": ", found)
+    }))
+  }))
+  expect_identical(hits, NULL)
+})
