@@ -433,10 +433,12 @@ resolve_controls <- function(controls, dots, fun, class = "input", call = rlang:
 # NULL for a fit of calibrate()); for a fit made before they were stored,
 # rebuilt from its settings.
 fit_controls <- function(fit) {
-  ctl <- fit$control
+  ctl <- fit_get(fit, "control")
   if (is.null(ctl)) ctl <- old_fit_controls(fit)
-  if (is.null(ctl$sampler$chains)) ctl$sampler <- modify_control(ctl$sampler, list(chains = fit$settings$chains %||% 2))
-  old <- fit$call_args
+  if (is.null(ctl$sampler$chains)) {
+    ctl$sampler <- modify_control(ctl$sampler, list(chains = fit_get(fit, "settings")$chains %||% 2))
+  }
+  old <- fit_get(fit, "call_args")
   if (is.null(ctl$registration) && !is.null(old)) {
     ctl$registration <- registration_control(old$windows, old$reference, old$knots_every,
                                              old$features %||% c("min", "max"))
@@ -446,7 +448,7 @@ fit_controls <- function(fit) {
 }
 
 old_fit_controls <- function(fit) {
-  st <- fit$settings
+  st <- fit_get(fit, "settings")
   args <- fit$calibrate_args %||% list()
   bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels, inform_levels = st$inform_levels,
                        input_likelihood = st$input_likelihood %||% "independent", temper = st$temper %||% 1,

@@ -103,21 +103,21 @@ experiment_fit_parts <- function(spec, emulators, field, experiments) {
 # The change of the inputs at which site s's emulators are evaluated (zeros
 # for the base experiment's sites), named by input.
 site_shift <- function(fit, s) {
-  sh <- fit$shift[[s]]
-  if (is.null(sh)) sh <- stats::setNames(numeric(length(fit$inputs)), fit$inputs)
+  sh <- fit_get(fit, "shift")[[s]]
+  if (is.null(sh)) sh <- stats::setNames(numeric(length(fit_get(fit, "inputs"))), fit_get(fit, "inputs"))
   sh
 }
 
 # Share of draws whose inputs, moved by an experiment's change, leave the
 # range of the emulators' runs: a classed warning when above 1%.
 warn_experiment_extrapolation <- function(fit) {
-  if (is.null(fit$shift)) return(invisible())
-  X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
-  for (s in names(fit$shift)) {
-    sh <- fit$shift[[s]]
+  if (is.null(fit_get(fit, "shift"))) return(invisible())
+  X <- fit_draws_matrix(fit)[, fit_get(fit, "inputs"), drop = FALSE]
+  for (s in names(fit_get(fit, "shift"))) {
+    sh <- fit_get(fit, "shift")[[s]]
     if (all(sh == 0)) next
     moved <- names(sh)[sh != 0]
-    rng <- apply(fit$emulators$design[, moved, drop = FALSE], 2L, range)
+    rng <- apply(fit_get(fit, "emulators")$design[, moved, drop = FALSE], 2L, range)
     Z <- sweep(X[, moved, drop = FALSE], 2L, sh[moved], `+`)
     out <- rowSums(sweep(Z, 2L, rng[1L, ] - 1e-12, `<`) | sweep(Z, 2L, rng[2L, ] + 1e-12, `>`)) > 0
     if (mean(out) > 0.01) {

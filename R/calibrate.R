@@ -181,8 +181,8 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
     sm$threads <- free
   }
   fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
-  fit$control <- list(bias = bias, sampler = sampler)
-  hint_parallel_chains(fit$sampling_seconds, chains, free, sm$quiet)
+  fit <- fit_set(fit, control = list(bias = bias, sampler = sampler))
+  hint_parallel_chains(fit_get(fit, "sampling_seconds"), chains, free, sm$quiet)
   warn_fit_flags(fit)
   warn_experiment_extrapolation(fit)
   validate_wv_fit(fit)
@@ -247,9 +247,10 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
                  stopping = attr(runs, "stopping"),
                  conditions = fit_condition_table(iu, experiments))
   if (!is.null(experiments)) {
-    fit$settings$level_variances <- bias$level_variances
-    fit$settings$experiment_bias <- bias$experiment_bias
-    fit <- fit_set(fit, experiments = spec$experiments, shift = spec$shift)
+    settings <- fit_get(fit, "settings")
+    settings$level_variances <- bias$level_variances
+    settings$experiment_bias <- bias$experiment_bias
+    fit <- fit_set(fit, settings = settings, experiments = spec$experiments, shift = spec$shift)
   }
   fit
 }

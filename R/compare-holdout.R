@@ -49,23 +49,25 @@ holdout_predictions <- function(before, after, holdout, level, seed, call = rlan
 fit_draws <- function(fit, sites, dW = NULL) {
   # the Gram matrix of the basis: the identity (NULL) for the orthonormal
   # columns of wavelet_basis()'s transforms
-  G <- if (is.null(fit$basis$settings)) crossprod(fit$basis$Psi)
+  basis <- fit_get(fit, "basis")
+  G <- if (is.null(basis$settings)) crossprod(basis$Psi)
   stats::setNames(lapply(sites, function(s) {
-    M <- fit$wM[[s]]
+    M <- fit_get(fit, "wM")[[s]]
     if (!is.null(dW)) M <- M + dW[[s]]
-    W <- M + fit$wb[[s]]
-    list(Psi = fit$basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+    W <- M + fit_get(fit, "wb")[[s]]
+    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
   }), sites)
 }
 
 # Centred coefficient draws of the model and of the bias-corrected
 # prediction at a condition (new_condition_setup()).
 condition_draws <- function(fit, setup, sites) {
-  G <- if (is.null(fit$basis$settings)) crossprod(fit$basis$Psi)
+  basis <- fit_get(fit, "basis")
+  G <- if (is.null(basis$settings)) crossprod(basis$Psi)
   stats::setNames(lapply(sites, function(s) {
     M <- setup$sites[[s]]$M
     W <- M + setup$sites[[s]]$B
-    list(Psi = fit$basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
   }), sites)
 }
 
@@ -95,7 +97,7 @@ experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
     dW <- added_load_emulated(fit, x$change, call = call)$Dw
     return(list(field = field, pred = pred, draws = fit_draws(fit, sites, dW)))
   }
-  post <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
+  post <- fit_draws_matrix(fit)[, fit_get(fit, "inputs"), drop = FALSE]
   em <- x$emulators
   zbar <- matrix(colMeans(post)[em$inputs], 1L)
   Ms <- stats::setNames(lapply(sites, function(s) {
@@ -103,19 +105,20 @@ experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
   }), sites)
   rows <- with_rng_seed(seed, lapply(sites, function(s) {
     M <- Ms[[s]]
-    W <- M + fit$wb[[s]] + sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
-    band <- band_frame(tcrossprod(W, fit$basis$Psi), fit$basis$t, s, level)
-    band$model <- drop(tcrossprod(bank_predict(site_bank(em, s), zbar)$mean, fit$basis$Psi))
+    W <- M + fit_get(fit, "wb")[[s]] + sqrt(fit_get(fit, "sigma2")[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
+    band <- band_frame(tcrossprod(W, fit_get(fit, "basis")$Psi), fit_get(fit, "basis")$t, s, level)
+    band$model <- drop(tcrossprod(bank_predict(site_bank(em, s), zbar)$mean, fit_get(fit, "basis")$Psi))
     band
   }))
   pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive", level = level,
                          seed = seed), class = "wv_prediction")
-  dW <- stats::setNames(lapply(sites, function(s) Ms[[s]] - fit$wM[[s]]), sites)
+  dW <- stats::setNames(lapply(sites, function(s) Ms[[s]] - fit_get(fit, "wM")[[s]]), sites)
   list(field = field, pred = pred, draws = fit_draws(fit, sites, dW))
 }
 
 check_holdout_experiment <- function(fit, x, call) {
-  x <- check_experiments(list(holdout = x), fit$emulators, list(curves = list()), iu = fit$iu, call = call)$holdout
+  x <- check_experiments(list(holdout = x), fit_get(fit, "emulators"), list(curves = list()), iu = fit_get(fit, "iu"),
+                         call = call)$holdout
   miss <- setdiff(names(x$field$curves), base_sites(fit))
   if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
   x
@@ -128,12 +131,13 @@ holdout_registered <- function(fit, x, call) {
   x <- check_holdout_experiment(fit, x, call)
   reg <- fit_controls(fit)$registration
   if (is.null(reg$windows)) return(x$field)
-  ke <- registration_knots(reg$knots_every, fit$basis$t)
+  ke <- registration_knots(reg$knots_every, fit_get(fit, "basis")$t)
   # as validate() registers: landmarks of every site; a fit made before it
   # did so is registered as it was
-  how <- if (identical(attr(fit$field$warps, "landmark_site"), "all")) list(landmark_site = "all")
-  do.call(register_experiments, c(list(list(holdout = x), fit$emulators, fit_pipeline(fit)$runs, reg$windows,
-                                        features = reg$features, knots_every = ke, quiet = TRUE), how))$holdout$field
+  how <- if (identical(attr(fit_get(fit, "field")$warps, "landmark_site"), "all")) list(landmark_site = "all")
+  do.call(register_experiments, c(list(list(holdout = x), fit_get(fit, "emulators"), fit_pipeline(fit)$runs,
+                                        reg$windows, features = reg$features, knots_every = ke, quiet = TRUE),
+                                   how))$holdout$field
 }
 
 # The paired comparison behind the verdict. Each of n_boot resamples takes

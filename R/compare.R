@@ -128,10 +128,10 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
   check_level(level)
   check_number(n_boot, min = 100, integer = TRUE)
   seed <- resolve_seed(seed)
-  if (!identical(names(before$wb), names(after$wb))) {
+  if (!identical(fit_sites(before), fit_sites(after))) {
     wv_abort("{.arg before} and {.arg after} must have the same sites.")
   }
-  if (!isTRUE(all.equal(before$basis$t, after$basis$t))) {
+  if (!isTRUE(all.equal(fit_get(before, "basis")$t, fit_get(after, "basis")$t))) {
     wv_abort("{.arg before} and {.arg after} must be on the same time grid.")
   }
   conflicts <- list(before = input_conflicts(before), after = input_conflicts(after))
@@ -202,11 +202,11 @@ validation_metrics <- function(fit, level) {
   b <- bias(fit, level)
   r <- reality(fit, level)
   mp <- model_prediction(fit, level)
-  fm <- do.call(rbind, lapply(names(fit$field$curves), function(s) {
-    data.frame(site = s, t = fit$field$t, y = field_mean_curve(fit, s))
+  fm <- do.call(rbind, lapply(names(fit_get(fit, "field")$curves), function(s) {
+    data.frame(site = s, t = fit_get(fit, "field")$t, y = field_mean_curve(fit, s))
   }))
   mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
-  wide <- fit$basis$level %in% record_wide_levels(fit$basis)
+  wide <- fit_get(fit, "basis")$level %in% record_wide_levels(fit_get(fit, "basis"))
   c(
     bias_rms = sqrt(mean(b$mean^2)),
     bias_rms_local = part_rms(fit, !wide),
@@ -221,20 +221,20 @@ validation_metrics <- function(fit, level) {
 # at their posterior mean when the fit samples them (the target the model's
 # error is taken against).
 field_mean_curve <- function(fit, s) {
-  y <- colMeans(fit$field$curves[[s]])
-  rs <- fit$registration_shifts
+  y <- colMeans(fit_get(fit, "field")$curves[[s]])
+  rs <- fit_get(fit, "registration_shifts")
   U <- rs$U[[s]]
   if (is.null(U) || is.null(rs$draws)) return(y)
   dw <- colMeans(as.matrix(rs$draws)) %*% t(U)
-  y - drop(tcrossprod(dw, fit$basis$Psi))
+  y - drop(tcrossprod(dw, fit_get(fit, "basis")$Psi))
 }
 
 # Whether two fits grade their models against the same registered field
 # data (the same grid, sites and registered curves).
 same_field <- function(a, b) {
-  fa <- a$field$curves
-  fb <- b$field$curves
-  identical(names(fa), names(fb)) && isTRUE(all.equal(a$field$t, b$field$t)) &&
+  fa <- fit_get(a, "field")$curves
+  fb <- fit_get(b, "field")$curves
+  identical(names(fa), names(fb)) && isTRUE(all.equal(fit_get(a, "field")$t, fit_get(b, "field")$t)) &&
     all(vapply(names(fa), function(s) isTRUE(all.equal(fa[[s]], fb[[s]], tolerance = 1e-8)), logical(1)))
 }
 

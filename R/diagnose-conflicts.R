@@ -50,12 +50,12 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   check_class(fit, "wv_fit")
   check_number(strata, min = 1, max = 50, integer = TRUE)
   check_flag(quiet)
-  if (!is.null(fit$experiments)) {
+  if (!is.null(fit_get(fit, "experiments"))) {
     wv_abort(c("Inputs can be held only in a fit of one experiment.",
                "i" = "Hold them in the fit of each experiment on its own."), class = "experiment")
   }
-  P <- prior_sample(fit$prior_iu)
-  colnames(P) <- fit$inputs
+  P <- prior_sample(fit_get(fit, "prior_iu"))
+  colnames(P) <- fit_get(fit, "inputs")
   cf <- input_conflicts(fit, prior = P)
   if (is.null(inputs)) inputs <- cf$input[cf$conflict]
   if (!is.character(inputs) || !length(inputs) || anyNA(inputs) || anyDuplicated(inputs)) {
@@ -63,12 +63,12 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
                "i" = if (!any(cf$conflict)) "No input of the fit is in conflict with its prior."),
              class = "input")
   }
-  bad <- setdiff(inputs, fit$inputs)
+  bad <- setdiff(inputs, fit_get(fit, "inputs"))
   if (length(bad)) {
     wv_abort(c("{.val {bad}} {?is/are} not {?an input/inputs} of the fit.",
-               "i" = "Its inputs are {.val {fit$inputs}}."), class = "input")
+               "i" = "Its inputs are {.val {fit_get(fit, 'inputs')}}."), class = "input")
   }
-  joint <- attr(fit$iu, "joint")
+  joint <- attr(fit_get(fit, "iu"), "joint")
   in_joint <- intersect(inputs, unlist(lapply(joint, `[[`, "names")))
   if (length(in_joint)) {
     wv_abort("{.val {in_joint}} {?has/have} a joint prior with other inputs and cannot be held alone.",
@@ -84,11 +84,11 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   sampler <- ctl$sampler
   sampler$quiet <- TRUE
   # each stratum as long as the fit's chains: equal shares of the prior
-  if (is.null(sampler$n_draws)) sampler$n_draws <- fit$settings$n_draws
-  seed <- fit$seed %||% 1L
+  if (is.null(sampler$n_draws)) sampler$n_draws <- fit_get(fit, "settings")$n_draws
+  seed <- fit_get(fit, "seed") %||% 1L
   label <- sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "), if (length(inputs) == 1L) "its" else "their")
   tasks <- lapply(seq_len(strata), function(k) list(iu = held_iu(fit, values[k, ]), seed = seed + k))
-  job <- list(emulators = fit$emulators, field = fit$field, bias = ctl$bias, sampler = sampler)
+  job <- list(emulators = fit_get(fit, "emulators"), field = fit_get(fit, "field"), bias = ctl$bias, sampler = sampler)
   fits <- run_futures(tasks, stratum_worker(job), label, quiet)
   pool_fits(fit, fits, values, cf)
 }
@@ -107,7 +107,7 @@ stratum_worker <- function(job) {
 # The fit's I/U map with the inputs `values` (named, in the fit's own units)
 # held: each a calibration input on a point-like range at its value.
 held_iu <- function(fit, values) {
-  hold_at(fit$iu, values)
+  hold_at(fit_get(fit, "iu"), values)
 }
 
 # The strata's fits pooled into one fit, with the original's I/U map, prior
@@ -115,23 +115,25 @@ held_iu <- function(fit, values) {
 pool_fits <- function(fit, fits, values, conflicts) {
   out <- fits[[1L]]
   stack <- function(what) {
-    stats::setNames(lapply(names(out[[what]]), function(s) do.call(rbind, lapply(fits, function(f) f[[what]][[s]]))),
-                    names(out[[what]]))
+    sites <- names(fit_get(out, what))
+    stats::setNames(lapply(sites, function(s) do.call(rbind, lapply(fits, function(f) fit_get(f, what)[[s]]))), sites)
   }
-  draws <- coda::mcmc.list(lapply(fits, function(f) f$draws[[1L]]))
-  n_each <- vapply(fits, function(f) length(f$chain), integer(1))
-  acceptance <- lapply(seq_along(fits), function(k) transform(fits[[k]]$acceptance, chain = k))
+  draws <- coda::mcmc.list(lapply(fits, function(f) fit_get(f, "draws")[[1L]]))
+  n_each <- vapply(fits, function(f) length(fit_get(f, "chain")), integer(1))
+  acceptance <- lapply(seq_along(fits), function(k) transform(fit_get(fits[[k]], "acceptance"), chain = k))
+  inputs <- fit_get(out, "inputs")
+  settings <- fit_get(out, "settings")
+  settings$chains <- length(fits)
   out <- fit_set(out, draws = draws, wM = stack("wM"), wb = stack("wb"), sigma2 = stack("sigma2"),
                  chain = rep(seq_along(fits), n_each), acceptance = do.call(rbind, acceptance),
-                 start = do.call(rbind, lapply(fits, `[[`, "start")),
-                 proposal_cov = do.call(c, lapply(fits, `[[`, "proposal_cov")),
-                 iu = fit$iu, prior_iu = fit$prior_iu,
-                 prior_sd = fit$prior_sd %||% prior_sds(fit$prior_iu), seed = fit$seed,
-                 ess = coda::effectiveSize(draws),
-                 rhat = stats::setNames(rep(NA_real_, length(out$inputs)), out$inputs),
-                 x_nom = fit$x_nom)
-  out$settings$chains <- length(fits)
-  flags <- boundary_flags(out, out$rhat)
+                 start = do.call(rbind, lapply(fits, fit_get, "start")),
+                 proposal_cov = do.call(c, lapply(fits, fit_get, "proposal_cov")),
+                 iu = fit_get(fit, "iu"), prior_iu = fit_get(fit, "prior_iu"),
+                 prior_sd = fit_get(fit, "prior_sd") %||% prior_sds(fit_get(fit, "prior_iu")),
+                 seed = fit_get(fit, "seed"), ess = coda::effectiveSize(draws),
+                 rhat = stats::setNames(rep(NA_real_, length(inputs)), inputs),
+                 x_nom = fit_get(fit, "x_nom"), settings = settings)
+  flags <- boundary_flags(out, fit_get(out, "rhat"))
   flags$boundary <- flags$boundary[!flags$boundary$input %in% colnames(values), , drop = FALSE]
   fit_set(out, flags = flags,
           held = list(inputs = colnames(values), values = values, original = conflicts))
@@ -143,30 +145,30 @@ pool_fits <- function(fit, fits, values, conflicts) {
 # inputs, at those inputs with `inputs` replaced by prior draws. A wv_fit
 # whose bias is reality less that model.
 reread_held <- function(fit, inputs) {
-  inputs_all <- fit$emulators$inputs
-  post <- as.matrix(fit$draws)[, inputs_all, drop = FALSE]
+  inputs_all <- fit_get(fit, "emulators")$inputs
+  post <- fit_draws_matrix(fit)[, inputs_all, drop = FALSE]
   H <- nrow(post)
-  wb <- fit$wb
-  wM_all <- fit$wM
-  with_rng_seed(fit$seed %||% 1L, {
-    prior <- iu_prior_draws(fit$prior_iu, H)
-    colnames(prior) <- fit$inputs
+  wb <- fit_get(fit, "wb")
+  wM_all <- fit_get(fit, "wM")
+  with_rng_seed(fit_get(fit, "seed") %||% 1L, {
+    prior <- iu_prior_draws(fit_get(fit, "prior_iu"), H)
+    colnames(prior) <- fit_get(fit, "inputs")
     Znew <- post
     Znew[, inputs] <- prior[, inputs]
-    for (s in names(fit$wb)) {
-      pr <- bank_predict_augmented(site_bank(fit$emulators, s), post, fit$wM[[s]], Znew)
+    for (s in fit_sites(fit)) {
+      pr <- bank_predict_augmented(site_bank(fit_get(fit, "emulators"), s), post, fit_get(fit, "wM")[[s]], Znew)
       wM <- pr$mean + sqrt(pmax(pr$var, 0)) * matrix(stats::rnorm(length(pr$mean)), nrow(pr$mean))
-      dimnames(wM) <- dimnames(fit$wM[[s]])
-      wb[[s]] <- fit$wM[[s]] + fit$wb[[s]] - wM
+      dimnames(wM) <- dimnames(fit_get(fit, "wM")[[s]])
+      wb[[s]] <- fit_get(fit, "wM")[[s]] + fit_get(fit, "wb")[[s]] - wM
       wM_all[[s]] <- wM
     }
   })
-  X <- as.matrix(fit$draws)
+  X <- fit_draws_matrix(fit)
   X[, inputs] <- Znew[, inputs]
-  draws <- coda::mcmc.list(lapply(unique(fit$chain), function(k) {
-    coda::mcmc(X[fit$chain == k, , drop = FALSE], thin = coda::thin(fit$draws[[k]]))
+  draws <- coda::mcmc.list(lapply(unique(fit_get(fit, "chain")), function(k) {
+    coda::mcmc(X[fit_get(fit, "chain") == k, , drop = FALSE], thin = coda::thin(fit_get(fit, "draws")[[k]]))
   }))
-  flags <- fit$flags
+  flags <- fit_get(fit, "flags")
   flags$boundary <- flags$boundary[!flags$boundary$input %in% inputs, , drop = FALSE]
   fit_set(fit, wb = wb, wM = wM_all, draws = draws, held = list(inputs = inputs, how = "reread"),
           flags = flags)
@@ -176,17 +178,19 @@ reread_held <- function(fit, inputs) {
 # site: the stretch around the largest move where the move is at least half
 # of it.
 pull_support <- function(fit, held, keep) {
-  do.call(rbind, lapply(names(fit$wb), function(s) {
-    Psi <- fit$basis$Psi[, keep, drop = FALSE]
-    shift <- drop(Psi %*% (colMeans(fit$wM[[s]][, keep, drop = FALSE]) - colMeans(held$wM[[s]][, keep, drop = FALSE])))
+  basis <- fit_get(fit, "basis")
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
+    Psi <- basis$Psi[, keep, drop = FALSE]
+    shift <- drop(Psi %*% (colMeans(fit_get(fit, "wM")[[s]][, keep, drop = FALSE]) -
+                             colMeans(fit_get(held, "wM")[[s]][, keep, drop = FALSE])))
     k <- which.max(abs(shift))
     big <- abs(shift) >= abs(shift[k]) / 2
     r <- rle(big)
     ends <- cumsum(r$lengths)
     starts <- ends - r$lengths + 1L
     j <- which(starts <= k & ends >= k)
-    dt <- diff(fit$basis$t[1:2])
-    data.frame(site = s, start = fit$basis$t[starts[j]], end = fit$basis$t[ends[j]] + dt, t = fit$basis$t[k],
+    dt <- diff(basis$t[1:2])
+    data.frame(site = s, start = basis$t[starts[j]], end = basis$t[ends[j]] + dt, t = basis$t[k],
                shift = shift[k], stringsAsFactors = FALSE)
   }))
 }

@@ -146,18 +146,18 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
     fit <- hd$fit
     if (r$kind == "input") return(list(fit = fit, use = NULL, label = label))
   }
-  sites <- names(fit$wb)
+  sites <- fit_sites(fit)
   b <- attr(finding, "bias")
-  if (!r$site %in% sites || length(unique(b$t)) != length(fit$basis$t)) {
+  if (!r$site %in% sites || length(unique(b$t)) != length(fit_get(fit, "basis")$t)) {
     wv_abort(c("The finding {label} is not one of {.arg fit}'s.",
                "i" = "Give the fit whose {.fn where_fails} table it comes from; its sites are {.val {sites}}."),
              call = call)
   }
-  wide <- fit$basis$level %in% record_wide_levels(fit$basis)
+  wide <- fit_get(fit, "basis")$level %in% record_wide_levels(fit_get(fit, "basis"))
   coef <- if (r$kind == "record-wide") wide else {
-    t <- fit$basis$t
+    t <- fit_get(fit, "basis")$t
     dt <- diff(t[1:2])
-    P <- abs(fit$basis$Psi)
+    P <- abs(fit_get(fit, "basis")$Psi)
     inside <- t >= r$start - dt / 2 & t < r$end - dt / 2
     overlap <- colSums(sweep(P[inside, , drop = FALSE], 2L, 1e-10 * apply(P, 2L, max), `>`)) > 0
     overlap & (!wide | !identical(attr(finding, "scales"), "split"))

@@ -57,22 +57,22 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
   check_level(level)
   check_number(n_sim, min = 100, integer = TRUE)
   check_number(seed, integer = TRUE)
-  sites <- names(fit$wb)
-  X <- as.matrix(fit$draws)[, fit$inputs, drop = FALSE]
+  sites <- fit_sites(fit)
+  X <- fit_draws_matrix(fit)[, fit_get(fit, "inputs"), drop = FALSE]
   rows <- unique(round(seq(1, nrow(X), length.out = min(nrow(X), 100L))))
-  Psi <- fit$basis$Psi
+  Psi <- fit_get(fit, "basis")$Psi
   sims <- with_rng_seed(seed, lapply(stats::setNames(sites, sites), function(s) {
     Z <- shift_inputs(fit, s, X[rows, , drop = FALSE])
-    pr <- bank_predict(site_bank(fit$emulators, s), Z)
+    pr <- bank_predict(site_bank(fit_get(fit, "emulators"), s), Z)
     D <- field_mean_draws(fit, s, rows) - pr$mean
     dbar <- colMeans(D)
     k <- ncol(D)
     h <- sample.int(length(rows), n_sim, replace = TRUE)
     E <- sweep(D[h, , drop = FALSE], 2L, dbar) + sqrt(pmax(pr$var[h, , drop = FALSE], 0)) * matrix(stats::rnorm(n_sim * k), n_sim)
-    R <- fit$n_rep[[s]]
-    reg <- fit$registration_var[[s]] %||% 0
+    R <- fit_get(fit, "n_rep")[[s]]
+    reg <- fit_get(fit, "registration_var")[[s]] %||% 0
     if (R >= 2L) {
-      Wr <- basis_coef(fit$basis, fit$field$curves[[s]])
+      Wr <- basis_coef(fit_get(fit, "basis"), fit_get(fit, "field")$curves[[s]])
       Dr <- sweep(Wr, 2L, colMeans(Wr))
       E <- E + matrix(stats::rnorm(n_sim * R), n_sim) %*% Dr / sqrt(R * (R - 1))
       E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
@@ -89,7 +89,7 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
   crit <- unname(stats::quantile(zmax, level))
   out <- do.call(rbind, lapply(sites, function(s) {
     z <- sims[[s]]$misfit / sims[[s]]$se
-    data.frame(site = s, t = fit$basis$t, misfit = sims[[s]]$misfit, se = sims[[s]]$se, z = z, crit = crit,
+    data.frame(site = s, t = fit_get(fit, "basis")$t, misfit = sims[[s]]$misfit, se = sims[[s]]$se, z = z, crit = crit,
                rejected = abs(z) > crit, stringsAsFactors = FALSE)
   }))
   observed <- max(abs(out$z))

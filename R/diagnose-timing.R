@@ -20,15 +20,15 @@
 # curve and the size credible, flagged), or NULL when the fit's field was
 # not registered by validate() or has fewer than two replicates.
 timing_table <- function(fit, level = 0.9) {
-  w <- fit$field$warps
+  w <- fit_get(fit, "field")$warps
   runs <- fit_pipeline(fit)$runs
-  if (is.null(w) || !inherits(runs, "wv_runs") || !identical(runs$t, fit$field$t)) return(NULL)
+  if (is.null(w) || !inherits(runs, "wv_runs") || !identical(runs$t, fit_get(fit, "field")$t)) return(NULL)
   lw <- w[w$feature != "fitted", , drop = FALSE]
   if (!nrow(lw)) return(NULL)
   st <- attr(w, "landmark_settings") %||%
     list(features = check_features(fit_controls(fit)$registration$features %||% c("min", "max")), refine = FALSE)
   windows <- attr(w, "windows")
-  t <- fit$field$t
+  t <- fit_get(fit, "field")$t
   keys <- unique(lw[, c("site", "window", "feature")])
   X <- timing_inputs(fit, runs)
   if (is.null(X)) return(NULL)
@@ -59,7 +59,7 @@ timing_table <- function(fit, level = 0.9) {
   out$flagged <- out$lower > 0 | out$upper < 0
   # what the shift makes in the curve near the event: the largest change of
   # the site's registered field mean moved by it
-  ybar <- lapply(fit$field$curves, colMeans)
+  ybar <- lapply(fit_get(fit, "field")$curves, colMeans)
   near <- mapply(function(m, w, f) lw$t_after[lw$site == m & lw$window == w & lw$feature == f][1],
                  out$site, out$window, out$feature)
   out$size <- mapply(function(m, t0, d) shift_size(ybar[[m]], t, t0, d), out$site, near, out$shift)
@@ -77,10 +77,11 @@ timing_inputs <- function(fit, runs) {
   D <- runs$design
   if (is.null(D)) return(NULL)
   vary <- names(D)[vapply(D, function(v) is.numeric(v) && stats::sd(v) > 0, logical(1))]
-  draws <- as.matrix(fit$draws)
+  draws <- fit_draws_matrix(fit)
   P <- matrix(NA_real_, nrow(draws), length(vary), dimnames = list(NULL, vary))
+  x_nom <- fit_get(fit, "x_nom")
   for (p in vary) {
-    P[, p] <- if (p %in% colnames(draws)) draws[, p] else if (p %in% names(fit$x_nom)) fit$x_nom[[p]] else NA_real_
+    P[, p] <- if (p %in% colnames(draws)) draws[, p] else if (p %in% names(x_nom)) x_nom[[p]] else NA_real_
   }
   if (anyNA(P)) return(NULL)
   list(design = as.data.frame(D[vary]), draws = as.data.frame(P))

@@ -151,13 +151,14 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   scales <- check_choice(scales)
   check_number(min_steps, min = 1, integer = TRUE)
   check_flag(hold)
-  tol <- site_tolerance(tolerance, names(fit$wb))
+  tol <- site_tolerance(tolerance, fit_sites(fit))
   b_whole <- bias(fit, level = level)
-  wide_levels <- record_wide_levels(fit$basis)
-  wide <- fit$basis$level %in% wide_levels
+  basis <- fit_get(fit, "basis")
+  wide_levels <- record_wide_levels(basis)
+  wide <- basis$level %in% wide_levels
   b <- if (scales == "split") bias_part(fit, !wide, level) else b_whole
   r <- reality_mean(fit)  # only reality's pointwise mean is used (share_of_signal)
-  dt <- diff(fit$basis$t[1:2])
+  dt <- diff(basis$t[1:2])
   gap <- band_gap(band_limits(b, band))
   rows <- lapply(unique(b$site), function(s) {
     bs <- b[b$site == s, ]
@@ -190,11 +191,11 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   }
   cf <- input_conflicts(fit)
   held <- NULL
-  if (hold && any(cf$conflict) && is.null(fit$experiments)) {
+  if (hold && any(cf$conflict) && is.null(fit_get(fit, "experiments"))) {
     hf <- reread_held(fit, cf$input[cf$conflict])
     hw <- fails_table(hf, level = level, band = band, min_steps = min_steps, tolerance = tolerance,
                       scales = scales, hold = FALSE, misfit = FALSE)
-    held <- list(inputs = hf$held$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
+    held <- list(inputs = fit_get(hf, "held")$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
@@ -202,17 +203,18 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   if (!is.null(tm)) tm$flagged <- tm$flagged & tm$credible > tol[tm$site]
   mc <- if (misfit) misfit_check(fit, level)
   ms <- if (!is.null(mc)) misfit_stretches(mc, tol, min_steps)
-  out <- findings_table(intervals, rw, held, cf, r, fit$experiments, proposals, tm, ms)
-  if (!is.null(fit$conditions)) {
+  out <- findings_table(intervals, rw, held, cf, r, fit_get(fit, "experiments"), proposals, tm, ms)
+  if (!is.null(fit_get(fit, "conditions"))) {
     # the condition of each finding's experiment ("base" without experiments)
-    labs <- condition_labels(fit$conditions)
+    labs <- condition_labels(fit_get(fit, "conditions"))
     out$condition <- unname(labs[out$experiment %||% rep("base", nrow(out))])
   }
   att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
-              tolerance = tol, credible = credible_with_misfit(credible_bias(b, gap), mc), pooled_level0 = 0 %in% fit$settings$pool_levels,
-              experiments = fit$experiments, conflicts = cf, held = held, holds = fit$held, timing = tm,
-              misfit = mc, unmixed = unmixed_inputs(list(fit = fit))$fit)
+              tolerance = tol, credible = credible_with_misfit(credible_bias(b, gap), mc),
+              pooled_level0 = 0 %in% fit_get(fit, "settings")$pool_levels, experiments = fit_get(fit, "experiments"),
+              conflicts = cf, held = held, holds = fit_get(fit, "held"), timing = tm, misfit = mc,
+              unmixed = unmixed_inputs(list(fit = fit))$fit)
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out
@@ -220,11 +222,11 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
 
 # The bias band of the part of the bias carried by the coefficients `keep`.
 bias_part <- function(fit, keep, level) {
-  do.call(rbind, lapply(names(fit$wb), function(s) {
-    W <- fit$wb[[s]][, keep, drop = FALSE]
-    Psi <- fit$basis$Psi[, keep, drop = FALSE]
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
+    W <- fit_get(fit, "wb")[[s]][, keep, drop = FALSE]
+    Psi <- fit_get(fit, "basis")$Psi[, keep, drop = FALSE]
     src <- curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, offset = numeric()))
-    band_frame(src, fit$basis$t, s, level)
+    band_frame(src, fit_get(fit, "basis")$t, s, level)
   }))
 }
 
@@ -235,12 +237,13 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
   a <- (1 - level) / 2
   part <- bias_part(fit, wide, level)
   gap <- band_gap(band_limits(part, band))
-  do.call(rbind, lapply(names(fit$wb), function(s) {
-    avg <- drop(fit$wb[[s]][, wide, drop = FALSE] %*% colMeans(fit$basis$Psi[, wide, drop = FALSE]))
+  basis <- fit_get(fit, "basis")
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
+    avg <- drop(fit_get(fit, "wb")[[s]][, wide, drop = FALSE] %*% colMeans(basis$Psi[, wide, drop = FALSE]))
     k <- which(part$site == s)
     at <- k[which.max(gap[k])]
     dt <- diff(part$t[k[1:2]])
-    data.frame(site = s, levels = paste(range(intersect(wide_levels, fit$basis$level)), collapse = "-"),
+    data.frame(site = s, levels = paste(range(intersect(wide_levels, basis$level)), collapse = "-"),
                offset = mean(avg), offset_lower = stats::quantile(avg, a, names = FALSE),
                offset_upper = stats::quantile(avg, 1 - a, names = FALSE),
                credible_bias = gap[at], t = part$t[at], credible = gap[at] > tol[[s]],
@@ -322,12 +325,12 @@ site_tolerance <- function(tolerance, sites, call = rlang::caller_env()) {
 # level, with the number of coefficients whose interval excludes zero.
 bias_by_level <- function(fit, level) {
   a <- (1 - level) / 2
-  do.call(rbind, lapply(names(fit$wb), function(s) {
-    wb <- fit$wb[[s]]
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
+    wb <- fit_get(fit, "wb")[[s]]
     e <- colMeans(wb^2)
     lo <- apply(wb, 2, stats::quantile, probs = a, names = FALSE)
     hi <- apply(wb, 2, stats::quantile, probs = 1 - a, names = FALSE)
-    lev <- fit$basis$level
+    lev <- fit_get(fit, "basis")$level
     out <- data.frame(
       site = s,
       level = sort(unique(lev)),
@@ -405,9 +408,9 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
 # Root mean square over sites and time of the posterior mean of the part of
 # the bias carried by the coefficients `keep`.
 part_rms <- function(fit, keep) {
-  Psi <- fit$basis$Psi[, keep, drop = FALSE]
-  sq <- vapply(names(fit$wb), function(s) {
-    m <- drop(Psi %*% colMeans(fit$wb[[s]][, keep, drop = FALSE]))
+  Psi <- fit_get(fit, "basis")$Psi[, keep, drop = FALSE]
+  sq <- vapply(fit_sites(fit), function(s) {
+    m <- drop(Psi %*% colMeans(fit_get(fit, "wb")[[s]][, keep, drop = FALSE]))
     sum(m^2)
   }, numeric(1))
   sqrt(sum(sq) / (nrow(Psi) * length(sq)))

@@ -173,10 +173,10 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   cand <- candidate_coefficients(fit, candidates, t)
   pos <- candidate_signs(positive, ncol(cand))
   group <- candidate_effects(effect, colnames(cand))
-  draws <- as.matrix(fit$draws)
+  draws <- fit_draws_matrix(fit)
   user <- cand
   if (isTRUE(shifts)) {
-    sh <- shift_candidates(fit, colMeans(draws[, fit$inputs, drop = FALSE]))
+    sh <- shift_candidates(fit, colMeans(draws[, fit_get(fit, "inputs"), drop = FALSE]))
     cand <- cbind(cand, sh)
     pos <- c(pos, rep(FALSE, ncol(sh)))
     group <- c(group, colnames(sh))
@@ -184,7 +184,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   if (ncol(cand) == 0L) {
     wv_abort("No candidates: give {.arg candidates} or set {.code shifts = TRUE}.")
   }
-  H <- nrow(fit$wb[[1]])
+  H <- nrow(fit_get(fit, "wb")[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
   draws <- draws[keep, , drop = FALSE]
   rs <- residual_regression_data(fit, draws, keep)
@@ -215,7 +215,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   lead <- cand[, res$lead, drop = FALSE]
   colnames(lead) <- names(res$lead)
   attr(out, "curves") <- explain_curves(fit, lead, out)
-  attr(out, "boundary") <- unique(fit$flags$boundary$input)
+  attr(out, "boundary") <- unique(fit_get(fit, "flags")$boundary$input)
   if (isTRUE(shifts)) {
     attr(out, "absorbed") <- shift_absorption(user[use, , drop = FALSE], sh[use, , drop = FALSE],
                                               colMeans(Wt[, use, drop = FALSE]))
@@ -230,11 +230,11 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
 # the tempering: the time segment, out of `segments` equal ones, where the
 # support of its basis function is centred (by squared weight), per site.
 coefficient_segments <- function(fit, segments) {
-  t <- fit$basis$t
-  P2 <- fit$basis$Psi^2
+  t <- fit_get(fit, "basis")$t
+  P2 <- fit_get(fit, "basis")$Psi^2
   centre <- colSums(P2 * t) / colSums(P2)
   seg <- pmin(segments - 1L, floor((centre - t[1]) / (t[length(t)] - t[1]) * segments))
-  n <- vapply(fit$wb, ncol, 1L)
+  n <- vapply(fit_get(fit, "wb"), ncol, 1L)
   unlist(lapply(seq_along(n), function(i) (i - 1L) * segments + seg[seq_len(n[i])]))
 }
 
@@ -243,9 +243,9 @@ coefficient_segments <- function(fit, segments) {
 # field and emulator variance sigma^2_h / R + V(z_h): H x n matrices, sites
 # stacked in the order of fit$wb.
 residual_regression_data <- function(fit, draws, keep) {
-  Z <- draws[, fit$inputs, drop = FALSE]
-  parts <- lapply(names(fit$wb), function(s) {
-    pr <- bank_predict(site_bank(fit$emulators, s), shift_inputs(fit, s, Z))
+  Z <- draws[, fit_get(fit, "inputs"), drop = FALSE]
+  parts <- lapply(fit_sites(fit), function(s) {
+    pr <- bank_predict(site_bank(fit_get(fit, "emulators"), s), shift_inputs(fit, s, Z))
     list(r = field_mean_draws(fit, s, keep) - pr$mean,
          v = pr$var + field_mean_variance(fit, s, keep))
   })
@@ -257,7 +257,7 @@ residual_regression_data <- function(fit, draws, keep) {
 # the rows of the draws matrix `d`: H x n matrix, sites stacked in the order of
 # fit$wb.
 bias_level_variances <- function(fit, d) {
-  do.call(cbind, lapply(names(fit$wb), function(s) {
+  do.call(cbind, lapply(fit_sites(fit), function(s) {
     col <- tau2_columns(fit, s)
     miss <- setdiff(unique(col), colnames(d))
     if (length(miss)) wv_abort("The fit has no draws of {.val {miss}}.", class = "state")
@@ -268,18 +268,18 @@ bias_level_variances <- function(fit, d) {
 # Posterior mean bias and the leading candidates scaled by their amplitude, by
 # site, on the grid (for autoplot).
 explain_curves <- function(fit, cand, table, n_lead = 3L) {
-  sites <- names(fit$wb)
-  n <- vapply(fit$wb, ncol, 1L)
+  sites <- fit_sites(fit)
+  n <- vapply(fit_get(fit, "wb"), ncol, 1L)
   offs <- c(0L, cumsum(n))
   lead <- utils::head(table[table$inclusion_prob > 0, , drop = FALSE], n_lead)
   do.call(rbind, lapply(seq_along(sites), function(i) {
     s <- sites[i]
     rows <- (offs[i] + 1L):offs[i + 1L]
-    b <- drop(fit$basis$Psi %*% colMeans(fit$wb[[s]]))
-    out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
+    b <- drop(fit_get(fit, "basis")$Psi %*% colMeans(fit_get(fit, "wb")[[s]]))
+    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias", value = b)
     for (k in seq_len(nrow(lead))) {
-      v <- drop(fit$basis$Psi %*% cand[rows, lead$candidate[k]]) * lead$amplitude[k]
-      out <- rbind(out, data.frame(site = s, t = fit$basis$t,
+      v <- drop(fit_get(fit, "basis")$Psi %*% cand[rows, lead$candidate[k]]) * lead$amplitude[k]
+      out <- rbind(out, data.frame(site = s, t = fit_get(fit, "basis")$t,
                                    curve = sprintf("%s x %.3g", lead$candidate[k], lead$amplitude[k]),
                                    value = v))
     }

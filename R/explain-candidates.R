@@ -30,13 +30,13 @@ candidate_effects <- function(effect, nm, call = rlang::caller_env()) {
 # each curve first put on the fit's grid (candidate_on_grid()); one message
 # names the curves that were interpolated.
 candidate_coefficients <- function(fit, candidates, t = NULL, call = rlang::caller_env()) {
-  sites <- names(fit$wb)
-  tb <- fit$basis$t
+  sites <- fit_sites(fit)
+  tb <- fit_get(fit, "basis")$t
   if (!is.list(candidates)) {
     wv_abort("{.arg candidates} must be a named list of curves.", call = call)
   }
   if (!is.null(t)) t <- check_candidate_grid(t, tb, call = call)
-  if (length(candidates) == 0L) return(matrix(0, sum(vapply(fit$wb, ncol, 1L)), 0L))
+  if (length(candidates) == 0L) return(matrix(0, sum(vapply(fit_get(fit, "wb"), ncol, 1L)), 0L))
   nm <- names(candidates)
   if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
     wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
@@ -60,7 +60,8 @@ candidate_coefficients <- function(fit, candidates, t = NULL, call = rlang::call
       "i" = "{cli::qty(length(moved))}Candidate{?s} {.val {moved}} {?was/were} not on the fit's grid of {length(tb)} points ({.code fit$basis$t}): linearly interpolated to it from {unique(unlist(from))}."
     ))
   }
-  out <- do.call(cbind, lapply(placed, function(p) unlist(lapply(p, function(y) drop(y$y %*% fit$basis$Psi)))))
+  Psi <- fit_get(fit, "basis")$Psi
+  out <- do.call(cbind, lapply(placed, function(p) unlist(lapply(p, function(y) drop(y$y %*% Psi)))))
   colnames(out) <- nm
   zero <- colSums(out^2) == 0
   if (any(zero)) {
@@ -140,12 +141,12 @@ check_candidate_grid <- function(t, tb, call = rlang::caller_env()) {
 # inputs z_mean, by central differences, scaled by the input's range: the change
 # of the model output when the input moves by its whole range.
 shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
-  em <- fit$emulators
+  em <- fit_get(fit, "emulators")
   zhat <- z_mean[em$inputs]
-  sites <- names(fit$wb)
+  sites <- fit_sites(fit)
   width <- vapply(em$inputs, function(p) {
-    k <- match(p, fit$iu$name)
-    if (is.na(k)) diff(range(em$design[, p])) else fit$iu$upper[k] - fit$iu$lower[k]
+    k <- match(p, fit_get(fit, "iu")$name)
+    if (is.na(k)) diff(range(em$design[, p])) else fit_get(fit, "iu")$upper[k] - fit_get(fit, "iu")$lower[k]
   }, numeric(1))
   out <- vapply(seq_along(em$inputs), function(p) {
     h <- 1e-3 * width[p]
@@ -157,7 +158,7 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
       pr <- bank_predict(site_bank(em, s), shift_inputs(fit, s, Z))$mean
       (pr[1, ] - pr[2, ]) / (2 * h) * width[p]
     }))
-  }, numeric(sum(vapply(fit$wb, ncol, 1L))))
+  }, numeric(sum(vapply(fit_get(fit, "wb"), ncol, 1L))))
   if (is.null(dim(out))) out <- matrix(out, ncol = length(em$inputs))
   colnames(out) <- paste0("shift:", em$inputs)
   out[, colSums(out^2) > 0, drop = FALSE]

@@ -84,34 +84,38 @@ refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
   if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
     wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
   }
-  sites <- names(fit$wb)
+  sites <- fit_sites(fit)
+  fit_basis <- fit_get(fit, "basis")
   vapply(nm, function(k) {
     rf <- refits[[k]]
-    if (!setequal(names(rf$wb), sites)) {
-      wv_abort(c("Candidate {.val {k}} has sites {.val {names(rf$wb)}}; {.arg fit} has {.val {sites}}.",
+    if (!setequal(fit_sites(rf), sites)) {
+      wv_abort(c("Candidate {.val {k}} has sites {.val {fit_sites(rf)}}; {.arg fit} has {.val {sites}}.",
                  "i" = "Calibrate each candidate model on the field data of {.arg fit}."), call = call)
     }
-    same_basis <- identical(rf$basis$index, fit$basis$index) && identical(dim(rf$basis$Psi), dim(fit$basis$Psi)) &&
-      isTRUE(all.equal(rf$basis$Psi, fit$basis$Psi, tolerance = 1e-10))
+    basis <- fit_get(rf, "basis")
+    same_basis <- identical(basis$index, fit_basis$index) && identical(dim(basis$Psi), dim(fit_basis$Psi)) &&
+      isTRUE(all.equal(basis$Psi, fit_basis$Psi, tolerance = 1e-10))
     if (!same_basis) {
       wv_abort(c("Candidate {.val {k}} was not fitted on the wavelet basis of {.arg fit}.",
                  "i" = "Fit its emulators with {.code fit_emulators(runs, fit$basis)}."), call = call)
     }
     same_field <- all(vapply(sites, function(s) {
-      isTRUE(all.equal(rf$wbar[[s]], fit$wbar[[s]], tolerance = 1e-8)) && identical(rf$n_rep[[s]], fit$n_rep[[s]])
+      isTRUE(all.equal(fit_get(rf, "wbar")[[s]], fit_get(fit, "wbar")[[s]], tolerance = 1e-8)) &&
+        identical(fit_get(rf, "n_rep")[[s]], fit_get(fit, "n_rep")[[s]])
     }, logical(1)))
     if (!same_field) {
       wv_abort(c("Candidate {.val {k}} was not calibrated on the field data of {.arg fit}.",
                  "i" = "Use the same registered field data ({.code fit$field}) for every candidate."), call = call)
     }
-    extra <- setdiff(rf$inputs, fit$inputs)
-    lacks <- setdiff(fit$inputs, rf$inputs)
+    extra <- setdiff(fit_get(rf, "inputs"), fit_get(fit, "inputs"))
+    lacks <- setdiff(fit_get(fit, "inputs"), fit_get(rf, "inputs"))
     if (length(extra) != 1L || length(lacks)) {
       wv_abort(c("Candidate {.val {k}} must have the inputs of {.arg fit} and one more, the mechanism's strength.",
                  "x" = "Its inputs beyond those of {.arg fit}: {.val {if (length(extra)) extra else 'none'}}.",
                  "x" = if (length(lacks)) "It lacks {.val {lacks}}."), call = call)
     }
-    p <- rf$prior_iu[match(extra, rf$prior_iu$name), ]
+    prior_iu <- fit_get(rf, "prior_iu")
+    p <- prior_iu[match(extra, prior_iu$name), ]
     if (!identical(p$type, "calibration")) {
       wv_abort(c("The strength {.val {extra}} of candidate {.val {k}} must be a calibration input.",
                  "i" = "Give it a range whose lower bound switches the mechanism off, with {.fn iu_map}."),
@@ -126,10 +130,10 @@ refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
 # of its draws as a matrix, D).
 refit_loglik <- function(rf, D, Z, h, informing) {
   ll <- numeric(nrow(Z))
-  for (s in names(rf$wb)) {
-    g <- rf$bias_group[[s]]
+  for (s in fit_sites(rf)) {
+    g <- fit_get(rf, "bias_group")[[s]]
     use <- g %in% informing
-    pr <- bank_predict(site_bank(rf$emulators, s), shift_inputs(rf, s, Z))
+    pr <- bank_predict(site_bank(fit_get(rf, "emulators"), s), shift_inputs(rf, s, Z))
     e <- drop(field_mean_variance(rf, s, h)) + D[h, tau2_columns(rf, s)]
     tot <- sweep(pr$var, 2L, e, `+`)[, use, drop = FALSE]
     r2 <- sweep(pr$mean, 2L, drop(field_mean_draws(rf, s, h)))[, use, drop = FALSE]^2
@@ -145,19 +149,23 @@ refit_loglik <- function(rf, D, Z, h, informing) {
 # uniform there) on a grid of n_grid points refined around its largest value,
 # integrated by the trapezoidal rule.
 log_density_at_off <- function(rf, D, strength, keep, n_grid = 33L, tick = NULL) {
-  p <- rf$prior_iu[match(strength, rf$prior_iu$name), ]
+  prior_iu <- fit_get(rf, "prior_iu")
+  p <- prior_iu[match(strength, prior_iu$name), ]
   lo <- p$lower
   hi <- p$upper
-  informs <- informing_groups(rf$settings$inform_levels, rf$basis$level, rf$bias_group, rf$groups)
-  informing <- if (is.null(informs)) rf$groups$name else rf$groups$name[informs == 1L]
+  settings <- fit_get(rf, "settings")
+  groups <- fit_get(rf, "groups")
+  informs <- informing_groups(settings$inform_levels, fit_get(rf, "basis")$level, fit_get(rf, "bias_group"), groups)
+  informing <- if (is.null(informs)) groups$name else groups$name[informs == 1L]
+  inputs <- fit_get(rf, "inputs")
   grid <- seq(lo, hi, length.out = n_grid)
   step <- grid[2] - grid[1]
   out <- vapply(keep, function(h) {
-    z <- D[h, rf$inputs]
+    z <- D[h, inputs]
     at <- function(v) {
-      Z <- matrix(z, length(v), length(z), byrow = TRUE, dimnames = list(NULL, rf$inputs))
+      Z <- matrix(z, length(v), length(z), byrow = TRUE, dimnames = list(NULL, inputs))
       Z[, strength] <- v
-      (rf$settings$temper %||% 1) * refit_loglik(rf, D, Z, h, informing)
+      (settings$temper %||% 1) * refit_loglik(rf, D, Z, h, informing)
     }
     ll <- at(grid)
     j <- which.max(ll)
@@ -187,20 +195,24 @@ explain_refits <- function(fit, refits, n_draws, level) {
   # the energy of the posterior mean bias, whole and without the levels that
   # span the whole record (an offset or a slow trend, which a mechanism
   # acting at events does not explain)
-  local <- !fit$basis$level %in% record_wide_levels(fit$basis)
-  bias_energy <- function(f, keep = TRUE) sum(vapply(f$wb, function(w) sum(colMeans(w)[keep]^2), numeric(1)))
+  basis <- fit_get(fit, "basis")
+  local <- !basis$level %in% record_wide_levels(basis)
+  bias_energy <- function(f, keep = TRUE) {
+    sum(vapply(fit_get(f, "wb"), function(w) sum(colMeans(w)[keep]^2), numeric(1)))
+  }
   e0 <- bias_energy(fit)
   e0_local <- bias_energy(fit, local)
   tick <- NULL
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
-    total <- sum(vapply(refits, function(rf) min(n_draws, length(rf$chain)), numeric(1)))
+    total <- sum(vapply(refits, function(rf) min(n_draws, length(fit_get(rf, "chain"))), numeric(1)))
     id <- cli::cli_progress_bar("Savage-Dickey density ratios", total = total)
     tick <- function() cli::cli_progress_update(id = id)
   }
   off <- vapply(nm, function(k) {
     rf <- refits[[k]]
-    lower <- rf$prior_iu$lower[match(strength[[k]], rf$prior_iu$name)]
-    s <- rf$emulators$design[, strength[[k]]]
+    prior_iu <- fit_get(rf, "prior_iu")
+    lower <- prior_iu$lower[match(strength[[k]], prior_iu$name)]
+    s <- fit_get(rf, "emulators")$design[, strength[[k]]]
     sum(abs(s - lower) <= 1e-8 * max(1, abs(lower)))
   }, numeric(1))
   if (any(off < 2)) {
@@ -213,10 +225,11 @@ explain_refits <- function(fit, refits, n_draws, level) {
   }
   rows <- lapply(nm, function(k) {
     rf <- refits[[k]]
-    D <- as.matrix(rf$draws)
+    D <- fit_draws_matrix(rf)
     H <- nrow(D)
     keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
-    p <- rf$prior_iu[match(strength[[k]], rf$prior_iu$name), ]
+    prior_iu <- fit_get(rf, "prior_iu")
+    p <- prior_iu[match(strength[[k]], prior_iu$name), ]
     log_bf <- -log(p$upper - p$lower) - log_density_at_off(rf, D, strength[[k]], keep, tick = tick)
     s <- D[, strength[[k]]]
     data.frame(candidate = k, log_bf = log_bf, amplitude = mean(s),
@@ -240,7 +253,7 @@ explain_refits <- function(fit, refits, n_draws, level) {
   attr(out, "log_bf") <- stats::setNames(tab$log_bf, tab$candidate)
   attr(out, "strength") <- stats::setNames(tab$strength, tab$candidate)
   attr(out, "curves") <- refit_curves(fit, refits[tab$candidate], tab$strength, tab$inclusion_prob)
-  attr(out, "boundary") <- unique(fit$flags$boundary$input)
+  attr(out, "boundary") <- unique(fit_get(fit, "flags")$boundary$input)
   attr(out, "method") <- "revalidated"
   class(out) <- c("wv_explain", "data.frame")
   out
@@ -250,7 +263,7 @@ explain_refits <- function(fit, refits, n_draws, level) {
 # effect of the mechanism in the re-validated model: its emulated output at the
 # posterior mean inputs minus the same with the strength at its lower bound.
 refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
-  sites <- names(fit$wb)
+  sites <- fit_sites(fit)
   lead <- utils::head(which(prob > 0), n_lead)
   # each leading refit at its posterior mean inputs and with the strength at
   # its lower bound, once for all sites
@@ -258,19 +271,19 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
     rf <- refits[[k]]
     z <- posterior_mean_inputs(rf)
     z0 <- z
-    z0[strength[k]] <- rf$prior_iu$lower[match(strength[k], rf$prior_iu$name)]
+    z0[strength[k]] <- fit_get(rf, "prior_iu")$lower[match(strength[k], fit_get(rf, "prior_iu")$name)]
     rbind(z, z0)
   })
   do.call(rbind, lapply(sites, function(s) {
-    b <- drop(fit$basis$Psi %*% colMeans(fit$wb[[s]]))
-    out <- data.frame(site = s, t = fit$basis$t, curve = "posterior mean bias", value = b)
+    b <- drop(fit_get(fit, "basis")$Psi %*% colMeans(fit_get(fit, "wb")[[s]]))
+    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias", value = b)
     for (i in seq_along(lead)) {
       k <- lead[i]
       rf <- refits[[k]]
       z <- at[[i]][1, ]
-      m <- bank_predict(site_bank(rf$emulators, s), shift_inputs(rf, s, at[[i]]))$mean
-      v <- drop(fit$basis$Psi %*% (m[1, ] - m[2, ]))
-      out <- rbind(out, data.frame(site = s, t = fit$basis$t,
+      m <- bank_predict(site_bank(fit_get(rf, "emulators"), s), shift_inputs(rf, s, at[[i]]))$mean
+      v <- drop(fit_get(fit, "basis")$Psi %*% (m[1, ] - m[2, ]))
+      out <- rbind(out, data.frame(site = s, t = fit_get(fit, "basis")$t,
                                    curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),
                                    value = v))
     }

@@ -101,6 +101,28 @@ fit_set <- function(fit, ..., call = rlang::caller_env()) {
   validate_wv_fit(fit, call = call)
 }
 
+# The one way other modules read a fit: the field `name` (one of
+# wv_fit_fields; another name is an internal error). A declared field that a
+# fit saved before it was declared lacks reads as NULL.
+fit_get <- function(fit, name, call = rlang::caller_env()) {
+  if (!is.character(name) || length(name) != 1L || !name %in% names(wv_fit_fields)) {
+    wv_abort("{.field {name}} is not one field of a {.cls wv_fit}.", class = "internal", .internal = TRUE,
+             call = call)
+  }
+  if (!inherits(fit, "wv_fit")) {
+    wv_abort("{.arg fit} must be a {.cls wv_fit}, not {.obj_type_friendly {fit}}.", class = "internal",
+             .internal = TRUE, call = call)
+  }
+  fit[[name]]
+}
+
+# The fit's sites: the field's, then those of its further experiments
+# ("<experiment>/<site>"), in the order of its site lists.
+fit_sites <- function(fit) names(fit_get(fit, "wb"))
+
+# The draws of all chains in one matrix (H rows: the inputs, then the tau2).
+fit_draws_matrix <- function(fit) as.matrix(fit_get(fit, "draws"))
+
 check_fit_field_names <- function(nm, call = rlang::caller_env()) {
   if (length(nm) && (anyNA(nm) || any(!nzchar(nm)))) {
     wv_abort("Every field of a {.cls wv_fit} must be named.", class = "internal", .internal = TRUE,

@@ -61,8 +61,8 @@ NULL
 bias <- function(fit, level = 0.9) {
   check_class(fit, "wv_fit")
   check_level(level)
-  do.call(rbind, lapply(names(fit$wb), function(s) {
-    site_curves(fit, s, "bias", fun = function(src) band_frame(src, fit$basis$t, s, level))
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
+    site_curves(fit, s, "bias", fun = function(src) band_frame(src, fit_get(fit, "basis")$t, s, level))
   }))
 }
 
@@ -72,9 +72,9 @@ reality <- function(fit, level = 0.9, residual = TRUE) {
   check_class(fit, "wv_fit")
   check_level(level)
   check_flag(residual)
-  do.call(rbind, lapply(names(fit$wb), function(s) {
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
     site_curves(fit, s, "reality", residual = residual,
-                fun = function(src) band_frame(src, fit$basis$t, s, level))
+                fun = function(src) band_frame(src, fit_get(fit, "basis")$t, s, level))
   }))
 }
 
@@ -84,12 +84,12 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
   check_class(fit, "wv_fit")
   check_level(level)
   check_flag(residual)
-  do.call(rbind, lapply(names(fit$wb), function(s) {
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
     y_hat <- pure_model_curve(fit, s)
     b <- site_curves(fit, s, "reality", residual = residual, fun = function(src) {
-      band_frame(shift_source(src, y_hat), fit$basis$t, s, level)
+      band_frame(shift_source(src, y_hat), fit_get(fit, "basis")$t, s, level)
     })
-    data.frame(site = s, t = fit$basis$t, mean = y_hat,
+    data.frame(site = s, t = fit_get(fit, "basis")$t, mean = y_hat,
                lower = y_hat + b$lower, upper = y_hat + b$upper,
                lower_curve = y_hat + b$lower_curve, upper_curve = y_hat + b$upper_curve,
                error_mean = b$mean, error_lower = b$lower, error_upper = b$upper,
@@ -101,9 +101,9 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
 # reality() without its bands (one pass over the blocks of each site): a data
 # frame with `site`, `t`, `mean`.
 reality_mean <- function(fit, residual = TRUE) {
-  do.call(rbind, lapply(names(fit$wb), function(s) {
+  do.call(rbind, lapply(fit_sites(fit), function(s) {
     site_curves(fit, s, "reality", residual = residual, fun = function(src) {
-      data.frame(site = s, t = fit$basis$t, mean = curve_means(src), stringsAsFactors = FALSE)
+      data.frame(site = s, t = fit_get(fit, "basis")$t, mean = curve_means(src), stringsAsFactors = FALSE)
     })
   }))
 }

@@ -136,10 +136,10 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
     }
     return(predict_new_condition(object, condition, level, noise, keep_draws, seed))
   }
-  em <- object$emulators
+  em <- fit_get(object, "emulators")
   # the other experiments' sites for the fit's own conditions only; a new
   # load, vehicle or nominal changes the base experiment
-  sites <- if (type %in% c("reality", "field_run")) names(object$wb) else base_sites(object)
+  sites <- if (type %in% c("reality", "field_run")) fit_sites(object) else base_sites(object)
   # the draws of the set-up (prior draws of the variations, emulators of new
   # runs) come from their own stream, fixed by the seed
   setup_seed <- setup_seed_of(seed)
@@ -166,7 +166,7 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
     n_guarded = vapply(out, `[[`, 0, "n_guarded"),
     type = type, bias = bias, level = level, noise = noise, residual = residual, seed = seed,
     runs = if (type == "new_nominal") new_runs,
-    field = if (type %in% c("reality", "field_run", "new_vehicle")) object$field,
+    field = if (type %in% c("reality", "field_run", "new_vehicle")) fit_get(object, "field"),
     x_nom = new_model$x_nom
   ), class = "wv_prediction")
 }
@@ -176,9 +176,9 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
 # then rebuilt from them block by block of time points (a curve source, see
 # curve_bands()), so that they are held whole only with `keep_draws`.
 predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws, residual = FALSE) {
-  Psi <- fit$basis$Psi
-  wM <- fit$wM[[s]]
-  wb <- fit$wb[[s]]
+  Psi <- fit_get(fit, "basis")$Psi
+  wM <- fit_get(fit, "wM")[[s]]
+  wb <- fit_get(fit, "wb")[[s]]
   H <- nrow(wM)
   n_t <- nrow(Psi)
   pure <- pure_model_curve(fit, s)
@@ -192,7 +192,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
   }
   if (type == "added_load") pure <- pure + (shift %||% drop(Psi %*% colMeans(dW)))
   if (type %in% c("new_vehicle", "new_nominal")) pure <- drop(Psi %*% new_model$pure[[s]])
-  eps <- if (noise) sqrt(fit$sigma2[[s]]) * matrix(stats::rnorm(length(wM)), H)
+  eps <- if (noise) sqrt(fit_get(fit, "sigma2")[[s]]) * matrix(stats::rnorm(length(wM)), H)
   detail <- if (residual) residual_source(fit, s, H, new_run = noise)
   additive <- bias == "additive" || type %in% c("reality", "field_run")
   model_block <- function(cols) basis_curves_block(wM, Psi, cols)
@@ -242,7 +242,7 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     src <- curve_source(H, n_t, NULL, lin)
   }
   draws <- if (keep_draws) source_matrix(src)
-  band <- band_frame(draws %||% src, fit$basis$t, s, level)
+  band <- band_frame(draws %||% src, fit_get(fit, "basis")$t, s, level)
   band$model <- pure
   list(
     summary = band,
@@ -254,13 +254,14 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
 check_new_runs <- function(fit, new_runs, call = rlang::caller_env()) {
   if (is.null(new_runs)) wv_abort("This prediction needs {.arg new_runs}, a {.cls wv_runs}.", call = call)
   check_class(new_runs, "wv_runs", call = call)
-  if (!isTRUE(all.equal(new_runs$t, fit$basis$t))) {
+  tb <- fit_get(fit, "basis")$t
+  if (!isTRUE(all.equal(new_runs$t, tb))) {
     wv_abort(c(
       "{.arg new_runs} must be on the fit's time grid.",
-      "x" = "It has {length(new_runs$t)} points on [{signif(min(new_runs$t), 4)}, {signif(max(new_runs$t), 4)}]; the fit has {length(fit$basis$t)} on [{signif(min(fit$basis$t), 4)}, {signif(max(fit$basis$t), 4)}]."
+      "x" = "It has {length(new_runs$t)} points on [{signif(min(new_runs$t), 4)}, {signif(max(new_runs$t), 4)}]; the fit has {length(tb)} on [{signif(min(tb), 4)}, {signif(max(tb), 4)}]."
     ), call = call)
   }
-  inputs <- fit$emulators$inputs
+  inputs <- fit_get(fit, "emulators")$inputs
   if (!setequal(names(new_runs$design), inputs)) {
     extra <- setdiff(names(new_runs$design), inputs)
     miss <- setdiff(inputs, names(new_runs$design))
@@ -293,18 +294,18 @@ added_load_difference <- function(fit, new_runs, call = rlang::caller_env()) {
 # Emulated change of the model coefficients, draw by draw, when the inputs of
 # each posterior draw move by delta.
 added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
-  inputs <- fit$emulators$inputs
+  inputs <- fit_get(fit, "emulators")$inputs
   if (!is.numeric(delta) || is.null(names(delta)) || any(!is.finite(delta)) || !all(names(delta) %in% inputs)) {
     wv_abort(c(
       "{.arg delta} must be a named numeric change of the fit's inputs.",
       "i" = "The inputs are {.val {inputs}}."
     ), call = call)
   }
-  post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
+  post <- fit_draws_matrix(fit)[, inputs, drop = FALSE]
   moved <- post
   for (p in names(delta)) moved[, p] <- moved[, p] + delta[[p]]
   Dw <- lapply(base_sites(fit), function(s) {
-    bank <- site_bank(fit$emulators, s)
+    bank <- site_bank(fit_get(fit, "emulators"), s)
     bank_predict(bank, moved)$mean - bank_predict(bank, post)$mean
   })
   list(Dw = stats::setNames(Dw, base_sites(fit)), delta = delta)
@@ -312,8 +313,8 @@ added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
 
 new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_env()) {
   check_new_runs(fit, new_runs, call = call)
-  inputs <- fit$emulators$inputs
-  iu <- fit$iu
+  inputs <- fit_get(fit, "emulators")$inputs
+  iu <- fit_get(fit, "iu")
   var_inputs <- intersect(iu$name[iu$type == "variation"], inputs)
   if (is.null(x_nom)) {
     x_nom <- vapply(var_inputs, function(p) mean(range(new_runs$design[[p]])), numeric(1))
@@ -323,20 +324,20 @@ new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_e
     wv_abort("{.arg x_nom} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
   }
   new_runs$design <- new_runs$design[inputs]
-  em_new <- fit_emulators(new_runs, fit$basis, engine = fit$emulators$engine, seed = seed)
+  em_new <- fit_emulators(new_runs, fit_get(fit, "basis"), engine = fit_get(fit, "emulators")$engine, seed = seed)
   predict_at_draws(fit, em_new, x_nom, x_new = NULL, augmented = FALSE)
 }
 
 new_vehicle_setup <- function(fit, x_new, call = rlang::caller_env()) {
-  nominal <- fit$x_nom
+  nominal <- fit_get(fit, "x_nom")
   if (!is.null(x_new)) {
-    iu <- fit$iu
-    var_inputs <- intersect(iu$name[iu$type == "variation"], fit$emulators$inputs)
+    iu <- fit_get(fit, "iu")
+    var_inputs <- intersect(iu$name[iu$type == "variation"], fit_get(fit, "emulators")$inputs)
     if (!is.numeric(x_new) || is.null(names(x_new)) || !all(names(x_new) %in% var_inputs)) {
       wv_abort("{.arg x_new} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
     }
   }
-  predict_at_draws(fit, fit$emulators, nominal, x_new = x_new, augmented = TRUE)
+  predict_at_draws(fit, fit_get(fit, "emulators"), nominal, x_new = x_new, augmented = TRUE)
 }
 
 # Emulator means and variances, draw by draw, at the new vehicle's inputs:
@@ -344,9 +345,9 @@ new_vehicle_setup <- function(fit, x_new, call = rlang::caller_env()) {
 # calibration inputs from the posterior draws; `em` the emulators to predict
 # with.
 predict_at_draws <- function(fit, em, nominal, x_new, augmented) {
-  inputs <- fit$emulators$inputs
-  iu <- fit$iu
-  post <- as.matrix(fit$draws)[, inputs, drop = FALSE]
+  inputs <- fit_get(fit, "emulators")$inputs
+  iu <- fit_get(fit, "iu")
+  post <- fit_draws_matrix(fit)[, inputs, drop = FALSE]
   H <- nrow(post)
   var_inputs <- intersect(iu$name[iu$type == "variation"], inputs)
   Znew <- post
@@ -362,7 +363,7 @@ predict_at_draws <- function(fit, em, nominal, x_new, augmented) {
   res <- lapply(base_sites(fit), function(s) {
     bank <- site_bank(em, s)
     pr <- if (augmented) {
-      bank_predict_augmented(bank, post, fit$wM[[s]], Znew)
+      bank_predict_augmented(bank, post, fit_get(fit, "wM")[[s]], Znew)
     } else {
       bank_predict(bank, Znew)
     }
@@ -407,20 +408,22 @@ predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed
 # one tested condition, the conditions taking the draws in equal shares in a
 # random order (one bias when it is shared by the experiments).
 new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
-  if (is.null(fit$conditions)) {
+  conditions <- fit_get(fit, "conditions")
+  if (is.null(conditions)) {
     wv_abort(c("The fit has no condition input, so a new condition cannot be predicted.",
                "i" = "Declare the test condition with {.code iu_map(type = \"condition\")} and calibrate with an experiment at each tested condition."),
              class = "condition", call = call)
   }
   if (is.null(condition)) {
     wv_abort(c("{.code type = \"new_condition\"} needs {.arg condition}, the value of every condition input.",
-               "i" = "For example {.code condition = c({fit$conditions$inputs[1]} = {signif(fit$conditions$base[[1]], 4)})}."),
+               "i" = "For example {.code condition = c({conditions$inputs[1]} = {signif(conditions$base[[1]], 4)})}."),
              class = "condition", call = call)
   }
   check_condition_values(condition, call = call)
-  v <- check_condition_against_iu(condition, fit$iu, "the prediction", call = call)
-  tab <- fit$conditions$values
-  cond <- fit$conditions$inputs
+  v <- check_condition_against_iu(condition, fit_get(fit, "iu"), "the prediction", call = call)
+  tab <- conditions$values
+  cond <- conditions$inputs
+  inputs <- fit_get(fit, "inputs")
   tol <- 1e-9 * pmax(1, abs(v))
   hit <- which(vapply(seq_len(nrow(tab)), function(r) all(abs(unlist(tab[r, cond]) - v) <= tol), logical(1)))
   ex <- fit_experiments(fit)
@@ -428,35 +431,36 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
   site_of <- function(e, s) if (e == "base") s else paste0(e, "/", s)
   if (length(hit)) {
     e <- tab$experiment[hit[1]]
-    zbar <- matrix(posterior_mean_inputs(fit)[fit$inputs], 1L, dimnames = list(NULL, fit$inputs))
+    zbar <- matrix(posterior_mean_inputs(fit)[inputs], 1L, dimnames = list(NULL, inputs))
     out <- lapply(stats::setNames(base, base), function(s) {
       se <- site_of(e, s)
-      list(M = fit$wM[[se]], B = fit$wb[[se]], S2 = fit$sigma2[[se]],
-           pure = drop(bank_predict(site_bank(fit$emulators, se),
+      list(M = fit_get(fit, "wM")[[se]], B = fit_get(fit, "wb")[[se]], S2 = fit_get(fit, "sigma2")[[se]],
+           pure = drop(bank_predict(site_bank(fit_get(fit, "emulators"), se),
                                     shift_inputs(fit, se, zbar))$mean))
     })
     return(list(sites = out, tested = e, bias_from = "tested", condition = v))
   }
-  delta <- v - fit$conditions$base
+  delta <- v - conditions$base
   moved <- added_load_emulated(fit, delta, call = call)$Dw
-  H <- nrow(fit$wM[[base[1]]])
+  H <- nrow(fit_get(fit, "wM")[[base[1]]])
   exps <- tab$experiment
-  shared <- identical(fit$settings$experiment_bias, "shared") || length(exps) == 1L
+  shared <- identical(fit_get(fit, "settings")$experiment_bias, "shared") || length(exps) == 1L
   pick <- sample(rep_len(seq_along(exps), H))
-  z <- posterior_mean_inputs(fit)[fit$inputs]
+  z <- posterior_mean_inputs(fit)[inputs]
   znew <- z
   znew[names(delta)] <- znew[names(delta)] + delta
   out <- lapply(stats::setNames(base, base), function(s) {
     from <- function(what) {
-      X <- fit[[what]][[s]]
+      X <- fit_get(fit, what)[[s]]
       for (k in seq_along(exps)[-1L]) {
         rows <- pick == k
-        X[rows, ] <- fit[[what]][[site_of(exps[k], s)]][rows, , drop = FALSE]
+        X[rows, ] <- fit_get(fit, what)[[site_of(exps[k], s)]][rows, , drop = FALSE]
       }
       X
     }
-    list(M = fit$wM[[s]] + moved[[s]], B = if (shared) fit$wb[[s]] else from("wb"), S2 = from("sigma2"),
-         pure = drop(bank_predict(site_bank(fit$emulators, s), matrix(znew, 1L))$mean))
+    list(M = fit_get(fit, "wM")[[s]] + moved[[s]], B = if (shared) fit_get(fit, "wb")[[s]] else from("wb"),
+         S2 = from("sigma2"),
+         pure = drop(bank_predict(site_bank(fit_get(fit, "emulators"), s), matrix(znew, 1L))$mean))
   })
   list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled", condition = v,
        experiment = exps[pick])
@@ -468,16 +472,16 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
 # with the field noise when `noise`.
 new_condition_site <- function(fit, s, setup, level, noise, keep_draws) {
   d <- setup$sites[[s]]
-  Psi <- fit$basis$Psi
+  Psi <- fit_get(fit, "basis")$Psi
   H <- nrow(d$M)
   eps <- if (noise) sqrt(d$S2) * matrix(stats::rnorm(length(d$M)), H)
   Wm <- if (noise) d$M + eps else d$M
   Wc <- Wm + d$B
   src <- curve_source(H, nrow(Psi), NULL, list(W = Wc, B = Psi, offset = numeric()))
   draws <- if (keep_draws) source_matrix(src)
-  band <- band_frame(draws %||% src, fit$basis$t, s, level)
-  model <- band_frame(curve_source(H, nrow(Psi), NULL, list(W = Wm, B = Psi, offset = numeric())), fit$basis$t, s,
-                      level)
+  tb <- fit_get(fit, "basis")$t
+  band <- band_frame(draws %||% src, tb, s, level)
+  model <- band_frame(curve_source(H, nrow(Psi), NULL, list(W = Wm, B = Psi, offset = numeric())), tb, s, level)
   band$model <- drop(Psi %*% d$pure)
   band$model_lower <- model$lower
   band$model_upper <- model$upper

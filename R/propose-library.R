@@ -70,7 +70,7 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
     if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
       wv_abort("{.arg states} must be a list with a unique name for every state.")
     }
-    if (!is.null(t)) t <- check_candidate_grid(t, fit$basis$t)
+    if (!is.null(t)) t <- check_candidate_grid(t, fit_get(fit, "basis")$t)
     channels <- channel_curves_from(fit, states, t)
     kind <- rep("state", length(channels))
   }
@@ -104,8 +104,8 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
   names(values) <- names(funs) <- terms$term
   flat <- vapply(values, function(v) all(vapply(v, function(y) diff(range(y)) == 0, logical(1))), logical(1))
   structure(list(terms = terms[!flat, , drop = FALSE], values = values[!flat], funs = funs[!flat],
-                 channels = list(curves = channels, kind = kind), sites = names(fit$wb),
-                 grid = fit$basis$t, n_coef = vapply(fit$wb, ncol, 1L)),
+                 channels = list(curves = channels, kind = kind), sites = fit_sites(fit),
+                 grid = fit_get(fit, "basis")$t, n_coef = vapply(fit_get(fit, "wb"), ncol, 1L)),
             class = "wv_term_library")
 }
 
@@ -125,8 +125,8 @@ print.wv_term_library <- function(x, ...) {
 # a list by site).
 channel_curves_from <- function(fit, states, t) {
   nm <- names(states)
-  sites <- names(fit$wb)
-  tb <- fit$basis$t
+  sites <- fit_sites(fit)
+  tb <- fit_get(fit, "basis")$t
   out <- lapply(nm, function(k) {
     cur <- states[[k]]
     if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)), sites)
@@ -139,13 +139,13 @@ channel_curves_from <- function(fit, states, t) {
 # reconstructed from its retained coefficients, and its time derivative.
 output_channels <- function(fit) {
   z <- posterior_mean_inputs(fit)
-  Z <- matrix(z[fit$inputs], 1L, dimnames = list(NULL, fit$inputs))
-  tb <- fit$basis$t
-  y <- lapply(names(fit$wb), function(s) {
-    w <- bank_predict(site_bank(fit$emulators, s), shift_inputs(fit, s, Z))$mean
-    drop(fit$basis$Psi %*% drop(w))
+  Z <- matrix(z[fit_get(fit, "inputs")], 1L, dimnames = list(NULL, fit_get(fit, "inputs")))
+  tb <- fit_get(fit, "basis")$t
+  y <- lapply(fit_sites(fit), function(s) {
+    w <- bank_predict(site_bank(fit_get(fit, "emulators"), s), shift_inputs(fit, s, Z))$mean
+    drop(fit_get(fit, "basis")$Psi %*% drop(w))
   })
-  names(y) <- names(fit$wb)
+  names(y) <- fit_sites(fit)
   list(output = y, `d/dt output` = lapply(y, grid_slope, t = tb))
 }
 

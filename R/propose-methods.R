@@ -80,13 +80,13 @@ proposed_candidates <- function(x, fit, n = 3L) {
   check_number(n, min = 1, integer = TRUE)
   check_proposals_of(x, fit)
   sig <- attr(x, "signatures")
-  sites <- names(fit$wb)
-  nc <- vapply(fit$wb, ncol, 1L)
+  sites <- fit_sites(fit)
+  nc <- vapply(fit_get(fit, "wb"), ncol, 1L)
   offs <- c(0L, cumsum(nc))
   k <- seq_len(min(n, nrow(x)))
   out <- lapply(x$term[k], function(tm) {
     stats::setNames(lapply(seq_along(sites), function(i) {
-      drop(fit$basis$Psi %*% sig[(offs[i] + 1L):offs[i + 1L], tm])
+      drop(fit_get(fit, "basis")$Psi %*% sig[(offs[i] + 1L):offs[i + 1L], tm])
     }), sites)
   })
   stats::setNames(out, x$term[k])
@@ -105,6 +105,6 @@ check_proposals_of <- function(x, fit, call = rlang::caller_env()) {
 }
 
 proposal_fingerprint <- function(fit) {
-  list(sites = names(fit$wb), n = vapply(fit$wb, ncol, 1L), t = range(fit$basis$t),
-       draws = nrow(fit$wb[[1]]), wbar = vapply(fit$wbar, sum, numeric(1)))
+  list(sites = fit_sites(fit), n = vapply(fit_get(fit, "wb"), ncol, 1L), t = range(fit_get(fit, "basis")$t),
+       draws = nrow(fit_get(fit, "wb")[[1]]), wbar = vapply(fit_get(fit, "wbar"), sum, numeric(1)))
 }

@@ -9,11 +9,11 @@
 # the sites together when one warp moves them all (y the model at the
 # posterior mean inputs). NULL when the field was not registered.
 registration_directions <- function(fit) {
-  w <- fit$field$warps
-  sites <- names(fit$wb)
-  field_sites <- intersect(sites, names(fit$field$curves))
+  w <- fit_get(fit, "field")$warps
+  sites <- fit_sites(fit)
+  field_sites <- intersect(sites, names(fit_get(fit, "field")$curves))
   if (is.null(w) || !length(field_sites)) return(NULL)
-  tb <- fit$basis$t
+  tb <- fit_get(fit, "basis")$t
   knots <- sort(unique(c(range(tb), w$t_after[w$replicate == w$replicate[1]])))
   knots <- knots[knots >= tb[1] & knots <= tb[length(tb)]]
   knots <- knots[c(TRUE, diff(knots) > 2 * (tb[2] - tb[1]))]
@@ -24,14 +24,14 @@ registration_directions <- function(fit) {
   y2 <- lapply(y1, grid_slope, t = tb)
   shared <- !is.na(attr(w, "landmark_site") %||% NA_character_)
   groups <- if (shared) list(field_sites) else as.list(field_sites)
-  n_all <- sum(vapply(fit$wb, ncol, 1L))
+  n_all <- sum(vapply(fit_get(fit, "wb"), ncol, 1L))
   cols <- list()
   kind <- character()
   for (g in groups) {
     for (d in list(list(y1, "shift"), list(y2, "blur"))) {
       M <- vapply(seq_along(knots), function(k) {
         unlist(lapply(sites, function(s) {
-          drop(crossprod(fit$basis$Psi, if (s %in% g) hats[, k] * d[[1]][[s]] else 0 * tb))
+          drop(crossprod(fit_get(fit, "basis")$Psi, if (s %in% g) hats[, k] * d[[1]][[s]] else 0 * tb))
         }))
       }, numeric(n_all))
       cols <- c(cols, list(M))

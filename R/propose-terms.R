@@ -102,15 +102,15 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
-  if (!identical(library$sites, names(fit$wb)) || !identical(library$grid, fit$basis$t) ||
-      !identical(library$n_coef, vapply(fit$wb, ncol, 1L))) {
+  if (!identical(library$sites, fit_sites(fit)) || !identical(library$grid, fit_get(fit, "basis")$t) ||
+      !identical(library$n_coef, vapply(fit_get(fit, "wb"), ncol, 1L))) {
     wv_abort(c("{.arg library} was built on another fit.",
                "i" = "Build it with {.code term_library(fit)} on this fit."))
   }
   if (!is.null(simulate) && !is.function(simulate)) {
     wv_abort("{.arg simulate} must be NULL or a function(channel, fun, strength).")
   }
-  reg <- registration %||% !is.null(fit$field$warps)
+  reg <- registration %||% !is.null(fit_get(fit, "field")$warps)
   check_flag(reg, "registration")
   seed <- resolve_seed(seed)
   sig <- term_signatures(fit, library, simulate)
@@ -119,9 +119,9 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   library$terms <- library$terms[sig$keep, , drop = FALSE]
   library$funs <- library$funs[sig$keep]
   N <- proposal_nuisance(fit, reg)
-  H <- nrow(fit$wb[[1]])
+  H <- nrow(fit_get(fit, "wb")[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
-  draws <- as.matrix(fit$draws)[keep, , drop = FALSE]
+  draws <- fit_draws_matrix(fit)[keep, , drop = FALSE]
   rs <- residual_regression_data(fit, draws, keep)
   Wt <- 1 / (rs$variance + bias_level_variances(fit, draws))
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
@@ -165,14 +165,14 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
 # of the simulated output in its strength.
 term_signatures <- function(fit, library, simulate) {
   lib <- library$terms
-  sites <- names(fit$wb)
-  Psi <- fit$basis$Psi
+  sites <- fit_sites(fit)
+  Psi <- fit_get(fit, "basis")$Psi
   state <- library$channels$kind[lib$channel] %in% "state" & !is.null(simulate)
   if (any(state) && any(grepl("/", sites, fixed = TRUE))) {
     wv_abort(c("{.arg simulate} is not available for a fit of several experiments.",
                "i" = "Drop {.arg simulate}: the state terms then act on the output directly."))
   }
-  X <- matrix(0, sum(vapply(fit$wb, ncol, 1L)), nrow(lib), dimnames = list(NULL, lib$term))
+  X <- matrix(0, sum(vapply(fit_get(fit, "wb"), ncol, 1L)), nrow(lib), dimnames = list(NULL, lib$term))
   failed <- rep(FALSE, nrow(lib))
   # a bar while the state terms are simulated (cli shows it only after two
   # seconds)
@@ -222,12 +222,12 @@ simulated_effect <- function(simulate, channel, fun, values, sites) {
 # (`R`, see registration_directions()), random.
 proposal_nuisance <- function(fit, registration) {
   sh <- shift_candidates(fit, posterior_mean_inputs(fit))
-  sites <- names(fit$wb)
-  n <- vapply(fit$wb, ncol, 1L)
+  sites <- fit_sites(fit)
+  n <- vapply(fit_get(fit, "wb"), ncol, 1L)
   offs <- c(0L, cumsum(n))
   level0 <- vapply(seq_along(sites), function(i) {
     x <- numeric(sum(n))
-    x[(offs[i] + 1L):offs[i + 1L]] <- colSums(fit$basis$Psi)
+    x[(offs[i] + 1L):offs[i + 1L]] <- colSums(fit_get(fit, "basis")$Psi)
     x
   }, numeric(sum(n)))
   sh <- cbind(sh, level0)
@@ -409,14 +409,15 @@ proposal_table <- function(fit, res, lib, X, kind) {
 # Where the effect `x` (coefficients, all sites stacked) is largest: its site
 # and the stretch around the peak where it stays above a quarter of the peak.
 term_place <- function(fit, x) {
-  sites <- names(fit$wb)
-  n <- vapply(fit$wb, ncol, 1L)
+  sites <- fit_sites(fit)
+  n <- vapply(fit_get(fit, "wb"), ncol, 1L)
   offs <- c(0L, cumsum(n))
-  curves <- lapply(seq_along(sites), function(i) abs(drop(fit$basis$Psi %*% x[(offs[i] + 1L):offs[i + 1L]])))
+  Psi <- fit_get(fit, "basis")$Psi
+  curves <- lapply(seq_along(sites), function(i) abs(drop(Psi %*% x[(offs[i] + 1L):offs[i + 1L]])))
   peaks <- vapply(curves, max, numeric(1))
   i <- which.max(peaks)
   y <- curves[[i]]
-  tb <- fit$basis$t
+  tb <- fit_get(fit, "basis")$t
   k <- which.max(y)
   above <- y >= 0.25 * y[k]
   lo <- k

@@ -29,8 +29,8 @@ fit_assumptions <- function(fit, part = c("priors", "joint_prior", "noise", "lik
   check_class(fit, "wv_fit")
   part <- check_choice(part)
   out <- switch(part,
-                priors = prior_lines(fit$prior_iu, fit$conditions),
-                joint_prior = if (!is.null(fit$prior_iu)) joint_prior_text(fit$prior_iu),
+                priors = prior_lines(fit_get(fit, "prior_iu"), fit_get(fit, "conditions")),
+                joint_prior = if (!is.null(fit_get(fit, "prior_iu"))) joint_prior_text(fit_get(fit, "prior_iu")),
                 noise = noise_lines(fit),
                 likelihood = shared_error_lines(fit),
                 experiments = experiment_lines(fit))
@@ -40,18 +40,19 @@ fit_assumptions <- function(fit, part = c("priors", "joint_prior", "noise", "lik
 # The experiments of a fit, one line each, for print() and the report
 # (nothing with one experiment).
 experiment_lines <- function(fit) {
-  ex <- fit$experiments
-  if (is.null(ex) && !is.null(fit$conditions)) {
-    return(sprintf("Condition%s (known, not sampled): %s", if (length(fit$conditions$inputs) == 1L) "" else "s",
-                   condition_labels(fit$conditions)[["base"]]))
+  ex <- fit_get(fit, "experiments")
+  conditions <- fit_get(fit, "conditions")
+  if (is.null(ex) && !is.null(conditions)) {
+    return(sprintf("Condition%s (known, not sampled): %s", if (length(conditions$inputs) == 1L) "" else "s",
+                   condition_labels(conditions)[["base"]]))
   }
   if (is.null(ex)) return(character(0))
   lines <- vapply(unique(ex$experiment), function(e) {
     sites <- ex$site[ex$experiment == e]
-    reps <- vapply(sites, function(s) fit$n_rep[[s]], numeric(1))
+    reps <- vapply(sites, function(s) fit_get(fit, "n_rep")[[s]], numeric(1))
     sh <- site_shift(fit, sites[1])
-    cond_lab <- if (!is.null(fit$conditions)) condition_labels(fit$conditions)[[e]]
-    sh[names(sh) %in% fit$conditions$inputs] <- 0
+    cond_lab <- if (!is.null(conditions)) condition_labels(conditions)[[e]]
+    sh[names(sh) %in% conditions$inputs] <- 0
     how <- if (!is.null(cond_lab)) {
       paste0(if (e == "base") "the base experiment, " else "", cond_lab,
              if (any(sh != 0)) paste0("; inputs changed by ",
@@ -62,17 +63,18 @@ experiment_lines <- function(fit) {
     sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps, ifelse(reps == 1, "", "s")),
                                           collapse = ", "))
   }, character(1))
+  settings <- fit_get(fit, "settings")
   c(sprintf("Experiments, calibrated jointly (%s):",
-            if (identical(fit$settings$experiment_bias, "shared")) "one bias shared by the experiments" else
+            if (identical(settings$experiment_bias, "shared")) "one bias shared by the experiments" else
               sprintf("one bias per experiment; level variances %s",
-                      if (identical(fit$settings$level_variances, "per_experiment")) "per experiment" else "shared")),
+                      if (identical(settings$level_variances, "per_experiment")) "per experiment" else "shared")),
     lines)
 }
 
 # How the chains' length was set: stopped on the targets (or at the
 # ceiling), or fixed.
 stopping_lines <- function(x) {
-  st <- x$stopping
+  st <- fit_get(x, "stopping")
   if (is.null(st)) return(character(0))
   rh <- if (is.na(st$rhat)) "" else sprintf(" and R-hat at most %s (largest %.3f)", st$rhat_target, st$rhat)
   if (isTRUE(st$met)) {
@@ -88,8 +90,8 @@ stopping_lines <- function(x) {
 # The chains' wall time and the slowest input's effective draws per second
 # (all chains together), for the print of a fit.
 sampling_speed_lines <- function(x) {
-  sec <- x$sampling_seconds
-  ess <- x$ess[x$inputs]
+  sec <- fit_get(x, "sampling_seconds")
+  ess <- fit_get(x, "ess")[fit_get(x, "inputs")]
   ess <- ess[is.finite(ess)]
   if (is.null(sec) || !is.finite(sec) || sec <= 0 || !length(ess)) return(character(0))
   k <- which.min(ess)
@@ -112,26 +114,28 @@ prior_lines <- function(prior_iu, conditions = NULL) {
 
 # How the field noise was set at each site, one line each, with its size.
 noise_lines <- function(fit) {
-  sites <- names(fit$wb)
-  setting <- fit$noise_setting %||%
-    stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
+  sites <- fit_sites(fit)
+  setting <- fit_get(fit, "noise_setting") %||%
+    stats::setNames(ifelse(unlist(fit_get(fit, "n_rep")[sites]) >= 2, "replicates", "given"), sites)
   f <- function(v) format(signif(v, 3), trim = TRUE)
+  noise_prior <- fit_get(fit, "noise_prior")
   lines <- vapply(sites, function(s) {
-    ev <- fit$noise_evidence[[s]]
-    sd_draws <- sqrt(fit$sigma2[[s]][, 1] / (ev$mult %||% 1)[1])
+    ev <- fit_get(fit, "noise_evidence")[[s]]
+    sigma2 <- fit_get(fit, "sigma2")[[s]]
+    sd_draws <- sqrt(sigma2[, 1] / (ev$mult %||% 1)[1])
     switch(setting[[s]],
       replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
-                           s, fit$n_rep[[s]], f(stats::median(sqrt(fit$sigma2[[s]])))),
-      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(fit$sigma2[[s]][1, ])))),
+                           s, fit_get(fit, "n_rep")[[s]], f(stats::median(sqrt(sigma2)))),
+      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(sigma2[1, ])))),
       finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
-                       s, f(sqrt(fit$sigma2[[s]][1, 1]))),
+                       s, f(sqrt(sigma2[1, 1]))),
       learned = sprintf("%s: learned, %s; %s prior on its sd, scale %s; posterior sd %s [%s, %s]%s",
                         s, if (is.null(ev)) "one variance for all coefficients" else "the variance of one measurement",
-                        fit$noise_prior$family, f(fit$noise_prior$scale[[s]]), f(stats::median(sd_draws)),
+                        noise_prior$family, f(noise_prior$scale[[s]]), f(stats::median(sd_draws)),
                         f(stats::quantile(sd_draws, 0.05, names = FALSE)),
                         f(stats::quantile(sd_draws, 0.95, names = FALSE)), measured_noise_text(ev)))
   }, character(1))
-  sp <- spread_text(spread_along_record(fit$field), "registered replicates")
+  sp <- spread_text(spread_along_record(fit_get(fit, "field")), "registered replicates")
   if (!is.null(sp)) {
     sp <- paste0("  ", sp, ": one variance per wavelet coefficient mixes it along the record; ",
                  "misfit_check() (and where_fails()) read each point with its own")
@@ -142,7 +146,7 @@ noise_lines <- function(fit) {
 # How the inputs' likelihood counted the coefficients, for print() and the
 # report.
 shared_error_lines <- function(x) {
-  se <- x$shared_errors
+  se <- fit_get(x, "shared_errors")
   if (is.null(se)) {
     return(c("Inputs' likelihood: the coefficients taken as independent (the method's). Errors they share (the emulators' at one input, a replicate's registration) then count many times: the inputs' intervals are too narrow (input_likelihood = \"adjusted\" weighs them)."))
   }
@@ -153,26 +157,28 @@ shared_error_lines <- function(x) {
 # The variance the registration adds to the field mean, and where it comes
 # from (bias_control(registration_variance =)).
 registration_lines <- function(fit) {
-  if (is.null(fit$registration_var)) {
-    if (is.null(fit$field$warps)) return(character())
+  reg_var <- fit_get(fit, "registration_var")
+  settings <- fit_get(fit, "settings")
+  if (is.null(reg_var)) {
+    if (is.null(fit_get(fit, "field")$warps)) return(character())
     return(paste("Registration: nothing added to the variance of the field mean for the registration's own error",
-                 if (isFALSE(fit$settings$registration_variance)) "(registration_variance = FALSE)" else
+                 if (isFALSE(settings$registration_variance)) "(registration_variance = FALSE)" else
                    "(the field carries no check of it: register it to model runs with register_curves(check_runs = 5))"))
   }
-  share <- vapply(names(fit$registration_var), function(s) {
-    e <- colMeans(fit$sigma2[[s]]) / fit$n_rep[[s]]
-    r <- fit$registration_var[[s]]
+  share <- vapply(names(reg_var), function(s) {
+    e <- colMeans(fit_get(fit, "sigma2")[[s]]) / fit_get(fit, "n_rep")[[s]]
+    r <- reg_var[[s]]
     sum(r) / sum(r + e)
   }, numeric(1))
-  src <- if (!isTRUE(fit$settings$registration_variance)) {
-    n <- nrow(fit$field$registration_check[[1L]] %||% matrix(0, 0, 0))
+  src <- if (!isTRUE(settings$registration_variance)) {
+    n <- nrow(fit_get(fit, "field")$registration_check[[1L]] %||% matrix(0, 0, 0))
     sprintf("the registration's own error (what it changed in the %d model run%s nearest the field)", n,
             if (n == 1L) "" else "s")
   } else {
     "the spread of the reference's landmarks over the model runs"
   }
   shares <- paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", ")
-  rs <- fit$registration_shifts
+  rs <- fit_get(fit, "registration_shifts")
   if (is.null(rs)) return(sprintf("Registration: %s added to the variance of the field mean, %s of it", src, shares))
   K <- length(rs$variance)
   sprintf(paste("Registration: %s taken as %d shift%s of the landmarks along the curves' time-shift directions",

@@ -3,7 +3,7 @@
 
 #' @importFrom coda as.mcmc.list
 #' @export
-as.mcmc.list.wv_fit <- function(x, ...) x$draws
+as.mcmc.list.wv_fit <- function(x, ...) fit_get(x, "draws")
 
 #' Posterior means of the calibrated inputs
 #'
@@ -28,49 +28,55 @@ coef.wv_fit <- function(object, ...) {
 
 #' @export
 print.wv_fit <- function(x, ...) {
-  H <- nrow(x$draws[[1]])
-  n <- ncol(x$basis$Psi)
-  sites <- names(x$wb)
+  draws <- fit_get(x, "draws")
+  settings <- fit_get(x, "settings")
+  H <- nrow(draws[[1]])
+  n <- ncol(fit_get(x, "basis")$Psi)
+  sites <- fit_sites(x)
   cli::cat_line(sprintf("<wv_fit> %d site%s (%s), %d coefficients, %d draws x %d chain%s (thinning %d)",
                         length(sites), if (length(sites) == 1) "" else "s", paste(sites, collapse = ", "),
-                        n, H, length(x$draws), if (length(x$draws) == 1) "" else "s",
-                        x$settings$n_inner))
-  acc <- x$acceptance
+                        n, H, length(draws), if (length(draws) == 1) "" else "s",
+                        settings$n_inner))
+  acc <- fit_get(x, "acceptance")
   glob <- if (!is.null(acc$global) && any(!is.na(acc$global))) {
     paste0("; global ", paste(format_rate(acc$global), collapse = " "))
   } else ""
-  cli::cat_line("Acceptance by chain (", x$settings$proposal %||% "report", " proposal): tau2 ",
+  cli::cat_line("Acceptance by chain (", settings$proposal %||% "report", " proposal): tau2 ",
                 paste(format_rate(acc$tau2), collapse = " "),
                 "; inputs ", paste(format_rate(acc$inputs), collapse = " "), glob)
   print(input_table(x), row.names = FALSE, digits = 3)
   cli::cat_line("(sd_ratio: posterior sd / prior sd; near 1 the data say little of the input)")
   for (line in c(stopping_lines(x), sampling_speed_lines(x))) cli::cat_line(line)
-  for (line in prior_lines(x$prior_iu, x$conditions)) cli::cat_line(line)
+  for (line in prior_lines(fit_get(x, "prior_iu"), fit_get(x, "conditions"))) cli::cat_line(line)
   for (line in noise_lines(x)) cli::cat_line(line)
   for (line in shared_error_lines(x)) cli::cat_line(line)
   for (line in experiment_lines(x)) cli::cat_line(line)
-  if (!is.null(x$emulators)) {
-    cli::cat_line("Emulators: ", x$emulators$engine, " engine, ", nrow(x$emulators$design), " runs")
-    for (line in emulator_calibration_text(x$emulators)) cli::cat_line(line)
+  em <- fit_get(x, "emulators")
+  if (!is.null(em)) {
+    cli::cat_line("Emulators: ", em$engine, " engine, ", nrow(em$design), " runs")
+    for (line in emulator_calibration_text(em)) cli::cat_line(line)
   }
-  lo <- if (!is.null(x$field$warps)) attr(x$field$warps, "left_out")
+  warps <- fit_get(x, "field")$warps
+  lo <- if (!is.null(warps)) attr(warps, "left_out")
   if (!is.null(lo) && nrow(lo)) {
     cli::cat_line("! Registration left out landmarks in another order than the reference's: ",
-                  left_out_summary(lo, length(unique(x$field$warps$replicate))))
+                  left_out_summary(lo, length(unique(warps$replicate))))
   }
-  il <- x$settings$inform_levels
+  il <- settings$inform_levels
   if (length(il)) {
     cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ", paste(il, collapse = ", "),
                   " only; the other levels' bias follows the inputs drawn (inform_levels)")
   }
-  tp <- x$settings$temper %||% 1
+  tp <- settings$temper %||% 1
   if (tp < 1) cli::cat_line("Tempered posterior: the likelihood raised to the power ", signif(tp, 3), " (temper)")
-  if (!is.null(x$control)) {
-    cli::cat_line("Model: ", control_call(x$control$bias, always = "input_likelihood"))
-    cli::cat_line("Sampler: ", control_call(x$control$sampler), ", chains = ", length(x$draws), ", seed = ", x$seed)
+  ctl <- fit_get(x, "control")
+  if (!is.null(ctl)) {
+    cli::cat_line("Model: ", control_call(ctl$bias, always = "input_likelihood"))
+    cli::cat_line("Sampler: ", control_call(ctl$sampler), ", chains = ", length(draws), ", seed = ", fit_get(x, "seed"))
   }
-  if (length(x$flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(x$flags$rhat, collapse = ", "))
-  b <- x$flags$boundary
+  flags <- fit_get(x, "flags")
+  if (length(flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(flags$rhat, collapse = ", "))
+  b <- flags$boundary
   if (nrow(b)) {
     cli::cat_line("! Posterior piled at a bound: ",
                   paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior), collapse = ", "))
@@ -84,10 +90,11 @@ print.wv_fit <- function(x, ...) {
                                 ifelse(cf$piled, sprintf(", %.0f%% at its %s bound", 100 * cf$share_at_bound, cf$side), "")),
                         collapse = ", "))
   }
-  if (!is.null(x$held)) {
-    cli::cat_line("Held to their prior: ", paste(x$held$inputs, collapse = ", "),
-                  if (identical(x$held$how, "reread")) " (the bias read again with them drawn from it)"
-                  else sprintf(" (calibrated again at %d strata of it)", nrow(x$held$values)))
+  held <- fit_get(x, "held")
+  if (!is.null(held)) {
+    cli::cat_line("Held to their prior: ", paste(held$inputs, collapse = ", "),
+                  if (identical(held$how, "reread")) " (the bias read again with them drawn from it)"
+                  else sprintf(" (calibrated again at %d strata of it)", nrow(held$values)))
   }
   invisible(x)
 }
@@ -95,35 +102,39 @@ print.wv_fit <- function(x, ...) {
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
 input_table <- function(x) {
-  X <- as.matrix(x$draws)
-  cond <- x$inputs %in% x$conditions$inputs
-  sd_ratio <- apply(X[, x$inputs, drop = FALSE], 2, stats::sd) / (x$prior_sd %||% prior_sds(x$prior_iu))[x$inputs]
+  X <- fit_draws_matrix(x)
+  inputs <- fit_get(x, "inputs")
+  prior_iu <- fit_get(x, "prior_iu")
+  cond <- inputs %in% fit_get(x, "conditions")$inputs
+  sd_ratio <- apply(X[, inputs, drop = FALSE], 2, stats::sd) / (fit_get(x, "prior_sd") %||% prior_sds(prior_iu))[inputs]
   sd_ratio[cond] <- NA_real_
-  data.frame(input = x$inputs, type = ifelse(cond, "condition", x$prior_iu$type),
-             mean = colMeans(X[, x$inputs, drop = FALSE]),
-             q2.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
-             q97.5 = apply(X[, x$inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+  data.frame(input = inputs, type = ifelse(cond, "condition", prior_iu$type),
+             mean = colMeans(X[, inputs, drop = FALSE]),
+             q2.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
+             q97.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
              sd_ratio = unname(sd_ratio),
-             rhat = unname(x$rhat[x$inputs]), ess = round(unname(x$ess[x$inputs])),
+             rhat = unname(fit_get(x, "rhat")[inputs]), ess = round(unname(fit_get(x, "ess")[inputs])),
              stringsAsFactors = FALSE)
 }
 
 #' @export
 summary.wv_fit <- function(object, ...) {
-  X <- as.matrix(object$draws)
-  tau_cols <- setdiff(colnames(X), object$inputs)
-  tau <- data.frame(group = object$groups$name, site = object$groups$site, level = object$groups$level,
+  X <- fit_draws_matrix(object)
+  tau_cols <- setdiff(colnames(X), fit_get(object, "inputs"))
+  groups <- fit_get(object, "groups")
+  tau <- data.frame(group = groups$name, site = groups$site, level = groups$level,
                     mean = colMeans(X[, tau_cols, drop = FALSE]),
                     q2.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
                     q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
-  structure(list(inputs = input_table(object), priors = prior_lines(object$prior_iu, object$conditions),
+  structure(list(inputs = input_table(object),
+                 priors = prior_lines(fit_get(object, "prior_iu"), fit_get(object, "conditions")),
                  noise = noise_lines(object),
                  experiments = experiment_lines(object), tau2 = tau,
-                 acceptance = object$acceptance,
-                 flags = object$flags, settings = object$settings,
-                 n_coef = ncol(object$basis$Psi), sites = names(object$wb),
+                 acceptance = fit_get(object, "acceptance"),
+                 flags = fit_get(object, "flags"), settings = fit_get(object, "settings"),
+                 n_coef = ncol(fit_get(object, "basis")$Psi), sites = fit_sites(object),
                  top_finding = top_finding(where_fails(object))),
             class = "summary_wv_fit")
 }
@@ -181,7 +192,7 @@ autoplot.wv_fit <- function(object, type = c("inputs", "bias", "reality", "trace
                          sprintf("Bias with %g%% pointwise band", 100 * level)),
     reality = plot_fit_band(with_windows(reality(object, level), windows),
                             with_windows(model_prediction(object, level), windows),
-                            with_windows(field_long(object$field), windows), "output",
+                            with_windows(field_long(fit_get(object, "field")), windows), "output",
                             sprintf("Bias-corrected prediction with %g%% band", 100 * level))
   )
 }
@@ -193,15 +204,16 @@ plot.wv_fit <- function(x, ...) {
 }
 
 plot_fit_inputs <- function(fit) {
-  X <- as.matrix(fit$draws)
-  d <- do.call(rbind, lapply(fit$inputs, function(v) data.frame(input = v, value = X[, v])))
-  pr <- fit$prior_iu
-  dens <- do.call(rbind, lapply(seq_along(fit$inputs), function(k) {
+  X <- fit_draws_matrix(fit)
+  inputs <- fit_get(fit, "inputs")
+  d <- do.call(rbind, lapply(inputs, function(v) data.frame(input = v, value = X[, v])))
+  pr <- fit_get(fit, "prior_iu")
+  dens <- do.call(rbind, lapply(seq_along(inputs), function(k) {
     v <- seq(pr$lower[k], pr$upper[k], length.out = 201)
-    data.frame(input = fit$inputs[k], value = v, density = iu_prior_density(pr, k, v))
+    data.frame(input = inputs[k], value = v, density = iu_prior_density(pr, k, v))
   }))
-  d$input <- factor(d$input, levels = fit$inputs)
-  dens$input <- factor(dens$input, levels = fit$inputs)
+  d$input <- factor(d$input, levels = inputs)
+  dens$input <- factor(dens$input, levels = inputs)
   ggplot2::ggplot(d, ggplot2::aes(.data$value)) +
     ggplot2::geom_histogram(ggplot2::aes(y = ggplot2::after_stat(density)), bins = 30,
                             fill = "grey75", colour = "grey40") +
@@ -213,13 +225,15 @@ plot_fit_inputs <- function(fit) {
 }
 
 plot_fit_trace <- function(fit) {
-  d <- do.call(rbind, lapply(seq_along(fit$draws), function(ch) {
-    m <- as.matrix(fit$draws[[ch]])
-    do.call(rbind, lapply(fit$inputs, function(v) {
+  draws <- fit_get(fit, "draws")
+  inputs <- fit_get(fit, "inputs")
+  d <- do.call(rbind, lapply(seq_along(draws), function(ch) {
+    m <- as.matrix(draws[[ch]])
+    do.call(rbind, lapply(inputs, function(v) {
       data.frame(chain = factor(ch), draw = seq_len(nrow(m)), input = v, value = m[, v])
     }))
   }))
-  d$input <- factor(d$input, levels = fit$inputs)
+  d$input <- factor(d$input, levels = inputs)
   ggplot2::ggplot(d, ggplot2::aes(.data$draw, .data$value, colour = .data$chain)) +
     ggplot2::geom_line(linewidth = 0.3) +
     ggplot2::facet_wrap(~input, scales = "free_y") +

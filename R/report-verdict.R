@@ -115,9 +115,9 @@ report_assumptions <- function(fit) {
 # The field noise: its source at each site (replicates, learned in the
 # posterior from one replicate, given, the finest level), then its size.
 noise_source_text <- function(fit) {
-  sites <- names(fit$wb)
-  src <- fit$noise_setting %||% stats::setNames(ifelse(unlist(fit$n_rep[sites]) >= 2, "replicates", "given"), sites)
-  n <- unlist(fit$n_rep[sites])
+  sites <- fit_sites(fit)
+  n <- unlist(fit_get(fit, "n_rep")[sites])
+  src <- fit_get(fit, "noise_setting") %||% stats::setNames(ifelse(n >= 2, "replicates", "given"), sites)
   each <- vapply(sites, function(s) {
     switch(src[[s]],
            replicates = sprintf("%s estimated from %d replicates", s, n[[s]]),
@@ -136,8 +136,8 @@ noise_source_text <- function(fit) {
 
 # The grouping of the bias prior's variances.
 bias_prior_text <- function(fit) {
-  groups <- unique(unlist(fit$bias_group, use.names = FALSE))
-  pooled <- fit$settings$pool_levels
+  groups <- unique(unlist(fit_get(fit, "bias_group"), use.names = FALSE))
+  pooled <- fit_get(fit, "settings")$pool_levels
   bias <- sprintf("Bias prior: one variance per group of wavelet levels, %d group%s (%s)%s.", length(groups),
                   if (length(groups) == 1) "" else "s", paste(groups, collapse = ", "),
                   if (length(pooled)) sprintf("; levels %s pooled", paste(pooled, collapse = ", ")) else "")
@@ -154,9 +154,9 @@ likelihood_text <- function(fit) {
 # ratio, R-hat, ESS and whether it is in conflict with its prior.
 report_inputs_table <- function(fit) {
   s <- summary(fit)$inputs
-  prior_iu <- fit$prior_iu %||% fit$iu
+  prior_iu <- fit_get(fit, "prior_iu") %||% fit_get(fit, "iu")
   labels <- stats::setNames(prior_labels(prior_iu), as.data.frame(prior_iu)$name)
-  d <- do.call(rbind, lapply(fit$draws, as.matrix))[, s$input, drop = FALSE]
+  d <- do.call(rbind, lapply(fit_get(fit, "draws"), as.matrix))[, s$input, drop = FALSE]
   q <- apply(d, 2, stats::quantile, c(0.5, 0.05, 0.95), names = FALSE)
   cf <- input_conflicts(fit)
   data.frame(input = s$input, type = s$type, prior = unname(labels[s$input]),

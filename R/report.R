@@ -73,7 +73,7 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   env$fails <- where_fails(fit, tolerance = tolerance, proposals = proposals)
   env$proposals <- proposals
   env$headline <- top_finding(env$fails)
-  env$expl <- if (!is.null(candidates)) explain_bias(fit, candidates, seed = fit$seed)
+  env$expl <- if (!is.null(candidates)) explain_bias(fit, candidates, seed = fit_get(fit, "seed"))
   env$verdict <- report_verdict(fit, env$fails, tolerance, expl = env$expl, comparison = comparison)
   env$assumptions <- report_assumptions(fit)
   env$inputs_table <- report_inputs_table(fit)
@@ -84,7 +84,7 @@ validation_report <- function(fit, file = "validation-report.html", runs = NULL,
   env$html_table <- html_table
   env$finding_figure <- finding_figure
   env$signif_table <- signif_table
-  prior_iu <- fit$prior_iu %||% fit$iu
+  prior_iu <- fit_get(fit, "prior_iu") %||% fit_get(fit, "iu")
   iu_table <- signif_table(as.data.frame(prior_iu)[c("name", "type", "lower", "upper", "nominal")])
   iu_table$prior <- prior_labels(prior_iu)
   env$iu_table <- iu_table

@@ -60,7 +60,7 @@ update.wv_fit <- function(object, runs = NULL, iu = NULL, ...) {
   }
   # validate()'s own arguments, the data and the seed, and the controls
   own <- setdiff(names(formals(validate)), c("runs", "iu", "..."))
-  settings <- c(given[intersect(names(given), own)], fit_controls(object), list(seed = object$seed))
+  settings <- c(given[intersect(names(given), own)], fit_controls(object), list(seed = fit_get(object, "seed")))
   settings <- settings[intersect(own, names(settings))]
   bad <- setdiff(names(over), c(own, unlist(control_fields())))
   if (length(bad)) {
@@ -69,7 +69,7 @@ update.wv_fit <- function(object, runs = NULL, iu = NULL, ...) {
              class = "update")
   }
   runs <- runs %||% given$runs
-  iu <- iu %||% object$iu
+  iu <- iu %||% fit_get(object, "iu")
   check_class(runs, "wv_runs")
   check_class(iu, "wv_iu")
   check_update_inputs(runs, iu, object)
@@ -86,7 +86,7 @@ check_update_inputs <- function(runs, iu, fit, call = rlang::caller_env()) {
   miss_iu <- setdiff(design, iu$name)
   miss_runs <- setdiff(iu$name, design)
   if (length(miss_iu) || length(miss_runs)) {
-    new <- setdiff(design, fit$inputs)
+    new <- setdiff(design, fit_get(fit, "inputs"))
     wv_abort(c(
       "The inputs of {.arg runs} and of the I/U map {.arg iu} must be the same.",
       "x" = if (length(miss_iu)) "The runs' design has {.val {miss_iu}}, which the I/U map lacks.",

@@ -111,3 +111,48 @@ test_that("bank_predict() is the compiled bank prediction, and only the emulator
   }))
   expect_identical(hits, NULL)
 })
+
+test_that("fit_get() reads every declared field as [[ does and refuses an undeclared name", {
+  fit <- example_fit()
+  for (f in names(wv_fit_fields)) expect_identical(fit_get(fit, f), fit[[f]], info = f)
+  expect_identical(fit_sites(fit), names(fit$wb))
+  expect_identical(fit_draws_matrix(fit), as.matrix(fit$draws))
+  expect_error(fit_get(fit, "colour"), class = "wavevalid_error_internal")
+  expect_error(fit_get(fit, c("wb", "wM")), class = "wavevalid_error_internal")
+  expect_error(fit_get(fit, 1L), class = "wavevalid_error_internal")
+  expect_error(fit_get(unclass(fit), "wb"), class = "wavevalid_error_internal")
+  # a fit saved before a field was declared lacks it: the field reads as NULL
+  old <- structure(unclass(fit)[setdiff(names(wv_fit_fields), c("held", "timing", "pipeline"))], class = "wv_fit")
+  expect_null(fit_get(old, "held"))
+  expect_identical(fit_get(old, "wb"), fit$wb)
+})
+
+# Outside the fit module (R/fit-*.R) a fit's fields are read through
+# fit_get() and its accessors: no `fit$<field>`, `before$`, `after$` (the
+# names that hold only fits there), nor `object$`/`x$` in the methods for
+# wv_fit. design_posterior() (R/inputs-design.R) reads a fit's fields
+# directly: the inputs module sits below the fit's, which calls it. The
+# check reads the sources when the tests run from the package's source tree.
+test_that("no file outside the fit module reads a fit's fields directly", {
+  src <- test_path("..", "..", "R")
+  skip_if_not(dir.exists(src), "the package's R sources are not at hand")
+  files <- setdiff(list.files(src, pattern = "[.]R$"), c("RcppExports.R", "inputs-design.R"))
+  files <- files[!startsWith(files, "fit-")]
+  walk <- function(e, vars) {
+    if (!is.call(e)) return(character())
+    hit <- if (identical(e[[1]], as.name("$")) && is.name(e[[2]]) && as.character(e[[2]]) %in% vars &&
+               as.character(e[[3]]) %in% names(wv_fit_fields)) {
+      paste0(as.character(e[[2]]), "$", as.character(e[[3]]))
+    }
+    c(hit, unlist(lapply(as.list(e)[-1], function(a) if (!missing(a)) walk(a, vars))))
+  }
+  hits <- unlist(lapply(files, function(f) {
+    unlist(lapply(parse(file.path(src, f), keep.source = FALSE), function(e) {
+      name <- if (is.call(e) && identical(e[[1]], as.name("<-")) && is.name(e[[2]])) as.character(e[[2]]) else ""
+      vars <- c("fit", "before", "after", if (endsWith(name, ".wv_fit")) c("object", "x"))
+      found <- walk(e, vars)
+      if (length(found)) paste0(f, ": ", name, ": ", found)
+    }))
+  }))
+  expect_identical(hits, NULL)
+})
