@@ -101,14 +101,16 @@ print.wv_fit <- function(x, ...) {
 
 format_rate <- function(r) ifelse(is.na(r), "-", sprintf("%.2f", r))
 
+# The estimated inputs: a test condition is known (its values are in the
+# priors' and the experiments' lines), so it has no row.
 input_table <- function(x) {
   X <- fit_draws_matrix(x)
-  inputs <- fit_get(x, "inputs")
+  all_inputs <- fit_get(x, "inputs")
   prior_iu <- fit_get(x, "prior_iu")
-  cond <- inputs %in% fit_get(x, "conditions")$inputs
+  est <- !all_inputs %in% fit_get(x, "conditions")$inputs
+  inputs <- all_inputs[est]
   sd_ratio <- apply(X[, inputs, drop = FALSE], 2, stats::sd) / (fit_get(x, "prior_sd") %||% prior_sds(prior_iu))[inputs]
-  sd_ratio[cond] <- NA_real_
-  data.frame(input = inputs, type = ifelse(cond, "condition", prior_iu$type),
+  data.frame(input = inputs, type = prior_iu$type[match(inputs, prior_iu$name)],
              mean = colMeans(X[, inputs, drop = FALSE]),
              q2.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
              q97.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),

@@ -153,7 +153,7 @@ likelihood_text <- function(fit) {
 # One row per input: type, prior, posterior median and 90% interval, sd
 # ratio, R-hat, ESS and whether it is in conflict with its prior.
 report_inputs_table <- function(fit) {
-  s <- summary(fit)$inputs
+  s <- input_table(fit)
   prior_iu <- fit_get(fit, "prior_iu") %||% fit_get(fit, "iu")
   labels <- stats::setNames(prior_labels(prior_iu), as.data.frame(prior_iu)$name)
   d <- do.call(rbind, lapply(fit_get(fit, "draws"), as.matrix))[, s$input, drop = FALSE]

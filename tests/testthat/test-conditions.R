@@ -54,7 +54,11 @@ test_that("the condition path gives the same draws as experiment(change =) with 
   expect_identical(s$fit$iu$type[2], "condition")
   expect_equal(s$fit$conditions$values, data.frame(experiment = c("base", "hot"), x1 = c(0.5, 0.7)))
   expect_output(print(s$fit), "hot: x1 = 0.7")
-  expect_output(print(s$fit), "x1   condition")
+  # a condition is known, not estimated: no row among the inputs, its values in the priors' line
+  printed <- capture.output(print(s$fit))
+  expect_false(any(grepl("^\\s*x1\\s+condition", printed)))
+  expect_identical(summary(s$fit)$inputs$input, "u1")
+  expect_identical(report_inputs_table(s$fit)$input, "u1")
   expect_output(print(s$fit), "none: a condition, known")
   expect_false(any(boundary_check_flags <- s$fit$flags$boundary$input == "x1"))
   # a condition has no prior: the conflicts table names it a condition, with no distance and no conflict
