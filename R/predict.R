@@ -127,6 +127,7 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   noise <- noise %||% (type != "reality")
   check_flag(noise)
   seed <- resolve_seed(seed)
+  warn_unmixed(object)
   if (!is.null(condition) && type != "new_condition") {
     wv_abort("{.arg condition} is used only by {.code type = \"new_condition\"}.", class = "condition")
   }
@@ -486,4 +487,16 @@ new_condition_site <- function(fit, s, setup, level, noise, keep_draws) {
   band$model_lower <- model$lower
   band$model_upper <- model$upper
   list(summary = band, draws = draws, n_guarded = 0)
+}
+
+# A prediction from chains that did not mix: a classed warning naming the
+# inputs, so that its bands are not read as if they held their level.
+warn_unmixed <- function(fit) {
+  um <- unmixed_inputs(list(fit = fit))$fit
+  if (length(um)) {
+    wv_warn(c("The chains did not mix (R-hat {paste(sprintf('%s %.2f', names(um), um), collapse = ', ')}, above 1.1): the prediction's bands are not to be trusted.",
+              "i" = "Draw more ({.code sampler_control(max_draws = )}), narrow the input's prior or reparametrise it, and validate again."),
+            class = "mixing")
+  }
+  invisible(fit)
 }

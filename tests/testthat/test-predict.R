@@ -199,3 +199,12 @@ test_that("the bands for a new vehicle hold their share of new vehicles, at the 
   expect_true(all(vapply(inside(y_A, tested), mean, 0) < 0.2))
   expect_true(all(vapply(inside(y_B, p_A), mean, 0) < 0.5))
 })
+
+test_that("a prediction from chains that did not mix warns, naming the inputs", {
+  fit <- wavevalid::example_fit()
+  expect_no_warning(predict(fit, seed = 1), class = "wavevalid_warning_mixing")
+  unmixed <- fit_set(fit, rhat = replace(fit$rhat, "x1", 1.3))
+  w <- expect_warning(p <- predict(unmixed, seed = 1), class = "wavevalid_warning_mixing")
+  expect_match(conditionMessage(w), "x1 1.30", fixed = TRUE)
+  expect_identical(p, predict(fit, seed = 1))
+})
