@@ -194,17 +194,6 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   use <- scope$use %||% rep(TRUE, ncol(Y))
   if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
-  spanned <- spanned_candidates(cand[use, , drop = FALSE], ncol(user), colMeans(Wt[, use, drop = FALSE]))
-  if (any(spanned)) {
-    gone <- colnames(user)[spanned]
-    wv_inform(c("i" = "{cli::qty(length(gone))}Candidate{?s} {.val {gone}} skipped: the parameter shifts (and the candidates before {?it/them}) already span {?it/them}, so no data could tell {?it/them} from a change of the inputs."))
-    kept <- !c(spanned, rep(FALSE, ncol(cand) - ncol(user)))
-    cand <- cand[, kept, drop = FALSE]
-    pos <- pos[kept]
-    group <- group[kept]
-    user <- user[, !spanned, drop = FALSE]
-    if (ncol(cand) == 0L) wv_abort("No candidates left: every candidate is spanned by the others.")
-  }
   res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],
                                              Wt[, use, drop = FALSE], max_size = max_size, level = level, cluster = cluster[use],
                                              positive = pos, group = group))

@@ -190,30 +190,3 @@ shift_absorption <- function(cand, sh, w) {
   })
   do.call(rbind, rows)
 }
-
-# Which of the first `m` columns of `cand` (the user's candidates; the rest
-# are the parameter shifts) the shifts and the user's candidates before it
-# already span, in the regression's metric (weights `w`, one per row): its
-# weighted least-squares residual on them is below 1e-6 of its size (a zero
-# candidate is spanned by anything). Such a candidate adds nothing the data
-# could weigh, and would make the regression singular.
-spanned_candidates <- function(cand, m, w) {
-  if (!m) return(logical())
-  A <- cand * sqrt(w)
-  out <- logical(m)
-  base <- if (ncol(A) > m) seq.int(m + 1L, ncol(A)) else integer()
-  for (j in seq_len(m)) {
-    y <- A[, j]
-    size <- sqrt(sum(y^2))
-    if (!(size > 0)) {
-      out[j] <- TRUE
-      next
-    }
-    if (length(base)) {
-      r <- qr.resid(qr(A[, base, drop = FALSE]), y)
-      out[j] <- sqrt(sum(r^2)) < 1e-6 * size
-    }
-    if (!out[j]) base <- c(base, j)
-  }
-  out
-}

@@ -65,27 +65,3 @@ test_that("candidates on the user's grid of a non-dyadic field are interpolated 
   holed[10] <- NA
   expect_error(explain_bias(fit, list(holed = holed)), class = "wavevalid_error_input")
 })
-
-test_that("a candidate the parameter shifts already span is skipped with a message, not a singular system", {
-  fit <- example_fit()
-  t <- fit$basis$t
-  sh <- shift_candidates(fit)
-  # the curve whose coefficients are u1's shift direction (the basis is orthonormal on its retained part)
-  as_u1 <- drop(fit$basis$Psi %*% sh[, "shift:u1"])
-  expect_equal(drop(as_u1 %*% fit$basis$Psi), unname(sh[, "shift:u1"]), tolerance = 1e-8)
-  bump <- exp(-((t - 0.25) / 0.05)^2)
-  cands <- list(like_u1 = as_u1, bump = bump, bump_again = 2 * bump)
-  msg <- expect_message(out <- explain_bias(fit, cands, n_draws = 10, seed = 1, positive = FALSE),
-                        class = "wavevalid_message")
-  said <- cli::ansi_strip(conditionMessage(msg))
-  expect_match(said, "like_u1", fixed = TRUE)
-  expect_match(said, "bump_again", fixed = TRUE)
-  expect_false(grepl("\"bump\"", said, fixed = TRUE))
-  expect_true("bump" %in% out$candidate)
-  expect_false(any(c("like_u1", "bump_again") %in% out$candidate))
-  # the kept candidate weighs as it does alone
-  alone <- explain_bias(fit, list(bump = bump), n_draws = 10, seed = 1, positive = FALSE)
-  expect_equal(out$inclusion_prob[out$candidate == "bump"], alone$inclusion_prob[alone$candidate == "bump"])
-  # nothing spanned: no message
-  expect_no_message(explain_bias(fit, list(bump = bump), n_draws = 10, seed = 1), class = "wavevalid_message")
-})
