@@ -153,7 +153,8 @@
 #'                        sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
-                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, t = NULL,
+                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL,
+                         t = NULL,
                          finding = NULL, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
@@ -194,7 +195,8 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   use <- scope$use %||% rep(TRUE, ncol(Y))
   if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
-  spanned <- spanned_candidates(cand[use, , drop = FALSE], ncol(user), colMeans(Wt[, use, drop = FALSE]))
+  spanned <- spanned_candidates(cand[use, , drop = FALSE], ncol(user),
+                                colMeans(Wt[, use, drop = FALSE]))
   if (any(spanned)) {
     gone <- colnames(user)[spanned]
     wv_inform(c("i" = "{cli::qty(length(gone))}Candidate{?s} {.val {gone}} skipped: the parameter shifts (and the candidates before {?it/them}) already span {?it/them}, so no data could tell {?it/them} from a change of the inputs."))
@@ -206,7 +208,8 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
     if (ncol(cand) == 0L) wv_abort("No candidates left: every candidate is spanned by the others.")
   }
   res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],
-                                             Wt[, use, drop = FALSE], max_size = max_size, level = level, cluster = cluster[use],
+                                             Wt[, use, drop = FALSE], max_size = max_size,
+                                             level = level, cluster = cluster[use],
                                              positive = pos, group = group))
   out <- res$table
   attr(out, "subsets") <- res$subsets
@@ -276,11 +279,13 @@ explain_curves <- function(fit, cand, table, n_lead = 3L) {
     s <- sites[i]
     rows <- (offs[i] + 1L):offs[i + 1L]
     b <- drop(fit_get(fit, "basis")$Psi %*% colMeans(fit_get(fit, "wb")[[s]]))
-    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias", value = b)
+    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias",
+                      value = b)
     for (k in seq_len(nrow(lead))) {
       v <- drop(fit_get(fit, "basis")$Psi %*% cand[rows, lead$candidate[k]]) * lead$amplitude[k]
       out <- rbind(out, data.frame(site = s, t = fit_get(fit, "basis")$t,
-                                   curve = sprintf("%s x %.3g", lead$candidate[k], lead$amplitude[k]),
+                                   curve = sprintf("%s x %.3g", lead$candidate[k],
+                                                   lead$amplitude[k]),
                                    value = v))
     }
     out
