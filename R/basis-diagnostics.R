@@ -212,8 +212,9 @@ summary.wv_error_processes <- function(object, ...) {
 print.summary_wv_error_processes <- function(x, ...) {
   cli::cat_line("Residual vs simulated error processes:")
   print(x$stats, row.names = FALSE)
-  cli::cat_line("Coefficient error variances: ", paste(format(signif(stats::quantile(x$sigma2, c(0, 0.5, 1)), 3)),
-                                                        collapse = " / "), " (min / median / max)")
+  cli::cat_line("Coefficient error variances: ",
+                paste(format(signif(stats::quantile(x$sigma2, c(0, 0.5, 1)), 3)), collapse = " / "),
+                " (min / median / max)")
   invisible(x)
 }
 

@@ -161,7 +161,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                      informs = as.integer(spec$informs %||% integer(0)),
                      temper = as.numeric(spec$temper %||% 1),
                      input_weight = as.numeric(spec$input_weight %||% 1),
-                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else as.numeric(spec$reg_shift_var),
+                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else
+                       as.numeric(spec$reg_shift_var),
                      resume = job$resume)
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }

@@ -371,7 +371,8 @@ control_value_text <- function(v) {
   if (inherits(v, "wv_noise_prior")) return("noise_prior()")
   if (inherits(v, c("wv_runs", "wv_field"))) return(paste0("<", class(v)[1], ">"))
   if (is.list(v) && is.null(names(v))) {
-    each <- function(e) paste0("(", if (is.numeric(e)) toString(trimws(format(e, digits = 3))) else control_value_text(e), ")")
+    each <- function(e) paste0("(", if (is.numeric(e)) toString(trimws(format(e, digits = 3))) else
+                                 control_value_text(e), ")")
     return(paste(vapply(v, each, ""), collapse = ", "))
   }
   if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, control_value_text, "")),

@@ -147,7 +147,8 @@ holdout_registered <- function(fit, x, call) {
   ke <- registration_knots(reg$knots_every, fit_get(fit, "basis")$t)
   # as validate() registers: landmarks of every site; a fit made before it
   # did so is registered as it was
-  how <- if (identical(attr(fit_get(fit, "field")$warps, "landmark_site"), "all")) list(landmark_site = "all")
+  how <- if (identical(attr(fit_get(fit, "field")$warps, "landmark_site"), "all"))
+    list(landmark_site = "all")
   do.call(register_experiments, c(list(list(holdout = x), fit_get(fit, "emulators"),
                                        fit_pipeline(fit)$runs,
                                         reg$windows, features = reg$features, knots_every = ke,
@@ -192,7 +193,8 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
     h <- if (H > 0L) sample.int(H, n_boot, replace = TRUE)
     for (s in sites) {
       R <- n_rep[[s]]
-      rows <- if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot) else matrix(1L, n_boot, 1L)
+      rows <- if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot) else
+        matrix(1L, n_boot, 1L)
       time <- lapply(seq_len(R), function(j) t(replicate(n_boot, moving_blocks(n_t, block))))
       for (m in c("before", "after")) {
         p <- parts[[m]][[s]]
@@ -211,7 +213,8 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
   n_blocks <- sum(n_rep) * floor(n_t / block)
   structure(data.frame(prediction = c("model", "corrected"), lower = q[1, ], upper = q[2, ],
                        stringsAsFactors = FALSE),
-            resampling = if (all(n_rep >= 2L)) "replicates" else if (all(n_rep < 2L)) "moving_block" else "mixed",
+            resampling = if (all(n_rep >= 2L)) "replicates" else
+              if (all(n_rep < 2L)) "moving_block" else "mixed",
             block = block, n_blocks = n_blocks, n_curves = sum(n_rep), n_boot = n_boot, n_draws = H,
             interval = interval)
 }

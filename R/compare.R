@@ -292,9 +292,10 @@ print.wv_comparison <- function(x, ...) {
   um <- attr(x, "unmixed")
   if (length(um)) {
     cli::cat_line("Chains that did not mix (R-hat above 1.1): ",
-                  paste(sprintf("%s: %s", names(um), vapply(um, function(r) paste(sprintf("%s %.2f", names(r), r),
-                                                                                   collapse = ", "),
-                                                            "")),
+                  paste(sprintf("%s: %s", names(um),
+                                vapply(um, function(r) paste(sprintf("%s %.2f", names(r), r),
+                                                             collapse = ", "),
+                                       "")),
                         collapse = "; "), ".")
   }
   for (line in comparison_verdict(x)) cli::cat_line(line)

@@ -70,7 +70,8 @@ model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, ru
     for (s in names(long$t)) {
       k <- by_run$index[[s]]
       t[[s]] <- lapply(k, function(i) long$t[[s]][[if (is.na(i)) k[!is.na(k)][1] else i]])
-      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j])) rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
+      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j]))
+                              rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
     }
     site <- NULL
   } else if (!is.null(y) || !is.null(run)) {

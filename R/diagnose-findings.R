@@ -77,7 +77,8 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
     # of the bias at its site (an interval, a covered interval, a record-wide
     # part) says nothing new
     found <- do.call(rbind, c(Filter(Negate(is.null), parts), list(NULL)))
-    found <- if (!is.null(found)) found[found$kind %in% c("interval", "covered", "record-wide"), , drop = FALSE]
+    found <- if (!is.null(found))
+      found[found$kind %in% c("interval", "covered", "record-wide"), , drop = FALSE]
     new <- vapply(seq_len(nrow(misfit)), function(i) {
       if (is.null(found) || !nrow(found)) return(TRUE)
       f <- found[found$site %in% misfit$site[i], , drop = FALSE]

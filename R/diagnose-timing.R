@@ -52,9 +52,9 @@ timing_table <- function(fit, level = 0.9) {
     }
   }
   if (!length(rows)) return(NULL)
-  out <- do.call(rbind, lapply(rows, function(r) as.data.frame(r[c("site", "window", "feature", "field", "model",
-                                                                   "shift")],
-                                                               stringsAsFactors = FALSE)))
+  out <- do.call(rbind, lapply(rows, function(r)
+    as.data.frame(r[c("site", "window", "feature", "field", "model", "shift")],
+                  stringsAsFactors = FALSE)))
   K <- length(rows)
   a <- (1 - level) / K / 2
   lim <- t(vapply(rows, function(r) stats::quantile(r$draws, c(a, 1 - a), names = FALSE),

@@ -410,7 +410,8 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
     w <- intervals[intervals$site == s, , drop = FALSE]
     flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                       rep(FALSE, length(t)))
-    share <- if (of == "effect") mean(flagged[acts]) else if (any(flagged)) mean(acts[flagged]) else NA_real_
+    share <- if (of == "effect") mean(flagged[acts]) else
+      if (any(flagged)) mean(acts[flagged]) else NA_real_
     c(share, mean(acts))
   }, numeric(2))
   structure(out[1L, ], acting = out[2L, ])

@@ -73,7 +73,8 @@ summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   by_level <- do.call(rbind, lapply(seq_along(groups), function(i) {
     rows <- key == groups[i]
     data.frame(site = ls$site[i], level = ls$level[i], n = sum(rows),
-               median_loglik = if (any(is.finite(p$loglik[rows]))) stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
+               median_loglik = if (any(is.finite(p$loglik[rows])))
+                 stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
                loo_rms = sqrt(ls$mean_square[i]), loo_beyond_3 = ls$beyond_3[i],
                nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
                flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)

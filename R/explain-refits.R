@@ -252,8 +252,8 @@ explain_refits <- function(fit, refits, n_draws, level) {
   post <- post / sum(post)
   tab$inclusion_prob <- post[-1]
   tab <- tab[order(-tab$inclusion_prob, -tab$log_bf), , drop = FALSE]
-  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper", "share_explained",
-               "share_of_bias")]
+  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
+               "share_explained", "share_of_bias")]
   rownames(out) <- NULL
   models <- data.frame(subset = c(tab$candidate, "(none)"),
                        probability = c(tab$inclusion_prob, post[1]),

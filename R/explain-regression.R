@@ -200,7 +200,8 @@ effect_table <- function(amp_draws, incl, share_mean, group, names, level, of_bi
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
   rownames(table) <- NULL
   list(table = table, lead = stats::setNames(names[lead], eff),
-       versions = if (length(eff) < length(names)) versions[order(-versions$inclusion_prob), , drop = FALSE])
+       versions = if (length(eff) < length(names))
+         versions[order(-versions$inclusion_prob), , drop = FALSE])
 }
 
 # A fixed lattice of N quasi-random points in d dimensions for the orthant

@@ -239,7 +239,8 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     if (inherits(reference, "wv_runs")) {
       for (m in lm_sites(s)) {
         spread[[m]] <- landmark_spread(reference$curves[[m]], t, windows, features, refine,
-                                       ref_lm[ref_lm$site == m, c("window", "feature", "t"), drop = FALSE], m)
+                                       ref_lm[ref_lm$site == m, c("window", "feature", "t"),
+                                              drop = FALSE], m)
       }
     }
     targets <- if (is.null(landmark_site)) s else sites
@@ -289,7 +290,8 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
   left_out <- if (length(left_out)) do.call(rbind, left_out)
   if (!is.null(left_out)) warn_left_out(left_out, max(n_rep))
   warps <- new_wv_warps(do.call(rbind, rows), range = range(t), windows = windows,
-                        landmark_site = if (pooled) "all" else if (is.null(landmark_site)) NA_character_ else landmark_site,
+                        landmark_site = if (pooled) "all" else
+                          if (is.null(landmark_site)) NA_character_ else landmark_site,
                         sites = sites,
                         landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
                         left_out = left_out)

@@ -32,7 +32,8 @@ fit_assumptions <- function(fit,
   part <- check_choice(part)
   out <- switch(part,
                 priors = prior_lines(fit_get(fit, "prior_iu"), fit_get(fit, "conditions")),
-                joint_prior = if (!is.null(fit_get(fit, "prior_iu"))) joint_prior_text(fit_get(fit, "prior_iu")),
+                joint_prior = if (!is.null(fit_get(fit, "prior_iu")))
+                  joint_prior_text(fit_get(fit, "prior_iu")),
                 noise = noise_lines(fit),
                 likelihood = shared_error_lines(fit),
                 experiments = experiment_lines(fit))

@@ -193,7 +193,8 @@ report_comparison_tables <- function(comparison) {
   m <- as.data.frame(unclass(comparison)[c("metric", "before", "after", "change")])
   hr <- attr(comparison, "holdout_ratio")
   list(metrics = signif_table(m, digits = 3),
-       ratio = if (!is.null(hr)) signif_table(as.data.frame(hr)[c("prediction", "ratio", "lower", "upper")], digits = 3))
+       ratio = if (!is.null(hr))
+         signif_table(as.data.frame(hr)[c("prediction", "ratio", "lower", "upper")], digits = 3))
 }
 
 # An HTML table (knitr's kable), numbers right-aligned.
