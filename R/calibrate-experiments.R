@@ -29,7 +29,8 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
     x <- experiments[[e]]
     em <- x$emulators %||% emulators
     sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
-                            registration_variance = if (measured) "diagonal" else registration_variance, call = call)
+                            registration_variance = if (measured) "diagonal" else
+                              registration_variance, call = call)
     if (measured && is.null(sub$extra) && !is.null(spec$extra)) {
       sub$extra <- (spec$extra_diag %||% spec$extra)[names(sub$sites)]
     }

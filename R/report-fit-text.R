@@ -72,7 +72,8 @@ experiment_lines <- function(fit) {
   }, character(1))
   settings <- fit_get(fit, "settings")
   c(sprintf("Experiments, calibrated jointly (%s):",
-            if (identical(settings$experiment_bias, "shared")) "one bias shared by the experiments" else
+            if (identical(settings$experiment_bias, "shared"))
+              "one bias shared by the experiments" else
               sprintf("one bias per experiment; level variances %s",
                       if (identical(settings$level_variances, "per_experiment")) "per experiment" else "shared")),
     lines)

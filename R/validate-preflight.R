@@ -171,8 +171,8 @@ preflight_basis <- function(basis, field, tolerance) {
                          class = "basis"))
   }
   if (stats::median(run) > tolerance[["runs"]] || any(field_miss)) {
-    what <- c(if (stats::median(run) > tolerance[["runs"]]) sprintf("the median run misses %s",
-                                                                    percent_text(tolerance[["runs"]])),
+    what <- c(if (stats::median(run) > tolerance[["runs"]])
+                sprintf("the median run misses %s", percent_text(tolerance[["runs"]])),
               if (any(field_miss)) sprintf("%d field curve%s miss%s %s beyond its noise level",
                                            sum(field_miss),
                                            if (sum(field_miss) == 1L) "" else "s",
