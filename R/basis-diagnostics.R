@@ -46,7 +46,8 @@ reconstruction_check <- function(basis, runs = NULL, field = NULL) {
     err <- basis_remainder(basis, m)
     rows[[length(rows) + 1L]] <- data.frame(site = s, source = src, id = seq_len(nrow(m)),
                                             rel_l2 = sqrt(rowSums(err^2) / rowSums(m^2)),
-                                            max_abs = apply(abs(err), 1L, max), stringsAsFactors = FALSE)
+                                            max_abs = apply(abs(err), 1L, max),
+                                            stringsAsFactors = FALSE)
     curves[[paste(src, s)]] <- m
   }
   out <- do.call(rbind, rows)
@@ -76,7 +77,8 @@ as.data.frame.wv_reconstruction <- function(x, ...) {
 #' @export
 summary.wv_reconstruction <- function(object, ...) {
   d <- as.data.frame(object)
-  structure(list(worst = d[which.max(d$rel_l2), ], quantiles = stats::quantile(d$rel_l2, c(0, 0.5, 0.9, 1))),
+  structure(list(worst = d[which.max(d$rel_l2), ],
+                 quantiles = stats::quantile(d$rel_l2, c(0, 0.5, 0.9, 1))),
             class = "summary_wv_reconstruction")
 }
 
@@ -84,7 +86,8 @@ summary.wv_reconstruction <- function(object, ...) {
 print.summary_wv_reconstruction <- function(x, ...) {
   cli::cat_line("Relative L2 reconstruction error, quantiles over curves:")
   print(signif(x$quantiles, 3))
-  cli::cat_line(sprintf("Worst: %s %s %d (%.3g)", x$worst$site, x$worst$source, x$worst$id, x$worst$rel_l2))
+  cli::cat_line(sprintf("Worst: %s %s %d (%.3g)", x$worst$site, x$worst$source, x$worst$id,
+                        x$worst$rel_l2))
   invisible(x)
 }
 
@@ -97,7 +100,8 @@ print.summary_wv_reconstruction <- function(x, ...) {
 #' @export
 autoplot.wv_reconstruction <- function(object, which = NULL, ...) {
   d <- as.data.frame(object)
-  if (is.null(which)) which <- if (any(d$source == "field")) which(d$source == "field")[1] else which.max(d$rel_l2)
+  if (is.null(which))
+    which <- if (any(d$source == "field")) which(d$source == "field")[1] else which.max(d$rel_l2)
   check_number(which, "which", min = 1, max = nrow(d), integer = TRUE)
   r <- d[which, ]
   y <- attr(object, "curves")[[paste(r$source, r$site)]][r$id, ]
@@ -149,7 +153,8 @@ error_processes <- function(basis, field, site = 1L, seed = NULL, project = FALS
   site <- resolve_site(site, names(field$curves), "site")
   m <- field$curves[[site]]
   n_rep <- nrow(m)
-  if (n_rep < 2L) wv_abort("Site {.val {site}} has {n_rep} replicate; the check needs at least two.")
+  if (n_rep < 2L)
+    wv_abort("Site {.val {site}} has {n_rep} replicate; the check needs at least two.")
   seed <- resolve_seed(seed)
   w <- basis_coef(basis, m)
   sigma2 <- colSums(sweep(w, 2L, colMeans(w))^2) / (n_rep - 1L)
@@ -170,7 +175,10 @@ error_process_stats <- function(x, lags = c(1L, 10L)) {
   d <- as.data.frame(x)
   do.call(rbind, lapply(split(d, d$process), function(p) {
     m <- do.call(rbind, split(p$y, p$replicate))
-    acf_k <- vapply(lags, function(k) mean(apply(m, 1L, function(y) stats::cor(y[-seq_len(k)], y[seq_len(length(y) - k)]))),
+    acf_k <- vapply(lags,
+                    function(k) mean(apply(m, 1L,
+                                           function(y) stats::cor(y[-seq_len(k)],
+                                                                  y[seq_len(length(y) - k)]))),
                     numeric(1))
     data.frame(process = p$process[1], mean_sd = mean(apply(m, 2L, stats::sd)),
                t(stats::setNames(acf_k, paste0("acf_lag", lags))))
@@ -204,8 +212,9 @@ summary.wv_error_processes <- function(object, ...) {
 print.summary_wv_error_processes <- function(x, ...) {
   cli::cat_line("Residual vs simulated error processes:")
   print(x$stats, row.names = FALSE)
-  cli::cat_line("Coefficient error variances: ", paste(format(signif(stats::quantile(x$sigma2, c(0, 0.5, 1)), 3)),
-                                                        collapse = " / "), " (min / median / max)")
+  cli::cat_line("Coefficient error variances: ",
+                paste(format(signif(stats::quantile(x$sigma2, c(0, 0.5, 1)), 3)), collapse = " / "),
+                " (min / median / max)")
   invisible(x)
 }
 
@@ -220,7 +229,8 @@ autoplot.wv_error_processes <- function(object, ...) {
     ggplot2::geom_line(linewidth = 0.3) +
     ggplot2::facet_wrap(~process, nrow = 1) +
     ggplot2::labs(x = "time", y = "error process", colour = "replicate",
-                  title = sprintf("Site %s: field residuals and processes from the error model", d$site[1])) +
+                  title = sprintf("Site %s: field residuals and processes from the error model",
+                                  d$site[1])) +
     ggplot2::theme_bw()
 }
 

@@ -109,7 +109,8 @@
 #' wavelet_basis(runs, field, boundary = "interval")
 wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubExPhase",
                           whole_levels = 0:3, fraction = 0.025, retain = c("error", "report"),
-                          tolerance = c(runs = 0.01, field = 0.02), boundary = c("periodic", "interval"), ...) {
+                          tolerance = c(runs = 0.01, field = 0.02),
+                          boundary = c("periodic", "interval"), ...) {
   if (...length()) whole_levels <- renamed_keep_levels(list(...), whole_levels)
   check_class(runs, "wv_runs")
   retain <- check_choice(retain)
@@ -130,7 +131,9 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
   settings <- basis_settings(length(runs$t), filter.number, family, whole_levels, fraction,
                              retain = retain, tolerance = tolerance, boundary = boundary)
   n <- settings$n_t
-  fixed <- c(1L, unlist(lapply(setdiff(settings$whole_levels, 0L) - 1L, function(l) 2L^l + seq_len(2L^l))))
+  fixed <- c(1L,
+             unlist(lapply(setdiff(settings$whole_levels, 0L) - 1L,
+                           function(l) 2L^l + seq_len(2L^l))))
 
   by_site <- list()
   n_curves <- list()
@@ -163,12 +166,14 @@ wavelet_basis <- function(runs, field = NULL, filter.number = 2, family = "DaubE
     A <- coefs[[s]]$A
     src <- coefs[[s]]$source
     data.frame(site = s, source = src, id = stats::ave(seq_along(src), src, FUN = seq_along),
-               rel_l2 = sqrt(rowSums(A[, -index, drop = FALSE]^2) / pmax(rowSums(A^2), .Machine$double.xmin)),
+               rel_l2 = sqrt(rowSums(A[, -index, drop = FALSE]^2) /
+                             pmax(rowSums(A^2), .Machine$double.xmin)),
                stringsAsFactors = FALSE)
   }))
   error <- error[order(error$source != "run", match(error$site, sites), error$id), , drop = FALSE]
   rownames(error) <- NULL
-  basis <- new_wv_basis(index = index, coef_level = index_level(index), Psi = basis_matrix(index, settings),
+  basis <- new_wv_basis(index = index, coef_level = index_level(index),
+                        Psi = basis_matrix(index, settings),
                         t = runs$t, sites = sites, settings = settings, by_site = by_site,
                         n_curves = do.call(rbind, n_curves), error = error)
   validate_wv_basis(basis)
@@ -210,7 +215,8 @@ keep_to_tolerance <- function(A, keep, source, settings) {
   finest <- seq(n %/% 2L + 1L, n)
   for (r in which(source == "field")) {
     if (sum(A2[r, ]) <= 0) next
-    allowed <- max(settings$tolerance[["field"]]^2 * total[r], n * stats::mad(A[r, finest], center = 0)^2)
+    allowed <- max(settings$tolerance[["field"]]^2 * total[r],
+                   n * stats::mad(A[r, finest], center = 0)^2)
     keep <- add_until(keep, r, allowed)
   }
   keep
@@ -234,11 +240,13 @@ basis_settings <- function(n_t, filter.number, family, whole_levels, fraction, r
   }
   n_levels <- as.integer(round(log2(n_t)))
   check_number(filter.number, "filter.number", min = 1, max = 10, integer = TRUE, call = call)
-  if (!is.character(family) || length(family) != 1L || !family %in% c("DaubExPhase", "DaubLeAsymm")) {
+  if (!is.character(family) || length(family) != 1L || !family %in%
+      c("DaubExPhase", "DaubLeAsymm")) {
     wv_abort("{.arg family} must be {.val DaubExPhase} or {.val DaubLeAsymm}.", call = call)
   }
   if (family == "DaubLeAsymm" && filter.number < 4) {
-    wv_abort("{.arg filter.number} must be 4 to 10 for {.val DaubLeAsymm}; it is {filter.number}.", call = call)
+    wv_abort("{.arg filter.number} must be 4 to 10 for {.val DaubLeAsymm}; it is {filter.number}.",
+             call = call)
   }
   if (boundary == "interval" && (family != "DaubExPhase" || filter.number > 8)) {
     wv_abort(c(
@@ -251,7 +259,8 @@ basis_settings <- function(n_t, filter.number, family, whole_levels, fraction, r
     wv_abort("Wavelets on the interval with {.arg filter.number} {filter.number} need at least {4 * filter.number} time points; the grid has {n_t}.",
              call = call)
   }
-  if (!is.numeric(whole_levels) || any(!is.finite(whole_levels)) || any(whole_levels != round(whole_levels)) ||
+  if (!is.numeric(whole_levels) || any(!is.finite(whole_levels)) ||
+      any(whole_levels != round(whole_levels)) ||
       any(whole_levels < 0) || any(whole_levels > n_levels)) {
     wv_abort(c(
       "{.arg whole_levels} must be whole wavelet levels between 0 (the scaling coefficient) and {n_levels}.",
@@ -307,9 +316,11 @@ index_level <- function(index) {
 #' @noRd
 full_coef <- function(y, settings) {
   if (identical(settings$boundary, "interval")) return(interval_wd(y, settings)$transformed.vector)
-  w <- wavethresh::wd(y, filter.number = settings$filter.number, family = settings$family, bc = "periodic")
+  w <- wavethresh::wd(y, filter.number = settings$filter.number, family = settings$family,
+                      bc = "periodic")
   n_levels <- wavethresh::nlevelsWT(w)
-  c(wavethresh::accessC(w, 0), unlist(lapply(seq_len(n_levels) - 1L, function(l) wavethresh::accessD(w, l))))
+  c(wavethresh::accessC(w, 0),
+    unlist(lapply(seq_len(n_levels) - 1L, function(l) wavethresh::accessD(w, l))))
 }
 
 # Inverse of full_coef(): the curve with the given full coefficient vector.
@@ -323,7 +334,8 @@ full_curve <- function(coef, settings) {
   w <- wavethresh::wd(numeric(n), filter.number = settings$filter.number, family = settings$family,
                       bc = "periodic")
   w <- wavethresh::putC(w, 0, coef[1])
-  for (l in seq_len(wavethresh::nlevelsWT(w)) - 1L) w <- wavethresh::putD(w, l, coef[2L^l + seq_len(2L^l)])
+  for (l in seq_len(wavethresh::nlevelsWT(w)) - 1L)
+    w <- wavethresh::putD(w, l, coef[2L^l + seq_len(2L^l)])
   wavethresh::wr(w)
 }
 
@@ -345,7 +357,8 @@ basis_matrix <- function(index, settings) {
   if (identical(settings$boundary, "interval")) {
     return(vapply(index, function(i) full_curve(replace(numeric(n), i, 1), settings), numeric(n)))
   }
-  zero <- wavethresh::wd(numeric(n), filter.number = settings$filter.number, family = settings$family,
+  zero <- wavethresh::wd(numeric(n), filter.number = settings$filter.number,
+                         family = settings$family,
                          bc = "periodic")
   psi <- matrix(0, n, length(index))
   lev <- index_level(index) - 1L
@@ -364,16 +377,20 @@ basis_matrix <- function(index, settings) {
   psi
 }
 
-new_wv_basis <- function(index, coef_level, Psi, t, sites, settings, by_site = NULL, n_curves = NULL,
+new_wv_basis <- function(index, coef_level, Psi, t, sites, settings, by_site = NULL,
+                         n_curves = NULL,
                          error = NULL) {
-  structure(list(index = as.integer(index), level = as.integer(coef_level), Psi = Psi, t = t, sites = sites,
-                 settings = settings, by_site = by_site, n_curves = n_curves, error = error), class = "wv_basis")
+  structure(list(index = as.integer(index), level = as.integer(coef_level), Psi = Psi, t = t,
+                 sites = sites,
+                 settings = settings, by_site = by_site, n_curves = n_curves, error = error),
+            class = "wv_basis")
 }
 
 validate_wv_basis <- function(x, call = rlang::caller_env()) {
   n <- length(x$t)
   if (is.unsorted(x$index, strictly = TRUE) || any(x$index < 1L) || any(x$index > n)) {
-    wv_abort("{.field index} must be strictly increasing positions in 1..{n}.", call = call, class = "state")
+    wv_abort("{.field index} must be strictly increasing positions in 1..{n}.", call = call,
+             class = "state")
   }
   if (!identical(x$level, index_level(x$index))) {
     wv_abort("{.field level} does not match {.field index}.", call = call, class = "state")
@@ -447,7 +464,8 @@ wavelet_coef <- function(basis, curves) {
 #' @export
 wavelet_reconstruct <- function(basis, coef) {
   check_class(basis, "wv_basis")
-  if (is.list(coef) && !is.data.frame(coef)) return(lapply(coef, function(m) wavelet_reconstruct(basis, m)))
+  if (is.list(coef) && !is.data.frame(coef))
+    return(lapply(coef, function(m) wavelet_reconstruct(basis, m)))
   if (is.numeric(coef) && is.null(dim(coef))) coef <- matrix(coef, nrow = 1L)
   if (!is.matrix(coef) || !is.numeric(coef) || ncol(coef) != length(basis$index)) {
     wv_abort(c(

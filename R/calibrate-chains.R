@@ -9,7 +9,8 @@ free_cores <- function() {
   if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
   n <- suppressWarnings(parallel::detectCores())
   if (is.na(n) || n < 1L) return(1L)
-  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE), " ")[[1L]][1L]),
+  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE),
+                                       " ")[[1L]][1L]),
                    error = function(e) NA_real_, warning = function(w) NA_real_)
   busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
   as.integer(max(1, n - busy))
@@ -29,7 +30,8 @@ run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global =
                                 future.globals = stats::setNames(list(), character(0)))
   }
   if (!is.null(sm$n_draws)) {
-    return(run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = sm$n_draws, resume = NULL))))
+    return(run(lapply(seq_len(chains),
+                      function(ch) list(chain = ch, n_draws = sm$n_draws, resume = NULL))))
   }
   chain_rounds(run, spec, sm, chains)
 }
@@ -61,13 +63,17 @@ chain_rounds <- function(run, spec, sm, chains) {
                                 if (is.na(chk$rhat)) "" else sprintf(", the largest R-hat %.3f (target %s)",
                                                                      chk$rhat, sm$rhat))))
     }
-    more_runs <- run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = more, resume = runs[[ch]]$state)))
+    more_runs <- run(lapply(seq_len(chains),
+                            function(ch) list(chain = ch, n_draws = more,
+                                              resume = runs[[ch]]$state)))
     runs <- Map(join_chain_runs, runs, more_runs)
     n <- n + more
     rounds <- rounds + 1L
   }
-  attr(runs, "stopping") <- list(ess_target = sm$ess, rhat_target = sm$rhat, max_draws = sm$max_draws, met = met,
-                                 draws = n, rounds = rounds, ess = chk$ess, rhat = chk$rhat, slowest = chk$slowest)
+  attr(runs, "stopping") <- list(ess_target = sm$ess, rhat_target = sm$rhat,
+                                 max_draws = sm$max_draws, met = met,
+                                 draws = n, rounds = rounds, ess = chk$ess, rhat = chk$rhat,
+                                 slowest = chk$slowest)
   runs
 }
 
@@ -129,7 +135,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   # what the C++ sampler reads: by site the emulators' banks and the field's
   # coefficients, and the priors (not the basis nor the I/U map)
-  spec <- list(sites = shared_banks(spec$sites), priors = spec$priors, groups = spec$groups["name"], z_init = spec$z_init,
+  spec <- list(sites = shared_banks(spec$sites), priors = spec$priors, groups = spec$groups["name"],
+               z_init = spec$z_init,
                informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight,
                reg_shift_var = spec$reg_shift_var)
   rm(tau)
@@ -142,15 +149,20 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
       progress <- function(h) cli::cli_progress_update(id = id, set = h)
     }
     settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
-                     tau2_init = as.numeric(tau_init), fix_tau2 = fix, n_draws = as.integer(n_draws),
-                     n_inner = as.integer(sm$n_inner), step = as.numeric(sm$step), seed = as.numeric(seed),
-                     chain = as.integer(ch), debug_break = as.integer(debug_break), progress = progress,
+                     tau2_init = as.numeric(tau_init), fix_tau2 = fix,
+                     n_draws = as.integer(n_draws),
+                     n_inner = as.integer(sm$n_inner), step = as.numeric(sm$step),
+                     seed = as.numeric(seed),
+                     chain = as.integer(ch), debug_break = as.integer(debug_break),
+                     progress = progress,
                      adaptive = identical(sm$proposal, "adaptive"), burnin = as.integer(sm$burnin),
                      p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
                      n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
                      informs = as.integer(spec$informs %||% integer(0)),
-                     temper = as.numeric(spec$temper %||% 1), input_weight = as.numeric(spec$input_weight %||% 1),
-                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else as.numeric(spec$reg_shift_var),
+                     temper = as.numeric(spec$temper %||% 1),
+                     input_weight = as.numeric(spec$input_weight %||% 1),
+                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else
+                       as.numeric(spec$reg_shift_var),
                      resume = job$resume)
     calibrate_chain_cpp(spec$sites, spec$priors, settings)
   }
@@ -164,7 +176,8 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
 shared_banks <- function(sites) {
   for (s in seq_along(sites)[-1L]) {
     for (t in seq_len(s - 1L)) {
-      if (is.null(sites[[t]][["bank_of"]]) && identical(sites[[s]][["bank"]], sites[[t]][["bank"]])) {
+      if (is.null(sites[[t]][["bank_of"]]) &&
+          identical(sites[[s]][["bank"]], sites[[t]][["bank"]])) {
         sites[[s]][["bank"]] <- NULL
         sites[[s]][["bank_of"]] <- t - 1L
         break

@@ -92,10 +92,12 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
          registration_variance %in% c("auto", "check")))) {
     wv_abort("{.arg registration_variance} must be {.val auto}, {.val check}, {.code TRUE} or {.code FALSE}.")
   }
-  if (!identical(pool_levels, "coarse")) check_levels_arg(pool_levels, "pool_levels", min_length = 2L)
+  if (!identical(pool_levels, "coarse")) check_levels_arg(pool_levels, "pool_levels",
+                                                          min_length = 2L)
   check_levels_arg(inform_levels, "inform_levels", min_length = 1L)
   check_sigma2(sigma2)
-  if (!is.null(fix_tau2) && (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0))) {
+  if (!is.null(fix_tau2) &&
+      (!is.numeric(fix_tau2) || any(!is.finite(fix_tau2)) || any(fix_tau2 <= 0))) {
     wv_abort("{.arg fix_tau2} must hold positive numbers.")
   }
   if (experiment_bias == "shared" && level_variances == "per_experiment") {
@@ -220,10 +222,12 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
 #' # one chain
 #' sampler_control(chains = 1)
-sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1, proposal = c("adaptive", "report"),
+sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1,
+                            proposal = c("adaptive", "report"),
                             global_moves = 0, burnin = NULL, n_search = 200,
                             threads = getOption("wavevalid.threads", 1L),
-                            quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05, max_draws = 1000,
+                            quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05,
+                            max_draws = 1000,
                             chains = 2) {
   if (!is.null(n_draws)) check_number(n_draws, min = 1, integer = TRUE)
   check_number(n_inner, min = 1, integer = TRUE)
@@ -239,7 +243,8 @@ sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1, proposal =
   check_flag(quiet)
   check_number(chains, min = 1, integer = TRUE)
   structure(list(n_draws = n_draws, n_inner = n_inner, step = step, proposal = proposal,
-                 global_moves = global_moves, burnin = burnin, n_search = n_search, threads = threads,
+                 global_moves = global_moves, burnin = burnin, n_search = n_search,
+                 threads = threads,
                  quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws, chains = chains),
             class = "wv_sampler_control")
 }
@@ -291,18 +296,21 @@ registration_control <- function(windows = NULL, reference = NULL, knots_every =
   if (!is.null(windows)) {
     pairs <- if (is.numeric(windows)) list(windows) else windows
     ok <- is.list(pairs) && length(pairs) > 0L &&
-      all(vapply(pairs, function(x) is.numeric(x) && length(x) == 2L && all(is.finite(x)) && x[1] < x[2], logical(1)))
+      all(vapply(pairs, function(x) is.numeric(x) && length(x) == 2L && all(is.finite(x)) &&
+                 x[1] < x[2], logical(1)))
     if (!ok) {
       wv_abort("{.arg windows} must be a list of increasing pairs of times, e.g. {.code list(c(6, 11), c(37, 41))}.")
     }
   }
   if (!is.null(knots_every) && !identical(knots_every, "auto")) {
-    if (!is.numeric(knots_every) || length(knots_every) != 1L || !is.finite(knots_every) || knots_every <= 0) {
+    if (!is.numeric(knots_every) || length(knots_every) != 1L || !is.finite(knots_every) ||
+        knots_every <= 0) {
       wv_abort("{.arg knots_every} must be {.val auto}, a positive number (in time units) or {.code NULL}.")
     }
   }
   check_features(features)
-  structure(list(windows = windows, reference = reference, knots_every = knots_every, features = features),
+  structure(list(windows = windows, reference = reference, knots_every = knots_every,
+                 features = features),
             class = "wv_registration_control")
 }
 
@@ -326,8 +334,10 @@ registration_control <- function(windows = NULL, reference = NULL, knots_every =
 #' emulation_control()
 #' # the method's report: its basis rule and its emulators
 #' emulation_control(basis_args = list(retain = "report"), engine = "gasp")
-emulation_control <- function(basis_args = list(), engine = c("gasp_level", "gasp", "dicekriging")) {
-  if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+emulation_control <- function(basis_args = list(),
+                              engine = c("gasp_level", "gasp", "dicekriging")) {
+  if (!is.list(basis_args))
+    wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
   engine <- check_choice(engine)
   structure(list(basis_args = basis_args, engine = engine), class = "wv_emulation_control")
 }
@@ -361,19 +371,24 @@ control_value_text <- function(v) {
   if (inherits(v, "wv_noise_prior")) return("noise_prior()")
   if (inherits(v, c("wv_runs", "wv_field"))) return(paste0("<", class(v)[1], ">"))
   if (is.list(v) && is.null(names(v))) {
-    each <- function(e) paste0("(", if (is.numeric(e)) toString(trimws(format(e, digits = 3))) else control_value_text(e), ")")
+    each <- function(e) paste0("(", if (is.numeric(e)) toString(trimws(format(e, digits = 3))) else
+                                 control_value_text(e), ")")
     return(paste(vapply(v, each, ""), collapse = ", "))
   }
-  if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, control_value_text, "")), collapse = ", "))
-  if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
-  if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)), collapse = ", "))
+  if (is.list(v)) return(paste(sprintf("%s = %s", names(v), vapply(v, control_value_text, "")),
+                               collapse = ", "))
+  if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1))
+    return(paste0(v[1], ":", v[length(v)]))
+  if (!is.null(names(v))) return(paste(sprintf("%s = %s", names(v), format(v, digits = 3)),
+                                       collapse = ", "))
   paste(format(v, digits = 3), collapse = ", ")
 }
 
 # Whole wavelet levels (0 for the scaling coefficient), or NULL.
 check_levels_arg <- function(x, arg, min_length = 1L, call = rlang::caller_env()) {
   if (is.null(x)) return(invisible(x))
-  if (!is.numeric(x) || anyNA(x) || any(x != round(x)) || any(x < 0) || length(unique(x)) < min_length) {
+  if (!is.numeric(x) || anyNA(x) || any(x != round(x)) || any(x < 0) ||
+      length(unique(x)) < min_length) {
     wv_abort(c(
       "{.arg {arg}} must be {if (min_length > 1L) 'two or more' else 'one or more'} whole wavelet levels (0 for the scaling coefficient), or NULL.",
       "x" = "It is {.code {deparse(x)}}."
@@ -436,7 +451,8 @@ fit_controls <- function(fit) {
   ctl <- fit_get(fit, "control")
   if (is.null(ctl)) ctl <- old_fit_controls(fit)
   if (is.null(ctl$sampler$chains)) {
-    ctl$sampler <- modify_control(ctl$sampler, list(chains = fit_get(fit, "settings")$chains %||% 2))
+    ctl$sampler <- modify_control(ctl$sampler,
+                                  list(chains = fit_get(fit, "settings")$chains %||% 2))
   }
   old <- fit_get(fit, "call_args")
   if (is.null(ctl$registration) && !is.null(old)) {
@@ -450,14 +466,19 @@ fit_controls <- function(fit) {
 old_fit_controls <- function(fit) {
   st <- fit_get(fit, "settings")
   args <- fit$calibrate_args %||% list()
-  bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels, inform_levels = st$inform_levels,
-                       input_likelihood = st$input_likelihood %||% "independent", temper = st$temper %||% 1,
-                       registration_variance = st$registration_variance %||% FALSE, fix_tau2 = args$fix_tau2,
+  bias <- bias_control(sigma2 = args$sigma2, pool_levels = st$pool_levels,
+                       inform_levels = st$inform_levels,
+                       input_likelihood = st$input_likelihood %||% "independent",
+                       temper = st$temper %||% 1,
+                       registration_variance = st$registration_variance %||% FALSE,
+                       fix_tau2 = args$fix_tau2,
                        level_variances = st$level_variances %||% "shared",
                        experiment_bias = st$experiment_bias %||% "own")
   sampler <- sampler_control(n_draws = st$n_draws, n_inner = st$n_inner, step = st$step,
-                             proposal = st$proposal %||% "report", global_moves = st$global_moves %||% 0,
-                             burnin = st$burnin, n_search = st$n_search %||% 200L, chains = st$chains %||% 2)
+                             proposal = st$proposal %||% "report",
+                             global_moves = st$global_moves %||% 0,
+                             burnin = st$burnin, n_search = st$n_search %||% 200L,
+                             chains = st$chains %||% 2)
   list(bias = bias, sampler = sampler)
 }
 
@@ -468,11 +489,13 @@ control_call <- function(x, always = character(0)) {
   defaults <- unclass(do.call(name, list()))
   show <- function(v) {
     if (inherits(v, "wv_noise_prior")) return("noise_prior(...)")
-    if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1)) return(paste0(v[1], ":", v[length(v)]))
+    if (is.numeric(v) && length(v) > 1L && all(v == round(v)) && all(diff(v) == 1))
+      return(paste0(v[1], ":", v[length(v)]))
     out <- paste(deparse(v, width.cutoff = 500L), collapse = "")
     if (nchar(out) > 60L) "..." else out
   }
-  keep <- vapply(names(x), function(nm) nm %in% always || !identical(x[[nm]], defaults[[nm]]), logical(1))
+  keep <- vapply(names(x), function(nm) nm %in% always || !identical(x[[nm]], defaults[[nm]]),
+                 logical(1))
   keep[names(x) %in% c("quiet", "threads", "chains")] <- FALSE
   args <- vapply(names(x)[keep], function(nm) paste(nm, "=", show(x[[nm]])), "")
   paste0(name, "(", paste(args, collapse = ", "), ")")

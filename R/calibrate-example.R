@@ -6,7 +6,8 @@
 basis_from_index <- function(t, index, filter.number = 2, family = "DaubExPhase") {
   settings <- basis_settings(length(t), filter.number, family, whole_levels = 0:1, fraction = 0)
   index <- as.integer(index)
-  new_wv_basis(index, index_level(index), basis_matrix(index, settings), t, sites = NULL, settings = settings)
+  new_wv_basis(index, index_level(index), basis_matrix(index, settings), t, sites = NULL,
+               settings = settings)
 }
 
 #' Example objects

@@ -29,7 +29,8 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
     x <- experiments[[e]]
     em <- x$emulators %||% emulators
     sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
-                            registration_variance = if (measured) "diagonal" else registration_variance, call = call)
+                            registration_variance = if (measured) "diagonal" else
+                              registration_variance, call = call)
     if (measured && is.null(sub$extra) && !is.null(spec$extra)) {
       sub$extra <- (spec$extra_diag %||% spec$extra)[names(sub$sites)]
     }
@@ -44,7 +45,8 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
         if (!s %in% base_sites) {
           wv_abort(c("With {.code level_variances = \"shared\"} every experiment's site must be a site of the base experiment.",
                      "x" = "Experiment {.val {e}} has site {.val {s}}; the base has {.val {base_sites}}.",
-                     "i" = "Use {.code level_variances = \"per_experiment\"}."), class = "experiment", call = call)
+                     "i" = "Use {.code level_variances = \"per_experiment\"}."),
+                   class = "experiment", call = call)
         }
         d$group <- match(lab, spec$groups$name) - 1L
       } else {
@@ -65,12 +67,14 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
       if (!is.null(sub$extra)) spec$extra[[name]] <- sub$extra[[s]]
       spec$noise_setting[[name]] <- sub$noise_setting[[s]]
       if (!is.null(sub$noise_evidence[[s]])) spec$noise_evidence[[name]] <- sub$noise_evidence[[s]]
-      if (!is.null(sub$noise_prior) && !is.null(sub$noise_prior$scale[s]) && !is.na(sub$noise_prior$scale[s])) {
+      if (!is.null(sub$noise_prior) && !is.null(sub$noise_prior$scale[s]) &&
+          !is.na(sub$noise_prior$scale[s])) {
         if (is.null(spec$noise_prior)) {
           spec$noise_prior <- sub$noise_prior
           spec$noise_prior$scale <- numeric(0)
         }
-        spec$noise_prior$scale <- c(spec$noise_prior$scale, stats::setNames(unname(sub$noise_prior$scale[s]), name))
+        spec$noise_prior$scale <- c(spec$noise_prior$scale,
+                                    stats::setNames(unname(sub$noise_prior$scale[s]), name))
       }
       site_experiment[[name]] <- e
       base_site[[name]] <- s
@@ -78,7 +82,8 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
       banks[[name]] <- site_bank(em, s)
     }
   }
-  spec$experiments <- data.frame(site = names(site_experiment), experiment = unname(site_experiment),
+  spec$experiments <- data.frame(site = names(site_experiment),
+                                 experiment = unname(site_experiment),
                                  field_site = unname(base_site), stringsAsFactors = FALSE)
   spec$shift <- shift
   spec$experiment_banks <- banks
@@ -104,7 +109,8 @@ experiment_fit_parts <- function(spec, emulators, field, experiments) {
 # for the base experiment's sites), named by input.
 site_shift <- function(fit, s) {
   sh <- fit_get(fit, "shift")[[s]]
-  if (is.null(sh)) sh <- stats::setNames(numeric(length(fit_get(fit, "inputs"))), fit_get(fit, "inputs"))
+  if (is.null(sh)) sh <- stats::setNames(numeric(length(fit_get(fit, "inputs"))),
+                                         fit_get(fit, "inputs"))
   sh
 }
 

@@ -133,8 +133,10 @@ field_noise <- function(field, basis) {
 #' fit$noise_setting
 noise_prior <- function(scale = NULL, family = c("half-cauchy", "half-normal")) {
   family <- check_choice(family)
-  if (!is.null(scale) && (!is.numeric(scale) || !length(scale) || any(!is.finite(scale)) || any(scale <= 0) ||
-                          (length(scale) > 1L && (is.null(names(scale)) || anyDuplicated(names(scale)))))) {
+  if (!is.null(scale) && (!is.numeric(scale) || !length(scale) || any(!is.finite(scale)) ||
+                          any(scale <= 0) ||
+                          (length(scale) > 1L &&
+                           (is.null(names(scale)) || anyDuplicated(names(scale)))))) {
     wv_abort(c("{.arg scale} must be NULL, one positive number, or positive numbers named by site.",
                "x" = "It is {.code {deparse(scale)}}."), class = "input")
   }
@@ -144,7 +146,8 @@ noise_prior <- function(scale = NULL, family = c("half-cauchy", "half-normal")) 
 #' @export
 print.wv_noise_prior <- function(x, ...) {
   sc <- if (is.null(x$scale)) "the finest-level estimate of each site" else
-    paste(if (is.null(names(x$scale))) signif(x$scale, 4) else paste(names(x$scale), signif(x$scale, 4), sep = " "),
+    paste(if (is.null(names(x$scale))) signif(x$scale, 4) else paste(names(x$scale),
+                                                                     signif(x$scale, 4), sep = " "),
           collapse = ", ")
   cli::cat_line("<wv_noise_prior> one field noise variance per site, learned; ", x$family,
                 " prior on its sd with scale ", sc)
@@ -158,7 +161,8 @@ check_sigma2 <- function(sigma2, sites = NULL, call = rlang::caller_env()) {
   if (inherits(sigma2, "wv_noise_prior")) {
     sc <- sigma2$scale
     if (!is.null(sites) && length(sc) > 1L && !setequal(names(sc), sites)) {
-      wv_abort("The noise prior's {.arg scale} must be named by every site: {.val {sites}}.", call = call)
+      wv_abort("The noise prior's {.arg scale} must be named by every site: {.val {sites}}.",
+               call = call)
     }
     return(invisible(sigma2))
   }
@@ -166,7 +170,8 @@ check_sigma2 <- function(sigma2, sites = NULL, call = rlang::caller_env()) {
            "i" = if (!is.null(sites)) "The sites are {.val {sites}}.")
   if (is.character(sigma2)) wv_abort(c(msg, "x" = "It is {.val {sigma2}}."), call = call)
   vals <- if (is.list(sigma2)) sigma2 else list(sigma2)
-  if (is.list(sigma2) && (is.null(names(sigma2)) || (!is.null(sites) && !all(names(sigma2) %in% sites)))) {
+  if (is.list(sigma2) &&
+      (is.null(names(sigma2)) || (!is.null(sites) && !all(names(sigma2) %in% sites)))) {
     wv_abort(msg, call = call)
   }
   for (v in vals) {

@@ -24,7 +24,8 @@
 # inputs), `at` (the inputs where it was taken).
 shared_error_weight <- function(spec, field, tau, seed, sm) {
   pilot_sm <- sampler_control(n_draws = 20L, n_inner = 5L, step = 0.1, proposal = sm$proposal,
-                              burnin = min(sm$burnin, 500L), global_moves = 0, n_search = sm$n_search,
+                              burnin = min(sm$burnin, 500L), global_moves = 0,
+                              n_search = sm$n_search,
                               threads = sm$threads, quiet = TRUE)
   pilot <- run_chains(spec, pilot_sm, chains = 1L, seed = seed, tau = tau)[[1L]]
   z <- colMeans(pilot$inputs)
@@ -46,7 +47,8 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
     zs <- z + (d$shift %||% 0)
     Z <- rbind(zs, t(zs + diag(h, p)), t(zs - diag(h, p)))
     pr <- bank_predict(d$bank, Z)
-    G <- (pr$mean[1L + seq_len(p), , drop = FALSE] - pr$mean[1L + p + seq_len(p), , drop = FALSE]) / (2 * h)
+    G <- (pr$mean[1L + seq_len(p), , drop = FALSE] - pr$mean[1L + p + seq_len(p), , drop = FALSE]) /
+      (2 * h)
     v <- pmax(pr$var[1L, ], 0)
     e <- sigma2[[k]] / d$R + (d$extra %||% 0)
     keep <- informs[d$group + 1L] == 1L
@@ -75,12 +77,15 @@ composite_weight <- function(spec, field, z, tau2, sigma2) {
   J <- matrix(0, p, p)
   design <- integer(length(parts))
   for (k in seq_along(parts)) {
-    same <- which(vapply(parts[seq_len(k - 1L)], function(q) identical(q$X, parts[[k]]$X), logical(1)))
+    same <- which(vapply(parts[seq_len(k - 1L)], function(q) identical(q$X, parts[[k]]$X),
+                         logical(1)))
     design[k] <- if (length(same)) design[same[1L]] else k
   }
   for (dz in unique(design)) {
     ks <- which(design == dz)
-    M <- Reduce(`+`, lapply(ks, function(k) parts[[k]]$loo %*% (sqrt(parts[[k]]$v) * A[rows(k), , drop = FALSE])))
+    M <- Reduce(`+`,
+                lapply(ks, function(k) parts[[k]]$loo %*%
+                       (sqrt(parts[[k]]$v) * A[rows(k), , drop = FALSE])))
     J <- J + crossprod(M) / nrow(M)
     for (k in ks) {
       q <- parts[[k]]

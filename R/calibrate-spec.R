@@ -16,10 +16,12 @@ iu_inputs_mismatch <- function(inputs, iu, what = c("runs", "emulators")) {
   s <- function(x, one, more) if (length(x) == 1L) one else more
   where <- if (what == "runs") "the design of the runs" else "the inputs of the emulators"
   figure <- c(
-    if (length(unrun)) sprintf("the I/U map's input%s %s %s not in %s", s(unrun, "", "s"), names_text(unrun),
+    if (length(unrun)) sprintf("the I/U map's input%s %s %s not in %s", s(unrun, "", "s"),
+                               names_text(unrun),
                                s(unrun, "is", "are"), where),
     if (length(unmapped)) sprintf("%s's input%s %s %s not in the I/U map",
-                                  if (what == "runs") "the design" else "the emulators", s(unmapped, "", "s"),
+                                  if (what == "runs") "the design" else "the emulators",
+                                  s(unmapped, "", "s"),
                                   names_text(unmapped), s(unmapped, "is", "are"))
   )
   drop <- if (length(unrun) == 1L) sprintf("iu[iu$name != \"%s\", ]", unrun) else
@@ -28,10 +30,12 @@ iu_inputs_mismatch <- function(inputs, iu, what = c("runs", "emulators")) {
     if (length(unrun)) sprintf("%s %s, or drop %s from the I/U map with %s (the runs do not vary %s, so the calibration could only return %s prior).",
                                if (what == "runs") "Add" else "Fit the emulators on runs whose design holds",
                                if (what == "runs") paste(names_text(unrun), "to the design of the runs (run the model over it)") else names_text(unrun),
-                               s(unrun, "it", "them"), drop, s(unrun, "it", "them"), s(unrun, "its", "their")),
+                               s(unrun, "it", "them"), drop, s(unrun, "it", "them"),
+                               s(unrun, "its", "their")),
     if (length(unmapped)) sprintf("Add %s to the I/U map with iu_add() (an input held fixed with a narrow range around its value)%s.",
                                   names_text(unmapped),
-                                  if (what == "runs") paste(", or drop", s(unmapped, "it", "them"), "from the design of the runs") else "")
+                                  if (what == "runs") paste(", or drop", s(unmapped, "it", "them"),
+                                                            "from the design of the runs") else "")
   )
   list(figure = paste(figure, collapse = "; "), fix = paste(fix, collapse = " "))
 }
@@ -44,7 +48,8 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
                              registration_variance = FALSE, call = rlang::caller_env()) {
   basis <- emulators$basis
   check_class(basis, "wv_basis", arg = "emulators$basis", call = call)
-  if (length(field$t) != length(basis$t) || max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
+  if (length(field$t) != length(basis$t) ||
+      max(abs(field$t - basis$t)) > 1e-8 * max(1, abs(basis$t))) {
     wv_abort(c(
       "{.arg field} must be on the grid of the emulators' basis.",
       "x" = "The field grid has {length(field$t)} point{?s} on [{signif(min(field$t), 4)}, {signif(max(field$t), 4)}]; the basis grid has {length(basis$t)} on [{signif(min(basis$t), 4)}, {signif(max(basis$t), 4)}].",
@@ -131,7 +136,8 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     # coefficient; one variance per site for all of it ("diagonal", internal:
     # the experiments' sites and a bias shared by experiments)
     extra <- extra_diag <- registration_check_variance(field, basis)
-    if (!identical(registration_variance, "diagonal")) shifts <- registration_shift_structure(field, basis)
+    if (!identical(registration_variance, "diagonal"))
+      shifts <- registration_shift_structure(field, basis)
     if (!is.null(shifts)) extra <- shifts$extra
     if (is.null(extra) && identical(registration_variance, "check")) {
       wv_abort(c(
@@ -160,21 +166,26 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
     n_rep[[s]] <- R
     g0 <- if (is.null(groups)) 0L else nrow(groups)
-    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s, level = tau_group$level,
+    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s,
+                                       level = tau_group$level,
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = site_bank(emulators, s), wbar = wbar[[s]], s2 = s2[[s]], R = R,
-                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L, extra = extra[[s]],
+                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L,
+                           extra = extra[[s]],
                            reg_U = shifts$U[[s]])
     if (noise_setting[[s]] == "learned") {
       site_data[[s]]$noise <- c(list(scale = unname(noise_scale[[s]]),
-                                     family = match(noise$family, c("half-cauchy", "half-normal")) - 1L),
+                                     family = match(noise$family,
+                                                    c("half-cauchy", "half-normal")) - 1L),
                                 measured_noise_evidence(field$noise[[s]], basis))
     }
     bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
-       groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom, wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, reg_shift_var = shifts$var, extra_diag = extra_diag,
+       groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom,
+       wbar = wbar,
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, reg_shift_var = shifts$var,
+       extra_diag = extra_diag,
        noise_setting = noise_setting, noise_prior = noise,
        noise_evidence = noise_evidence_summary(field, sites[noise_setting == "learned"], site_data))
 }
@@ -212,13 +223,15 @@ bias_groups <- function(coef_level, pool_levels = NULL, call = rlang::caller_env
       ), call = call)
     }
   }
-  if (is.null(pool_levels)) return(list(label = as.character(lv), level = lv, group = match(coef_level, lv), pooled = NULL))
+  if (is.null(pool_levels)) return(list(label = as.character(lv), level = lv,
+                                        group = match(coef_level, lv), pooled = NULL))
   low <- min(pool_levels)
   key <- ifelse(coef_level %in% pool_levels, low, coef_level)
   lev <- sort(unique(key))
   label <- as.character(lev)
   contiguous <- identical(pool_levels, seq(low, max(pool_levels)))
-  label[lev == low] <- if (contiguous) paste0(low, "-", max(pool_levels)) else paste(pool_levels, collapse = ",")
+  label[lev == low] <-
+    if (contiguous) paste0(low, "-", max(pool_levels)) else paste(pool_levels, collapse = ",")
   list(label = label, level = lev, group = match(key, lev), pooled = pool_levels)
 }
 
@@ -249,7 +262,8 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
   }
   if (is.null(names(fix_tau2))) {
     if (length(fix_tau2) != 1L && length(fix_tau2) != G) {
-      wv_abort("{.arg fix_tau2} must have one value or one per group ({G}: {.val {groups$name}}).", call = call)
+      wv_abort("{.arg fix_tau2} must have one value or one per group ({G}: {.val {groups$name}}).",
+               call = call)
     }
     vals <- rep_len(fix_tau2, G)
   } else {
@@ -267,7 +281,8 @@ resolve_fix_tau2 <- function(fix_tau2, groups, call = rlang::caller_env()) {
 measured_noise_scale <- function(field, basis, sites) {
   kept <- vapply(sites, function(s) !is.null(field$noise[[s]]$detail_sd), logical(1))
   out <- stats::setNames(numeric(length(sites)), sites)
-  if (any(!kept)) out[!kept] <- attr(field_noise(subset_field_sites(field, sites[!kept]), basis), "sd")
+  if (any(!kept)) out[!kept] <- attr(field_noise(subset_field_sites(field, sites[!kept]), basis),
+                                     "sd")
   for (s in sites[kept]) out[[s]] <- field$noise[[s]]$detail_sd
   if (any(!(out > 0))) {
     wv_abort(c("The measured curve of site{?s} {.val {sites[!(out > 0)]}} shows no noise at all.",
@@ -298,7 +313,8 @@ noise_evidence_summary <- function(field, learned, site_data) {
   out <- lapply(learned, function(s) {
     nz <- field$noise[[s]]
     if (is.null(nz)) return(NULL)
-    list(n_stamps = nz$n_stamps, n_repeated = nz$n_repeated, df = nz$df, ss = nz$ss, detail_sd = nz$detail_sd,
+    list(n_stamps = nz$n_stamps, n_repeated = nz$n_repeated, df = nz$df, ss = nz$ss,
+         detail_sd = nz$detail_sd,
          detail_ss = nz$detail_ss %||% 0, detail_df = nz$detail_df %||% 0,
          mult = site_data[[s]]$noise$mult)
   })
@@ -316,7 +332,8 @@ subset_field_sites <- function(field, sites) {
 # coefficient): 1 when its coefficients inform the inputs (their
 # levels are all in inform_levels), 0 when they are cut off; NULL when every
 # level informs them.
-informing_groups <- function(inform_levels, coef_level, bias_group, groups, call = rlang::caller_env()) {
+informing_groups <- function(inform_levels, coef_level, bias_group, groups,
+                             call = rlang::caller_env()) {
   if (is.null(inform_levels)) return(NULL)
   lv <- sort(unique(coef_level))
   check_levels_arg(inform_levels, "inform_levels", min_length = 1L, call = call)

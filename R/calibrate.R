@@ -192,7 +192,8 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
 # minute or more while other cores were free: how to run them at once.
 hint_parallel_chains <- function(seconds, chains, free, quiet) {
   if (isTRUE(quiet) || chains < 2L || free < 2L || !isTRUE(seconds >= 60)) return(invisible(FALSE))
-  if (!requireNamespace("future", quietly = TRUE) || !inherits(future::plan(), "sequential")) return(invisible(FALSE))
+  if (!requireNamespace("future", quietly = TRUE) || !inherits(future::plan(), "sequential"))
+    return(invisible(FALSE))
   workers <- min(chains, free)
   wv_inform(c("i" = paste0("The {chains} chains ran one after the other ({round(seconds)} s) while {free} cores were free: ",
                            "{.code future::plan(future::multisession, workers = {workers})} runs them at once, with the same draws.")),
@@ -216,7 +217,8 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   experiments <- check_experiments(experiments, emulators, field, spec$x_nom, iu = iu)
   if (!is.null(experiments)) check_not_base_data(experiments, field)
   if (!is.null(experiments)) {
-    spec <- add_experiments(spec, experiments, emulators, iu_run, pool_levels, registration_variance, bias$level_variances,
+    spec <- add_experiments(spec, experiments, emulators, iu_run, pool_levels,
+                            registration_variance, bias$level_variances,
                             bias$experiment_bias)
     parts <- experiment_fit_parts(spec, emulators, field, experiments)
     emulators <- parts$emulators
@@ -224,7 +226,8 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   }
   tau <- resolve_fix_tau2(bias$fix_tau2, spec$groups)
   spec$informs <- informing_groups(inform_levels, spec$basis$level, spec$bias_group, spec$groups)
-  spec$inform_levels <- if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
+  spec$inform_levels <-
+    if (is.null(inform_levels)) NULL else sort(unique(as.integer(inform_levels)))
   spec$temper <- bias$temper
   shared <- NULL
   if (bias$input_likelihood == "adjusted") {
@@ -235,13 +238,17 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   runs <- run_chains(spec, sm, chains, seed, tau)
   t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
-                      settings = list(n_draws = sm$n_draws %||% nrow(runs[[1L]]$inputs), n_inner = sm$n_inner, chains = chains,
-                                      step = sm$step, proposal = sm$proposal, global_moves = sm$global_moves,
+                      settings = list(n_draws = sm$n_draws %||% nrow(runs[[1L]]$inputs),
+                                      n_inner = sm$n_inner, chains = chains,
+                                      step = sm$step, proposal = sm$proposal,
+                                      global_moves = sm$global_moves,
                                       burnin = sm$burnin,
-                                      fix_tau2 = tau$values[tau$fixed], pool_levels = spec$pool_levels,
+                                      fix_tau2 = tau$values[tau$fixed],
+                                      pool_levels = spec$pool_levels,
                                       registration_variance = registration_variance,
                                       inform_levels = spec$inform_levels, temper = bias$temper,
-                                      n_search = sm$n_search, input_likelihood = bias$input_likelihood),
+                                      n_search = sm$n_search,
+                                      input_likelihood = bias$input_likelihood),
                       seed = seed)
   fit <- fit_set(fit, shared_errors = shared, sampling_seconds = t_sampling,
                  stopping = attr(runs, "stopping"),
@@ -276,7 +283,9 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
                            inputs = vapply(runs, function(r) r$acc_input, numeric(1)),
                            global = vapply(runs, function(r) r$acc_global, numeric(1)),
                            burnin = vapply(runs, function(r) r$acc_burnin, numeric(1)))
-  if (any(spec$noise_setting == "learned")) acceptance$noise <- vapply(runs, function(r) r$acc_noise, numeric(1))
+  if (any(spec$noise_setting == "learned")) acceptance$noise <- vapply(runs,
+                                                                       function(r) r$acc_noise,
+                                                                       numeric(1))
   start <- do.call(rbind, lapply(runs, function(r) r$z_start))
   colnames(start) <- spec$inputs
   prop_cov <- lapply(runs, function(r) {
@@ -289,7 +298,8 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     chain = rep(seq_along(runs), each = settings$n_draws),
     emulators = emulators, basis = spec$basis, field = field, iu = iu, prior_iu = spec$prior_iu,
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
-    groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start, proposal_cov = prop_cov,
+    groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start,
+    proposal_cov = prop_cov,
     seed = seed, settings = settings, registration_var = spec$extra,
     noise_setting = spec$noise_setting, noise_prior = spec$noise_prior,
     noise_evidence = if (length(spec$noise_evidence)) spec$noise_evidence,

@@ -21,16 +21,19 @@ holdout_predictions <- function(before, after, holdout, level, seed, call = rlan
     # registers its own (before, else after) would, and graded so for both
     judge <- if (!is.null(fit_controls(before)$registration$windows)) before else after
     field <- holdout_registered(judge, holdout, call)
-    return(lapply(fits, function(f) experiment_prediction(f, holdout, level, seed, call, field = field)))
+    return(lapply(fits,
+                  function(f) experiment_prediction(f, holdout, level, seed, call, field = field)))
   }
-  if (is.list(holdout) && inherits(holdout$before, "wv_experiment") && inherits(holdout$after, "wv_experiment")) {
+  if (is.list(holdout) && inherits(holdout$before, "wv_experiment") &&
+      inherits(holdout$after, "wv_experiment")) {
     return(stats::setNames(lapply(c("before", "after"), function(m) {
       experiment_prediction(fits[[m]], holdout[[m]], level, seed, call)
     }), c("before", "after")))
   }
   fld <- if (is.list(holdout)) holdout$field
   if (inherits(fld, "wv_field")) fld <- list(before = fld, after = fld)
-  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") && inherits(fld$after, "wv_field") &&
+  ok <- is.list(holdout) && is.list(fld) && inherits(fld$before, "wv_field") &&
+    inherits(fld$after, "wv_field") &&
     inherits(holdout$before, "wv_prediction") && inherits(holdout$after, "wv_prediction")
   if (!ok) {
     wv_abort(c(
@@ -55,7 +58,8 @@ fit_draws <- function(fit, sites, dW = NULL) {
     M <- fit_get(fit, "wM")[[s]]
     if (!is.null(dW)) M <- M + dW[[s]]
     W <- M + fit_get(fit, "wb")[[s]]
-    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)),
+         corrected = sweep(W, 2L, colMeans(W)))
   }), sites)
 }
 
@@ -67,7 +71,8 @@ condition_draws <- function(fit, setup, sites) {
   stats::setNames(lapply(sites, function(s) {
     M <- setup$sites[[s]]$M
     W <- M + setup$sites[[s]]$B
-    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)), corrected = sweep(W, 2L, colMeans(W)))
+    list(Psi = basis$Psi, G = G, model = sweep(M, 2L, colMeans(M)),
+         corrected = sweep(W, 2L, colMeans(W)))
   }), sites)
 }
 
@@ -75,7 +80,8 @@ condition_draws <- function(fit, setup, sites) {
 # model alone has none.
 prediction_draws <- function(pred) {
   if (is.null(pred$draws)) return(NULL)
-  lapply(pred$draws, function(D) list(Psi = NULL, model = NULL, corrected = sweep(D, 2L, colMeans(D))))
+  lapply(pred$draws,
+         function(D) list(Psi = NULL, model = NULL, corrected = sweep(D, 2L, colMeans(D))))
 }
 
 # One model's prediction of a held-out experiment: its field data registered
@@ -88,8 +94,10 @@ experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
   field <- field %||% holdout_registered(fit, x, call)
   sites <- names(field$curves)
   if (!is.null(x$condition)) {
-    pred <- stats::predict(fit, type = "new_condition", condition = x$condition, level = level, seed = seed)
-    setup <- with_rng_seed(setup_seed_of(pred$seed), new_condition_setup(fit, x$condition, call = call))
+    pred <- stats::predict(fit, type = "new_condition", condition = x$condition, level = level,
+                           seed = seed)
+    setup <- with_rng_seed(setup_seed_of(pred$seed),
+                           new_condition_setup(fit, x$condition, call = call))
     return(list(field = field, pred = pred, draws = condition_draws(fit, setup, sites)))
   }
   if (!is.null(x$change)) {
@@ -105,22 +113,27 @@ experiment_prediction <- function(fit, x, level, seed, call, field = NULL) {
   }), sites)
   rows <- with_rng_seed(seed, lapply(sites, function(s) {
     M <- Ms[[s]]
-    W <- M + fit_get(fit, "wb")[[s]] + sqrt(fit_get(fit, "sigma2")[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
+    W <- M + fit_get(fit, "wb")[[s]] +
+      sqrt(fit_get(fit, "sigma2")[[s]]) * matrix(stats::rnorm(length(M)), nrow(M))
     band <- band_frame(tcrossprod(W, fit_get(fit, "basis")$Psi), fit_get(fit, "basis")$t, s, level)
-    band$model <- drop(tcrossprod(bank_predict(site_bank(em, s), zbar)$mean, fit_get(fit, "basis")$Psi))
+    band$model <- drop(tcrossprod(bank_predict(site_bank(em, s), zbar)$mean,
+                                  fit_get(fit, "basis")$Psi))
     band
   }))
-  pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive", level = level,
+  pred <- structure(list(summary = do.call(rbind, rows), type = "experiment", bias = "additive",
+                         level = level,
                          seed = seed), class = "wv_prediction")
   dW <- stats::setNames(lapply(sites, function(s) Ms[[s]] - fit_get(fit, "wM")[[s]]), sites)
   list(field = field, pred = pred, draws = fit_draws(fit, sites, dW))
 }
 
 check_holdout_experiment <- function(fit, x, call) {
-  x <- check_experiments(list(holdout = x), fit_get(fit, "emulators"), list(curves = list()), iu = fit_get(fit, "iu"),
+  x <- check_experiments(list(holdout = x), fit_get(fit, "emulators"), list(curves = list()),
+                         iu = fit_get(fit, "iu"),
                          call = call)$holdout
   miss <- setdiff(names(x$field$curves), base_sites(fit))
-  if (length(miss)) wv_abort("The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
+  if (length(miss)) wv_abort(
+    "The held-out field data have site{?s} {.val {miss}}, which the fit lacks.", call = call)
   x
 }
 
@@ -134,9 +147,12 @@ holdout_registered <- function(fit, x, call) {
   ke <- registration_knots(reg$knots_every, fit_get(fit, "basis")$t)
   # as validate() registers: landmarks of every site; a fit made before it
   # did so is registered as it was
-  how <- if (identical(attr(fit_get(fit, "field")$warps, "landmark_site"), "all")) list(landmark_site = "all")
-  do.call(register_experiments, c(list(list(holdout = x), fit_get(fit, "emulators"), fit_pipeline(fit)$runs,
-                                        reg$windows, features = reg$features, knots_every = ke, quiet = TRUE),
+  how <- if (identical(attr(fit_get(fit, "field")$warps, "landmark_site"), "all"))
+    list(landmark_site = "all")
+  do.call(register_experiments, c(list(list(holdout = x), fit_get(fit, "emulators"),
+                                       fit_pipeline(fit)$runs,
+                                        reg$windows, features = reg$features, knots_every = ke,
+                                       quiet = TRUE),
                                    how))$holdout$field
 }
 
@@ -153,7 +169,8 @@ holdout_registered <- function(fit, x, call) {
 # prediction; its interval holds the central `interval` share of the
 # resamples.
 holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
-  sites <- Reduce(intersect, list(unique(ho$before$pred$summary$site), unique(ho$after$pred$summary$site),
+  sites <- Reduce(intersect, list(unique(ho$before$pred$summary$site),
+                                  unique(ho$after$pred$summary$site),
                                   names(ho$before$field$curves), names(ho$after$field$curves)))
   n_t <- length(ho$before$field$t)
   block <- ceiling(sqrt(n_t))
@@ -163,23 +180,27 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
       list(y = h$field$curves[[s]], model = ps$model, corrected = ps$mean, draws = h$draws[[s]])
     })
   })
-  n_rep <- vapply(sites, function(s) min(nrow(parts$before[[s]]$y), nrow(parts$after[[s]]$y)), integer(1))
+  n_rep <- vapply(sites, function(s) min(nrow(parts$before[[s]]$y), nrow(parts$after[[s]]$y)),
+                  integer(1))
   n_draws <- vapply(c("before", "after"), function(m) {
     d <- parts[[m]][[sites[1]]]$draws
     if (is.null(d)) NA_integer_ else nrow(d$corrected)
   }, integer(1))
   H <- if (all(is.na(n_draws))) 0L else min(n_draws, na.rm = TRUE)
-  sse <- array(0, c(n_boot, 2L, 2L), dimnames = list(NULL, c("before", "after"), c("model", "corrected")))
+  sse <- array(0, c(n_boot, 2L, 2L),
+               dimnames = list(NULL, c("before", "after"), c("model", "corrected")))
   with_rng_seed(seed, {
     h <- if (H > 0L) sample.int(H, n_boot, replace = TRUE)
     for (s in sites) {
       R <- n_rep[[s]]
-      rows <- if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot) else matrix(1L, n_boot, 1L)
+      rows <- if (R >= 2L) matrix(sample.int(R, R * n_boot, replace = TRUE), n_boot) else
+        matrix(1L, n_boot, 1L)
       time <- lapply(seq_len(R), function(j) t(replicate(n_boot, moving_blocks(n_t, block))))
       for (m in c("before", "after")) {
         p <- parts[[m]][[s]]
         for (kind in c("model", "corrected")) {
-          sse[, m, kind] <- sse[, m, kind] + resampled_sse(p$y[seq_len(R), , drop = FALSE], p[[kind]], p$corrected,
+          sse[, m, kind] <- sse[, m, kind] + resampled_sse(p$y[seq_len(R), , drop = FALSE],
+                                                           p[[kind]], p$corrected,
                                                            rows, time, p$draws, kind, h)
         }
       }
@@ -190,8 +211,10 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
   a <- (1 - interval) / 2
   q <- apply(ratio, 2L, stats::quantile, probs = c(a, 1 - a), names = FALSE)
   n_blocks <- sum(n_rep) * floor(n_t / block)
-  structure(data.frame(prediction = c("model", "corrected"), lower = q[1, ], upper = q[2, ], stringsAsFactors = FALSE),
-            resampling = if (all(n_rep >= 2L)) "replicates" else if (all(n_rep < 2L)) "moving_block" else "mixed",
+  structure(data.frame(prediction = c("model", "corrected"), lower = q[1, ], upper = q[2, ],
+                       stringsAsFactors = FALSE),
+            resampling = if (all(n_rep >= 2L)) "replicates" else
+              if (all(n_rep < 2L)) "moving_block" else "mixed",
             block = block, n_blocks = n_blocks, n_curves = sum(n_rep), n_boot = n_boot, n_draws = H,
             interval = interval)
 }

@@ -122,7 +122,8 @@
 #'                                 holdout = experiment(moved, change = c(x1 = 0.2)), seed = 1)
 #' cmp_held
 #' autoplot(cmp_held, type = "holdout")
-compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_boot = 1000, seed = NULL) {
+compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_boot = 1000,
+                                seed = NULL) {
   check_class(before, "wv_fit")
   check_class(after, "wv_fit")
   check_level(level)
@@ -135,7 +136,8 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
     wv_abort("{.arg before} and {.arg after} must be on the same time grid.")
   }
   conflicts <- list(before = input_conflicts(before), after = input_conflicts(after))
-  m_before <- c(validation_metrics(before, level), inputs_in_conflict = sum(conflicts$before$conflict))
+  m_before <- c(validation_metrics(before, level),
+                inputs_in_conflict = sum(conflicts$before$conflict))
   m_after <- c(validation_metrics(after, level), inputs_in_conflict = sum(conflicts$after$conflict))
   ratio <- NULL
   if (!is.null(holdout)) {
@@ -150,16 +152,20 @@ compare_validations <- function(before, after, holdout = NULL, level = 0.9, n_bo
     rownames(ratio) <- NULL
     attributes(ratio)[names(kept)] <- kept
   }
-  out <- data.frame(metric = names(m_before), before = unname(m_before), after = unname(m_after[names(m_before)]),
+  out <- data.frame(metric = names(m_before), before = unname(m_before),
+                    after = unname(m_after[names(m_before)]),
                     stringsAsFactors = FALSE)
   out$change <- ifelse(out$before == 0 & out$after == 0, 0, out$after / out$before - 1)
   attr(out, "curves") <- list(before = bias(before, level), after = bias(after, level))
   attr(out, "conflicts") <- conflicts
   attr(out, "holdout_ratio") <- ratio
-  attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field, after = ho$after$field)
-  attr(out, "holdout_predictions") <- if (!is.null(holdout)) list(before = ho$before$pred$summary, after = ho$after$pred$summary)
+  attr(out, "holdout_field") <- if (!is.null(holdout)) list(before = ho$before$field,
+                                                            after = ho$after$field)
+  attr(out, "holdout_predictions") <- if (!is.null(holdout)) list(before = ho$before$pred$summary,
+                                                                  after = ho$after$pred$summary)
   unmixed <- unmixed_inputs(list(before = before, after = after))
-  attr(out, "verdict") <- if (!is.null(ratio) && length(unmixed)) "not judged" else holdout_verdict(ratio)
+  attr(out, "verdict") <-
+    if (!is.null(ratio) && length(unmixed)) "not judged" else holdout_verdict(ratio)
   attr(out, "unmixed") <- unmixed
   attr(out, "same_field") <- same_field(before, after)
   class(out) <- c("wv_comparison", "data.frame")
@@ -234,8 +240,10 @@ field_mean_curve <- function(fit, s) {
 same_field <- function(a, b) {
   fa <- fit_get(a, "field")$curves
   fb <- fit_get(b, "field")$curves
-  identical(names(fa), names(fb)) && isTRUE(all.equal(fit_get(a, "field")$t, fit_get(b, "field")$t)) &&
-    all(vapply(names(fa), function(s) isTRUE(all.equal(fa[[s]], fb[[s]], tolerance = 1e-8)), logical(1)))
+  identical(names(fa), names(fb)) &&
+    isTRUE(all.equal(fit_get(a, "field")$t, fit_get(b, "field")$t)) &&
+    all(vapply(names(fa), function(s) isTRUE(all.equal(fa[[s]], fb[[s]], tolerance = 1e-8)),
+               logical(1)))
 }
 
 # RMSE of the prediction mean against each held-out replicate, and the share
@@ -243,7 +251,8 @@ same_field <- function(a, b) {
 holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
   p <- as.data.frame(pred)
   sites <- intersect(unique(p$site), names(field$curves))
-  if (!length(sites)) wv_abort("The held-out field data share no site with the prediction.", call = call)
+  if (!length(sites)) wv_abort("The held-out field data share no site with the prediction.",
+                               call = call)
   err <- err_model <- inside <- numeric()
   for (s in sites) {
     ps <- p[p$site == s, ]
@@ -255,13 +264,15 @@ holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
     err_model <- c(err_model, as.vector(sweep(y, 2, ps$model)))
     inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`)))
   }
-  c(holdout_rmse = sqrt(mean(err^2)), holdout_rmse_model = sqrt(mean(err_model^2)), holdout_coverage = mean(inside))
+  c(holdout_rmse = sqrt(mean(err^2)), holdout_rmse_model = sqrt(mean(err_model^2)),
+    holdout_coverage = mean(inside))
 }
 
 #' @export
 print.wv_comparison <- function(x, ...) {
   cli::cat_line("<wv_comparison> validation before and after the model change")
-  df <- as.data.frame(unclass(x)[c("metric", "before", "after", "change")], stringsAsFactors = FALSE)
+  df <- as.data.frame(unclass(x)[c("metric", "before", "after", "change")],
+                      stringsAsFactors = FALSE)
   df$before <- signif(df$before, 4)
   df$after <- signif(df$after, 4)
   df$change <- ifelse(is.finite(df$change), sprintf("%+.1f%%", 100 * df$change), "-")
@@ -281,8 +292,10 @@ print.wv_comparison <- function(x, ...) {
   um <- attr(x, "unmixed")
   if (length(um)) {
     cli::cat_line("Chains that did not mix (R-hat above 1.1): ",
-                  paste(sprintf("%s: %s", names(um), vapply(um, function(r) paste(sprintf("%s %.2f", names(r), r),
-                                                                                   collapse = ", "), "")),
+                  paste(sprintf("%s: %s", names(um),
+                                vapply(um, function(r) paste(sprintf("%s %.2f", names(r), r),
+                                                             collapse = ", "),
+                                       "")),
                         collapse = "; "), ".")
   }
   for (line in comparison_verdict(x)) cli::cat_line(line)
@@ -296,12 +309,14 @@ comparison_verdict <- function(x) {
   v <- stats::setNames(x$after, x$metric)
   b <- stats::setNames(x$before, x$metric)
   cf <- attr(x, "conflicts")
-  names_of <- function(d) if (is.null(d) || !any(d$conflict)) "none" else paste(d$input[d$conflict], collapse = ", ")
+  names_of <- function(d) if (is.null(d) || !any(d$conflict)) "none" else paste(d$input[d$conflict],
+                                                                                collapse = ", ")
   lines <- character()
   if (!is.null(cf)) {
     before <- names_of(cf$before)
     after <- names_of(cf$after)
-    lines <- c(lines, sprintf("Inputs in conflict with their prior: before %s; after %s%s.", before, after,
+    lines <- c(lines, sprintf("Inputs in conflict with their prior: before %s; after %s%s.", before,
+                              after,
                               if (before != "none" && after == "none") " (resolved)"
                               else if (after != "none") " (an input still mimics what the model lacks: see where_fails(after))"
                               else ""))
@@ -337,7 +352,8 @@ holdout_lines <- function(hr, verdict) {
       "no clear change: the difference is within what the held-out data's noise and the predictions' uncertainty produce"
     })
   f <- function(z) format(round(z, 2), nsmall = 2)
-  blocks <- sprintf("a moving-block bootstrap of each curve's residuals, blocks of %d time points", attr(hr, "block"))
+  blocks <- sprintf("a moving-block bootstrap of each curve's residuals, blocks of %d time points",
+                    attr(hr, "block"))
   how <- switch(attr(hr, "resampling") %||% "replicates",
                 replicates = paste("the held-out replicates resampled and", blocks),
                 moving_block = blocks,
@@ -345,7 +361,8 @@ holdout_lines <- function(hr, verdict) {
   few <- attr(hr, "n_blocks")
   c(sprintf("At the held-out condition the model alone errs %s times as much as before [90%%: %s, %s] and the bias-corrected prediction %s times [%s, %s]: %s.",
             f(m$ratio), f(m$lower), f(m$upper), f(cc$ratio), f(cc$lower), f(cc$upper), why),
-    sprintf("(%d paired resamples: %s; %d posterior draw pairs.)", attr(hr, "n_boot"), how, attr(hr, "n_draws")),
+    sprintf("(%d paired resamples: %s; %d posterior draw pairs.)", attr(hr, "n_boot"), how,
+            attr(hr, "n_draws")),
     if (!is.null(few) && few < min_holdout_blocks) {
       sprintf(paste("The held-out data hold %d blocks in all (%d curve%s): too few to judge a change firmly; the",
                     "intervals are rough. Measure more of the held-out condition, or a longer record."),
@@ -358,19 +375,23 @@ holdout_lines <- function(hr, verdict) {
 summary.wv_comparison <- function(object, ...) {
   structure(list(table = as.data.frame(unclass(object)[c("metric", "before", "after", "change")]),
                  improved = object$metric[ifelse(object$metric == "holdout_coverage",
-                                                 object$after > object$before, object$after < object$before)],
-                 verdict = attr(object, "verdict") %||% NA_character_, holdout_ratio = attr(object, "holdout_ratio")),
+                                                 object$after > object$before,
+                                                 object$after < object$before)],
+                 verdict = attr(object, "verdict") %||% NA_character_,
+                 holdout_ratio = attr(object, "holdout_ratio")),
             class = "summary_wv_comparison")
 }
 
 #' @export
 print.summary_wv_comparison <- function(x, ...) {
-  cli::cat_line("Improved after the change: ", if (length(x$improved)) paste(x$improved, collapse = ", ") else "nothing")
+  cli::cat_line("Improved after the change: ",
+                if (length(x$improved)) paste(x$improved, collapse = ", ") else "nothing")
   hr <- x$holdout_ratio
   if (!is.null(hr)) {
     f <- function(z) format(round(z, 2), nsmall = 2)
     cli::cat_line(sprintf("At the held-out condition: %s (after / before, model alone %s [%s, %s], bias-corrected %s [%s, %s]).",
-                          x$verdict, f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1]), f(hr$ratio[2]), f(hr$lower[2]),
+                          x$verdict, f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1]), f(hr$ratio[2]),
+                          f(hr$lower[2]),
                           f(hr$upper[2])))
     cli::cat_line(verdict_rule)
   } else {
@@ -432,7 +453,8 @@ holdout_plot <- function(object) {
   f <- function(z) format(round(z, 2), nsmall = 2)
   sub <- if (!is.null(hr)) {
     sprintf("%s: held-out RMSE after / before, model alone %s [%s, %s], bias-corrected %s [%s, %s]",
-            attr(object, "verdict") %||% holdout_verdict(hr), f(hr$ratio[1]), f(hr$lower[1]), f(hr$upper[1]),
+            attr(object, "verdict") %||% holdout_verdict(hr), f(hr$ratio[1]), f(hr$lower[1]),
+            f(hr$upper[1]),
             f(hr$ratio[2]), f(hr$lower[2]), f(hr$upper[2]))
   }
   ggplot2::ggplot(d, ggplot2::aes(.data$t, .data$error, colour = .data$model)) +
@@ -441,7 +463,8 @@ holdout_plot <- function(object) {
     ggplot2::scale_colour_manual(values = c(before = "grey60", after = "black"), name = NULL) +
     ggplot2::facet_grid(site ~ prediction, scales = "free_y") +
     ggplot2::labs(x = "time", y = "held-out field mean less prediction",
-                  title = "Error at the held-out condition, before and after the change", subtitle = sub) +
+                  title = "Error at the held-out condition, before and after the change",
+                  subtitle = sub) +
     ggplot2::theme_bw()
 }
 

@@ -16,7 +16,8 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
     if (is.null(col)) next
     if (!is.character(col) || length(col) != 1L || is.na(col) || !nzchar(col)) {
       wv_abort(c("{.arg {arg}} must name one column of {.arg data} (a string) in the long form.",
-                 "x" = "It is {.obj_type_friendly {col}}."), class = c("column", "input"), call = call)
+                 "x" = "It is {.obj_type_friendly {col}}."), class = c("column", "input"),
+               call = call)
     }
     if (!col %in% names(data)) {
       near <- names(data)[utils::adist(col, names(data), ignore.case = TRUE) <= 2]
@@ -28,7 +29,8 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
   }
   if (is.null(cols$y)) {
     wv_abort(c("The long form needs the column of the curves' values.",
-               "i" = "Name it with {.arg y}, e.g. {.code y = \"stress\"}."), class = c("column", "input"), call = call)
+               "i" = "Name it with {.arg y}, e.g. {.code y = \"stress\"}."),
+             class = c("column", "input"), call = call)
   }
   for (arg in c("t", "y")) {
     v <- data[[cols[[arg]]]]
@@ -62,7 +64,8 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
       tt <- data[[cols$t]][rows]
       if (anyDuplicated(tt) && (strict || is.unsorted(tt))) {
         d <- tt[duplicated(tt)][1]
-        who <- paste0("Site ", site$values[k], if (!is.null(cols[[id_arg]])) paste0(", ", id_arg, " ", ids[[k]][r]))
+        who <- paste0("Site ", site$values[k],
+                      if (!is.null(cols[[id_arg]])) paste0(", ", id_arg, " ", ids[[k]][r]))
         wv_abort(c("{who}: the time {signif(d, 6)} appears {sum(tt == d)} times.",
                    "x" = if (strict) "A model run has one value per time." else
                      "Its rows are not in time order, so these are not read as repeated measurements.",
@@ -97,18 +100,21 @@ own_points <- function(curves, t, site, strict, what, call = rlang::caller_env()
     wv_abort("{.arg site} must give one name per site ({length(curves)}).", call = call)
   }
   if (is.null(nm)) nm <- paste0("site", seq_along(curves))
-  if (anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) wv_abort("Site names must be unique and non-empty.", call = call)
+  if (anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm))
+    wv_abort("Site names must be unique and non-empty.", call = call)
   if (is.null(site) && !is.null(names(curves)) && !is.null(names(t))) {
     if (!setequal(names(t), names(curves))) {
       wv_abort(c("{.arg t} and {.arg curves} must name the same sites.",
-                 "x" = "{.arg t} names {.val {names(t)}}; {.arg curves} {.val {names(curves)}}."), call = call)
+                 "x" = "{.arg t} names {.val {names(t)}}; {.arg curves} {.val {names(curves)}}."),
+               call = call)
     }
     t <- t[names(curves)]
   }
   out <- stats::setNames(vector("list", length(nm)), nm)
   for (k in seq_along(nm)) {
     ys <- curves[[k]]
-    if (is.matrix(ys) || is.data.frame(ys)) ys <- lapply(seq_len(nrow(ys)), function(r) as.numeric(as.matrix(ys)[r, ]))
+    if (is.matrix(ys) || is.data.frame(ys)) ys <- lapply(seq_len(nrow(ys)),
+                                                         function(r) as.numeric(as.matrix(ys)[r, ]))
     if (is.numeric(ys)) ys <- list(ys)
     ts <- t[[k]]
     if (!is.list(ts)) ts <- rep(list(ts), length(ys))
@@ -131,18 +137,22 @@ check_own_curve <- function(tt, y, who, strict, call) {
     wv_abort("{who}: the times and the values must be numeric vectors.", call = call)
   }
   if (length(tt) != length(y)) {
-    wv_abort("{who}: {length(tt)} time{?s} but {length(y)} value{?s}; give one value per time.", call = call)
+    wv_abort("{who}: {length(tt)} time{?s} but {length(y)} value{?s}; give one value per time.",
+             call = call)
   }
-  if (any(!is.finite(tt))) wv_abort("{who}: the times must not hold NA or infinite values.", call = call)
+  if (any(!is.finite(tt))) wv_abort("{who}: the times must not hold NA or infinite values.",
+                                    call = call)
   if (any(diff(tt) < 0) || (strict && any(diff(tt) == 0))) {
     i <- which(if (strict) diff(tt) <= 0 else diff(tt) < 0)[1]
     wv_abort(c("{who}: the times must be {if (strict) 'increasing' else 'non-decreasing (a time may repeat: a repeated measurement)'}.",
-               "x" = "Time {i + 1} is {tt[i + 1]}, time {i} is {tt[i]}."), class = c("stamps", "input"), call = call)
+               "x" = "Time {i + 1} is {tt[i + 1]}, time {i} is {tt[i]}."),
+             class = c("stamps", "input"), call = call)
   }
   n <- length(unique(tt))
   if (n < 8L) {
     wv_abort(c("{who} has {n} distinct time{?s}; a curve needs at least 8.",
-               "i" = "Drop the curve, or measure it at more times."), class = c("stamps", "input"), call = call)
+               "i" = "Drop the curve, or measure it at more times."), class = c("stamps", "input"),
+             call = call)
   }
   list(t = as.numeric(tt), y = as.numeric(y))
 }
@@ -150,7 +160,9 @@ check_own_curve <- function(tt, y, who, strict, call) {
 # The times all curves share, or NULL when they differ.
 common_times <- function(pts) {
   first <- pts[[1]][[1]]$t
-  same <- all(vapply(pts, function(p) all(vapply(p, function(cv) identical(cv$t, first), logical(1))), logical(1)))
+  same <- all(vapply(pts,
+                     function(p) all(vapply(p, function(cv) identical(cv$t, first), logical(1))),
+                     logical(1)))
   if (same) first
 }
 
@@ -170,7 +182,8 @@ own_points_grid <- function(pts, grid, labels = NULL, call = rlang::caller_env()
         stamps <- unique(pts[[s]][[r]]$t)
         tryCatch(check_field_grid(grid, stamps, call = call), wavevalid_error_grid = function(e) {
           msg <- cli::ansi_strip(conditionMessage(e))
-          wv_abort(c("Site {.val {s}}, {curve_label(labels, s, r, 'curve')}: {msg}"), class = "grid", call = call)
+          wv_abort(c("Site {.val {s}}, {curve_label(labels, s, r, 'curve')}: {msg}"),
+                   class = "grid", call = call)
         })
       }
     }

@@ -20,8 +20,10 @@ measurement_noise <- function(m, t, stamps, grid) {
   lo <- findInterval(grid, stamps, all.inside = TRUE)
   w <- (grid - stamps[lo]) / (stamps[lo + 1L] - stamps[lo])
   w <- pmin(pmax(w, 0), 1)
-  detail <- if (length(stamps) >= 5L) difference_evidence(averaged, stamps, 1 / n_at) else c(ss = 0, df = 0)
-  list(averaged = averaged, ss = ss, df = df, n_stamps = length(stamps), n_repeated = sum(n_at > 1L),
+  detail <-
+    if (length(stamps) >= 5L) difference_evidence(averaged, stamps, 1 / n_at) else c(ss = 0, df = 0)
+  list(averaged = averaged, ss = ss, df = df, n_stamps = length(stamps),
+       n_repeated = sum(n_at > 1L),
        detail_sd = detail_noise_sd(averaged, stamps, 1 / n_at),
        detail_ss = detail[["ss"]], detail_df = detail[["df"]],
        map = list(lo = lo, w = w, var = 1 / n_at))
@@ -78,7 +80,8 @@ difference_efficiency <- 0.95
 # is 0 or it has fewer than 3 residuals.
 difference_evidence <- function(Y, t, var, i = seq(2L, length(t) - 1L)) {
   c2 <- difference_cap^2
-  expected <- (2 * stats::pnorm(difference_cap) - 1) - 2 * difference_cap * stats::dnorm(difference_cap) +
+  expected <-
+    (2 * stats::pnorm(difference_cap) - 1) - 2 * difference_cap * stats::dnorm(difference_cap) +
     c2 * 2 * stats::pnorm(-difference_cap)
   out <- c(ss = 0, df = 0)
   for (r in seq_len(nrow(Y))) {
@@ -98,7 +101,8 @@ difference_evidence <- function(Y, t, var, i = seq(2L, length(t) - 1L)) {
 # mean of their multipliers is the noise of the replicates' mean (times R).
 resampled_noise_multipliers <- function(map, Psi) {
   if (is.null(map$lo)) {
-    return(rowMeans(matrix(vapply(map, resampled_noise_multipliers, numeric(ncol(Psi)), Psi = Psi), ncol(Psi))))
+    return(rowMeans(matrix(vapply(map, resampled_noise_multipliers, numeric(ncol(Psi)), Psi = Psi),
+                           ncol(Psi))))
   }
   n_s <- length(map$var)
   B <- rowsum(Psi * (1 - map$w), map$lo, reorder = TRUE)
@@ -225,7 +229,8 @@ curve_evidence <- function(y, t, grid) {
   ev$detail_sd <- kev$sd
   ev$detail_ss <- kev$ss
   ev$detail_df <- kev$df
-  ev$interpolated <- list(n_points = kn$n_points, n_breakpoints = kn$n_breakpoints, n_measured = length(kn$x),
+  ev$interpolated <- list(n_points = kn$n_points, n_breakpoints = kn$n_breakpoints,
+                          n_measured = length(kn$x),
                           n_exact = sum(kn$exact), resolved = ev$detail_sd > 0)
   ev
 }
@@ -301,7 +306,8 @@ spread_along_record <- function(field) {
     k_lo <- which.min(rms)
     t <- field$t
     data.frame(site = s, ratio = hi / lo, largest = hi, smallest = min(rms),
-               at_largest = mean(t[block == k_hi]), at_smallest = mean(t[block == k_lo]), stringsAsFactors = FALSE)
+               at_largest = mean(t[block == k_hi]), at_smallest = mean(t[block == k_lo]),
+               stringsAsFactors = FALSE)
   })
   out <- do.call(rbind, out)
   if (is.null(out)) NULL else out

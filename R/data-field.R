@@ -147,10 +147,12 @@
 #' y <- approx(x, 100 + 20 * sin(2 * pi * x) + rnorm(30, sd = 1), xout = grid)$y
 #' f <- field_runs(rbind(y), grid)
 #' f$noise$site1[c("detail_sd", "n_stamps")]
-field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL, replicate = NULL) {
+field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL,
+                       replicate = NULL) {
   labels <- NULL
   if (is_long_form(curves, t)) {
-    long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate", strict = FALSE)
+    long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate",
+                        strict = FALSE)
     if (!is.null(replicate)) labels <- lapply(long$ids, function(v) paste(replicate, v))
     curves <- long$curves
     t <- long$t
@@ -183,7 +185,8 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NU
   }
   stamps <- unique(t)
   if (length(stamps) < 8L) {
-    wv_abort("{.arg t} must have at least 8 distinct time points; it has {length(stamps)}.", class = "input")
+    wv_abort("{.arg t} must have at least 8 distinct time points; it has {length(stamps)}.",
+             class = "input")
   }
   repeats <- length(stamps) < length(t)
   if (!is.null(grid)) grid <- check_field_grid(grid, stamps)
@@ -194,7 +197,8 @@ field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NU
     noise <- interpolated_evidence(noise, curves, t, regridded$t)
     return(validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise)))
   }
-  noise <- lapply(curves, function(m) measurement_noise(m, t, stamps, grid %||% dyadic_grid(stamps)))
+  noise <- lapply(curves,
+                  function(m) measurement_noise(m, t, stamps, grid %||% dyadic_grid(stamps)))
   averaged <- lapply(noise, function(nz) nz$averaged)
   if (is.null(grid)) {
     regridded <- to_dyadic(stamps, averaged)
@@ -246,7 +250,8 @@ interpolated_evidence <- function(noise, curves, t, grid) {
     m <- curves[[s]]
     if (!any(apply(m, 1L, function(y) !is.null(interpolation_knots(t, y))))) next
     if (is.null(noise)) noise <- stats::setNames(vector("list", length(curves)), names(curves))
-    noise[[s]] <- site_evidence(lapply(seq_len(nrow(m)), function(r) curve_evidence(m[r, ], t, grid)))
+    noise[[s]] <- site_evidence(lapply(seq_len(nrow(m)),
+                                       function(r) curve_evidence(m[r, ], t, grid)))
   }
   if (!is.null(noise)) report_interpolated(noise)
   noise
@@ -254,7 +259,8 @@ interpolated_evidence <- function(noise, curves, t, grid) {
 
 check_x_nom <- function(x_nom, call = rlang::caller_env()) {
   if (!is.null(x_nom) && (!is.numeric(x_nom) || is.null(names(x_nom)) || any(!is.finite(x_nom)))) {
-    wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.", call = call)
+    wv_abort("{.arg x_nom} must be a named numeric vector of finite nominal input values.",
+             call = call)
   }
   invisible(x_nom)
 }
@@ -262,9 +268,11 @@ check_x_nom <- function(x_nom, call = rlang::caller_env()) {
 # The time stamps of field data: finite, non-decreasing (a stamp may repeat).
 check_stamps <- function(t, call = rlang::caller_env()) {
   if (!is.numeric(t) || !is.null(dim(t))) {
-    wv_abort("{.arg t} must be a numeric vector of time points, not {.obj_type_friendly {t}}.", call = call)
+    wv_abort("{.arg t} must be a numeric vector of time points, not {.obj_type_friendly {t}}.",
+             call = call)
   }
-  if (length(t) < 8L) wv_abort("{.arg t} must have at least 8 time points; it has {length(t)}.", call = call)
+  if (length(t) < 8L) wv_abort("{.arg t} must have at least 8 time points; it has {length(t)}.",
+                               call = call)
   if (any(!is.finite(t))) wv_abort("{.arg t} must not contain NA or infinite values.", call = call)
   if (any(diff(t) < 0)) {
     i <- which(diff(t) < 0)[1]
@@ -278,14 +286,16 @@ check_stamps <- function(t, call = rlang::caller_env()) {
 }
 
 new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL) {
-  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise), class = "wv_field")
+  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise),
+            class = "wv_field")
 }
 
 validate_wv_field <- function(x, call = rlang::caller_env()) {
   n <- vapply(x$curves, nrow, integer(1))
   for (s in names(x$curves)) {
     if (ncol(x$curves[[s]]) != length(x$t)) {
-      wv_abort("Site {.val {s}}: {ncol(x$curves[[s]])} columns but {length(x$t)} time points.", call = call)
+      wv_abort("Site {.val {s}}: {ncol(x$curves[[s]])} columns but {length(x$t)} time points.",
+               call = call)
     }
   }
   x
@@ -303,11 +313,14 @@ print.wv_field <- function(x, ...) {
     interp <- interp[!vapply(interp, is.null, logical(1))]
     cli::cat_line(sprintf("  %s: %d replicate%s%s", s, n[[s]], if (n[[s]] == 1) "" else "s",
                           if (length(interp)) sprintf(" (%d read as interpolated, noise evidence from %s measured points%s)",
-                                                      length(interp), sum(vapply(interp, function(z) z$n_measured, integer(1))),
+                                                      length(interp),
+                                                      sum(vapply(interp, function(z) z$n_measured,
+                                                                 integer(1))),
                                                       if (x$noise[[s]]$detail_sd > 0) "" else " that cannot tell it") else ""))
   }
   if (!is.null(x$x_nom)) {
-    cli::cat_line("  nominal inputs: ", paste(sprintf("%s = %s", names(x$x_nom), format(signif(x$x_nom, 4))),
+    cli::cat_line("  nominal inputs: ", paste(sprintf("%s = %s", names(x$x_nom),
+                                                      format(signif(x$x_nom, 4))),
                                                 collapse = ", "))
   }
   invisible(x)
@@ -319,7 +332,9 @@ summary.wv_field <- function(object, ...) {
     n_t = length(object$t),
     range_t = range(object$t),
     replicates = vapply(object$curves, nrow, integer(1)),
-    spread = vapply(object$curves, function(m) if (nrow(m) > 1) mean(apply(m, 2, stats::sd)) else NA_real_, numeric(1)),
+    spread = vapply(object$curves,
+                    function(m) if (nrow(m) > 1) mean(apply(m, 2, stats::sd)) else NA_real_,
+                    numeric(1)),
     registered = !is.null(object$warps),
     x_nom = object$x_nom
   ), class = "summary_wv_field")
@@ -327,7 +342,8 @@ summary.wv_field <- function(object, ...) {
 
 #' @export
 print.summary_wv_field <- function(x, ...) {
-  cli::cat_line(sprintf("Field data on %d time points in [%s, %s]%s", x$n_t, format(signif(x$range_t[1], 4)),
+  cli::cat_line(sprintf("Field data on %d time points in [%s, %s]%s", x$n_t,
+                        format(signif(x$range_t[1], 4)),
                         format(signif(x$range_t[2], 4)), if (x$registered) " (registered)" else ""))
   print(data.frame(site = names(x$replicates), replicates = x$replicates,
                    mean_pointwise_sd = signif(x$spread, 4), row.names = NULL), row.names = FALSE)

@@ -72,7 +72,8 @@ load_flyer <- function() {
   inputs <- c("eos", "theta0", "kappa", "gamma", "y0", "yinf", "s0", "sinf", "pmin", "vs")
   scaled <- read("design.txt.xz")
   ranges <- read("fl_ranges")
-  design <- as.data.frame(sweep(sweep(scaled, 2L, ranges[, 2] - ranges[, 1], `*`), 2L, ranges[, 1], `+`))
+  design <- as.data.frame(sweep(sweep(scaled, 2L, ranges[, 2] - ranges[, 1], `*`), 2L, ranges[, 1],
+                                `+`))
   names(design) <- inputs
   sim <- read("sim_outputs.xz")
   runs <- withCallingHandlers(

@@ -25,7 +25,8 @@ check_field_grid <- function(grid, stamps, call = rlang::caller_env()) {
 
 check_grid <- function(t, call = rlang::caller_env()) {
   if (!is.numeric(t) || !is.null(dim(t))) {
-    wv_abort("{.arg t} must be a numeric vector of time points, not {.obj_type_friendly {t}}.", call = call)
+    wv_abort("{.arg t} must be a numeric vector of time points, not {.obj_type_friendly {t}}.",
+             call = call)
   }
   if (length(t) < 8L) {
     wv_abort("{.arg t} must have at least 8 time points; it has {length(t)}.", call = call)
@@ -49,7 +50,8 @@ as_site_list <- function(curves, site, n_rows, n_t, what, call = rlang::caller_e
   if (is.data.frame(curves)) curves <- as.matrix(curves)
   if (is.matrix(curves)) curves <- list(curves)
   if (!is.list(curves) || length(curves) == 0L) {
-    wv_abort("{.arg curves} must be a matrix (one site) or a list of matrices (one per site).", call = call)
+    wv_abort("{.arg curves} must be a matrix (one site) or a list of matrices (one per site).",
+             call = call)
   }
   nm <- names(curves)
   if (!is.null(site)) {

@@ -70,7 +70,8 @@ model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, ru
     for (s in names(long$t)) {
       k <- by_run$index[[s]]
       t[[s]] <- lapply(k, function(i) long$t[[s]][[if (is.na(i)) k[!is.na(k)][1] else i]])
-      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j])) rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
+      curves[[s]] <- lapply(seq_along(k), function(j) if (is.na(k[j]))
+                              rep(NA_real_, length(t[[s]][[j]])) else long$curves[[s]][[k[j]]])
     }
     site <- NULL
   } else if (!is.null(y) || !is.null(run)) {
@@ -110,7 +111,8 @@ model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, ru
     if (is.null(t)) {
       t <- own_points_grid(pts, grid)
       curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) {
-        if (any(!is.finite(cv$y))) rep(NA_real_, length(t)) else stats::approx(cv$t, cv$y, xout = t, rule = 2)$y
+        if (any(!is.finite(cv$y))) rep(NA_real_, length(t)) else stats::approx(cv$t, cv$y, xout = t,
+                                                                               rule = 2)$y
       })))
       grid <- NULL
     } else {
@@ -138,7 +140,8 @@ model_runs <- function(design, curves, t, site = NULL, grid = NULL, y = NULL, ru
     rownames(design) <- NULL
   }
   if (nrow(design) < 2L) {
-    wv_abort("Fewer than two usable runs remain; a computer experiment needs more runs than inputs.")
+    wv_abort(
+      "Fewer than two usable runs remain; a computer experiment needs more runs than inputs.")
   }
   regridded <- to_dyadic(t, curves)
   validate_wv_runs(new_wv_runs(design, regridded$t, regridded$curves))
@@ -158,7 +161,8 @@ design_by_run <- function(design, ids, run, call = rlang::caller_env()) {
   if (!is.null(run) && run %in% names(design)) {
     key <- as.character(design[[run]])
     if (anyNA(key) || anyDuplicated(key)) {
-      wv_abort("Column {.val {run}} of {.arg design} must name each run once.", class = c("column", "input"), call = call)
+      wv_abort("Column {.val {run}} of {.arg design} must name each run once.",
+               class = c("column", "input"), call = call)
     }
     design <- design[setdiff(names(design), run)]
   } else if (setequal(all_ids, as.character(seq_len(nrow(design))))) {
@@ -172,7 +176,8 @@ design_by_run <- function(design, ids, run, call = rlang::caller_env()) {
   extra <- setdiff(all_ids, key)
   if (length(extra)) {
     wv_abort(c("The data hold run{?s} {.val {extra}} that {.arg design} does not.",
-               "i" = "Give every run its inputs in {.arg design}."), class = c("column", "input"), call = call)
+               "i" = "Give every run its inputs in {.arg design}."), class = c("column", "input"),
+             call = call)
   }
   list(design = design, index = lapply(ids, function(v) match(key, v)))
 }
@@ -187,7 +192,8 @@ validate_wv_runs <- function(x, call = rlang::caller_env()) {
   for (s in names(x$curves)) {
     d <- dim(x$curves[[s]])
     if (d[1] != k || d[2] != length(x$t)) {
-      wv_abort("Site {.val {s}}: curves are {d[1]} x {d[2]}, expected {k} x {length(x$t)}.", call = call)
+      wv_abort("Site {.val {s}}: curves are {d[1]} x {d[2]}, expected {k} x {length(x$t)}.",
+               call = call)
     }
   }
   x
@@ -200,7 +206,8 @@ check_names <- function(nm, arg, call = rlang::caller_env()) {
     wv_abort("Every column of {.arg {arg}} needs a name.", call = call)
   }
   dup <- unique(nm[duplicated(nm)])
-  if (length(dup)) wv_abort("Column names of {.arg {arg}} must be unique; {.val {dup}} repeat{?s/}.", call = call)
+  if (length(dup))
+    wv_abort("Column names of {.arg {arg}} must be unique; {.val {dup}} repeat{?s/}.", call = call)
   invisible(nm)
 }
 
@@ -265,7 +272,10 @@ c.wv_runs <- function(...) {
   design <- do.call(rbind, lapply(runs, function(r) r$design[inputs]))
   rownames(design) <- NULL
   check_distinct_runs(design)
-  curves <- stats::setNames(lapply(sites, function(s) do.call(rbind, lapply(runs, function(r) r$curves[[s]]))), sites)
+  curves <- stats::setNames(lapply(sites,
+                                   function(s) do.call(rbind,
+                                                       lapply(runs, function(r) r$curves[[s]]))),
+                            sites)
   validate_wv_runs(new_wv_runs(design, first$t, curves))
 }
 
@@ -287,7 +297,8 @@ check_distinct_runs <- function(design, call = rlang::caller_env()) {
 print.wv_runs <- function(x, ...) {
   k <- nrow(x$design)
   cli::cat_line(sprintf("<wv_runs> %d model run%s of %d input%s on %d time points in [%s, %s]%s",
-                        k, if (k == 1) "" else "s", ncol(x$design), if (ncol(x$design) == 1) "" else "s",
+                        k, if (k == 1) "" else "s", ncol(x$design),
+                        if (ncol(x$design) == 1) "" else "s",
                         length(x$t), format(signif(min(x$t), 4)), format(signif(max(x$t), 4)),
                         if (!is.null(x$warps)) ", registered" else ""))
   cli::cat_line("  inputs: ", paste(names(x$design), collapse = ", "))
@@ -302,7 +313,9 @@ summary.wv_runs <- function(object, ...) {
     n_t = length(object$t),
     range_t = range(object$t),
     inputs = vapply(object$design, range, numeric(2)),
-    output = vapply(object$curves, function(m) c(min = min(m), max = max(m), sd_between = mean(apply(m, 2, stats::sd))), numeric(3))
+    output = vapply(object$curves,
+                    function(m) c(min = min(m), max = max(m),
+                                  sd_between = mean(apply(m, 2, stats::sd))), numeric(3))
   ), class = "summary_wv_runs")
 }
 
@@ -367,13 +380,17 @@ plot_curves <- function(runs, field, windows) {
   add_window <- function(df) with_windows(df, windows, whole = "whole record")
   p <- ggplot2::ggplot()
   if (!is.null(runs)) {
-    d <- do.call(rbind, lapply(names(runs$curves), function(s) curves_long(runs$curves[[s]], runs$t, s, "run")))
+    d <- do.call(rbind,
+                 lapply(names(runs$curves),
+                        function(s) curves_long(runs$curves[[s]], runs$t, s, "run")))
     d <- add_window(d)
     p <- p + ggplot2::geom_line(data = d, ggplot2::aes(.data$t, .data$y, group = .data$run),
                                 colour = "grey60", linewidth = 0.25, alpha = 0.6)
   }
   if (!is.null(field)) {
-    d <- do.call(rbind, lapply(names(field$curves), function(s) curves_long(field$curves[[s]], field$t, s, "replicate")))
+    d <- do.call(rbind,
+                 lapply(names(field$curves),
+                        function(s) curves_long(field$curves[[s]], field$t, s, "replicate")))
     d <- add_window(d)
     d$replicate <- factor(d$replicate)
     p <- p + ggplot2::geom_line(data = d, ggplot2::aes(.data$t, .data$y, group = .data$replicate,

@@ -46,7 +46,8 @@
 #' held$held$values
 #' where_fails(held)
 #' }
-hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wavevalid.quiet", FALSE)) {
+hold_inputs <- function(fit, inputs = NULL, strata = 3L,
+                        quiet = getOption("wavevalid.quiet", FALSE)) {
   check_class(fit, "wv_fit")
   check_number(strata, min = 1, max = 50, integer = TRUE)
   check_flag(quiet)
@@ -86,9 +87,12 @@ hold_inputs <- function(fit, inputs = NULL, strata = 3L, quiet = getOption("wave
   # each stratum as long as the fit's chains: equal shares of the prior
   if (is.null(sampler$n_draws)) sampler$n_draws <- fit_get(fit, "settings")$n_draws
   seed <- fit_get(fit, "seed") %||% 1L
-  label <- sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "), if (length(inputs) == 1L) "its" else "their")
-  tasks <- lapply(seq_len(strata), function(k) list(iu = held_iu(fit, values[k, ]), seed = seed + k))
-  job <- list(emulators = fit_get(fit, "emulators"), field = fit_get(fit, "field"), bias = ctl$bias, sampler = sampler)
+  label <- sprintf("Holding %s to %s prior", paste(inputs, collapse = ", "),
+                   if (length(inputs) == 1L) "its" else "their")
+  tasks <- lapply(seq_len(strata),
+                  function(k) list(iu = held_iu(fit, values[k, ]), seed = seed + k))
+  job <- list(emulators = fit_get(fit, "emulators"), field = fit_get(fit, "field"), bias = ctl$bias,
+              sampler = sampler)
   fits <- run_futures(tasks, stratum_worker(job), label, quiet)
   pool_fits(fit, fits, values, cf)
 }
@@ -99,7 +103,8 @@ stratum_worker <- function(job) {
   force(job)
   function(task) {
     suppressMessages(suppressWarnings(calibrate(
-      job$emulators, job$field, task$iu, bias = job$bias, sampler = job$sampler, chains = 1L, seed = task$seed
+      job$emulators, job$field, task$iu, bias = job$bias, sampler = job$sampler, chains = 1L,
+      seed = task$seed
     ), classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary")))
   }
 }
@@ -116,11 +121,15 @@ pool_fits <- function(fit, fits, values, conflicts) {
   out <- fits[[1L]]
   stack <- function(what) {
     sites <- names(fit_get(out, what))
-    stats::setNames(lapply(sites, function(s) do.call(rbind, lapply(fits, function(f) fit_get(f, what)[[s]]))), sites)
+    stats::setNames(lapply(sites,
+                           function(s) do.call(rbind,
+                                               lapply(fits, function(f) fit_get(f, what)[[s]]))),
+                    sites)
   }
   draws <- coda::mcmc.list(lapply(fits, function(f) fit_get(f, "draws")[[1L]]))
   n_each <- vapply(fits, function(f) length(fit_get(f, "chain")), integer(1))
-  acceptance <- lapply(seq_along(fits), function(k) transform(fit_get(fits[[k]], "acceptance"), chain = k))
+  acceptance <- lapply(seq_along(fits),
+                       function(k) transform(fit_get(fits[[k]], "acceptance"), chain = k))
   inputs <- fit_get(out, "inputs")
   settings <- fit_get(out, "settings")
   settings$chains <- length(fits)
@@ -156,7 +165,8 @@ reread_held <- function(fit, inputs) {
     Znew <- post
     Znew[, inputs] <- prior[, inputs]
     for (s in fit_sites(fit)) {
-      pr <- bank_predict_augmented(site_bank(fit_get(fit, "emulators"), s), post, fit_get(fit, "wM")[[s]], Znew)
+      pr <- bank_predict_augmented(site_bank(fit_get(fit, "emulators"), s), post,
+                                   fit_get(fit, "wM")[[s]], Znew)
       wM <- pr$mean + sqrt(pmax(pr$var, 0)) * matrix(stats::rnorm(length(pr$mean)), nrow(pr$mean))
       dimnames(wM) <- dimnames(fit_get(fit, "wM")[[s]])
       wb[[s]] <- fit_get(fit, "wM")[[s]] + fit_get(fit, "wb")[[s]] - wM
@@ -166,7 +176,8 @@ reread_held <- function(fit, inputs) {
   X <- fit_draws_matrix(fit)
   X[, inputs] <- Znew[, inputs]
   draws <- coda::mcmc.list(lapply(unique(fit_get(fit, "chain")), function(k) {
-    coda::mcmc(X[fit_get(fit, "chain") == k, , drop = FALSE], thin = coda::thin(fit_get(fit, "draws")[[k]]))
+    coda::mcmc(X[fit_get(fit, "chain") == k, , drop = FALSE],
+               thin = coda::thin(fit_get(fit, "draws")[[k]]))
   }))
   flags <- fit_get(fit, "flags")
   flags$boundary <- flags$boundary[!flags$boundary$input %in% inputs, , drop = FALSE]

@@ -8,27 +8,36 @@
 # inputs' pull (where it moves the model most, by how much), and inputs in
 # conflict not read again. `r`: reality's pointwise mean (share of signal of the record-wide
 # part); `experiments`: the experiment of each site, or NULL.
-findings_table <- function(intervals, record_wide, held, conflicts, r, experiments, proposals = NULL, timing = NULL,
+findings_table <- function(intervals, record_wide, held, conflicts, r, experiments,
+                           proposals = NULL, timing = NULL,
                            misfit = NULL) {
-  cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias", "share_of_signal", "sign",
+  cols <- c("kind", "site", "start", "end", "size", "credible", "integrated_abs_bias",
+            "share_of_signal", "sign",
             "inputs", "event")
-  row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs, event = NA_character_) {
+  row <- function(kind, site, start, end, size, credible, integrated, share, sign, inputs,
+                  event = NA_character_) {
     data.frame(kind = kind, site = site, start = start, end = end, size = size, credible = credible,
-               integrated_abs_bias = integrated, share_of_signal = share, sign = sign, inputs = inputs,
+               integrated_abs_bias = integrated, share_of_signal = share, sign = sign,
+               inputs = inputs,
                event = event, stringsAsFactors = FALSE)
   }
   local <- function(x, kind, inputs) {
     if (!nrow(x)) return(NULL)
-    row(kind, x$site, x$start, x$end, x$peak_abs_bias, x$credible, x$integrated_abs_bias, x$share_of_signal,
+    row(kind, x$site, x$start, x$end, x$peak_abs_bias, x$credible, x$integrated_abs_bias,
+        x$share_of_signal,
         x$sign, inputs)
   }
   parts <- list(local(intervals, "interval", NA_character_))
   if (!is.null(record_wide) && any(record_wide$credible)) {
     rw <- record_wide[record_wide$credible, , drop = FALSE]
-    signal <- vapply(rw$site, function(s) sum(abs(r$mean[r$site == s])) * diff(r$t[1:2]), numeric(1))
-    parts <- c(parts, list(row("record-wide", rw$site, rw$start, rw$end, rw$peak_abs_bias, rw$credible_bias,
-                               rw$integrated_abs_bias, rw$integrated_abs_bias / pmax(signal, .Machine$double.eps),
-                               ifelse(rw$offset > 0, "reality above model", "reality below model"), NA_character_)))
+    signal <- vapply(rw$site, function(s) sum(abs(r$mean[r$site == s])) * diff(r$t[1:2]),
+                     numeric(1))
+    parts <- c(parts, list(row("record-wide", rw$site, rw$start, rw$end, rw$peak_abs_bias,
+                               rw$credible_bias,
+                               rw$integrated_abs_bias,
+                               rw$integrated_abs_bias / pmax(signal, .Machine$double.eps),
+                               ifelse(rw$offset > 0, "reality above model", "reality below model"),
+                               NA_character_)))
   }
   conflicted <- if (is.null(conflicts)) character() else conflicts$input[conflicts$conflict]
   if (!is.null(held)) {
@@ -37,24 +46,30 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
     if (nrow(covered)) parts <- c(parts, list(local(covered, "covered", who)))
     # the inputs themselves, where their pull moves the model most: what they took up
     p <- held$pull[which.max(abs(held$pull$shift)), , drop = FALSE]
-    parts <- c(parts, list(row("input", p$site, p$start, p$end, abs(p$shift), NA_real_, NA_real_, NA_real_,
-                               if (p$shift > 0) "reality above model" else "reality below model", who)))
+    parts <- c(parts, list(row("input", p$site, p$start, p$end, abs(p$shift), NA_real_, NA_real_,
+                               NA_real_,
+                               if (p$shift > 0) "reality above model" else "reality below model",
+                               who)))
   } else if (length(conflicted)) {
-    parts <- c(parts, list(row("input", NA_character_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_, NA_real_,
+    parts <- c(parts, list(row("input", NA_character_, NA_real_, NA_real_, NA_real_, NA_real_,
+                               NA_real_, NA_real_,
                                NA_character_, paste(conflicted, collapse = ", "))))
   }
   if (!is.null(proposals)) {
     pr <- proposals[proposals$inclusion_prob >= 0.5, , drop = FALSE]
     if (nrow(pr)) {
-      parts <- c(parts, list(row("term", pr$site, pr$from, pr$to, pr$peak, NA_real_, NA_real_, NA_real_,
+      parts <- c(parts, list(row("term", pr$site, pr$from, pr$to, pr$peak, NA_real_, NA_real_,
+                                 NA_real_,
                                  NA_character_, pr$term)))
     }
   }
   if (!is.null(timing) && any(timing$flagged)) {
     tm <- timing[timing$flagged, , drop = FALSE]
-    parts <- c(parts, list(row("timing", tm$site, pmin(tm$field, tm$model), pmax(tm$field, tm$model), tm$size,
+    parts <- c(parts, list(row("timing", tm$site, pmin(tm$field, tm$model),
+                               pmax(tm$field, tm$model), tm$size,
                                tm$credible, NA_real_, NA_real_,
-                               ifelse(tm$shift > 0, "reality later than model", "reality earlier than model"),
+                               ifelse(tm$shift > 0, "reality later than model",
+                                      "reality earlier than model"),
                                NA_character_, timing_event(tm))))
   }
   if (!is.null(misfit) && nrow(misfit)) {
@@ -62,7 +77,8 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
     # of the bias at its site (an interval, a covered interval, a record-wide
     # part) says nothing new
     found <- do.call(rbind, c(Filter(Negate(is.null), parts), list(NULL)))
-    found <- if (!is.null(found)) found[found$kind %in% c("interval", "covered", "record-wide"), , drop = FALSE]
+    found <- if (!is.null(found))
+      found[found$kind %in% c("interval", "covered", "record-wide"), , drop = FALSE]
     new <- vapply(seq_len(nrow(misfit)), function(i) {
       if (is.null(found) || !nrow(found)) return(TRUE)
       f <- found[found$site %in% misfit$site[i], , drop = FALSE]
@@ -75,17 +91,21 @@ findings_table <- function(intervals, record_wide, held, conflicts, r, experimen
       k <- r$site == misfit$site[i] & r$t >= misfit$start[i] & r$t < misfit$end[i]
       sum(abs(r$mean[k])) * diff(r$t[1:2])
     }, numeric(1))
-    parts <- c(parts, list(row("misfit", misfit$site, misfit$start, misfit$end, misfit$size, misfit$credible,
-                               misfit$integrated, misfit$integrated / pmax(signal, .Machine$double.eps), misfit$sign,
+    parts <- c(parts, list(row("misfit", misfit$site, misfit$start, misfit$end, misfit$size,
+                               misfit$credible,
+                               misfit$integrated,
+                               misfit$integrated / pmax(signal, .Machine$double.eps), misfit$sign,
                                NA_character_)))
   }
   out <- do.call(rbind, parts)
   if (is.null(out)) {
-    out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(), numeric(),
+    out <- row(character(), character(), numeric(), numeric(), numeric(), numeric(), numeric(),
+               numeric(),
                character(), character(), character())
   }
   out <- out[order(-out$size, na.last = TRUE), cols, drop = FALSE]
-  if (!is.null(experiments)) out$experiment <- experiments$experiment[match(out$site, experiments$site)]
+  if (!is.null(experiments))
+    out$experiment <- experiments$experiment[match(out$site, experiments$site)]
   out$peak_abs_bias <- out$size
   out$scale <- c(interval = "local", `record-wide` = "record", covered = "held", input = "held",
                  term = "term", timing = "timing", misfit = "time")[out$kind]
@@ -127,7 +147,8 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
   }
   r <- finding[1L, ]
   label <- if (is.na(r$site)) sprintf("%s (%s)", r$kind, r$inputs) else
-    sprintf("%s at %s [%s, %s]", r$kind, r$site, format(signif(r$start, 4)), format(signif(r$end, 4)))
+    sprintf("%s at %s [%s, %s]", r$kind, r$site, format(signif(r$start, 4)),
+            format(signif(r$end, 4)))
   if (r$kind == "misfit") {
     # read as the localised interval it lies on
     r$kind <- "interval"
@@ -163,7 +184,8 @@ finding_scope <- function(fit, finding, call = rlang::caller_env()) {
     overlap & (!wide | !identical(attr(finding, "scales"), "split"))
   }
   use <- unlist(lapply(sites, function(s) coef & s == r$site), use.names = FALSE)
-  list(fit = fit, use = use, label = sprintf("%s, %d coefficient%s", label, sum(coef), if (sum(coef) == 1L) "" else "s"))
+  list(fit = fit, use = use,
+       label = sprintf("%s, %d coefficient%s", label, sum(coef), if (sum(coef) == 1L) "" else "s"))
 }
 
 # The event of each row of a timing table: its landmark's feature and window.
@@ -175,11 +197,13 @@ timing_finding_text <- function(r, tm, f) {
   k <- if (is.null(tm) || is.null(r$event)) integer() else
     which(tm$flagged & tm$site == r$site & timing_event(tm) == r$event)
   if (!length(k)) {
-    return(sprintf("a shift of an event's timing, %s [%s, %s] (%s)", r$site, f(r$start, 4), f(r$end, 4), r$sign))
+    return(sprintf("a shift of an event's timing, %s [%s, %s] (%s)", r$site, f(r$start, 4),
+                   f(r$end, 4), r$sign))
   }
   k <- k[1L]
   sprintf("a shift of an event's timing, %s: its %s in window %s comes at %s in the field and at %s in the model at the calibrated inputs, %s by %s [%s, %s]; moved by that shift the curve changes by up to %s there (credibly at least %s)",
           r$site, tm$feature[k], tm$window[k], f(tm$field[k], 4), f(tm$model[k], 4),
-          if (tm$shift[k] > 0) "later" else "earlier", f(abs(tm$shift[k])), f(tm$lower[k]), f(tm$upper[k]),
+          if (tm$shift[k] > 0) "later" else "earlier", f(abs(tm$shift[k])), f(tm$lower[k]),
+          f(tm$upper[k]),
           f(r$size), f(r$credible))
 }

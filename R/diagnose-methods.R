@@ -16,7 +16,8 @@ print.wv_fails <- function(x, ...) {
   } else if (length(unique(tol)) == 1L) {
     sprintf("lies beyond the tolerance %s", format(signif(tol[[1]], 3)))
   } else {
-    sprintf("lies beyond the tolerance (%s)", paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
+    sprintf("lies beyond the tolerance (%s)",
+            paste(names(tol), signif(tol, 3), sep = " ", collapse = ", "))
   }
   iv <- finding_rows(x, "interval")
   cli::cat_line(sprintf("<wv_fails> %d finding%s ranked by size (the peak of |posterior mean bias|%s); %d interval%s where the %g%% %s band of the %sbias %s",
@@ -26,7 +27,8 @@ print.wv_fails <- function(x, ...) {
                         if (identical(attr(x, "band"), "pointwise")) "pointwise" else "whole-curve",
                         if (identical(attr(x, "scales"), "split")) "localised " else "", what))
   if (nrow(x)) {
-    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs", "event",
+    cols <- intersect(c("kind", "site", "start", "end", "size", "credible", "sign", "inputs",
+                        "event",
                         "experiment", "condition"), names(x))
     df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
     if (all(is.na(df$inputs))) df$inputs <- NULL
@@ -38,8 +40,10 @@ print.wv_fails <- function(x, ...) {
   }
   rw <- attr(x, "record_wide")
   if (!is.null(rw)) {
-    txt <- sprintf("%s %s [%s, %s]%s", rw$site, format(signif(rw$offset, 3)), format(signif(rw$offset_lower, 3)),
-                   format(signif(rw$offset_upper, 3)), ifelse(rw$credible, "", " (not credibly non-zero)"))
+    txt <- sprintf("%s %s [%s, %s]%s", rw$site, format(signif(rw$offset, 3)),
+                   format(signif(rw$offset_lower, 3)),
+                   format(signif(rw$offset_upper, 3)),
+                   ifelse(rw$credible, "", " (not credibly non-zero)"))
     cli::cat_line(sprintf("Record-wide part (levels %s, an offset or a slow trend), its time average: ", rw$levels[1]),
                   paste(txt, collapse = "; "))
   }
@@ -47,10 +51,12 @@ print.wv_fails <- function(x, ...) {
   if (!is.null(tm)) {
     cli::cat_line(sprintf("Events' timing, field less model at the calibrated inputs (%d landmark%s, each at %s%% so that together they hold %g%%): %s",
                           nrow(tm), if (nrow(tm) == 1L) "" else "s",
-                          format(signif(100 * (1 - (1 - attr(tm, "level")) / nrow(tm)), 3)), 100 * attr(tm, "level"),
+                          format(signif(100 * (1 - (1 - attr(tm, "level")) / nrow(tm)), 3)),
+                          100 * attr(tm, "level"),
                           paste(sprintf("%s %s %s %s [%s, %s]%s", tm$site, tm$window, tm$feature,
                                         format(signif(tm$shift, 2)), format(signif(tm$lower, 2)),
-                                        format(signif(tm$upper, 2)), ifelse(tm$flagged, " (a finding)", "")),
+                                        format(signif(tm$upper, 2)),
+                                        ifelse(tm$flagged, " (a finding)", "")),
                                 collapse = "; ")))
   }
   levs <- attr(x, "wavelet_levels")
@@ -58,10 +64,12 @@ print.wv_fails <- function(x, ...) {
     top <- levs[order(-levs$energy), ][seq_len(min(3, nrow(levs))), ]
     cli::cat_line("Bias energy is highest at wavelet level",
                   if (nrow(top) > 1) "s " else " ",
-                  paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share), collapse = ", "))
+                  paste(sprintf("%d (%s, %.0f%%)", top$level, top$site, 100 * top$share),
+                        collapse = ", "))
     off <- levs$site[levs$level == 0 & levs$significant > 0]
     if (length(off) && !isTRUE(attr(x, "pooled_level0"))) {
-      cli::cat_line("The mean of the record (level 0) is credibly off at ", paste(off, collapse = ", "),
+      cli::cat_line("The mean of the record (level 0) is credibly off at ",
+                    paste(off, collapse = ", "),
                     ". One coefficient barely informs its bias variance, so the calibrated inputs may trade",
                     " that offset against the events; compare with bias_control(pool_levels = \"coarse\"), the default")
     }
@@ -70,14 +78,16 @@ print.wv_fails <- function(x, ...) {
   if (!is.null(cr) && any(cr$credible_bias > 0)) {
     k <- which.max(cr$credible_bias)
     cli::cat_line(sprintf("The bias is credibly at least %s (%s, t = %s); a tolerance above that flags nothing",
-                          format(signif(cr$credible_bias[k], 3)), cr$site[k], format(signif(cr$t[k], 4))))
+                          format(signif(cr$credible_bias[k], 3)), cr$site[k],
+                          format(signif(cr$t[k], 4))))
   }
   bd <- attr(x, "boundary")
   cf <- attr(x, "conflicts")
   conflicted <- if (is.null(cf)) character() else cf$input[cf$conflict]
   weak <- if (is.null(bd)) character() else setdiff(bd$input[bd$flagged], conflicted)
   if (length(weak)) {
-    cli::cat_line("Posterior partly piled up at a bound of its range: ", paste(weak, collapse = ", "),
+    cli::cat_line("Posterior partly piled up at a bound of its range: ",
+                  paste(weak, collapse = ", "),
                   " (an input acting as a tuning knob?)")
   }
   if (length(conflicted)) {
@@ -89,7 +99,8 @@ print.wv_fails <- function(x, ...) {
   hf <- attr(x, "holds", exact = TRUE)
   if (!is.null(hf)) {
     cli::cat_line(sprintf("This fit holds %s to %s prior: its bias includes what %s covered.",
-                          paste(hf$inputs, collapse = ", "), if (length(hf$inputs) == 1L) "its" else "their",
+                          paste(hf$inputs, collapse = ", "),
+                          if (length(hf$inputs) == 1L) "its" else "their",
                           if (length(hf$inputs) == 1L) "it" else "they"))
   }
   invisible(x)
@@ -108,16 +119,19 @@ held_lines <- function(x) {
   hw <- finding_rows(hd$fails, "interval")
   pull <- hd$pull
   k <- which.max(abs(pull$shift))
-  pull_txt <- sprintf("%s [%s, %s] (by %s at t = %s)", pull$site[k], format(signif(pull$start[k], 4)),
+  pull_txt <- sprintf("%s [%s, %s] (by %s at t = %s)", pull$site[k],
+                      format(signif(pull$start[k], 4)),
                       format(signif(pull$end[k], 4)), format(signif(abs(pull$shift[k]), 3)),
                       format(signif(pull$t[k], 4)))
   if (!nrow(hw)) {
     return(sprintf("With %s held to the prior the localised bias's band still holds zero (root mean square %s, %s as fitted); the pull moves the model most at %s: the misfit %s cover%s, if any, lies there.",
                    who, format(rms[["held"]]), format(rms[["fitted"]]), pull_txt,
-                   if (length(hd$inputs) == 1L) "it" else "they", if (length(hd$inputs) == 1L) "s" else ""))
+                   if (length(hd$inputs) == 1L) "it" else "they",
+                   if (length(hd$inputs) == 1L) "s" else ""))
   }
   sprintf("With %s held to the prior, the localised bias's band excludes zero in %d interval%s (the findings of kind \"covered\"; localised bias root mean square %s, %s as fitted); the pull moves the model most at %s.",
-          who, nrow(hw), if (nrow(hw) == 1L) "" else "s", format(rms[["held"]]), format(rms[["fitted"]]), pull_txt)
+          who, nrow(hw), if (nrow(hw) == 1L) "" else "s", format(rms[["held"]]),
+          format(rms[["fitted"]]), pull_txt)
 }
 
 #' @export
@@ -141,7 +155,8 @@ summary.wv_fails <- function(object, ...) {
 #' @export
 print.summary_wv_fails <- function(x, ...) {
   cli::cat_line(x$top)
-  cli::cat_line("Findings by kind: ", paste(sprintf("%s %d", names(x$kinds), x$kinds), collapse = ", "))
+  cli::cat_line("Findings by kind: ",
+                paste(sprintf("%s %d", names(x$kinds), x$kinds), collapse = ", "))
   cli::cat_line(sprintf("%d failure intervals covering %.3g time units", x$n, x$total_length))
   if (length(x$by_site)) {
     cli::cat_line("Integrated absolute bias by site: ",
@@ -149,7 +164,8 @@ print.summary_wv_fails <- function(x, ...) {
   }
   if (!is.null(x$credible)) {
     cli::cat_line("Largest credible bias by site: ",
-                  paste(sprintf("%s %.3g (t = %.4g)", x$credible$site, x$credible$credible_bias, x$credible$t),
+                  paste(sprintf("%s %.3g (t = %.4g)", x$credible$site, x$credible$credible_bias,
+                                x$credible$t),
                         collapse = ", "))
   }
   cli::cat_line("Bias energy by wavelet level:")
@@ -200,7 +216,8 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     b <- rbind(b[names(hb)], hb)
     b$part <- factor(b$part, levels = lev)
     if (nrow(regions)) regions$part <- factor(if (split) "localised" else "bias", levels = lev)
-    held_regions <- as.data.frame(unclass(finding_rows(hd$fails, "interval"))[c("site", "start", "end")])
+    held_regions <- as.data.frame(unclass(finding_rows(hd$fails,
+                                                       "interval"))[c("site", "start", "end")])
     held_regions$part <- factor(rep(lab, nrow(held_regions)), levels = lev)
     pull <- hd$pull
     pull$part <- factor(rep(lab, nrow(pull)), levels = lev)
@@ -209,23 +226,27 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
   p <- ggplot2::ggplot(b, ggplot2::aes(.data$t))
   if (nrow(regions)) {
     p <- p + ggplot2::geom_rect(data = regions, inherit.aes = FALSE,
-                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf,
+                                             ymax = Inf),
                                 fill = "#D55E00", alpha = 0.25)
   }
   if (!is.null(pull)) {
     p <- p + ggplot2::geom_rect(data = pull, inherit.aes = FALSE,
-                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf,
+                                             ymax = Inf),
                                 fill = "#0072B2", alpha = 0.12)
   }
   if (!is.null(held_regions) && nrow(held_regions)) {
     p <- p + ggplot2::geom_rect(data = held_regions, inherit.aes = FALSE,
-                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf, ymax = Inf),
+                                ggplot2::aes(xmin = .data$start, xmax = .data$end, ymin = -Inf,
+                                             ymax = Inf),
                                 fill = "#D55E00", alpha = 0.25)
   }
   tol <- attr(object, "tolerance")
   if (!is.null(tol) && any(tol > 0)) {
     lines <- data.frame(site = rep(names(tol), 2), y = c(tol, -tol))
-    p <- p + ggplot2::geom_hline(data = lines, ggplot2::aes(yintercept = .data$y), colour = "#D55E00",
+    p <- p + ggplot2::geom_hline(data = lines, ggplot2::aes(yintercept = .data$y),
+                                 colour = "#D55E00",
                                  linetype = 3)
   }
   p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "grey75") +
@@ -234,7 +255,8 @@ autoplot.wv_fails <- function(object, type = c("bias", "levels"), ...) {
     (if (split) ggplot2::facet_grid(part ~ site, scales = "free_y") else
       ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y")) +
     ggplot2::labs(x = "time", y = "bias",
-                  title = paste0("Where the model fails: intervals where the ", if (split) "localised ",
+                  title = paste0("Where the model fails: intervals where the ",
+                                 if (split) "localised ",
                                  "bias band ", if (any(tol > 0)) "lies beyond the tolerance" else "excludes zero"),
                   subtitle = paste0(
                     if (identical(attr(object, "scales"), "split")) {

@@ -68,7 +68,8 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     dbar <- colMeans(D)
     k <- ncol(D)
     h <- sample.int(length(rows), n_sim, replace = TRUE)
-    E <- sweep(D[h, , drop = FALSE], 2L, dbar) + sqrt(pmax(pr$var[h, , drop = FALSE], 0)) * matrix(stats::rnorm(n_sim * k), n_sim)
+    E <- sweep(D[h, , drop = FALSE], 2L, dbar) +
+      sqrt(pmax(pr$var[h, , drop = FALSE], 0)) * matrix(stats::rnorm(n_sim * k), n_sim)
     R <- fit_get(fit, "n_rep")[[s]]
     reg <- fit_get(fit, "registration_var")[[s]] %||% 0
     if (R >= 2L) {
@@ -82,14 +83,16 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     }
     Et <- tcrossprod(E, Psi)
     se <- pmax(sqrt(colMeans(Et^2)), .Machine$double.eps)
-    list(misfit = drop(Psi %*% dbar), se = se, zmax = apply(abs(Et) / rep(se, each = n_sim), 1L, max),
+    list(misfit = drop(Psi %*% dbar), se = se,
+         zmax = apply(abs(Et) / rep(se, each = n_sim), 1L, max),
          noise = if (R >= 2L) "replicates" else "learned")
   }))
   zmax <- do.call(pmax, lapply(sims, `[[`, "zmax"))
   crit <- unname(stats::quantile(zmax, level))
   out <- do.call(rbind, lapply(sites, function(s) {
     z <- sims[[s]]$misfit / sims[[s]]$se
-    data.frame(site = s, t = fit_get(fit, "basis")$t, misfit = sims[[s]]$misfit, se = sims[[s]]$se, z = z, crit = crit,
+    data.frame(site = s, t = fit_get(fit, "basis")$t, misfit = sims[[s]]$misfit, se = sims[[s]]$se,
+               z = z, crit = crit,
                rejected = abs(z) > crit, stringsAsFactors = FALSE)
   }))
   observed <- max(abs(out$z))
@@ -99,21 +102,26 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
 
 #' @export
 print.wv_misfit_check <- function(x, ...) {
-  cli::cat_line("<wv_misfit_check> the field mean against the model at the calibrated inputs, point by point")
+  cli::cat_line(
+    "<wv_misfit_check> the field mean against the model at the calibrated inputs, point by point")
   lv <- 100 * attr(x, "level")
   noise <- attr(x, "noise")
   cli::cat_line(sprintf("Standard errors: %s.", paste(sprintf("%s from %s", names(noise),
-    ifelse(noise == "replicates", "the replicates' scatter along the record", "the learned noise")), collapse = "; ")))
+    ifelse(noise == "replicates", "the replicates' scatter along the record", "the learned noise")),
+                                                      collapse = "; ")))
   st <- misfit_stretches(x, tol = stats::setNames(rep(0, length(unique(x$site))), unique(x$site)))
   if (!nrow(st)) {
     cli::cat_line(sprintf("Not rejected: the misfit lies inside the %g%% simultaneous band (%.2f standard errors) at every point (p = %.2f).",
                           lv, attr(x, "crit"), attr(x, "p_value")))
   } else {
     cli::cat_line(sprintf("Rejected (p = %.3f): the misfit lies beyond the %g%% simultaneous band (%.2f standard errors) on %d stretch%s:",
-                          attr(x, "p_value"), lv, attr(x, "crit"), nrow(st), if (nrow(st) == 1L) "" else "es"))
+                          attr(x, "p_value"), lv, attr(x, "crit"), nrow(st),
+                          if (nrow(st) == 1L) "" else "es"))
     for (i in seq_len(min(nrow(st), 5L))) {
-      cli::cat_line(sprintf("  %s t in [%s, %s]: misfit up to %s (%s)", st$site[i], format(signif(st$start[i], 4)),
-                            format(signif(st$end[i], 4)), format(signif(st$size[i], 3)), st$sign[i]))
+      cli::cat_line(sprintf("  %s t in [%s, %s]: misfit up to %s (%s)", st$site[i],
+                            format(signif(st$start[i], 4)),
+                            format(signif(st$end[i], 4)), format(signif(st$size[i], 3)),
+                            st$sign[i]))
     }
   }
   invisible(x)
@@ -131,7 +139,8 @@ autoplot.wv_misfit_check <- function(object, ...) {
     ggplot2::facet_wrap(~site, ncol = 1, scales = "free_x") +
     ggplot2::labs(x = "time", y = "misfit / standard error",
                   title = "Field mean less the model at the calibrated inputs",
-                  subtitle = sprintf("%g%% simultaneous band shaded (p = %.3f)", 100 * attr(object, "level"),
+                  subtitle = sprintf("%g%% simultaneous band shaded (p = %.3f)",
+                                     100 * attr(object, "level"),
                                      attr(object, "p_value"))) +
     ggplot2::theme_bw()
 }
@@ -153,7 +162,8 @@ misfit_stretches <- function(x, tol, min_steps = 1L) {
     if (!length(keep)) return(NULL)
     do.call(rbind, lapply(keep, function(k) {
       idx <- starts[k]:ends[k]
-      data.frame(site = s, start = d$t[starts[k]], end = d$t[ends[k]] + dt, size = max(abs(d$misfit[idx])),
+      data.frame(site = s, start = d$t[starts[k]], end = d$t[ends[k]] + dt,
+                 size = max(abs(d$misfit[idx])),
                  credible = max(gap[idx]), integrated = sum(abs(d$misfit[idx])) * dt,
                  sign = if (mean(d$misfit[idx]) > 0) "reality above model" else "reality below model",
                  stringsAsFactors = FALSE)
@@ -161,7 +171,8 @@ misfit_stretches <- function(x, tol, min_steps = 1L) {
   })
   out <- do.call(rbind, rows)
   if (is.null(out)) {
-    out <- data.frame(site = character(), start = numeric(), end = numeric(), size = numeric(), credible = numeric(),
+    out <- data.frame(site = character(), start = numeric(), end = numeric(), size = numeric(),
+                      credible = numeric(),
                       integrated = numeric(), sign = character(), stringsAsFactors = FALSE)
   }
   out[order(-out$size), , drop = FALSE]

@@ -22,11 +22,13 @@
 timing_table <- function(fit, level = 0.9) {
   w <- fit_get(fit, "field")$warps
   runs <- fit_pipeline(fit)$runs
-  if (is.null(w) || !inherits(runs, "wv_runs") || !identical(runs$t, fit_get(fit, "field")$t)) return(NULL)
+  if (is.null(w) || !inherits(runs, "wv_runs") || !identical(runs$t, fit_get(fit, "field")$t))
+    return(NULL)
   lw <- w[w$feature != "fitted", , drop = FALSE]
   if (!nrow(lw)) return(NULL)
   st <- attr(w, "landmark_settings") %||%
-    list(features = check_features(fit_controls(fit)$registration$features %||% c("min", "max")), refine = FALSE)
+    list(features = check_features(fit_controls(fit)$registration$features %||% c("min", "max")),
+         refine = FALSE)
   windows <- attr(w, "windows")
   t <- fit_get(fit, "field")$t
   keys <- unique(lw[, c("site", "window", "feature")])
@@ -44,16 +46,19 @@ timing_table <- function(fit, level = 0.9) {
       L <- L[is.finite(L)]
       tr <- times[j, ]
       if (length(L) < 2L || sum(is.finite(tr)) < 5L) next
-      rows[[length(rows) + 1L]] <- c(list(site = m, window = keys$window[i], feature = keys$feature[i]),
+      rows[[length(rows) + 1L]] <- c(list(site = m, window = keys$window[i],
+                                          feature = keys$feature[i]),
                                      timing_shift(L, tr, X$design, X$draws))
     }
   }
   if (!length(rows)) return(NULL)
-  out <- do.call(rbind, lapply(rows, function(r) as.data.frame(r[c("site", "window", "feature", "field", "model",
-                                                                   "shift")], stringsAsFactors = FALSE)))
+  out <- do.call(rbind, lapply(rows, function(r)
+    as.data.frame(r[c("site", "window", "feature", "field", "model", "shift")],
+                  stringsAsFactors = FALSE)))
   K <- length(rows)
   a <- (1 - level) / K / 2
-  lim <- t(vapply(rows, function(r) stats::quantile(r$draws, c(a, 1 - a), names = FALSE), numeric(2)))
+  lim <- t(vapply(rows, function(r) stats::quantile(r$draws, c(a, 1 - a), names = FALSE),
+                  numeric(2)))
   out$lower <- lim[, 1]
   out$upper <- lim[, 2]
   out$flagged <- out$lower > 0 | out$upper < 0
@@ -64,7 +69,8 @@ timing_table <- function(fit, level = 0.9) {
                  out$site, out$window, out$feature)
   out$size <- mapply(function(m, t0, d) shift_size(ybar[[m]], t, t0, d), out$site, near, out$shift)
   closest <- ifelse(out$flagged, ifelse(out$shift > 0, out$lower, out$upper), 0)
-  out$credible <- mapply(function(m, t0, d) shift_size(ybar[[m]], t, t0, d), out$site, near, closest)
+  out$credible <- mapply(function(m, t0, d) shift_size(ybar[[m]], t, t0, d), out$site, near,
+                         closest)
   attr(out, "level") <- level
   rownames(out) <- NULL
   out
@@ -81,7 +87,8 @@ timing_inputs <- function(fit, runs) {
   P <- matrix(NA_real_, nrow(draws), length(vary), dimnames = list(NULL, vary))
   x_nom <- fit_get(fit, "x_nom")
   for (p in vary) {
-    P[, p] <- if (p %in% colnames(draws)) draws[, p] else if (p %in% names(x_nom)) x_nom[[p]] else NA_real_
+    P[, p] <-
+      if (p %in% colnames(draws)) draws[, p] else if (p %in% names(x_nom)) x_nom[[p]] else NA_real_
   }
   if (anyNA(P)) return(NULL)
   list(design = as.data.frame(D[vary]), draws = as.data.frame(P))

@@ -135,15 +135,18 @@
 #' where_fails(fit, tolerance = 0.1)
 #' autoplot(wf)
 where_fails <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
-                        tolerance = 0, scales = c("split", "whole"), hold = TRUE, proposals = NULL, ...) {
+                        tolerance = 0, scales = c("split", "whole"), hold = TRUE, proposals = NULL,
+                        ...) {
   check_dots_none(...)
   fails_table(fit, level, band, min_steps, tolerance, scales, hold, proposals)
 }
 
 # where_fails() itself; `misfit`: whether to run misfit_check() (not for the
 # re-reading with inputs held, whose misfit is the fit's own).
-fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L, tolerance = 0,
-                        scales = c("split", "whole"), hold = TRUE, proposals = NULL, misfit = TRUE) {
+fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"), min_steps = 1L,
+                        tolerance = 0,
+                        scales = c("split", "whole"), hold = TRUE, proposals = NULL,
+                        misfit = TRUE) {
   check_class(fit, "wv_fit")
   if (!is.null(proposals)) check_proposals_of(proposals, fit)
   check_level(level)
@@ -185,8 +188,10 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   })
   intervals <- do.call(rbind, rows)
   if (is.null(intervals)) {
-    intervals <- data.frame(site = character(), start = numeric(), end = numeric(), peak_abs_bias = numeric(),
-                            credible = numeric(), integrated_abs_bias = numeric(), share_of_signal = numeric(),
+    intervals <- data.frame(site = character(), start = numeric(), end = numeric(),
+                            peak_abs_bias = numeric(),
+                            credible = numeric(), integrated_abs_bias = numeric(),
+                            share_of_signal = numeric(),
                             sign = character(), stringsAsFactors = FALSE)
   }
   cf <- input_conflicts(fit)
@@ -195,7 +200,8 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
     hf <- reread_held(fit, cf$input[cf$conflict])
     hw <- fails_table(hf, level = level, band = band, min_steps = min_steps, tolerance = tolerance,
                       scales = scales, hold = FALSE, misfit = FALSE)
-    held <- list(inputs = fit_get(hf, "held")$inputs, fit = hf, fails = hw, pull = pull_support(fit, hf, !wide),
+    held <- list(inputs = fit_get(hf, "held")$inputs, fit = hf, fails = hw,
+                 pull = pull_support(fit, hf, !wide),
                  bias_rms_local = c(fitted = part_rms(fit, !wide), held = part_rms(hf, !wide)))
   }
   rw <- if (scales == "split") record_wide_bias(fit, wide, wide_levels, level, band, tol)
@@ -212,7 +218,8 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
   att <- list(wavelet_levels = bias_by_level(fit, level), boundary = boundary_check(fit), bias = b,
               bias_whole = b_whole, scales = scales, record_wide = rw, level = level, band = band,
               tolerance = tol, credible = credible_with_misfit(credible_bias(b, gap), mc),
-              pooled_level0 = 0 %in% fit_get(fit, "settings")$pool_levels, experiments = fit_get(fit, "experiments"),
+              pooled_level0 = 0 %in% fit_get(fit, "settings")$pool_levels,
+              experiments = fit_get(fit, "experiments"),
               conflicts = cf, held = held, holds = fit_get(fit, "held"), timing = tm, misfit = mc,
               unmixed = unmixed_inputs(list(fit = fit))$fit)
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
@@ -239,7 +246,8 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
   gap <- band_gap(band_limits(part, band))
   basis <- fit_get(fit, "basis")
   do.call(rbind, lapply(fit_sites(fit), function(s) {
-    avg <- drop(fit_get(fit, "wb")[[s]][, wide, drop = FALSE] %*% colMeans(basis$Psi[, wide, drop = FALSE]))
+    avg <- drop(fit_get(fit, "wb")[[s]][, wide, drop = FALSE] %*%
+                colMeans(basis$Psi[, wide, drop = FALSE]))
     k <- which(part$site == s)
     at <- k[which.max(gap[k])]
     dt <- diff(part$t[k[1:2]])
@@ -247,7 +255,8 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
                offset = mean(avg), offset_lower = stats::quantile(avg, a, names = FALSE),
                offset_upper = stats::quantile(avg, 1 - a, names = FALSE),
                credible_bias = gap[at], t = part$t[at], credible = gap[at] > tol[[s]],
-               peak_abs_bias = max(abs(part$mean[k])), integrated_abs_bias = sum(abs(part$mean[k])) * dt,
+               peak_abs_bias = max(abs(part$mean[k])),
+               integrated_abs_bias = sum(abs(part$mean[k])) * dt,
                start = part$t[k[1]], end = part$t[k[length(k)]] + dt, stringsAsFactors = FALSE)
   }))
 }
@@ -255,7 +264,8 @@ record_wide_bias <- function(fit, wide, wide_levels, level, band, tol) {
 #' @export
 as.data.frame.wv_fails <- function(x, row.names = NULL, optional = FALSE, ...) {
   out <- as.data.frame(unclass(x)[names(x)], stringsAsFactors = FALSE)
-  if (!is.null(attr(x, "held", exact = TRUE))) out$covered_by <- ifelse(out$scale == "held", out$inputs, NA_character_)
+  if (!is.null(attr(x, "held", exact = TRUE))) out$covered_by <- ifelse(out$scale == "held",
+                                                                        out$inputs, NA_character_)
   rownames(out) <- row.names
   out
 }
@@ -304,7 +314,8 @@ credible_bias <- function(b, gap) {
 
 # where_fails()'s tolerance as a named vector by site.
 site_tolerance <- function(tolerance, sites, call = rlang::caller_env()) {
-  if (!is.numeric(tolerance) || length(tolerance) == 0L || anyNA(tolerance) || any(!is.finite(tolerance)) ||
+  if (!is.numeric(tolerance) || length(tolerance) == 0L || anyNA(tolerance) ||
+      any(!is.finite(tolerance)) ||
       any(tolerance < 0)) {
     wv_abort("{.arg tolerance} must hold non-negative finite numbers.", call = call)
   }
@@ -399,7 +410,8 @@ flagged_share <- function(fails, effect, threshold = 0.1, of = c("effect", "flag
     w <- intervals[intervals$site == s, , drop = FALSE]
     flagged <- Reduce(`|`, lapply(seq_len(nrow(w)), function(k) t >= w$start[k] & t < w$end[k]),
                       rep(FALSE, length(t)))
-    share <- if (of == "effect") mean(flagged[acts]) else if (any(flagged)) mean(acts[flagged]) else NA_real_
+    share <- if (of == "effect") mean(flagged[acts]) else
+      if (any(flagged)) mean(acts[flagged]) else NA_real_
     c(share, mean(acts))
   }, numeric(2))
   structure(out[1L, ], acting = out[2L, ])

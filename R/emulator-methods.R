@@ -22,7 +22,8 @@ print.wv_emulators <- function(x, ...) {
     if (nrow(up)) {
       cli::cli_text("Predictive variances widened at {nrow(up)} of {nrow(vc)} site and level group{?s} from {x$variance_runs} held-out run{?s}, by a factor of up to {signif(max(up$scale), 3)}.")
     } else {
-      cli::cli_text("Predictive variances checked at {x$variance_runs} held-out run{?s}: none widened.")
+      cli::cli_text(
+        "Predictive variances checked at {x$variance_runs} held-out run{?s}: none widened.")
     }
   }
   invisible(x)
@@ -72,7 +73,8 @@ summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   by_level <- do.call(rbind, lapply(seq_along(groups), function(i) {
     rows <- key == groups[i]
     data.frame(site = ls$site[i], level = ls$level[i], n = sum(rows),
-               median_loglik = if (any(is.finite(p$loglik[rows]))) stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
+               median_loglik = if (any(is.finite(p$loglik[rows])))
+                 stats::median(p$loglik[rows], na.rm = TRUE) else NA_real_,
                loo_rms = sqrt(ls$mean_square[i]), loo_beyond_3 = ls$beyond_3[i],
                nugget = sum(p$nugget[rows] > 0 & is.finite(p$loglik[rows])),
                flat = sum(!is.finite(p$loglik[rows])), stringsAsFactors = FALSE)
@@ -102,7 +104,8 @@ residual_stats_by_level <- function(p, res) {
   g <- factor(paste(res$site, res$level, sep = "\r")[ok], levels = groups)
   r <- res$residual[ok]
   n <- as.vector(table(g))
-  sum_or_na <- function(x) ifelse(n > 0L, as.vector(tapply(x, g, sum, default = 0)) / pmax(n, 1L), NA_real_)
+  sum_or_na <- function(x) ifelse(n > 0L, as.vector(tapply(x, g, sum, default = 0)) / pmax(n, 1L),
+                                  NA_real_)
   data.frame(site = p$site[first], level = p$level[first], n = n, mean_square = sum_or_na(r^2),
              beyond_3 = sum_or_na(abs(r) > 3), stringsAsFactors = FALSE)
 }
@@ -140,7 +143,8 @@ print.summary_wv_emulators <- function(x, ...) {
   cli::cli_text("GASP emulators ({x$engine} engine), {x$n_runs} runs, {length(x$inputs)} inputs.")
   n_new <- x$n_new %||% 0L
   if (n_new > 0L) {
-    cli::cli_text("Studentised residuals by site and level: leave-one-out, and at {n_new} held-out run{?s}:")
+    cli::cli_text(
+      "Studentised residuals by site and level: leave-one-out, and at {n_new} held-out run{?s}:")
   } else {
     cli::cli_text("Leave-one-out studentised residuals by site and level:")
   }
@@ -328,7 +332,8 @@ loo_residuals <- function(emulators, ...) {
     sd <- as.vector(lo$sd)
     observed <- as.vector(b$y)
     flat <- rep(!is.finite(p$loglik), each = k)
-    data.frame(site = s, index = rep(p$index, each = k), level = rep(p$level, each = k), run = rep(seq_len(k), n),
+    data.frame(site = s, index = rep(p$index, each = k), level = rep(p$level, each = k),
+               run = rep(seq_len(k), n),
                observed = observed, predicted = observed - e, sd = sd,
                residual = ifelse(flat, NA_real_, e / sd), stringsAsFactors = FALSE)
   })
@@ -346,7 +351,8 @@ bank_loo <- function(b) {
   # diag(R^-1) once per distinct factor
   of <- b$chol_of %||% seq_len(n)
   m <- dim(b$chol)[3]
-  own <- matrix(vapply(seq_len(m), function(u) colSums(forwardsolve(b$chol[, , u], diag(k))^2), numeric(k)), k)
+  own <- matrix(vapply(seq_len(m), function(u) colSums(forwardsolve(b$chol[, , u], diag(k))^2),
+                       numeric(k)), k)
   Ri_diag <- own[, of, drop = FALSE]
   list(e = b$weights / Ri_diag, sd = sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
 }
@@ -397,18 +403,21 @@ autoplot.wv_emulators <- function(object, type = c("parameters", "loo"), site = 
     }))
     long$input <- factor(long$input, levels = object$inputs)
     long$beta <- pmax(long$beta, 1e-6)
-    return(ggplot2::ggplot(long, ggplot2::aes(x = .data$beta, y = .data$alpha, colour = .data$site)) +
+    return(ggplot2::ggplot(long,
+                           ggplot2::aes(x = .data$beta, y = .data$alpha, colour = .data$site)) +
       ggplot2::geom_point(alpha = 0.6, size = 1) +
       ggplot2::scale_x_log10() +
       ggplot2::facet_wrap(~input) +
-      ggplot2::labs(x = expression(beta ~ "(unit-cube scale)"), y = expression(alpha), colour = "site",
+      ggplot2::labs(x = expression(beta ~ "(unit-cube scale)"), y = expression(alpha),
+                    colour = "site",
                     title = "GASP correlation parameters by input") +
       ggplot2::theme_bw())
   }
   loo <- loo_residuals(object)
   if (!is.null(site)) loo <- loo[loo$site %in% site, , drop = FALSE]
   loo <- loo[is.finite(loo$residual), , drop = FALSE]
-  ggplot2::ggplot(loo, ggplot2::aes(x = factor(.data$level), y = .data$residual, colour = .data$site)) +
+  ggplot2::ggplot(loo,
+                  ggplot2::aes(x = factor(.data$level), y = .data$residual, colour = .data$site)) +
     ggplot2::geom_hline(yintercept = c(-2, 2), linetype = 2, colour = "grey40") +
     ggplot2::geom_jitter(width = 0.2, height = 0, alpha = 0.4, size = 0.8) +
     ggplot2::labs(x = "resolution level", y = "studentised LOO residual", colour = "site",
@@ -432,7 +441,8 @@ loo_check <- function(em) {
   by <- split(loo$residual, loo$level)
   data.frame(level = as.integer(names(by)), n = lengths(by, use.names = FALSE),
              mean_square = vapply(by, function(r) mean(r^2), numeric(1), USE.NAMES = FALSE),
-             cover90 = vapply(by, function(r) mean(abs(r) <= stats::qnorm(0.95)), numeric(1), USE.NAMES = FALSE))
+             cover90 = vapply(by, function(r) mean(abs(r) <= stats::qnorm(0.95)), numeric(1),
+                              USE.NAMES = FALSE))
 }
 
 # One line on the emulators' calibration: the mean squares of the
@@ -444,14 +454,16 @@ emulator_calibration_text <- function(em) {
   if (!is.null(lc) && nrow(lc)) {
     out <- c(paste0("Leave-one-out studentised errors, mean square by level (1 is honest): ",
                     paste(sprintf("%d: %.2f", lc$level, lc$mean_square), collapse = ", "),
-                    sprintf("; 90%% intervals cover %.0f%%.", 100 * stats::weighted.mean(lc$cover90, lc$n))),
+                    sprintf("; 90%% intervals cover %.0f%%.",
+                            100 * stats::weighted.mean(lc$cover90, lc$n))),
              paste("These are taken at the design points; errors between them can be larger:",
                    "check held-out runs with `summary(emulators, new_runs = )`."))
   }
   vc <- em$variance_check
   if (!is.null(vc) && nrow(vc)) {
     ok <- vc$n_errors > 0 & is.finite(vc$rms_before)
-    ms <- tapply(vc$rms_before[ok]^2 * vc$n_errors[ok], vc$level[ok], sum) / tapply(vc$n_errors[ok], vc$level[ok], sum)
+    ms <- tapply(vc$rms_before[ok]^2 * vc$n_errors[ok], vc$level[ok], sum) /
+      tapply(vc$n_errors[ok], vc$level[ok], sum)
     if (length(ms)) {
       out <- c(out, paste0("At ", em$variance_runs, " held-out runs, before rescaling, by level: ",
                            paste(sprintf("%s: %.2f", names(ms), ms), collapse = ", "), "."))

@@ -109,7 +109,8 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
   engine <- check_choice(engine)
   check_number(starts, min = 1, max = 100, integer = TRUE)
   check_number(chunk_size, min = 1, integer = TRUE)
-  if (!is.numeric(log_beta_range) || length(log_beta_range) != 2L || any(!is.finite(log_beta_range)) ||
+  if (!is.numeric(log_beta_range) || length(log_beta_range) != 2L ||
+      any(!is.finite(log_beta_range)) ||
       log_beta_range[1] >= log_beta_range[2]) {
     wv_abort("{.arg log_beta_range} must be two increasing finite numbers, e.g. {.code c(-8, 6)}.")
   }
@@ -131,7 +132,8 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
     for (lv in unique(level[cols])) {
       cl <- cols[level[cols] == lv]
       # the gasp_level engine fits a level's coefficients together
-      chunks <- if (engine == "gasp_level") list(cl) else split(cl, ceiling(seq_along(cl) / chunk_size))
+      chunks <- if (engine == "gasp_level") list(cl) else split(cl,
+                                                                ceiling(seq_along(cl) / chunk_size))
       for (ch in chunks) {
         tasks[[length(tasks) + 1L]] <- list(site = s, cols = ch, id = length(tasks) + 1L,
                                             group = rep(as.integer(lv), length(ch)))
@@ -140,9 +142,11 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
   }
   n_fit <- sum(vapply(tasks, function(x) length(x$cols), integer(1)))
   worker <- emulator_worker(engine, prep$X, W, starts, log_beta_range, seed, list(...))
-  results <- run_futures(tasks, worker, paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
+  results <- run_futures(tasks, worker,
+                         paste("Fitting", n_fit, "emulators", paste0("(", engine, ")")),
                          quiet = isTRUE(getOption("wavevalid.quiet", FALSE)),
-                         steps = vapply(tasks, function(x) length(x$cols), integer(1)), future_seed = TRUE)
+                         steps = vapply(tasks, function(x) length(x$cols), integer(1)),
+                         future_seed = TRUE)
 
   banks <- list()
   params <- list()
@@ -161,7 +165,8 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
       converged[r$cols] <- r$converged
     }
     bank <- emulator_bank(prep$X, W[[s]], beta, alpha, nugget, flat[[s]], prep$lower, prep$width)
-    if (engine == "gasp_level") bank <- level_predictive_variance(bank, flat[[s]], level_settings()$predictive)
+    if (engine == "gasp_level") bank <- level_predictive_variance(bank, flat[[s]],
+                                                                  level_settings()$predictive)
     n_nugget <- n_nugget + sum(bank$nugget[!flat[[s]]] > 0)
     banks[[s]] <- bank
     params[[s]] <- emulator_params(s, basis, bank, converged, colnames(prep$X))
@@ -187,7 +192,8 @@ fit_emulators <- function(runs, basis, engine = c("gasp_level", "gasp", "dicekri
       "i" = "The {.val gasp} engine fitted {?it/them} instead (rows with {.code converged = FALSE})."
     ), class = "engine_fallback")
   }
-  em <- validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis, engine,
+  em <- validate_wv_emulators(new_wv_emulators(params, colnames(prep$X), prep$design, banks, basis,
+                                               engine,
                                                runs$t, seed))
   em$loo_check <- loo_check(em)
   em
@@ -201,7 +207,8 @@ new_wv_emulators <- function(params, inputs, design, banks, basis, engine, t, se
 validate_wv_emulators <- function(x, call = rlang::caller_env()) {
   p <- length(x$inputs)
   if (!is.matrix(x$design) || ncol(x$design) != p) {
-    wv_abort("{.field design} must be a matrix with one column per input.", class = "state", call = call)
+    wv_abort("{.field design} must be a matrix with one column per input.", class = "state",
+             call = call)
   }
   for (s in names(x$banks)) {
     b <- x$banks[[s]]
@@ -209,9 +216,11 @@ validate_wv_emulators <- function(x, call = rlang::caller_env()) {
     k <- nrow(b$X)
     m <- if (is.null(b$chol_of)) n else dim(b$chol)[3]
     if (!identical(dim(b$chol), c(k, k, m)) || !identical(dim(b$weights), c(k, n)) ||
-        (!is.null(b$chol_of) && (length(b$chol_of) != n || anyNA(b$chol_of) || any(b$chol_of < 1L | b$chol_of > m))) ||
+        (!is.null(b$chol_of) &&
+         (length(b$chol_of) != n || anyNA(b$chol_of) || any(b$chol_of < 1L | b$chol_of > m))) ||
         !identical(dim(b$beta), c(n, p)) || !identical(dim(b$alpha), c(n, p))) {
-      wv_abort("The bank of site {.val {s}} has inconsistent dimensions.", class = "state", call = call)
+      wv_abort("The bank of site {.val {s}} has inconsistent dimensions.", class = "state",
+               call = call)
     }
   }
   need <- c("site", "index", "level", "mu", "lambda", "nugget", "loglik",
@@ -240,7 +249,8 @@ emulator_coefficients <- function(runs, basis) {
 emulator_inputs <- function(runs, basis, call = rlang::caller_env()) {
   n_t <- length(runs$t)
   if (!is.matrix(basis$Psi) || nrow(basis$Psi) != n_t ||
-      (!is.null(basis$t) && (length(basis$t) != n_t || max(abs(basis$t - runs$t)) > 1e-8 * max(1, abs(runs$t))))) {
+      (!is.null(basis$t) &&
+       (length(basis$t) != n_t || max(abs(basis$t - runs$t)) > 1e-8 * max(1, abs(runs$t))))) {
     wv_abort(c(
       "{.arg basis} is not on the grid of {.arg runs}.",
       "x" = "The runs have {n_t} time points; the basis has {NROW(basis$Psi)}{if (!is.null(basis$t) && length(basis$t) == n_t) ' on different times' else ''}.",
@@ -305,11 +315,13 @@ emulator_worker <- function(engine, X, W, starts, log_beta_range, seed, km_args)
     if (engine == "gasp") {
       # warm starts from the last four fits of the level; the space-filling
       # points only for the first coefficient of a chunk, which has none
-      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range), n_warm = 4L, warm_only = TRUE)
+      f <- gasp_fit_cpp(X, Y, task$group, gasp_control(starts, log_beta_range), n_warm = 4L,
+                        warm_only = TRUE)
       f$cols <- task$cols
       return(f)
     }
-    if (engine == "gasp_level") return(gasp_level_fit(X, Y, starts, log_beta_range, task$cols, level_set))
+    if (engine == "gasp_level") return(gasp_level_fit(X, Y, starts, log_beta_range, task$cols,
+                                                      level_set))
     dicekriging_fit(X, Y, km_args, seed + task$id, task$cols)
   }
 }
@@ -328,7 +340,8 @@ gasp_control <- function(starts, log_beta_range) {
 # optimisations and the box of alpha. The option wavevalid.gasp_level (a
 # list of some of these) overrides them, for studies of the choices.
 level_settings <- function() {
-  utils::modifyList(list(prior = list(type = 1L, a = 0.2, b_mult = 1), restricted = 0L, predictive = "student",
+  utils::modifyList(list(prior = list(type = 1L, a = 0.2, b_mult = 1), restricted = 0L,
+                         predictive = "student",
                          n_screen = 32L, n_local = 4L, alpha = c(0.1, 1)),
                     getOption("wavevalid.gasp_level", list()))
 }
@@ -343,7 +356,8 @@ gasp_level_fit <- function(X, Y, starts, log_beta_range, cols, set = level_setti
   control$alpha_hi <- set$alpha[2]
   f <- gasp_level_fit_cpp(X, Y, control, set$prior, as.integer(set$restricted), list())
   n <- ncol(Y)
-  list(beta = matrix(f$beta, n, ncol(X), byrow = TRUE), alpha = matrix(f$alpha, n, ncol(X), byrow = TRUE),
+  list(beta = matrix(f$beta, n, ncol(X), byrow = TRUE),
+       alpha = matrix(f$alpha, n, ncol(X), byrow = TRUE),
        nugget = rep(f$nugget, n), converged = rep(f$converged, n), cols = cols)
 }
 
@@ -361,7 +375,8 @@ level_predictive_variance <- function(bank, flat, predictive) {
 }
 
 dicekriging_fit <- function(X, Y, km_args, seed, cols) {
-  old <- if (exists(".Random.seed", envir = globalenv())) get(".Random.seed", envir = globalenv()) else NULL
+  old <- if (exists(".Random.seed", envir = globalenv())) get(".Random.seed",
+                                                              envir = globalenv()) else NULL
   on.exit(if (!is.null(old)) assign(".Random.seed", old, envir = globalenv()))
   set.seed(seed)
   p <- ncol(X)
@@ -398,7 +413,8 @@ dicekriging_fit <- function(X, Y, km_args, seed, cols) {
 # `worker` carries its data in its closure (no search for globals); the
 # results do not depend on the plan (`future_seed` as future.apply's
 # future.seed: NULL when each task sets its own seed).
-run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, length(tasks)), future_seed = NULL) {
+run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, length(tasks)),
+                        future_seed = NULL) {
   if (!length(tasks)) return(list())
   batch <- max(1L, 2L * future::nbrOfWorkers())
   groups <- split(seq_along(tasks), ceiling(seq_along(tasks) / batch))
@@ -406,7 +422,8 @@ run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, len
   out <- vector("list", length(tasks))
   no_globals <- stats::setNames(list(), character(0))
   for (g in groups) {
-    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = future_seed, future.packages = "wavevalid",
+    out[g] <- future.apply::future_lapply(tasks[g], worker, future.seed = future_seed,
+                                          future.packages = "wavevalid",
                                           future.globals = no_globals)
     if (!quiet) cli::cli_progress_update(inc = sum(steps[g]), .envir = environment())
   }
@@ -451,7 +468,8 @@ emulator_bank <- function(X, Y, beta, alpha, nugget, flat, lower, width) {
     }
   }
   list(X = X, beta = beta, alpha = alpha, mu = mu, lambda = lambda, nugget = nugget,
-       weights = weights, chol = chol, chol_of = chol_of, y = Y, lower = lower, width = width, loglik = loglik)
+       weights = weights, chol = chol, chol_of = chol_of, y = Y, lower = lower, width = width,
+       loglik = loglik)
 }
 
 # One bank of GASP emulators with fixed beta/alpha (n x p); mu and lambda by

@@ -26,7 +26,8 @@ conditions_held_iu <- function(iu) {
 # `condition` of experiment(): NULL or a named numeric vector of finite values.
 check_condition_values <- function(condition, arg = "condition", call = rlang::caller_env()) {
   if (is.null(condition)) return(invisible(NULL))
-  if (!is.numeric(condition) || !length(condition) || is.null(names(condition)) || any(names(condition) == "") ||
+  if (!is.numeric(condition) || !length(condition) || is.null(names(condition)) ||
+      any(names(condition) == "") ||
       anyNA(condition) || any(!is.finite(condition)) || anyDuplicated(names(condition))) {
     wv_abort(c("{.arg {arg}} must be a named numeric vector of finite values, one per condition input.",
                "x" = "It is {.code {deparse(condition)}}.",
@@ -116,7 +117,8 @@ fit_condition_table <- function(iu, experiments) {
 condition_labels <- function(conditions) {
   v <- conditions$values
   out <- vapply(seq_len(nrow(v)), function(r) {
-    paste(sprintf("%s = %s", conditions$inputs, format(signif(unlist(v[r, conditions$inputs]), 4), trim = TRUE)),
+    paste(sprintf("%s = %s", conditions$inputs,
+                  format(signif(unlist(v[r, conditions$inputs]), 4), trim = TRUE)),
           collapse = ", ")
   }, character(1))
   stats::setNames(out, v$experiment)

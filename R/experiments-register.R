@@ -29,7 +29,8 @@ experiment_reference <- function(x, emulators, runs) {
     near <- condition_neighbours(runs$design, x$condition)
     curves <- lapply(sites, function(s) {
       rest <- basis_remainder(emulators$basis, runs$curves[[s]])
-      if (!is.null(near)) rest <- matrix(colMeans(rest[near, , drop = FALSE]), nrow(rest), ncol(rest), byrow = TRUE)
+      if (!is.null(near)) rest <- matrix(colMeans(rest[near, , drop = FALSE]), nrow(rest),
+                                         ncol(rest), byrow = TRUE)
       basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) + rest
     })
   } else {
@@ -37,7 +38,9 @@ experiment_reference <- function(x, emulators, runs) {
     design <- as.data.frame(em$design)
     curves <- lapply(sites, function(s) {
       y <- basis_curves(em$basis, stats::predict(em, em$design, site = s)$mean)
-      if (s %in% names(runs$curves)) y <- sweep(y, 2L, colMeans(basis_remainder(em$basis, runs$curves[[s]])), `+`)
+      if (s %in% names(runs$curves)) y <- sweep(y, 2L,
+                                                colMeans(basis_remainder(em$basis,
+                                                                         runs$curves[[s]])), `+`)
       y
     })
   }

@@ -74,7 +74,8 @@ experiment <- function(field, change = NULL, emulators = NULL, reference = NULL,
              class = "experiment", call = call)
   }
   if (!is.null(change)) {
-    if (!is.numeric(change) || !length(change) || is.null(names(change)) || any(names(change) == "") ||
+    if (!is.numeric(change) || !length(change) || is.null(names(change)) ||
+        any(names(change) == "") ||
         anyNA(change) || any(!is.finite(change)) || anyDuplicated(names(change))) {
       wv_abort(c("{.arg change} must be a named numeric vector of finite changes, one per input named.",
                  "x" = "It is {.code {deparse(change)}}."), class = "experiment", call = call)
@@ -82,7 +83,8 @@ experiment <- function(field, change = NULL, emulators = NULL, reference = NULL,
   }
   if (!is.null(emulators)) check_class(emulators, "wv_emulators", call = call)
   if (!is.null(reference)) check_class(reference, "wv_runs", call = call)
-  structure(list(field = field, change = change, emulators = emulators, reference = reference, condition = condition),
+  structure(list(field = field, change = change, emulators = emulators, reference = reference,
+                 condition = condition),
             class = "wv_experiment")
 }
 
@@ -135,8 +137,11 @@ experiments_at <- function(fields, condition, ..., base = NULL) {
                  "i" = "Its columns: {.val {names(fields)}}."), class = "condition")
     }
     bad <- cols[!vapply(fields[cols], is.numeric, logical(1))]
-    if (length(bad)) wv_abort("The condition column{?s} {.val {bad}} must be numeric.", class = "condition")
-    key <- do.call(paste, c(lapply(cols, function(p) paste0(p, "=", format(fields[[p]], trim = TRUE))), sep = ","))
+    if (length(bad)) wv_abort("The condition column{?s} {.val {bad}} must be numeric.",
+                              class = "condition")
+    key <- do.call(paste,
+                   c(lapply(cols, function(p) paste0(p, "=", format(fields[[p]], trim = TRUE))),
+                     sep = ","))
     keys <- unique(key)
     long <- fields
     fields <- stats::setNames(lapply(keys, function(k) {
@@ -144,12 +149,15 @@ experiments_at <- function(fields, condition, ..., base = NULL) {
     }), keys)
     condition <- long[match(keys, key), cols, drop = FALSE]
   } else if (...length()) {
-    wv_abort("The arguments after {.arg condition} are for long field data only.", class = "condition")
+    wv_abort("The arguments after {.arg condition} are for long field data only.",
+             class = "condition")
   }
-  if (inherits(fields, "wv_field") || !is.list(fields) || !length(fields) || is.null(names(fields)) ||
+  if (inherits(fields, "wv_field") || !is.list(fields) || !length(fields) ||
+      is.null(names(fields)) ||
       any(names(fields) == "") || anyDuplicated(names(fields))) {
     wv_abort(c("{.arg fields} must be a named list of {.cls wv_field}s, one per experiment, or long field data.",
-               "i" = "For example {.code list(dose_250 = field_250, dose_550 = field_550)}."), class = "condition")
+               "i" = "For example {.code list(dose_250 = field_250, dose_550 = field_550)}."),
+             class = "condition")
   }
   if (!is.data.frame(condition) || nrow(condition) != length(fields) || !ncol(condition) ||
       !all(vapply(condition, is.numeric, logical(1)))) {
@@ -198,7 +206,8 @@ print.wv_experiments_at <- function(x, ...) {
   base <- attr(x, "base")
   cli::cat_line(sprintf("<wv_experiments_at> the base field at %s (%s) and %d experiment%s at other conditions:",
                         paste(sprintf("%s = %g", names(base), base), collapse = ", "),
-                        paste(sprintf("%s: %d replicate%s", names(reps), reps, ifelse(reps == 1, "", "s")),
+                        paste(sprintf("%s: %d replicate%s", names(reps), reps,
+                                      ifelse(reps == 1, "", "s")),
                               collapse = ", "),
                         length(x), if (length(x) == 1L) "" else "s"))
   for (e in names(x)) {
@@ -231,16 +240,20 @@ print.wv_experiment <- function(x, ...) {
   reps <- vapply(x$field$curves, nrow, integer(1))
   how <- if (!is.null(x$condition)) {
     ch <- if (isTRUE(x$condition_resolved)) x$change_given else x$change
-    paste0("at the condition ", paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "),
-           if (length(ch)) paste0(", inputs changed by ", paste(sprintf("%s %+g", names(ch), ch), collapse = ", ")))
+    paste0("at the condition ",
+           paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "),
+           if (length(ch)) paste0(", inputs changed by ",
+                                  paste(sprintf("%s %+g", names(ch), ch), collapse = ", ")))
   } else if (!is.null(x$change)) {
     paste0("the base emulators at the inputs changed by ",
            paste(sprintf("%s %+g", names(x$change), x$change), collapse = ", "))
   } else {
     paste0("its own emulators (", nrow(x$emulators$design), " runs)")
   }
-  cli::cat_line(sprintf("<wv_experiment> %d site%s (%s), %s", length(reps), if (length(reps) == 1) "" else "s",
-                        paste(sprintf("%s: %d replicate%s", names(reps), reps, ifelse(reps == 1, "", "s")),
+  cli::cat_line(sprintf("<wv_experiment> %d site%s (%s), %s", length(reps),
+                        if (length(reps) == 1) "" else "s",
+                        paste(sprintf("%s: %d replicate%s", names(reps), reps,
+                                      ifelse(reps == 1, "", "s")),
                               collapse = ", "), how))
   invisible(x)
 }
@@ -249,7 +262,8 @@ print.wv_experiment <- function(x, ...) {
 # before it registers their field data).
 check_experiment_list <- function(experiments, call = rlang::caller_env()) {
   if (!is.list(experiments) || inherits(experiments, "wv_experiment") || !length(experiments) ||
-      is.null(names(experiments)) || any(names(experiments) == "") || anyDuplicated(names(experiments))) {
+      is.null(names(experiments)) || any(names(experiments) == "") ||
+      anyDuplicated(names(experiments))) {
     wv_abort(c("{.arg experiments} must be a named list of {.fn experiment}s.",
                "i" = "For example {.code list(added_mass = experiment(field_m, change = c(x1 = 0.15)))}."),
              class = "experiment", call = call)
@@ -262,9 +276,11 @@ check_experiment_list <- function(experiments, call = rlang::caller_env()) {
 as_experiment <- function(x, e, call = rlang::caller_env()) {
   if (inherits(x, "wv_experiment")) return(x)
   if (!is.list(x) || is.null(x$field)) {
-    wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment", call = call)
+    wv_abort("Experiment {.val {e}} must be made with {.fn experiment}.", class = "experiment",
+             call = call)
   }
-  experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference, condition = x$condition)
+  experiment(x$field, change = x$change, emulators = x$emulators, reference = x$reference,
+             condition = x$condition)
 }
 
 # The experiments as a named list of wv_experiment objects, checked against
@@ -273,7 +289,8 @@ as_experiment <- function(x, e, call = rlang::caller_env()) {
 # (from calibration_spec()), that the change keeps them inside the emulators'
 # design. With the I/U map `iu`, an experiment's condition becomes its
 # change of the condition inputs (resolve_experiment_condition()).
-check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = NULL, call = rlang::caller_env()) {
+check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = NULL,
+                              call = rlang::caller_env()) {
   if (is.null(experiments)) return(NULL)
   check_experiment_list(experiments, call = call)
   bad <- grepl("/", names(experiments), fixed = TRUE) | names(experiments) %in% names(field$curves)
@@ -283,14 +300,16 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
   }
   out <- lapply(names(experiments), function(e) {
     x <- as_experiment(experiments[[e]], e, call = call)
-    if (!is.null(iu) || !is.null(x$condition)) x <- resolve_experiment_condition(x, e, iu, call = call)
+    if (!is.null(iu) || !is.null(x$condition))
+      x <- resolve_experiment_condition(x, e, iu, call = call)
     em <- x$emulators %||% emulators
     if (!identical(em$inputs, emulators$inputs)) {
       wv_abort(c("The emulators of experiment {.val {e}} must have the base emulators' inputs.",
                  "x" = "They have {.val {em$inputs}}; the base has {.val {emulators$inputs}}."),
                class = "experiment", call = call)
     }
-    if (!identical(em$basis$index, emulators$basis$index) || !identical(em$basis$level, emulators$basis$level) ||
+    if (!identical(em$basis$index, emulators$basis$index) ||
+        !identical(em$basis$level, emulators$basis$level) ||
         length(em$basis$t) != length(emulators$basis$t)) {
       wv_abort(c("The emulators of experiment {.val {e}} must be on the base experiment's basis.",
                  "i" = "Fit them with {.code fit_emulators(runs, base_emulators$basis)}."),
@@ -299,7 +318,8 @@ check_experiments <- function(experiments, emulators, field, x_nom = NULL, iu = 
     miss <- setdiff(names(x$field$curves), emulator_sites(em))
     if (length(miss)) {
       wv_abort(c("Experiment {.val {e}} has field data at site{?s} {.val {miss}} without emulators.",
-                 "i" = "Emulated sites: {.val {emulator_sites(em)}}."), class = "experiment", call = call)
+                 "i" = "Emulated sites: {.val {emulator_sites(em)}}."), class = "experiment",
+               call = call)
     }
     if (!is.null(x$change)) {
       unknown <- setdiff(names(x$change), emulators$inputs)

@@ -153,7 +153,8 @@
 #'                        sampler = sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE))
 #' explain_bias(fit, list(bump = with_bump))
 explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRUE, max_size = 3L,
-                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL, t = NULL,
+                         n_draws = 200L, level = 0.9, seed = NULL, segments = 64L, effect = NULL,
+                         t = NULL,
                          finding = NULL, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
@@ -195,7 +196,8 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   use <- scope$use %||% rep(TRUE, ncol(Y))
   if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
   res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],
-                                             Wt[, use, drop = FALSE], max_size = max_size, level = level, cluster = cluster[use],
+                                             Wt[, use, drop = FALSE], max_size = max_size,
+                                             level = level, cluster = cluster[use],
                                              positive = pos, group = group))
   out <- res$table
   attr(out, "subsets") <- res$subsets
@@ -265,11 +267,13 @@ explain_curves <- function(fit, cand, table, n_lead = 3L) {
     s <- sites[i]
     rows <- (offs[i] + 1L):offs[i + 1L]
     b <- drop(fit_get(fit, "basis")$Psi %*% colMeans(fit_get(fit, "wb")[[s]]))
-    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias", value = b)
+    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias",
+                      value = b)
     for (k in seq_len(nrow(lead))) {
       v <- drop(fit_get(fit, "basis")$Psi %*% cand[rows, lead$candidate[k]]) * lead$amplitude[k]
       out <- rbind(out, data.frame(site = s, t = fit_get(fit, "basis")$t,
-                                   curve = sprintf("%s x %.3g", lead$candidate[k], lead$amplitude[k]),
+                                   curve = sprintf("%s x %.3g", lead$candidate[k],
+                                                   lead$amplitude[k]),
                                    value = v))
     }
     out

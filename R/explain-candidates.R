@@ -15,13 +15,15 @@ candidate_signs <- function(positive, m, call = rlang::caller_env()) {
 # (NULL: each candidate its own effect).
 candidate_effects <- function(effect, nm, call = rlang::caller_env()) {
   if (is.null(effect)) return(nm)
-  if (!is.character(effect) || length(effect) != length(nm) || anyNA(effect) || any(!nzchar(effect))) {
+  if (!is.character(effect) || length(effect) != length(nm) || anyNA(effect) ||
+      any(!nzchar(effect))) {
     wv_abort(c("{.arg effect} must name, for each candidate, the effect it is a version of.",
                "x" = "It has length {length(effect)}; the number of candidates is {length(nm)}."),
              call = call)
   }
   if (any(startsWith(effect, "shift:"))) {
-    wv_abort("Effect names starting with {.val shift:} are reserved for the parameter shifts.", call = call)
+    wv_abort("Effect names starting with {.val shift:} are reserved for the parameter shifts.",
+             call = call)
   }
   effect
 }
@@ -39,11 +41,13 @@ candidate_coefficients <- function(fit, candidates, t = NULL, call = rlang::call
   if (length(candidates) == 0L) return(matrix(0, sum(vapply(fit_get(fit, "wb"), ncol, 1L)), 0L))
   nm <- names(candidates)
   if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
-    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
+    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.",
+             call = call)
   }
   placed <- lapply(nm, function(k) {
     cur <- candidates[[k]]
-    if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)), sites)
+    if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)),
+                                                                     sites)
     if (!is.list(cur) || !all(sites %in% names(cur))) {
       wv_abort(c(
         "Candidate {.val {k}} must be a numeric vector on the fit's grid or a list with one curve per site.",
@@ -61,7 +65,8 @@ candidate_coefficients <- function(fit, candidates, t = NULL, call = rlang::call
     ))
   }
   Psi <- fit_get(fit, "basis")$Psi
-  out <- do.call(cbind, lapply(placed, function(p) unlist(lapply(p, function(y) drop(y$y %*% Psi)))))
+  out <- do.call(cbind,
+                 lapply(placed, function(p) unlist(lapply(p, function(y) drop(y$y %*% Psi)))))
   colnames(out) <- nm
   zero <- colSums(out^2) == 0
   if (any(zero)) {
@@ -146,7 +151,8 @@ shift_candidates <- function(fit, z_mean = posterior_mean_inputs(fit)) {
   sites <- fit_sites(fit)
   width <- vapply(em$inputs, function(p) {
     k <- match(p, fit_get(fit, "iu")$name)
-    if (is.na(k)) diff(range(em$design[, p])) else fit_get(fit, "iu")$upper[k] - fit_get(fit, "iu")$lower[k]
+    if (is.na(k))
+      diff(range(em$design[, p])) else fit_get(fit, "iu")$upper[k] - fit_get(fit, "iu")$lower[k]
   }, numeric(1))
   out <- vapply(seq_along(em$inputs), function(p) {
     h <- 1e-3 * width[p]

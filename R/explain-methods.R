@@ -4,8 +4,10 @@
 #' @export
 print.wv_explain <- function(x, ...) {
   cli::cat_line("<wv_explain> candidate effects ranked by posterior inclusion probability")
-  if (!is.null(attr(x, "finding"))) cli::cat_line("Explaining one finding of where_fails(): ", attr(x, "finding"))
-  cols <- intersect(c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
+  if (!is.null(attr(x, "finding"))) cli::cat_line("Explaining one finding of where_fails(): ",
+                                                  attr(x, "finding"))
+  cols <- intersect(c("candidate", "inclusion_prob", "amplitude", "amplitude_lower",
+                      "amplitude_upper",
                       "share_explained", "share_of_bias"), names(x))
   df <- as.data.frame(unclass(x)[cols], stringsAsFactors = FALSE)
   num <- vapply(df, is.numeric, logical(1))
@@ -31,7 +33,8 @@ print.wv_explain <- function(x, ...) {
   if (revalidated) {
     lbf <- attr(x, "log_bf")
     cli::cat_line("Each candidate a re-validated model, weighed against itself with the mechanism off ",
-                  "(log Bayes factor: ", paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")
+                  "(log Bayes factor: ",
+                  paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")
     cli::cat_line("Most probable: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
   } else if (!is.null(sub)) {
     cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
@@ -59,7 +62,8 @@ print.wv_explain <- function(x, ...) {
   }
   bd <- attr(x, "boundary")
   if (length(bd)) {
-    cli::cat_line("! The posterior of ", paste(bd, collapse = ", "), " piles up at a bound of its range: ",
+    cli::cat_line("! The posterior of ", paste(bd, collapse = ", "),
+                  " piles up at a bound of its range: ",
                   "candidates simulated at the posterior mean inputs may differ from the effect at the true ",
                   "inputs; give versions simulated at other inputs too (argument `effect`).")
   }
@@ -87,8 +91,10 @@ summary.wv_explain <- function(object, ...) {
 
 #' @export
 print.summary_wv_explain <- function(x, ...) {
-  cli::cat_line(sprintf("%d candidate effects; %d with inclusion probability >= 0.5", x$n_candidates, x$n_likely))
-  cli::cat_line(sprintf("Leading candidate: %s (inclusion probability %.2f)", x$leader, x$inclusion))
+  cli::cat_line(sprintf("%d candidate effects; %d with inclusion probability >= 0.5",
+                        x$n_candidates, x$n_likely))
+  cli::cat_line(sprintf("Leading candidate: %s (inclusion probability %.2f)", x$leader,
+                        x$inclusion))
   if (!is.null(x$eta) && x$eta < 0.995) {
     cli::cat_line(sprintf("Evidence tempered by eta = %.2f (median over draws)", x$eta))
   }
@@ -111,7 +117,8 @@ autoplot.wv_explain <- function(object, ...) {
     ggplot2::geom_hline(yintercept = 0, colour = "grey70") +
     ggplot2::geom_line(linewidth = 0.4) +
     ggplot2::facet_wrap(~site, ncol = 1, scales = "free_y") +
-    ggplot2::scale_colour_manual(values = c("black", "#D55E00", "#0072B2", "#009E73")[seq_along(unique(d$curve))],
+    ggplot2::scale_colour_manual(values = c("black", "#D55E00", "#0072B2",
+                                            "#009E73")[seq_along(unique(d$curve))],
                                  breaks = unique(d$curve)) +
     ggplot2::labs(x = "time", y = "bias", colour = NULL,
                   title = "Posterior mean bias and the leading candidate effects, scaled") +

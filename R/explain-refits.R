@@ -82,7 +82,8 @@ candidates_are_fits <- function(candidates, call = rlang::caller_env()) {
 refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
   nm <- names(refits)
   if (is.null(nm) || anyNA(nm) || any(!nzchar(nm)) || anyDuplicated(nm)) {
-    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.", call = call)
+    wv_abort("{.arg candidates} must be a list with a unique name for every candidate.",
+             call = call)
   }
   sites <- fit_sites(fit)
   fit_basis <- fit_get(fit, "basis")
@@ -90,14 +91,17 @@ refit_strengths <- function(fit, refits, call = rlang::caller_env()) {
     rf <- refits[[k]]
     if (!setequal(fit_sites(rf), sites)) {
       wv_abort(c("Candidate {.val {k}} has sites {.val {fit_sites(rf)}}; {.arg fit} has {.val {sites}}.",
-                 "i" = "Calibrate each candidate model on the field data of {.arg fit}."), call = call)
+                 "i" = "Calibrate each candidate model on the field data of {.arg fit}."),
+               call = call)
     }
     basis <- fit_get(rf, "basis")
-    same_basis <- identical(basis$index, fit_basis$index) && identical(dim(basis$Psi), dim(fit_basis$Psi)) &&
+    same_basis <- identical(basis$index, fit_basis$index) &&
+      identical(dim(basis$Psi), dim(fit_basis$Psi)) &&
       isTRUE(all.equal(basis$Psi, fit_basis$Psi, tolerance = 1e-10))
     if (!same_basis) {
       wv_abort(c("Candidate {.val {k}} was not fitted on the wavelet basis of {.arg fit}.",
-                 "i" = "Fit its emulators with {.code fit_emulators(runs, fit$basis)}."), call = call)
+                 "i" = "Fit its emulators with {.code fit_emulators(runs, fit$basis)}."),
+               call = call)
     }
     same_field <- all(vapply(sites, function(s) {
       isTRUE(all.equal(fit_get(rf, "wbar")[[s]], fit_get(fit, "wbar")[[s]], tolerance = 1e-8)) &&
@@ -155,7 +159,8 @@ log_density_at_off <- function(rf, D, strength, keep, n_grid = 33L, tick = NULL)
   hi <- p$upper
   settings <- fit_get(rf, "settings")
   groups <- fit_get(rf, "groups")
-  informs <- informing_groups(settings$inform_levels, fit_get(rf, "basis")$level, fit_get(rf, "bias_group"), groups)
+  informs <- informing_groups(settings$inform_levels, fit_get(rf, "basis")$level,
+                              fit_get(rf, "bias_group"), groups)
   informing <- if (is.null(informs)) groups$name else groups$name[informs == 1L]
   inputs <- fit_get(rf, "inputs")
   grid <- seq(lo, hi, length.out = n_grid)
@@ -204,7 +209,8 @@ explain_refits <- function(fit, refits, n_draws, level) {
   e0_local <- bias_energy(fit, local)
   tick <- NULL
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
-    total <- sum(vapply(refits, function(rf) min(n_draws, length(fit_get(rf, "chain"))), numeric(1)))
+    total <- sum(vapply(refits, function(rf) min(n_draws, length(fit_get(rf, "chain"))),
+                        numeric(1)))
     id <- cli::cli_progress_bar("Savage-Dickey density ratios", total = total)
     tick <- function() cli::cli_progress_update(id = id)
   }
@@ -233,8 +239,10 @@ explain_refits <- function(fit, refits, n_draws, level) {
     log_bf <- -log(p$upper - p$lower) - log_density_at_off(rf, D, strength[[k]], keep, tick = tick)
     s <- D[, strength[[k]]]
     data.frame(candidate = k, log_bf = log_bf, amplitude = mean(s),
-               amplitude_lower = unname(stats::quantile(s, a)), amplitude_upper = unname(stats::quantile(s, 1 - a)),
-               share_explained = 1 - bias_energy(rf, local) / e0_local, share_of_bias = 1 - bias_energy(rf) / e0,
+               amplitude_lower = unname(stats::quantile(s, a)),
+               amplitude_upper = unname(stats::quantile(s, 1 - a)),
+               share_explained = 1 - bias_energy(rf, local) / e0_local,
+               share_of_bias = 1 - bias_energy(rf) / e0,
                strength = strength[[k]], stringsAsFactors = FALSE)
   })
   tab <- do.call(rbind, rows)
@@ -244,10 +252,11 @@ explain_refits <- function(fit, refits, n_draws, level) {
   post <- post / sum(post)
   tab$inclusion_prob <- post[-1]
   tab <- tab[order(-tab$inclusion_prob, -tab$log_bf), , drop = FALSE]
-  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper", "share_explained",
-               "share_of_bias")]
+  out <- tab[c("candidate", "inclusion_prob", "amplitude", "amplitude_lower", "amplitude_upper",
+               "share_explained", "share_of_bias")]
   rownames(out) <- NULL
-  models <- data.frame(subset = c(tab$candidate, "(none)"), probability = c(tab$inclusion_prob, post[1]),
+  models <- data.frame(subset = c(tab$candidate, "(none)"),
+                       probability = c(tab$inclusion_prob, post[1]),
                        stringsAsFactors = FALSE)
   attr(out, "subsets") <- models[order(-models$probability), , drop = FALSE]
   attr(out, "log_bf") <- stats::setNames(tab$log_bf, tab$candidate)
@@ -271,12 +280,14 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
     rf <- refits[[k]]
     z <- posterior_mean_inputs(rf)
     z0 <- z
-    z0[strength[k]] <- fit_get(rf, "prior_iu")$lower[match(strength[k], fit_get(rf, "prior_iu")$name)]
+    z0[strength[k]] <- fit_get(rf,
+                               "prior_iu")$lower[match(strength[k], fit_get(rf, "prior_iu")$name)]
     rbind(z, z0)
   })
   do.call(rbind, lapply(sites, function(s) {
     b <- drop(fit_get(fit, "basis")$Psi %*% colMeans(fit_get(fit, "wb")[[s]]))
-    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias", value = b)
+    out <- data.frame(site = s, t = fit_get(fit, "basis")$t, curve = "posterior mean bias",
+                      value = b)
     for (i in seq_along(lead)) {
       k <- lead[i]
       rf <- refits[[k]]
@@ -284,7 +295,8 @@ refit_curves <- function(fit, refits, strength, prob, n_lead = 3L) {
       m <- bank_predict(site_bank(fit_get(rf, "emulators"), s), shift_inputs(rf, s, at[[i]]))$mean
       v <- drop(fit_get(fit, "basis")$Psi %*% (m[1, ] - m[2, ]))
       out <- rbind(out, data.frame(site = s, t = fit_get(fit, "basis")$t,
-                                   curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k], z[strength[k]]),
+                                   curve = sprintf("%s at %s = %.3g", names(refits)[k], strength[k],
+                                                   z[strength[k]]),
                                    value = v))
     }
     out

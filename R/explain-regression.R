@@ -41,7 +41,8 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
   group <- if (is.null(group)) colnames(X) else group
   # one lattice for each number (from 2) of constrained amplitudes in a subset
   # (none is needed for one)
-  lattice <- lapply(seq_len(min(max_size, sum(positive))), function(d) if (d > 1L) orthant_lattice(d - 1L))
+  lattice <- lapply(seq_len(min(max_size, sum(positive))),
+                    function(d) if (d > 1L) orthant_lattice(d - 1L))
   sp <- regression_subsets(group, max_size)
   subsets <- sp$subsets
   n_sub <- length(subsets) + 1L
@@ -64,10 +65,12 @@ bias_regression <- function(Y, X, Wt, max_size = 3L, level = 0.9, cluster = NULL
     sum(sub_prob[-1][vapply(subsets, function(S) k %in% S, logical(1))])
   }, numeric(1))
   amp_draws <- averaged_amplitudes(Y, X, Wt, eta, post, subsets, positive)
-  out <- effect_table(amp_draws, incl, colMeans(share), group, colnames(X), level, colMeans(of_bias))
+  out <- effect_table(amp_draws, incl, colMeans(share), group, colnames(X), level,
+                      colMeans(of_bias))
   sub_names <- c("(none)", vapply(subsets, function(S) paste(colnames(X)[S], collapse = " + "), ""))
   top <- order(-sub_prob)[seq_len(min(10L, n_sub))]
-  c(out, list(subsets = data.frame(subset = sub_names[top], probability = sub_prob[top], stringsAsFactors = FALSE),
+  c(out, list(subsets = data.frame(subset = sub_names[top], probability = sub_prob[top],
+                                   stringsAsFactors = FALSE),
               eta = eta))
 }
 
@@ -84,7 +87,8 @@ regression_subsets <- function(group, max_size) {
   sizes <- vapply(subsets, length, 1L)
   log_w <- -log(as.vector(table(group)[group]))
   log_w <- vapply(subsets, function(S) sum(log_w[S]), numeric(1))
-  size_mass <- vapply(seq_len(min(max_size, n_group)), function(k) log(sum(exp(log_w[sizes == k]))), numeric(1))
+  size_mass <- vapply(seq_len(min(max_size, n_group)), function(k) log(sum(exp(log_w[sizes == k]))),
+                      numeric(1))
   list(subsets = subsets, log_prior = c(0, log_w - size_mass[sizes]) - log(length(size_mass) + 1))
 }
 
@@ -122,7 +126,8 @@ draw_subset_evidence <- function(y, X, w, eta, subsets, log_prior, positive, lat
     logml[j + 1L] <- -length(S) / 2 * log1p(g) - n / 2 * log1p(-shrink * r2)
     pS <- which(positive[S])
     if (length(pS)) {
-      orthant[[j]] <- list(mu = shrink * coef[pS], V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta,
+      orthant[[j]] <- list(mu = shrink * coef[pS],
+                           V = chol2inv(ch)[pS, pS, drop = FALSE] * shrink / eta,
                            phi = yy * (1 - shrink * r2) / n_all)
     }
   }
@@ -172,7 +177,8 @@ effect_table <- function(amp_draws, incl, share_mean, group, names, level, of_bi
   H <- nrow(amp_draws)
   alpha <- (1 - level) / 2
   versions <- data.frame(candidate = names, effect = group, inclusion_prob = incl,
-                         amplitude = colMeans(amp_draws), share_explained = share_mean, share_of_bias = of_bias,
+                         amplitude = colMeans(amp_draws), share_explained = share_mean,
+                         share_of_bias = of_bias,
                          stringsAsFactors = FALSE)
   eff <- unique(group)
   amp_draws <- vapply(eff, function(e) rowSums(amp_draws[, group == e, drop = FALSE]), numeric(H))
@@ -194,7 +200,8 @@ effect_table <- function(amp_draws, incl, share_mean, group, names, level, of_bi
   table <- table[order(-table$inclusion_prob, -table$share_explained), , drop = FALSE]
   rownames(table) <- NULL
   list(table = table, lead = stats::setNames(names[lead], eff),
-       versions = if (length(eff) < length(names)) versions[order(-versions$inclusion_prob), , drop = FALSE])
+       versions = if (length(eff) < length(names))
+         versions[order(-versions$inclusion_prob), , drop = FALSE])
 }
 
 # A fixed lattice of N quasi-random points in d dimensions for the orthant

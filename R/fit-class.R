@@ -73,7 +73,8 @@ wv_fit_fields <- c(
   registration_shifts = "list?", rhat = "named numeric", ess = "named numeric", flags = "list",
   shared_errors = "list?", sampling_seconds = "number?", stopping = "list?",
   prior_sd = "named numeric", conditions = "list?", experiments = "data frame?",
-  shift = "site list?", control = "list?", pipeline = "list?", call_args = "list?", timing = "data frame?",
+  shift = "site list?", control = "list?", pipeline = "list?", call_args = "list?",
+  timing = "data frame?",
   held = "list?"
 )
 
@@ -106,11 +107,13 @@ fit_set <- function(fit, ..., call = rlang::caller_env()) {
 # fit saved before it was declared lacks reads as NULL.
 fit_get <- function(fit, name, call = rlang::caller_env()) {
   if (!is.character(name) || length(name) != 1L || !name %in% names(wv_fit_fields)) {
-    wv_abort("{.field {name}} is not one field of a {.cls wv_fit}.", class = "internal", .internal = TRUE,
+    wv_abort("{.field {name}} is not one field of a {.cls wv_fit}.", class = "internal",
+             .internal = TRUE,
              call = call)
   }
   if (!inherits(fit, "wv_fit")) {
-    wv_abort("{.arg fit} must be a {.cls wv_fit}, not {.obj_type_friendly {fit}}.", class = "internal",
+    wv_abort("{.arg fit} must be a {.cls wv_fit}, not {.obj_type_friendly {fit}}.",
+             class = "internal",
              .internal = TRUE, call = call)
   }
   fit[[name]]
@@ -241,7 +244,8 @@ posterior_mean_inputs <- function(fit) {
 # `rows` of the draws: sigma^2 / R plus the registration variance (rows x
 # coefficients).
 field_mean_variance <- function(fit, s, rows) {
-  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||% 0, `+`)
+  sweep(fit$sigma2[[s]][rows, , drop = FALSE] / fit$n_rep[[s]], 2L, fit$registration_var[[s]] %||%
+        0, `+`)
 }
 
 # The field mean's coefficients at site `s` for the rows `rows` of the
@@ -265,5 +269,6 @@ tau2_columns <- function(fit, s) {
 # `registered_to`), or NULL for a fit of calibrate(); for a fit made before
 # they were kept apart from the settings, read from its `call_args`.
 fit_pipeline <- function(fit) {
-  fit$pipeline %||% (if (!is.null(fit$call_args)) fit$call_args[c("runs", "field", "experiments", "registered_to")])
+  fit$pipeline %||%
+    (if (!is.null(fit$call_args)) fit$call_args[c("runs", "field", "experiments", "registered_to")])
 }

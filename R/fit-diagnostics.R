@@ -60,12 +60,14 @@ warn_fit_flags <- function(fit) {
   if (!is.null(st) && !isTRUE(st$met)) {
     wv_warn(c("The chains reached their ceiling of {st$draws} draws each without the targets.",
               "*" = "The slowest input, {.val {st$slowest}}, has an ESS of {round(st$ess)} (target {st$ess_target}){if (is.na(st$rhat)) '' else sprintf('; the largest R-hat is %.3f (target %s)', st$rhat, st$rhat_target)}.",
-              "i" = "Raise {.arg max_draws} or {.arg n_inner} in {.fn sampler_control}."), class = "mixing")
+              "i" = "Raise {.arg max_draws} or {.arg n_inner} in {.fn sampler_control}."),
+            class = "mixing")
   }
   f <- fit$flags
   if (length(f$rhat)) {
     wv_warn(c("The chains have not mixed: R-hat > 1.1 for {.val {f$rhat}}.",
-              "i" = "Run longer chains (larger {.arg n_draws} or {.arg n_inner})."), class = "mixing")
+              "i" = "Run longer chains (larger {.arg n_draws} or {.arg n_inner})."),
+            class = "mixing")
   }
   if (nrow(f$boundary)) {
     msg <- sprintf("%s at its %s bound (%.0f%% of draws, prior %.0f%%)", f$boundary$input,
@@ -95,7 +97,8 @@ boundary_check <- function(fit, margin = 0.02) {
     hi <- iu$upper[k]
     if (iu$type[k] == "condition") {
       # known, held at its value: never at a bound by the data's pull
-      return(data.frame(input = p, lower = lo, upper = hi, near_lower = 0, near_upper = 0, prior_near_lower = 0,
+      return(data.frame(input = p, lower = lo, upper = hi, near_lower = 0, near_upper = 0,
+                        prior_near_lower = 0,
                         prior_near_upper = 0, flagged = FALSE, stringsAsFactors = FALSE))
     }
     nom <- iu$nominal[k]
@@ -165,12 +168,16 @@ input_conflicts <- function(fit, alpha = 0.05, margin = 0.02, majority = 0.5, pr
       (fit$prior_iu$upper[k] - fit$prior_iu$lower[k]) > 1e-4 * max(abs(fit$prior_iu$upper[k]), 1)
     far <- judged && tail < alpha / (2 * p)
     beyond <- bound_overshoot(if (side == "upper") b$upper - x else x - b$lower)
-    piled <- judged && share >= majority && share >= 4 * prior_share && beyond >= stats::qnorm(1 - alpha / (2 * p))
+    piled <- judged && share >= majority && share >= 4 * prior_share &&
+      beyond >= stats::qnorm(1 - alpha / (2 * p))
     # a test condition is known, held at its value: no prior to be far from
-    data.frame(input = nm, type = if (condition) "condition" else fit$prior_iu$type[k], median = med,
+    data.frame(input = nm, type = if (condition) "condition" else fit$prior_iu$type[k],
+               median = med,
                prior_mean = mu, prior_sd = if (condition) NA_real_ else s,
-               prior_sds = if (condition) NA_real_ else if (s > 0) (med - mu) / s else 0, side = side, prior_tail = tail,
-               share_at_bound = share, prior_share_at_bound = prior_share, beyond_bound_sd = beyond, far = far,
+               prior_sds = if (condition) NA_real_ else if (s > 0) (med - mu) / s else 0,
+               side = side, prior_tail = tail,
+               share_at_bound = share, prior_share_at_bound = prior_share, beyond_bound_sd = beyond,
+               far = far,
                piled = piled, conflict = far || piled, stringsAsFactors = FALSE)
   }))
   attr(out, "alpha") <- alpha
@@ -212,11 +219,13 @@ conflict_text <- function(cf) {
     where <- if (r$piled) {
       sprintf("piled at its %s bound (%.0f%% of the draws within 2%% of the range from it, prior %.0f%%; they fall away from it as a posterior centred %s sd beyond it would)",
               r$side, 100 * r$share_at_bound, 100 * r$prior_share_at_bound,
-              if (r$beyond_bound_sd >= 10) "10 or more" else format(round(r$beyond_bound_sd, 1), nsmall = 1))
+              if (r$beyond_bound_sd >= 10) "10 or more" else format(round(r$beyond_bound_sd, 1),
+                                                                    nsmall = 1))
     } else {
       sprintf("in its prior's %s tail", r$side)
     }
-    sprintf("%s %s, median %s, %s prior sd from the prior's mean %s", r$input, where, format(signif(r$median, 3)),
+    sprintf("%s %s, median %s, %s prior sd from the prior's mean %s", r$input, where,
+            format(signif(r$median, 3)),
             format(round(r$prior_sds, 1), nsmall = 1), format(signif(r$prior_mean, 3)))
   }, character(1))
 }

@@ -98,7 +98,8 @@ draw_source <- function(fit, site, what = c("bias", "reality", "model", "field_r
   )
   Psi <- fit$basis$Psi
   extra <- if (residual && what == "reality") residual_source(fit, site, nrow(W))
-  if (is.null(extra)) return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, offset = numeric())))
+  if (is.null(extra)) return(curve_source(nrow(W), nrow(Psi), NULL,
+                                          list(W = W, B = Psi, offset = numeric())))
   lin <- attr(extra, "linear")
   if (!is.null(lin)) {
     return(curve_source(nrow(W), nrow(Psi), NULL, list(W = W, B = Psi, W2 = lin$W, B2 = lin$B,
@@ -112,7 +113,8 @@ draw_source <- function(fit, site, what = c("bias", "reality", "model", "field_r
 # a fit are reproducible and the caller's stream is left alone.
 site_curves <- function(fit, site, what, seed = NULL, residual = FALSE, fun) {
   if (residual && what == "reality") {
-    with_rng_seed(residual_seed(fit, site), fun(draw_source(fit, site, what, seed, residual = TRUE)))
+    with_rng_seed(residual_seed(fit, site),
+                  fun(draw_source(fit, site, what, seed, residual = TRUE)))
   } else {
     fun(draw_source(fit, site, what, seed))
   }

@@ -11,7 +11,8 @@ shift_inputs <- function(fit, s, Z) {
 # The experiment of each site of a fit ("base" for all with one experiment).
 fit_experiments <- function(fit) {
   sites <- names(fit$wb)
-  fit$experiments %||% data.frame(site = sites, experiment = "base", field_site = sites, stringsAsFactors = FALSE)
+  fit$experiments %||%
+    data.frame(site = sites, experiment = "base", field_site = sites, stringsAsFactors = FALSE)
 }
 
 # The sites of the base experiment (every site with one experiment).

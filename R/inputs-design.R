@@ -183,7 +183,8 @@ design_posterior <- function(fit, n, spread = 0.05, seed = NULL) {
 # random LHDs, improved by element swaps within a column that increase the
 # smallest inter-point distance. Uses R's RNG.
 maximin_lhd <- function(n, p, n_start = 50L, n_swap = 2000L) {
-  random_lhd <- function() vapply(seq_len(p), function(j) (sample.int(n) - stats::runif(n)) / n, numeric(n))
+  random_lhd <- function() vapply(seq_len(p), function(j) (sample.int(n) - stats::runif(n)) / n,
+                                  numeric(n))
   mindist <- function(x) min(stats::dist(x))
   best <- random_lhd()
   best_d <- mindist(best)

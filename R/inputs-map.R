@@ -191,9 +191,12 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
                "i" = "Give each new input a name of its own."))
   }
   n <- length(name)
-  lens <- c(type = length(type), lower = length(lower), upper = length(upper), nominal = length(nominal),
-            prior_sd = length(prior_sd %||% NA), prior = length(prior %||% NA), prior_mean = length(prior_mean %||% NA))
-  bad <- lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L)]
+  lens <- c(type = length(type), lower = length(lower), upper = length(upper),
+            nominal = length(nominal),
+            prior_sd = length(prior_sd %||% NA), prior = length(prior %||% NA),
+            prior_mean = length(prior_mean %||% NA))
+  bad <-
+    lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L)]
   if (length(bad)) {
     wv_abort(c(
       "Every argument must have one value per new input ({n} input{?s}).",
@@ -201,7 +204,8 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
     ))
   }
   iu <- iu_upgrade(iu)
-  new <- iu_map(name, rep_len(type, n), lower, upper, nominal = nominal, prior_sd = prior_sd, prior = prior,
+  new <- iu_map(name, rep_len(type, n), lower, upper, nominal = nominal, prior_sd = prior_sd,
+                prior = prior,
                 prior_mean = prior_mean)
   out <- new_wv_iu(rbind(as.data.frame(iu), as.data.frame(new)))
   attr(out, "joint") <- attr(iu, "joint")
@@ -242,7 +246,8 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
 #' range(as.matrix(fit$draws)[, "x1"])
 iu_hold <- function(iu, values) {
   check_class(iu, "wv_iu")
-  if (!is.numeric(values) || !length(values) || is.null(names(values)) || any(!nzchar(names(values))) ||
+  if (!is.numeric(values) || !length(values) || is.null(names(values)) ||
+      any(!nzchar(names(values))) ||
       anyNA(names(values)) || anyDuplicated(names(values)) || any(!is.finite(values))) {
     wv_abort(c("{.arg values} must be a named numeric vector of finite values, one per input to hold.",
                "i" = "For example {.code c(x1 = 0.5)}."))
@@ -362,7 +367,8 @@ validate_wv_iu <- function(x, call = rlang::caller_env()) {
   }
   cal <- norm & x$type == "calibration"
   if (any(cal)) {
-    mass <- vapply(which(cal), function(k) univariate_prior_mass(x, k, x$lower[k], x$upper[k]), numeric(1))
+    mass <- vapply(which(cal), function(k) univariate_prior_mass(x, k, x$lower[k], x$upper[k]),
+                   numeric(1))
     tiny <- mass < min_prior_mass
     if (any(tiny)) {
       wv_abort(c(
@@ -478,7 +484,8 @@ iu_prior_joint <- function(iu, names, mean, cov, scale = "identity") {
              class = c("prior", "input"))
   }
   if (any(!is.finite(cov))) wv_abort("{.arg cov} must be finite.", class = c("prior", "input"))
-  if (!is.character(scale) || !length(scale) %in% c(1L, d) || !all(scale %in% c("identity", "log"))) {
+  if (!is.character(scale) || !length(scale) %in% c(1L, d) ||
+      !all(scale %in% c("identity", "log"))) {
     wv_abort("{.arg scale} must be {.val identity} or {.val log}, one value or one per input ({d}).",
              class = c("prior", "input"))
   }
@@ -492,7 +499,8 @@ iu_prior_joint <- function(iu, names, mean, cov, scale = "identity") {
   }
   cov <- unname(cov)
   joint_chol(cov)
-  blocks <- c(attr(iu, "joint"), list(list(names = names, mean = unname(as.numeric(mean)), cov = cov,
+  blocks <- c(attr(iu, "joint"), list(list(names = names, mean = unname(as.numeric(mean)),
+                                           cov = cov,
                                            scale = scale)))
   iu$prior[k] <- "joint"
   iu$prior_sd[k] <- NA_real_

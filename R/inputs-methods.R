@@ -9,15 +9,18 @@ print.wv_iu <- function(x, ...) {
   n_cond <- sum(x$type == "condition")
   cli::cat_line(sprintf("<wv_iu> %d input%s: %d calibration, %d with manufacturing variation%s",
                         nrow(x), if (nrow(x) == 1) "" else "s", n_cal, n_var,
-                        if (n_cond) sprintf(", %d condition%s", n_cond, if (n_cond == 1) "" else "s") else ""))
-  df <- data.frame(name = x$name, type = x$type, nominal = format(signif(x$nominal, 4), trim = TRUE),
+                        if (n_cond) sprintf(", %d condition%s", n_cond,
+                                            if (n_cond == 1) "" else "s") else ""))
+  df <- data.frame(name = x$name, type = x$type,
+                   nominal = format(signif(x$nominal, 4), trim = TRUE),
                    `prior on [lower, upper]` = prior_labels(x, range = FALSE), check.names = FALSE,
                    stringsAsFactors = FALSE)
   print(df, row.names = FALSE, right = FALSE)
   for (line in joint_prior_text(x)) cli::cat_line(line)
   if (n_cond) {
     cli::cat_line(sprintf("Condition%s, known and set by each experiment (nominal: the base experiment's): %s",
-                          if (n_cond == 1) "" else "s", paste(x$name[x$type == "condition"], collapse = ", ")))
+                          if (n_cond == 1) "" else "s",
+                          paste(x$name[x$type == "condition"], collapse = ", ")))
   }
   invisible(x)
 }
@@ -36,8 +39,10 @@ summary.wv_iu <- function(object, ...) {
 #' @export
 print.summary_wv_iu <- function(x, ...) {
   cli::cat_line("I/U map of ", x$n, " inputs")
-  cli::cat_line("  calibration: ", if (length(x$calibration)) paste(x$calibration, collapse = ", ") else "none")
-  cli::cat_line("  variation:   ", if (length(x$variation)) paste(x$variation, collapse = ", ") else "none")
+  cli::cat_line("  calibration: ",
+                if (length(x$calibration)) paste(x$calibration, collapse = ", ") else "none")
+  cli::cat_line("  variation:   ",
+                if (length(x$variation)) paste(x$variation, collapse = ", ") else "none")
   if (length(x$condition)) cli::cat_line("  condition:   ", paste(x$condition, collapse = ", "))
   invisible(x)
 }

@@ -84,7 +84,8 @@ iu_log_prior <- function(iu, X) {
     out <- x < iu$lower[kk] | x > iu$upper[kk]
     term <- switch(iu$prior[kk],
                    normal = -0.5 * ((x - iu$prior_mean[kk]) / iu$prior_sd[kk])^2,
-                   lognormal = -0.5 * ((log(pmax(x, 0)) - log(iu$prior_mean[kk])) / iu$prior_sd[kk])^2 - log(x),
+                   lognormal = -0.5 * ((log(pmax(x, 0)) - log(iu$prior_mean[kk])) /
+                                       iu$prior_sd[kk])^2 - log(x),
                    0)
     lp <- lp + ifelse(out, -Inf, term)
   }
@@ -136,7 +137,8 @@ iu_prior_mass <- function(iu, k, a, b) {
            x <- with_rng_seed(1L, iu_prior_draws(iu, 4000L)[, k])
            mean(x >= a & x <= b)
          },
-         univariate_prior_mass(iu, k, a, b) / univariate_prior_mass(iu, k, iu$lower[k], iu$upper[k]))
+         univariate_prior_mass(iu, k, a, b) /
+         univariate_prior_mass(iu, k, iu$lower[k], iu$upper[k]))
 }
 
 # Draws from the prior of every input (n x p matrix in the inputs' own units),
@@ -158,11 +160,13 @@ iu_prior_draws <- function(iu, n, nominal = NULL) {
       m <- if (lg) log(iu$prior_mean[k]) else iu$prior_mean[k]
       a <- if (lg) log(iu$lower[k]) else iu$lower[k]
       b <- if (lg) log(iu$upper[k]) else iu$upper[k]
-      y <- stats::qnorm(stats::runif(n, stats::pnorm(a, m, iu$prior_sd[k]), stats::pnorm(b, m, iu$prior_sd[k])),
+      y <- stats::qnorm(stats::runif(n, stats::pnorm(a, m, iu$prior_sd[k]),
+                                     stats::pnorm(b, m, iu$prior_sd[k])),
                         m, iu$prior_sd[k])
       return(pmin(pmax(if (lg) exp(y) else y, iu$lower[k]), iu$upper[k]))
     }
-    p <- stats::runif(n, stats::pnorm(lo, nom[k], iu$prior_sd[k]), stats::pnorm(hi, nom[k], iu$prior_sd[k]))
+    p <- stats::runif(n, stats::pnorm(lo, nom[k], iu$prior_sd[k]),
+                      stats::pnorm(hi, nom[k], iu$prior_sd[k]))
     stats::qnorm(p, nom[k], iu$prior_sd[k])
   }, numeric(n))
   if (n == 1L) out <- matrix(out, nrow = 1L)
@@ -201,19 +205,22 @@ joint_draws <- function(iu, b, n) {
 prior_labels <- function(iu, range = TRUE) {
   iu <- iu_upgrade(iu)
   f <- function(v) format(signif(v, 4), trim = TRUE)
-  on <- function(k) sprintf(if (range) " on [%s, %s]" else " [%s, %s]", f(iu$lower[k]), f(iu$upper[k]))
+  on <- function(k) sprintf(if (range) " on [%s, %s]" else " [%s, %s]", f(iu$lower[k]),
+                            f(iu$upper[k]))
   blocks <- attr(iu, "joint")
   vapply(seq_len(nrow(iu)), function(k) {
     lab <- switch(iu$prior[k],
       uniform = "uniform",
       none = "none (a condition, known), design",
       normal = sprintf("normal(%s, sd %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
-      lognormal = sprintf("log-normal(median %s, sd of log %s)", f(iu$prior_mean[k]), f(iu$prior_sd[k])),
+      lognormal = sprintf("log-normal(median %s, sd of log %s)", f(iu$prior_mean[k]),
+                          f(iu$prior_sd[k])),
       joint = {
         j <- which(vapply(blocks, function(b) iu$name[k] %in% b$names, logical(1)))
         b <- blocks[[j]]
         q <- match(iu$name[k], b$names)
-        sprintf("joint Gaussian %d: %s mean %s, sd %s", j, if (b$scale[q] == "log") "log x" else "x",
+        sprintf("joint Gaussian %d: %s mean %s, sd %s", j,
+                if (b$scale[q] == "log") "log x" else "x",
                 f(b$mean[q]), f(sqrt(b$cov[q, q])))
       })
     paste0(lab, on(k))
@@ -228,7 +235,8 @@ joint_prior_text <- function(iu) {
     s <- sqrt(diag(b$cov))
     corr <- b$cov / outer(s, s)
     lab <- ifelse(b$scale == "log", paste0("log(", b$names, ")"), b$names)
-    head <- sprintf("Joint Gaussian %d on %s, truncated to the ranges; correlations:", j, paste(lab, collapse = ", "))
+    head <- sprintf("Joint Gaussian %d on %s, truncated to the ranges; correlations:", j,
+                    paste(lab, collapse = ", "))
     rows <- vapply(seq_along(lab), function(q) {
       paste0("  ", formatC(lab[q], width = -max(nchar(lab))), " ",
              paste(formatC(corr[q, ], format = "f", digits = 2, width = 6), collapse = " "))

@@ -62,7 +62,8 @@ bias <- function(fit, level = 0.9) {
   check_class(fit, "wv_fit")
   check_level(level)
   do.call(rbind, lapply(fit_sites(fit), function(s) {
-    site_curves(fit, s, "bias", fun = function(src) band_frame(src, fit_get(fit, "basis")$t, s, level))
+    site_curves(fit, s, "bias",
+                fun = function(src) band_frame(src, fit_get(fit, "basis")$t, s, level))
   }))
 }
 
@@ -103,7 +104,8 @@ model_prediction <- function(fit, level = 0.9, residual = TRUE) {
 reality_mean <- function(fit, residual = TRUE) {
   do.call(rbind, lapply(fit_sites(fit), function(s) {
     site_curves(fit, s, "reality", residual = residual, fun = function(src) {
-      data.frame(site = s, t = fit_get(fit, "basis")$t, mean = curve_means(src), stringsAsFactors = FALSE)
+      data.frame(site = s, t = fit_get(fit, "basis")$t, mean = curve_means(src),
+                 stringsAsFactors = FALSE)
     })
   }))
 }
@@ -113,7 +115,8 @@ curve_means <- function(src) {
   src <- prepare_source(src)
   if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
   out <- block_outputs(src$n, 0L, 0L)
-  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out, scores = FALSE)
+  for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out,
+                                                          scores = FALSE)
   out$mean
 }
 
@@ -141,10 +144,12 @@ block_stats_into <- function(src, cols, probs, nc, out, scores = TRUE) {
   lin <- src$linear
   none <- matrix(0, 0L, 0L)
   if (is.null(lin)) {
-    band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(), as.numeric(probs), nc,
+    band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(),
+                        as.numeric(probs), nc,
                         out, scores)
   } else {
-    band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols), lin$offset,
+    band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols),
+                        lin$offset,
                         as.numeric(probs), nc, out, scores)
   }
 }
@@ -178,7 +183,8 @@ curve_bands <- function(src, level, probs = numeric()) {
   # a bar when the blocks are many (cli shows it only after two seconds)
   bar <- length(blocks) >= 4L && !isTRUE(getOption("wavevalid.quiet", FALSE))
   if (bar) {
-    cli::cli_progress_bar("Summarising curve draws", total = (2L - cand) * length(blocks), .envir = environment())
+    cli::cli_progress_bar("Summarising curve draws", total = (2L - cand) * length(blocks),
+                          .envir = environment())
   }
   env <- environment()
   tick <- function() if (bar) cli::cli_progress_update(.envir = env)
@@ -205,7 +211,9 @@ curve_bands <- function(src, level, probs = numeric()) {
     cols <- blocks[[k]]
     zmax[, k] <- band_score_cpp(src$block(cols), centre[cols], s[cols])
   }
-  score <- if (length(blocks)) do.call(pmax, lapply(seq_along(blocks), function(k) zmax[, k])) else rep(-Inf, H)
+  score <- if (length(blocks)) do.call(pmax,
+                                       lapply(seq_along(blocks),
+                                              function(k) zmax[, k])) else rep(-Inf, H)
   keep <- order(score)[seq_len(n_keep)]
   dropped <- rep(TRUE, H)
   dropped[keep] <- FALSE

@@ -9,13 +9,20 @@ as.data.frame.wv_prediction <- function(x, ...) {
 #' @export
 print.wv_prediction <- function(x, ...) {
   labels <- c(reality = "bias-corrected prediction of reality", field_run = "a new field run",
-              added_load = "the same vehicle with an added load", new_vehicle = "a new vehicle of the same type",
-              new_nominal = "a new vehicle with new nominal inputs", new_condition = "the system at a new condition",
+              added_load = "the same vehicle with an added load",
+              new_vehicle = "a new vehicle of the same type",
+              new_nominal = "a new vehicle with new nominal inputs",
+              new_condition = "the system at a new condition",
               experiment = "a held-out experiment")
-  cli::cat_line(sprintf("<wv_prediction> %s, %s bias, %g%% bands", labels[[x$type]], x$bias, 100 * x$level))
+  cli::cat_line(sprintf("<wv_prediction> %s, %s bias, %g%% bands", labels[[x$type]], x$bias,
+                        100 * x$level))
   if (identical(x$type, "new_condition")) {
-    cli::cat_line(sprintf("  condition %s: %s", paste(sprintf("%s = %g", names(x$condition), x$condition), collapse = ", "),
-                          switch(x$bias_from, tested = sprintf("tested (experiment %s), its own draws", x$tested),
+    cli::cat_line(sprintf("  condition %s: %s",
+                          paste(sprintf("%s = %g", names(x$condition), x$condition),
+                                collapse = ", "),
+                          switch(x$bias_from,
+                                 tested = sprintf("tested (experiment %s), its own draws",
+                                                  x$tested),
                                  shared = "untested, the bias shared by the experiments",
                                  pooled = "untested, the tested conditions' biases pooled")))
   }
@@ -69,7 +76,8 @@ print.summary_wv_prediction <- function(x, ...) {
 #' @param ... Unused.
 #' @return A ggplot object.
 #' @export
-autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = c("pointwise", "curve"), ...) {
+autoplot.wv_prediction <- function(object, field = NULL, windows = NULL,
+                                   band = c("pointwise", "curve"), ...) {
   band <- check_choice(band)
   s <- object$summary
   if (band == "curve") {
@@ -81,7 +89,9 @@ autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = 
   s <- win(s)
   p <- ggplot2::ggplot(s, ggplot2::aes(.data$t))
   if (!is.null(object$runs)) {
-    rr <- do.call(rbind, lapply(unique(s$site), function(si) curves_long(object$runs$curves[[si]], object$runs$t, si)))
+    rr <- do.call(rbind,
+                  lapply(unique(s$site),
+                         function(si) curves_long(object$runs$curves[[si]], object$runs$t, si)))
     p <- p + ggplot2::geom_line(data = win(rr), ggplot2::aes(.data$t, .data$y, group = .data$run),
                                 colour = "grey85", linewidth = 0.2)
   }
@@ -89,7 +99,8 @@ autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = 
     ff <- do.call(rbind, lapply(intersect(unique(s$site), names(field$curves)), function(si) {
       curves_long(field$curves[[si]], field$t, si, "replicate")
     }))
-    p <- p + ggplot2::geom_line(data = win(ff), ggplot2::aes(.data$t, .data$y, group = .data$replicate),
+    p <- p + ggplot2::geom_line(data = win(ff),
+                                ggplot2::aes(.data$t, .data$y, group = .data$replicate),
                                 colour = "#E69F00", linewidth = 0.3)
   }
   p + ggplot2::geom_line(ggplot2::aes(y = .data$model), colour = "grey50", linewidth = 0.4) +
@@ -98,7 +109,8 @@ autoplot.wv_prediction <- function(object, field = NULL, windows = NULL, band = 
     ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.4) +
     ggplot2::facet_grid(site ~ window, scales = "free") +
     ggplot2::labs(x = "time", y = "output",
-                  title = sprintf("Prediction: %s (%s bias, %g%% band)", gsub("_", " ", object$type),
+                  title = sprintf("Prediction: %s (%s bias, %g%% band)",
+                                  gsub("_", " ", object$type),
                                   object$bias, 100 * object$level)) +
     ggplot2::theme_bw()
 }

@@ -111,11 +111,14 @@
 #' p <- predict(fit, type = "new_condition", condition = c(x1 = 0.6), noise = FALSE)
 #' p
 #' head(as.data.frame(p))
-predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle", "new_nominal",
+predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load", "new_vehicle",
+                                            "new_nominal",
                                             "new_condition"),
-                           bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL, delta = NULL,
+                           bias = c("additive", "multiplicative"), level = 0.9, new_runs = NULL,
+                           delta = NULL,
                            x_nom = NULL,
-                           x_new = NULL, residual = TRUE, noise = NULL, guard = 0.01, keep_draws = FALSE,
+                           x_new = NULL, residual = TRUE, noise = NULL, guard = 0.01,
+                           keep_draws = FALSE,
                            seed = NULL, condition = NULL, ...) {
   check_dots_none(...)
   type <- check_choice(type)
@@ -129,11 +132,13 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
   seed <- resolve_seed(seed)
   warn_unmixed(object)
   if (!is.null(condition) && type != "new_condition") {
-    wv_abort("{.arg condition} is used only by {.code type = \"new_condition\"}.", class = "condition")
+    wv_abort("{.arg condition} is used only by {.code type = \"new_condition\"}.",
+             class = "condition")
   }
   if (type == "new_condition") {
     if (bias != "additive") {
-      wv_abort("A new condition carries the bias additively; use {.code bias = \"additive\"}.", class = "condition")
+      wv_abort("A new condition carries the bias additively; use {.code bias = \"additive\"}.",
+               class = "condition")
     }
     return(predict_new_condition(object, condition, level, noise, keep_draws, seed))
   }
@@ -176,7 +181,8 @@ predict.wv_fit <- function(object, type = c("reality", "field_run", "added_load"
 # the new setting and of the measurement error are drawn first; the curves are
 # then rebuilt from them block by block of time points (a curve source, see
 # curve_bands()), so that they are held whole only with `keep_draws`.
-predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws, residual = FALSE) {
+predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, keep_draws,
+                         residual = FALSE) {
   Psi <- fit_get(fit, "basis")$Psi
   wM <- fit_get(fit, "wM")[[s]]
   wb <- fit_get(fit, "wb")[[s]]
@@ -202,7 +208,8 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
     # largest absolute model output of each draw, and the guarded points
     peak <- rep(-Inf, H)
     for (cols in col_blocks(n_t, H)) peak <- pmax(peak, apply(abs(model_block(cols)), 1L, max))
-    for (cols in col_blocks(n_t, H)) n_guarded <- n_guarded + sum(abs(model_block(cols)) < guard * peak)
+    for (cols in col_blocks(n_t, H)) n_guarded <- n_guarded +
+      sum(abs(model_block(cols)) < guard * peak)
   }
   src <- curve_source(H, n_t, function(cols) {
     curves <- function(X) basis_curves_block(X, Psi, cols)
@@ -235,7 +242,8 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
       new_vehicle = , new_nominal = wNew
     ) + wb
     if (noise) Wt <- Wt + eps
-    lin <- list(W = Wt, B = Psi, offset = if (type == "added_load" && is.null(dW)) shift else numeric())
+    lin <- list(W = Wt, B = Psi,
+                offset = if (type == "added_load" && is.null(dW)) shift else numeric())
     if (residual) {
       lin <- list(W = Wt, B = Psi, W2 = det_lin$W, B2 = det_lin$B,
                   offset = if (length(lin$offset)) lin$offset + det_lin$offset else det_lin$offset)
@@ -253,7 +261,8 @@ predict_site <- function(fit, s, type, bias, level, new_model, noise, guard, kee
 }
 
 check_new_runs <- function(fit, new_runs, call = rlang::caller_env()) {
-  if (is.null(new_runs)) wv_abort("This prediction needs {.arg new_runs}, a {.cls wv_runs}.", call = call)
+  if (is.null(new_runs)) wv_abort("This prediction needs {.arg new_runs}, a {.cls wv_runs}.",
+                                  call = call)
   check_class(new_runs, "wv_runs", call = call)
   tb <- fit_get(fit, "basis")$t
   if (!isTRUE(all.equal(new_runs$t, tb))) {
@@ -296,7 +305,8 @@ added_load_difference <- function(fit, new_runs, call = rlang::caller_env()) {
 # each posterior draw move by delta.
 added_load_emulated <- function(fit, delta, call = rlang::caller_env()) {
   inputs <- fit_get(fit, "emulators")$inputs
-  if (!is.numeric(delta) || is.null(names(delta)) || any(!is.finite(delta)) || !all(names(delta) %in% inputs)) {
+  if (!is.numeric(delta) || is.null(names(delta)) || any(!is.finite(delta)) ||
+      !all(names(delta) %in% inputs)) {
     wv_abort(c(
       "{.arg delta} must be a named numeric change of the fit's inputs.",
       "i" = "The inputs are {.val {inputs}}."
@@ -325,7 +335,8 @@ new_nominal_setup <- function(fit, new_runs, x_nom, seed, call = rlang::caller_e
     wv_abort("{.arg x_nom} must be a named numeric vector of variation inputs ({.val {var_inputs}}).", call = call)
   }
   new_runs$design <- new_runs$design[inputs]
-  em_new <- fit_emulators(new_runs, fit_get(fit, "basis"), engine = fit_get(fit, "emulators")$engine, seed = seed)
+  em_new <- fit_emulators(new_runs, fit_get(fit, "basis"),
+                          engine = fit_get(fit, "emulators")$engine, seed = seed)
   predict_at_draws(fit, em_new, x_nom, x_new = NULL, augmented = FALSE)
 }
 
@@ -373,7 +384,8 @@ predict_at_draws <- function(fit, em, nominal, x_new, augmented) {
   })
   names(res) <- base_sites(fit)
   list(
-    mean = lapply(res, `[[`, "mean"), var = lapply(res, `[[`, "var"), pure = lapply(res, `[[`, "pure"),
+    mean = lapply(res, `[[`, "mean"), var = lapply(res, `[[`, "var"),
+    pure = lapply(res, `[[`, "pure"),
     x_nom = nominal
   )
 }
@@ -384,16 +396,21 @@ setup_seed_of <- function(seed) if (seed < .Machine$integer.max) seed + 1L else 
 # predict(type = "new_condition"): the draws of the condition
 # (new_condition_setup(), from the set-up stream), then the bands by base
 # site.
-predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed, call = rlang::caller_env()) {
+predict_new_condition <- function(fit, condition, level, noise, keep_draws, seed,
+                                  call = rlang::caller_env()) {
   setup <- with_rng_seed(setup_seed_of(seed), new_condition_setup(fit, condition, call = call))
   sites <- names(setup$sites)
-  out <- with_rng_seed(seed, lapply(sites, function(s) new_condition_site(fit, s, setup, level, noise, keep_draws)))
+  out <- with_rng_seed(seed,
+                       lapply(sites,
+                              function(s) new_condition_site(fit, s, setup, level, noise,
+                                                             keep_draws)))
   names(out) <- sites
   structure(list(
     summary = do.call(rbind, lapply(out, `[[`, "summary")),
     draws = if (keep_draws) lapply(out, `[[`, "draws"),
     n_guarded = vapply(out, `[[`, 0, "n_guarded"),
-    type = "new_condition", bias = "additive", level = level, noise = noise, residual = FALSE, seed = seed,
+    type = "new_condition", bias = "additive", level = level, noise = noise, residual = FALSE,
+    seed = seed,
     condition = setup$condition, tested = setup$tested, bias_from = setup$bias_from
   ), class = "wv_prediction")
 }
@@ -426,7 +443,8 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
   cond <- conditions$inputs
   inputs <- fit_get(fit, "inputs")
   tol <- 1e-9 * pmax(1, abs(v))
-  hit <- which(vapply(seq_len(nrow(tab)), function(r) all(abs(unlist(tab[r, cond]) - v) <= tol), logical(1)))
+  hit <- which(vapply(seq_len(nrow(tab)), function(r) all(abs(unlist(tab[r, cond]) - v) <= tol),
+                      logical(1)))
   ex <- fit_experiments(fit)
   base <- base_sites(fit)
   site_of <- function(e, s) if (e == "base") s else paste0(e, "/", s)
@@ -435,7 +453,8 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
     zbar <- matrix(posterior_mean_inputs(fit)[inputs], 1L, dimnames = list(NULL, inputs))
     out <- lapply(stats::setNames(base, base), function(s) {
       se <- site_of(e, s)
-      list(M = fit_get(fit, "wM")[[se]], B = fit_get(fit, "wb")[[se]], S2 = fit_get(fit, "sigma2")[[se]],
+      list(M = fit_get(fit, "wM")[[se]], B = fit_get(fit, "wb")[[se]],
+           S2 = fit_get(fit, "sigma2")[[se]],
            pure = drop(bank_predict(site_bank(fit_get(fit, "emulators"), se),
                                     shift_inputs(fit, se, zbar))$mean))
     })
@@ -459,11 +478,13 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
       }
       X
     }
-    list(M = fit_get(fit, "wM")[[s]] + moved[[s]], B = if (shared) fit_get(fit, "wb")[[s]] else from("wb"),
+    list(M = fit_get(fit, "wM")[[s]] + moved[[s]],
+         B = if (shared) fit_get(fit, "wb")[[s]] else from("wb"),
          S2 = from("sigma2"),
          pure = drop(bank_predict(site_bank(fit_get(fit, "emulators"), s), matrix(znew, 1L))$mean))
   })
-  list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled", condition = v,
+  list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled",
+       condition = v,
        experiment = exps[pick])
 }
 
@@ -482,7 +503,8 @@ new_condition_site <- function(fit, s, setup, level, noise, keep_draws) {
   draws <- if (keep_draws) source_matrix(src)
   tb <- fit_get(fit, "basis")$t
   band <- band_frame(draws %||% src, tb, s, level)
-  model <- band_frame(curve_source(H, nrow(Psi), NULL, list(W = Wm, B = Psi, offset = numeric())), tb, s, level)
+  model <- band_frame(curve_source(H, nrow(Psi), NULL, list(W = Wm, B = Psi, offset = numeric())),
+                      tb, s, level)
   band$model <- drop(Psi %*% d$pure)
   band$model_lower <- model$lower
   band$model_upper <- model$upper

@@ -89,7 +89,8 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
   channels <- channels[keep]
   kind <- kind[keep]
   names(kind) <- names(channels)
-  rows <- unlist(lapply(names(channels), function(ch) channel_terms(ch, channels[[ch]])), recursive = FALSE)
+  rows <- unlist(lapply(names(channels), function(ch) channel_terms(ch, channels[[ch]])),
+                 recursive = FALSE)
   if (products && length(channels) > 1L) {
     pairs <- utils::combn(names(channels), 2L, simplify = FALSE)
     rows <- c(rows, lapply(pairs, function(p) product_term(p, channels)))
@@ -102,7 +103,8 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
   values <- lapply(rows, `[[`, "values")
   funs <- lapply(rows, `[[`, "fun")
   names(values) <- names(funs) <- terms$term
-  flat <- vapply(values, function(v) all(vapply(v, function(y) diff(range(y)) == 0, logical(1))), logical(1))
+  flat <- vapply(values, function(v) all(vapply(v, function(y) diff(range(y)) == 0, logical(1))),
+                 logical(1))
   structure(list(terms = terms[!flat, , drop = FALSE], values = values[!flat], funs = funs[!flat],
                  channels = list(curves = channels, kind = kind), sites = fit_sites(fit),
                  grid = fit_get(fit, "basis")$t, n_coef = vapply(fit_get(fit, "wb"), ncol, 1L)),
@@ -129,7 +131,8 @@ channel_curves_from <- function(fit, states, t) {
   tb <- fit_get(fit, "basis")$t
   out <- lapply(nm, function(k) {
     cur <- states[[k]]
-    if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)), sites)
+    if (is.numeric(cur) && is.null(dim(cur))) cur <- stats::setNames(rep(list(cur), length(sites)),
+                                                                     sites)
     stats::setNames(lapply(sites, function(s) candidate_on_grid(cur[[s]], k, s, tb, t)$y), sites)
   })
   stats::setNames(out, nm)
@@ -152,14 +155,16 @@ output_channels <- function(fit) {
 # FALSE for a channel whose curves (all sites together) are, up to an affine
 # map, those of an earlier channel (correlation above 0.9999).
 distinct_channels <- function(channels) {
-  flat <- vapply(channels, function(ch) unlist(ch, use.names = FALSE), numeric(length(unlist(channels[[1]]))))
+  flat <- vapply(channels, function(ch) unlist(ch, use.names = FALSE),
+                 numeric(length(unlist(channels[[1]]))))
   if (is.null(dim(flat))) flat <- matrix(flat, ncol = length(channels))
   sdv <- apply(flat, 2, stats::sd)
   keep <- sdv > 0
   for (j in seq_len(ncol(flat))[-1]) {
     if (!keep[j]) next
     prev <- which(keep[seq_len(j - 1L)])
-    if (length(prev) && any(abs(suppressWarnings(stats::cor(flat[, j], flat[, prev]))) > 0.9999)) keep[j] <- FALSE
+    if (length(prev) && any(abs(suppressWarnings(stats::cor(flat[, j], flat[, prev]))) > 0.9999))
+      keep[j] <- FALSE
   }
   keep
 }
@@ -181,7 +186,8 @@ channel_terms <- function(ch, x) {
   }
   zero_or <- function(cs) unique(c(if (crosses) 0, cs))
   out <- list(make("linear", "", function(x) x))
-  out <- c(out, list(make("power", "x^2", function(x) x^2), make("power", "x|x|", function(x) x * abs(x)),
+  out <- c(out, list(make("power", "x^2", function(x) x^2),
+                     make("power", "x|x|", function(x) x * abs(x)),
                      make("power", "x^3", function(x) x^3)))
   # thresholds within a thousandth of the spread of the channel's extreme
   # would make terms that are zero to rounding
@@ -222,7 +228,8 @@ channel_terms <- function(ch, x) {
 product_term <- function(p, channels) {
   a <- channels[[p[1]]]
   b <- channels[[p[2]]]
-  list(term = sprintf("product(%s, %s)", p[1], p[2]), effect = sprintf("product(%s, %s)", p[1], p[2]),
+  list(term = sprintf("product(%s, %s)", p[1], p[2]),
+       effect = sprintf("product(%s, %s)", p[1], p[2]),
        family = "product", channel = paste(p, collapse = " x "), version = "",
        values = Map(`*`, a, b), fun = NULL)
 }

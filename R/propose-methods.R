@@ -9,8 +9,10 @@ print.wv_proposals <- function(x, ...) {
   top <- x[x$inclusion_prob >= 0.01, , drop = FALSE]
   if (!nrow(top)) top <- x[seq_len(min(3L, nrow(x))), , drop = FALSE]
   top <- utils::head(top, 8L)
-  df <- data.frame(term = top$term, inclusion = signif(top$inclusion_prob, 2), strength = signif(top$strength, 3),
-                   interval = sprintf("[%s, %s]", signif(top$strength_lower, 3), signif(top$strength_upper, 3)),
+  df <- data.frame(term = top$term, inclusion = signif(top$inclusion_prob, 2),
+                   strength = signif(top$strength, 3),
+                   interval = sprintf("[%s, %s]", signif(top$strength_lower, 3),
+                                      signif(top$strength_upper, 3)),
                    share = signif(top$share_of_bias, 2),
                    acts = sprintf("%s [%s, %s]", top$site, signif(top$from, 4), signif(top$to, 4)))
   print(df, row.names = FALSE)
@@ -25,7 +27,8 @@ print.wv_proposals <- function(x, ...) {
   eq <- attr(x, "equivalent")
   eq <- eq[eq$same_as %in% utils::head(x$term[x$inclusion_prob >= 0.1], 3L), , drop = FALSE]
   for (k in unique(eq$same_as)) {
-    cli::cat_line("The data cannot tell ", k, " from: ", paste(eq$term[eq$same_as == k], collapse = ", "), ".")
+    cli::cat_line("The data cannot tell ", k, " from: ",
+                  paste(eq$term[eq$same_as == k], collapse = ", "), ".")
   }
   from <- attr(x, "effects_from")
   cli::cat_line(if (identical(from, "simulated")) {
@@ -34,7 +37,8 @@ print.wv_proposals <- function(x, ...) {
     paste0("Effects: each term's curve taken as its effect on the output (a state term acting through the ",
            "equations can differ: give `simulate`).")
   })
-  cli::cat_line("In every model, never proposed: ", paste(attr(x, "nuisance"), collapse = "; "), ".")
+  cli::cat_line("In every model, never proposed: ", paste(attr(x, "nuisance"), collapse = "; "),
+                ".")
   eta <- attr(x, "eta")
   if (!is.null(eta) && stats::median(eta) < 0.995) {
     cli::cat_line(sprintf(paste0("Evidence tempered by the jackknife over time segments: eta = %.2f ",
@@ -105,6 +109,7 @@ check_proposals_of <- function(x, fit, call = rlang::caller_env()) {
 }
 
 proposal_fingerprint <- function(fit) {
-  list(sites = fit_sites(fit), n = vapply(fit_get(fit, "wb"), ncol, 1L), t = range(fit_get(fit, "basis")$t),
+  list(sites = fit_sites(fit), n = vapply(fit_get(fit, "wb"), ncol, 1L),
+       t = range(fit_get(fit, "basis")$t),
        draws = nrow(fit_get(fit, "wb")[[1]]), wbar = vapply(fit_get(fit, "wbar"), sum, numeric(1)))
 }

@@ -31,7 +31,8 @@ registration_directions <- function(fit) {
     for (d in list(list(y1, "shift"), list(y2, "blur"))) {
       M <- vapply(seq_along(knots), function(k) {
         unlist(lapply(sites, function(s) {
-          drop(crossprod(fit_get(fit, "basis")$Psi, if (s %in% g) hats[, k] * d[[1]][[s]] else 0 * tb))
+          drop(crossprod(fit_get(fit, "basis")$Psi,
+                         if (s %in% g) hats[, k] * d[[1]][[s]] else 0 * tb))
         }))
       }, numeric(n_all))
       cols <- c(cols, list(M))

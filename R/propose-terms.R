@@ -102,7 +102,8 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   check_number(n_draws, min = 2, integer = TRUE)
   check_level(level)
   if (!is.null(segments)) check_number(segments, min = 1, integer = TRUE)
-  if (!identical(library$sites, fit_sites(fit)) || !identical(library$grid, fit_get(fit, "basis")$t) ||
+  if (!identical(library$sites, fit_sites(fit)) ||
+      !identical(library$grid, fit_get(fit, "basis")$t) ||
       !identical(library$n_coef, vapply(fit_get(fit, "wb"), ncol, 1L))) {
     wv_abort(c("{.arg library} was built on another fit.",
                "i" = "Build it with {.code term_library(fit)} on this fit."))
@@ -127,7 +128,8 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   lib <- library$terms
   usable <- outside_span(X, N$X, colMeans(Wt))
-  if (!any(usable)) wv_abort("Every term of the library is a parameter shift or a registration error here.")
+  if (!any(usable))
+    wv_abort("Every term of the library is a parameter shift or a registration error here.")
   same <- equivalent_terms(X[, usable, drop = FALSE], N$X, colMeans(Wt))
   usable[usable] <- is.na(same)
   X <- X[, usable, drop = FALSE]
@@ -137,14 +139,17 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
     rsc <- registration_scale(colMeans(rs$residuals), colMeans(Wt), N$X, N$R, N$kind)
     N$label <- c(N$label, sprintf(
       "the registration's error at its %d warp knots (a shift and a blur at each, random, their sizes estimated from the bias: sd %s and %s times the noise)",
-      N$knots, format(signif(sqrt(rsc$by_kind[["shift"]]), 2)), format(signif(sqrt(rsc$by_kind[["blur"]] %||% 0), 2))))
+      N$knots, format(signif(sqrt(rsc$by_kind[["shift"]]), 2)),
+      format(signif(sqrt(rsc$by_kind[["blur"]] %||% 0), 2))))
   }
-  res <- with_rng_seed(seed, proposal_regression(rs$residuals, Wt, X, N$X, lib$effect, cluster, max_size, level,
+  res <- with_rng_seed(seed, proposal_regression(rs$residuals, Wt, X, N$X, lib$effect, cluster,
+                                                 max_size, level,
                                                  R = rsc$R, lam = rsc$lam))
   out <- proposal_table(fit, res, lib, X, sig$kind[usable])
   lead <- X[, match(out$term, lib$term), drop = FALSE]
   colnames(lead) <- out$term
-  curves_tab <- data.frame(candidate = out$term, amplitude = out$strength, inclusion_prob = out$inclusion_prob)
+  curves_tab <- data.frame(candidate = out$term, amplitude = out$strength,
+                           inclusion_prob = out$inclusion_prob)
   attr(out, "none") <- res$none
   attr(out, "curves") <- explain_curves(fit, lead, curves_tab)
   attr(out, "signatures") <- lead
@@ -155,7 +160,8 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   attr(out, "eta") <- res$eta
   attr(out, "made_on") <- proposal_fingerprint(fit)
   eq <- same[!is.na(same)]
-  attr(out, "equivalent") <- data.frame(term = unname(eq), same_as = names(eq), stringsAsFactors = FALSE)
+  attr(out, "equivalent") <- data.frame(term = unname(eq), same_as = names(eq),
+                                        stringsAsFactors = FALSE)
   class(out) <- c("wv_proposals", "data.frame")
   out
 }
@@ -172,12 +178,14 @@ term_signatures <- function(fit, library, simulate) {
     wv_abort(c("{.arg simulate} is not available for a fit of several experiments.",
                "i" = "Drop {.arg simulate}: the state terms then act on the output directly."))
   }
-  X <- matrix(0, sum(vapply(fit_get(fit, "wb"), ncol, 1L)), nrow(lib), dimnames = list(NULL, lib$term))
+  X <- matrix(0, sum(vapply(fit_get(fit, "wb"), ncol, 1L)), nrow(lib),
+              dimnames = list(NULL, lib$term))
   failed <- rep(FALSE, nrow(lib))
   # a bar while the state terms are simulated (cli shows it only after two
   # seconds)
   bar <- any(state) && !isTRUE(getOption("wavevalid.quiet", FALSE))
-  if (bar) cli::cli_progress_bar("Simulating the terms' effects", total = sum(state), .envir = environment())
+  if (bar) cli::cli_progress_bar("Simulating the terms' effects", total = sum(state),
+                                 .envir = environment())
   env <- environment()
   for (j in seq_len(nrow(lib))) {
     v <- library$values[[j]]
@@ -194,7 +202,8 @@ term_signatures <- function(fit, library, simulate) {
   if (any(failed)) {
     wv_inform(c("!" = "{cli::qty(sum(failed))}The simulation with {?the term/each of the terms} {.val {lib$term[failed]}} failed or was not finite: left out."))
   }
-  list(X = X[, !failed, drop = FALSE], kind = ifelse(state, "simulated", "direct")[!failed], keep = !failed)
+  list(X = X[, !failed, drop = FALSE], kind = ifelse(state, "simulated", "direct")[!failed],
+       keep = !failed)
 }
 
 simulated_effect <- function(simulate, channel, fun, values, sites) {
@@ -231,7 +240,8 @@ proposal_nuisance <- function(fit, registration) {
     x
   }, numeric(sum(n)))
   sh <- cbind(sh, level0)
-  label <- c(if (ncol(sh) > length(sites)) "parameter shifts", "an offset of the record at each site")
+  label <- c(if (ncol(sh) > length(sites)) "parameter shifts",
+             "an offset of the record at each site")
   reg <- if (registration) registration_directions(fit)
   list(X = sh, R = reg$R, kind = reg$kind, label = label, knots = reg$knots)
 }
@@ -269,7 +279,8 @@ equivalent_terms <- function(X, N, w) {
 
 # The regression of the residual draws Y (H x n) on the terms X (n x m) with
 # the nuisance N always in, weights Wt; subsets of up to max_size effects.
-proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level, R = NULL, lam = NULL) {
+proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level, R = NULL,
+                                lam = NULL) {
   H <- nrow(Y)
   n <- ncol(Y)
   m <- ncol(X)
@@ -285,7 +296,8 @@ proposal_regression <- function(Y, Wt, X, N, effect, cluster, max_size, level, R
   none <- eta <- numeric(H)
   amp_m <- amp_s <- share <- matrix(0, H, m)
   bar <- H >= 20L && !isTRUE(getOption("wavevalid.quiet", FALSE))
-  if (bar) cli::cli_progress_bar("Regressing the bias draws on the terms", total = H, .envir = environment())
+  if (bar) cli::cli_progress_bar("Regressing the bias draws on the terms", total = H,
+                                 .envir = environment())
   env <- environment()
   for (h in seq_len(H)) {
     if (bar) cli::cli_progress_update(.envir = env)
@@ -392,9 +404,11 @@ proposal_table <- function(fit, res, lib, X, kind) {
     z <- res$amp_m[, j] + outer(res$amp_s[, j], stats::qnorm(stats::ppoints(20)))
     c(mean(res$amp_m[, j]), stats::quantile(z, c(a, 1 - a), names = FALSE))
   }, numeric(3)))
-  where <- do.call(rbind, lapply(seq_along(lead), function(k) term_place(fit, X[, lead[k]] * amp[k, 1])))
+  where <- do.call(rbind,
+                   lapply(seq_along(lead), function(k) term_place(fit, X[, lead[k]] * amp[k, 1])))
   out <- data.frame(term = lib$term[lead], family = lib$family[lead], channel = lib$channel[lead],
-                    inclusion_prob = unname(res$inclusion), strength = amp[, 1], strength_lower = amp[, 2],
+                    inclusion_prob = unname(res$inclusion), strength = amp[, 1],
+                    strength_lower = amp[, 2],
                     strength_upper = amp[, 3], share_of_bias = colMeans(res$share)[lead],
                     effect_of = kind[lead], where, stringsAsFactors = FALSE)
   out <- out[order(-out$inclusion_prob, -out$share_of_bias), , drop = FALSE]

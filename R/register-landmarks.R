@@ -18,7 +18,8 @@ curve_landmarks <- function(y, t, windows, features, refine = FALSE) {
              fall = steepest_at(tt, -yy, refine),
              cross = crossing_at(tt, yy, cross, refine, w))
     }, numeric(1))
-    data.frame(window = w, feature = as.character(features), t = unname(at), stringsAsFactors = FALSE)
+    data.frame(window = w, feature = as.character(features), t = unname(at),
+               stringsAsFactors = FALSE)
   })
   out <- do.call(rbind, out)
   out[order(out$window, out$t), , drop = FALSE]

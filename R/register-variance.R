@@ -112,5 +112,6 @@ registration_shift_structure <- function(field, basis) {
   }), sites)
   keep <- v > 0
   if (!any(keep)) return(NULL)
-  list(U = lapply(stats::setNames(U, sites), function(u) u[, keep, drop = FALSE]), var = v[keep], extra = extra)
+  list(U = lapply(stats::setNames(U, sites), function(u) u[, keep, drop = FALSE]), var = v[keep],
+       extra = extra)
 }

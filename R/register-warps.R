@@ -7,7 +7,8 @@ warps_attributes <- c("range", "windows", "landmark_site", "sites", "landmark_sd
 # landmark_sd: NULL, or a data frame with one row per landmark of the
 # reference (site, window, feature, t_after) and `sd`, the standard deviation
 # of that landmark's time over the model runs the reference averages.
-new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = NULL, left_out = NULL) {
+new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = NULL,
+                         left_out = NULL) {
   rownames(x) <- NULL
   structure(x, range = range, windows = windows, landmark_site = landmark_site, sites = sites,
             landmark_sd = landmark_sd, left_out = left_out, class = c("wv_warps", "data.frame"))
@@ -34,7 +35,8 @@ new_wv_warps <- function(x, range, windows, landmark_site, sites, landmark_sd = 
 
 validate_wv_warps <- function(x, call = rlang::caller_env()) {
   miss <- setdiff(warps_columns, names(x))
-  if (length(miss)) wv_abort("{.cls wv_warps} lacks column{?s} {.field {miss}}.", call = call, class = "state")
+  if (length(miss)) wv_abort("{.cls wv_warps} lacks column{?s} {.field {miss}}.", call = call,
+                             class = "state")
   rg <- attr(x, "range")
   if (!is.numeric(rg) || length(rg) != 2L) wv_abort("{.cls wv_warps} needs a {.field range} attribute.", call = call,
                                                     class = "state")
@@ -50,19 +52,23 @@ print.wv_warps <- function(x, ...) {
   n_lm <- length(unique(paste(if (identical(ls, "all")) x$site else "", x$window, x$feature)[lm]))
   cli::cat_line(sprintf("<wv_warps> piecewise-linear warps of %d replicate%s, %d window%s, %d landmark%s each",
                         n_rep, if (n_rep == 1) "" else "s", length(attr(x, "windows")),
-                        if (length(attr(x, "windows")) == 1) "" else "s", n_lm, if (n_lm == 1) "" else "s"))
+                        if (length(attr(x, "windows")) == 1) "" else "s", n_lm,
+                        if (n_lm == 1) "" else "s"))
   if (any(!lm)) {
     n_fit <- sum(!lm) / max(1, length(unique(paste(x$site, x$replicate)[!lm])))
-    cli::cat_line(sprintf("  plus %s knots per replicate fitted between the windows", format(round(n_fit, 1))))
+    cli::cat_line(sprintf("  plus %s knots per replicate fitted between the windows",
+                          format(round(n_fit, 1))))
   }
   cli::cat_line(if (is.na(ls)) "  landmarks found on each site separately"
                 else if (ls == "all") "  landmarks found on every site, one warp per replicate through them all, applied to all sites"
                 else sprintf("  landmarks found on site %s, warps applied to all sites", ls))
-  cli::cat_line(sprintf("  landmark shift: median %s, max %s", format(signif(stats::median(shift), 3)),
+  cli::cat_line(sprintf("  landmark shift: median %s, max %s",
+                        format(signif(stats::median(shift), 3)),
                         format(signif(max(shift), 3))))
   lo <- attr(x, "left_out")
   if (!is.null(lo) && nrow(lo)) {
-    cli::cat_line(sprintf("  left out, in another order than the reference's: %s", left_out_summary(lo, n_rep)))
+    cli::cat_line(sprintf("  left out, in another order than the reference's: %s",
+                          left_out_summary(lo, n_rep)))
   }
   print(as.data.frame(unclass_warps(x)), row.names = FALSE)
   invisible(x)
@@ -75,7 +81,8 @@ left_out_summary <- function(lo, n_rep) {
   n <- vapply(seq_len(nrow(key)), function(i) {
     sum(lo$site == key$site[i] & lo$window == key$window[i] & lo$feature == key$feature[i])
   }, integer(1))
-  paste(sprintf("the %s of window %d at %d of %d replicates (%s)", key$feature, key$window, n, n_rep, key$site),
+  paste(sprintf("the %s of window %d at %d of %d replicates (%s)", key$feature, key$window, n,
+                n_rep, key$site),
         collapse = "; ")
 }
 
@@ -125,7 +132,8 @@ print.summary_wv_warps <- function(x, ...) {
 autoplot.wv_warps <- function(object, ...) {
   rg <- attr(object, "range")
   keys <- unique(as.data.frame(object)[, c("site", "replicate")])
-  if (identical(attr(object, "landmark_site"), "all")) keys <- keys[!duplicated(keys$replicate), , drop = FALSE]
+  if (identical(attr(object, "landmark_site"), "all"))
+    keys <- keys[!duplicated(keys$replicate), , drop = FALSE]
   lines <- do.call(rbind, lapply(seq_len(nrow(keys)), function(k) {
     kn <- warp_knots(object, keys$replicate[k], keys$site[k])
     data.frame(site = keys$site[k], replicate = factor(keys$replicate[k]), t = kn$before,
@@ -134,15 +142,19 @@ autoplot.wv_warps <- function(object, ...) {
   pts <- as.data.frame(object)
   pts$replicate <- factor(pts$replicate)
   pts$shift <- pts$t_after - pts$t_before
-  win <- do.call(rbind, lapply(attr(object, "windows"), function(w) data.frame(xmin = w[1], xmax = w[2])))
+  win <- do.call(rbind,
+                 lapply(attr(object, "windows"), function(w) data.frame(xmin = w[1], xmax = w[2])))
   p <- ggplot2::ggplot() +
-    ggplot2::geom_rect(data = win, ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = -Inf, ymax = Inf),
+    ggplot2::geom_rect(data = win,
+                       ggplot2::aes(xmin = .data$xmin, xmax = .data$xmax, ymin = -Inf, ymax = Inf),
                        fill = "grey90") +
     ggplot2::geom_hline(yintercept = 0, colour = "grey50", linewidth = 0.3) +
     ggplot2::geom_line(data = lines, ggplot2::aes(.data$t, .data$shift, colour = .data$replicate)) +
-    ggplot2::geom_point(data = pts, ggplot2::aes(.data$t_before, .data$shift, colour = .data$replicate,
+    ggplot2::geom_point(data = pts, ggplot2::aes(.data$t_before, .data$shift,
+                                                 colour = .data$replicate,
                                                  shape = .data$feature)) +
-    ggplot2::labs(x = "time as measured", y = "registered time - measured time", colour = "replicate",
+    ggplot2::labs(x = "time as measured", y = "registered time - measured time",
+                  colour = "replicate",
                   shape = "landmark", title = "Registration warps") +
     ggplot2::coord_cartesian(xlim = rg) +
     ggplot2::theme_bw()
@@ -164,7 +176,8 @@ plot.wv_warps <- function(x, ...) {
 fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid = 41L) {
   inside <- Reduce(`|`, lapply(windows, function(w) t > w[1] & t < w[2]))
   at <- seq(t[1], t[length(t)], by = every)
-  near <- vapply(at, function(x) any(vapply(windows, function(w) x > w[1] - every / 2 && x < w[2] + every / 2,
+  near <- vapply(at, function(x) any(vapply(windows, function(w) x > w[1] - every / 2 &&
+                                            x < w[2] + every / 2,
                                             logical(1))), logical(1))
   at <- at[!near & at > t[1] + every / 2 & at < t[length(t)] - every / 2]
   at <- setdiff(at, knots$after)
@@ -184,7 +197,8 @@ fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid
     idx <- which(t >= after[j - 1L] & t <= after[j + 1L] & !inside)
     tt <- t[idx]
     left <- tt <= after[j]
-    w <- ifelse(left, (tt - after[j - 1L]) / (after[j] - after[j - 1L]), (after[j + 1L] - tt) / (after[j + 1L] - after[j]))
+    w <- ifelse(left, (tt - after[j - 1L]) / (after[j] - after[j - 1L]),
+                (after[j + 1L] - tt) / (after[j + 1L] - after[j]))
     list(idx = idx, left = left, w = w)
   })
   sse <- function(k, b) {
@@ -207,7 +221,8 @@ fit_warp_knots <- function(y, ref, t, knots, windows, every, sweeps = 2L, n_grid
       v <- sse(k, g)
       if (all(v == 0)) next
       i <- which.min(v)
-      before[j] <- stats::optimize(function(b) sse(k, b), c(g[max(1L, i - 1L)], g[min(n_grid, i + 1L)]),
+      before[j] <- stats::optimize(function(b) sse(k, b),
+                                   c(g[max(1L, i - 1L)], g[min(n_grid, i + 1L)]),
                                    tol = 1e-4 * diff(t[1:2]))$minimum
     }
   }
@@ -226,8 +241,11 @@ consensus_warp_knots <- function(Y, t, knots, windows, every, iters = 2L) {
   current <- knots
   fitted <- NULL
   for (it in seq_len(iters)) {
-    cons <- colMeans(do.call(rbind, lapply(seq_len(R), function(r) apply_inverse_warp(Y[r, ], t, current[[r]]))))
-    fitted <- lapply(seq_len(R), function(r) fit_warp_knots(Y[r, ], cons, t, knots[[r]], windows, every))
+    cons <- colMeans(do.call(rbind,
+                             lapply(seq_len(R),
+                                    function(r) apply_inverse_warp(Y[r, ], t, current[[r]]))))
+    fitted <- lapply(seq_len(R),
+                     function(r) fit_warp_knots(Y[r, ], cons, t, knots[[r]], windows, every))
     if (!length(fitted[[1]]$after)) return(fitted)
     start <- vapply(seq_len(R), function(r) stats::approx(knots[[r]]$after, knots[[r]]$before,
                                                           xout = fitted[[r]]$after)$y,
@@ -258,7 +276,8 @@ apply_inverse_warp <- function(y, t, knots) {
 warp_knots <- function(warps, replicate, site = NULL) {
   d <- warps[warps$replicate == replicate, , drop = FALSE]
   # one warp from every site's landmarks: all of a replicate's rows
-  if (!is.null(site) && !identical(attr(warps, "landmark_site"), "all")) d <- d[d$site == site, , drop = FALSE]
+  if (!is.null(site) && !identical(attr(warps, "landmark_site"), "all"))
+    d <- d[d$site == site, , drop = FALSE]
   d <- d[order(d$t_after), , drop = FALSE]
   rg <- attr(warps, "range")
   before <- c(rg[1], d$t_before, rg[2])

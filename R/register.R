@@ -201,14 +201,16 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     }
   }
   check_number(check_runs, min = 0, integer = TRUE)
-  settings <- list(windows = windows, landmark_site = landmark_site, features = features, knots_every = knots_every,
+  settings <- list(windows = windows, landmark_site = landmark_site, features = features,
+                   knots_every = knots_every,
                    refine = refine, cross_fraction = cross_fraction, cross_value = cross_value)
   pooled <- identical(landmark_site, "all") && !"all" %in% sites
   if (pooled && length(sites) == 1L) {
     landmark_site <- sites
     pooled <- FALSE
   }
-  if (!is.null(landmark_site) && !pooled) landmark_site <- resolve_site(landmark_site, sites, "landmark_site")
+  if (!is.null(landmark_site) && !pooled) landmark_site <- resolve_site(landmark_site, sites,
+                                                                        "landmark_site")
 
   curves <- field$curves
   n_rep <- vapply(curves, nrow, integer(1))
@@ -223,7 +225,9 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
   # the sites whose landmarks tie each warp: every site with "all"
   lm_sites <- function(s) if (pooled) sites else s
   site_landmarks <- function(y_of, s) {
-    do.call(rbind, lapply(lm_sites(s), function(m) cbind(site = m, curve_landmarks(y_of(m), t, windows, features, refine),
+    do.call(rbind, lapply(lm_sites(s), function(m) cbind(site = m,
+                                                         curve_landmarks(y_of(m), t, windows,
+                                                                         features, refine),
                                                          stringsAsFactors = FALSE)))
   }
   rows <- list()
@@ -235,17 +239,21 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     if (inherits(reference, "wv_runs")) {
       for (m in lm_sites(s)) {
         spread[[m]] <- landmark_spread(reference$curves[[m]], t, windows, features, refine,
-                                       ref_lm[ref_lm$site == m, c("window", "feature", "t"), drop = FALSE], m)
+                                       ref_lm[ref_lm$site == m, c("window", "feature", "t"),
+                                              drop = FALSE], m)
       }
     }
     targets <- if (is.null(landmark_site)) s else sites
     R <- n_rep[[s]]
     rep_lms <- lapply(seq_len(R), function(r) site_landmarks(function(m) curves[[m]][r, ], s))
-    knots <- lapply(seq_len(R), function(r) warp_knots_from(rep_lms[[r]], ref_lm, t, site = s, replicate = r))
+    knots <- lapply(seq_len(R),
+                    function(r) warp_knots_from(rep_lms[[r]], ref_lm, t, site = s, replicate = r))
     fitted <- NULL
     if (!is.null(knots_every)) {
       fitted <- if (knots_to == "reference") {
-        lapply(seq_len(R), function(r) fit_warp_knots(curves[[s]][r, ], ref[[s]], t, knots[[r]], windows, knots_every))
+        lapply(seq_len(R),
+               function(r) fit_warp_knots(curves[[s]][r, ], ref[[s]], t, knots[[r]], windows,
+                                          knots_every))
       } else {
         consensus_warp_knots(curves[[s]], t, knots, windows, knots_every)
       }
@@ -253,12 +261,14 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     for (r in seq_len(R)) {
       kept <- knots[[r]]$keep
       row <- data.frame(
-        site = ref_lm$site[kept], replicate = r, window = ref_lm$window[kept], feature = ref_lm$feature[kept],
+        site = ref_lm$site[kept], replicate = r, window = ref_lm$window[kept],
+        feature = ref_lm$feature[kept],
         t_before = knots[[r]]$t_rep[kept], t_after = ref_lm$t[kept], stringsAsFactors = FALSE
       )
       if (!all(kept)) {
         left_out[[length(left_out) + 1L]] <- data.frame(
-          site = ref_lm$site[!kept], replicate = r, window = ref_lm$window[!kept], feature = ref_lm$feature[!kept],
+          site = ref_lm$site[!kept], replicate = r, window = ref_lm$window[!kept],
+          feature = ref_lm$feature[!kept],
           t_before = knots[[r]]$t_rep[!kept], t_after = ref_lm$t[!kept], stringsAsFactors = FALSE
         )
       }
@@ -266,7 +276,8 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
       if (!is.null(fitted)) {
         kn <- fitted[[r]]$knots
         if (length(fitted[[r]]$after)) {
-          row <- rbind(row, data.frame(site = s, replicate = r, window = NA_integer_, feature = "fitted",
+          row <- rbind(row, data.frame(site = s, replicate = r, window = NA_integer_,
+                                       feature = "fitted",
                                        t_before = fitted[[r]]$before, t_after = fitted[[r]]$after,
                                        stringsAsFactors = FALSE))
           row <- row[order(row$t_after), , drop = FALSE]
@@ -279,8 +290,10 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
   left_out <- if (length(left_out)) do.call(rbind, left_out)
   if (!is.null(left_out)) warn_left_out(left_out, max(n_rep))
   warps <- new_wv_warps(do.call(rbind, rows), range = range(t), windows = windows,
-                        landmark_site = if (pooled) "all" else if (is.null(landmark_site)) NA_character_ else landmark_site,
-                        sites = sites, landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
+                        landmark_site = if (pooled) "all" else
+                          if (is.null(landmark_site)) NA_character_ else landmark_site,
+                        sites = sites,
+                        landmark_sd = if (length(spread)) do.call(rbind, unname(spread)),
                         left_out = left_out)
   attr(warps, "landmark_settings") <- list(features = features, refine = refine)
   validate_wv_warps(warps)
@@ -298,10 +311,14 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
 # the run; NULL when the runs' landmarks cannot be registered.
 registration_check <- function(field, runs, settings, n) {
   sites <- names(field$curves)
-  d <- Reduce(`+`, lapply(sites, function(s) rowMeans(sweep(runs$curves[[s]], 2L, colMeans(field$curves[[s]]))^2)))
+  d <- Reduce(`+`,
+              lapply(sites,
+                     function(s) rowMeans(sweep(runs$curves[[s]], 2L,
+                                                colMeans(field$curves[[s]]))^2)))
   near <- order(d)[seq_len(min(n, length(d)))]
   f <- new_wv_field(runs$t, lapply(runs$curves[sites], function(m) m[near, , drop = FALSE]))
-  reg <- tryCatch(suppressWarnings(do.call(register_curves, c(list(f, runs), settings, list(check_runs = 0L)))),
+  reg <- tryCatch(suppressWarnings(do.call(register_curves,
+                                           c(list(f, runs), settings, list(check_runs = 0L)))),
                   wavevalid_error = function(e) NULL)
   if (is.null(reg)) return(NULL)
   stats::setNames(lapply(sites, function(s) reg$curves[[s]] - f$curves[[s]]), sites)
@@ -314,7 +331,8 @@ resolve_reference <- function(reference, t, sites, call = rlang::caller_env()) {
     check_same_grid(reference$t, t, "reference", "field", call = call)
     missing <- setdiff(sites, names(reference$curves))
     if (length(missing)) {
-      wv_abort("{.arg reference} has no model runs for field site{?s} {.val {missing}}.", call = call)
+      wv_abort("{.arg reference} has no model runs for field site{?s} {.val {missing}}.",
+               call = call)
     }
     return(lapply(reference$curves[sites], colMeans))
   }
@@ -362,7 +380,8 @@ check_windows <- function(windows, t, call = rlang::caller_env()) {
       ), call = call)
     }
     if (sum(t >= x[1] & t <= x[2]) < 2L) {
-      wv_abort("Window {w} ({x[1]}, {x[2]}) holds fewer than two grid points; widen it.", call = call)
+      wv_abort("Window {w} ({x[1]}, {x[2]}) holds fewer than two grid points; widen it.",
+               call = call)
     }
     if (w > 1L && x[1] <= windows[[w - 1L]][2]) {
       wv_abort(c(
@@ -376,7 +395,8 @@ check_windows <- function(windows, t, call = rlang::caller_env()) {
 
 landmark_features <- c("min", "max", "rise", "fall", "cross")
 
-check_features <- function(features, cross_fraction = 0.5, cross_value = NULL, call = rlang::caller_env()) {
+check_features <- function(features, cross_fraction = 0.5, cross_value = NULL,
+                           call = rlang::caller_env()) {
   if (!is.character(features) || length(features) == 0L || !all(features %in% landmark_features) ||
       anyDuplicated(features)) {
     wv_abort(c(

@@ -25,12 +25,15 @@
 #' fit <- example_fit()
 #' fit_assumptions(fit, "noise")
 #' writeLines(fit_assumptions(fit, "priors"))
-fit_assumptions <- function(fit, part = c("priors", "joint_prior", "noise", "likelihood", "experiments")) {
+fit_assumptions <- function(fit,
+                            part = c("priors", "joint_prior", "noise", "likelihood",
+                                     "experiments")) {
   check_class(fit, "wv_fit")
   part <- check_choice(part)
   out <- switch(part,
                 priors = prior_lines(fit_get(fit, "prior_iu"), fit_get(fit, "conditions")),
-                joint_prior = if (!is.null(fit_get(fit, "prior_iu"))) joint_prior_text(fit_get(fit, "prior_iu")),
+                joint_prior = if (!is.null(fit_get(fit, "prior_iu")))
+                  joint_prior_text(fit_get(fit, "prior_iu")),
                 noise = noise_lines(fit),
                 likelihood = shared_error_lines(fit),
                 experiments = experiment_lines(fit))
@@ -43,7 +46,8 @@ experiment_lines <- function(fit) {
   ex <- fit_get(fit, "experiments")
   conditions <- fit_get(fit, "conditions")
   if (is.null(ex) && !is.null(conditions)) {
-    return(sprintf("Condition%s (known, not sampled): %s", if (length(conditions$inputs) == 1L) "" else "s",
+    return(sprintf("Condition%s (known, not sampled): %s",
+                   if (length(conditions$inputs) == 1L) "" else "s",
                    condition_labels(conditions)[["base"]]))
   }
   if (is.null(ex)) return(character(0))
@@ -56,16 +60,20 @@ experiment_lines <- function(fit) {
     how <- if (!is.null(cond_lab)) {
       paste0(if (e == "base") "the base experiment, " else "", cond_lab,
              if (any(sh != 0)) paste0("; inputs changed by ",
-                                      paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", ")))
+                                      paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]),
+                                            collapse = ", ")))
     } else if (e == "base") "the base experiment" else if (any(sh != 0)) {
-      paste0("inputs changed by ", paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", "))
+      paste0("inputs changed by ",
+             paste(sprintf("%s %+g", names(sh)[sh != 0], sh[sh != 0]), collapse = ", "))
     } else "its own emulators"
-    sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps, ifelse(reps == 1, "", "s")),
+    sprintf("  %s: %s; %s", e, how, paste(sprintf("%s %d replicate%s", sites, reps,
+                                                  ifelse(reps == 1, "", "s")),
                                           collapse = ", "))
   }, character(1))
   settings <- fit_get(fit, "settings")
   c(sprintf("Experiments, calibrated jointly (%s):",
-            if (identical(settings$experiment_bias, "shared")) "one bias shared by the experiments" else
+            if (identical(settings$experiment_bias, "shared"))
+              "one bias shared by the experiments" else
               sprintf("one bias per experiment; level variances %s",
                       if (identical(settings$level_variances, "per_experiment")) "per experiment" else "shared")),
     lines)
@@ -76,14 +84,17 @@ experiment_lines <- function(fit) {
 stopping_lines <- function(x) {
   st <- fit_get(x, "stopping")
   if (is.null(st)) return(character(0))
-  rh <- if (is.na(st$rhat)) "" else sprintf(" and R-hat at most %s (largest %.3f)", st$rhat_target, st$rhat)
+  rh <- if (is.na(st$rhat)) "" else sprintf(" and R-hat at most %s (largest %.3f)", st$rhat_target,
+                                            st$rhat)
   if (isTRUE(st$met)) {
     sprintf("Chains stopped at %d draws each (%d round%s), when every input had an ESS of %s%s (slowest %s, %s)",
-            st$draws, st$rounds, if (st$rounds == 1L) "" else "s", st$ess_target, rh, st$slowest, round(st$ess))
+            st$draws, st$rounds, if (st$rounds == 1L) "" else "s", st$ess_target, rh, st$slowest,
+            round(st$ess))
   } else {
     sprintf("! Chains stopped at their ceiling of %d draws each without the targets: ESS %s wanted, the slowest input %s has %s%s",
             st$draws, st$ess_target, st$slowest, round(st$ess),
-            if (is.na(st$rhat)) "" else sprintf("; R-hat %.3f (target %s)", st$rhat, st$rhat_target))
+            if (is.na(st$rhat)) "" else sprintf("; R-hat %.3f (target %s)", st$rhat,
+                                                st$rhat_target))
   }
 }
 
@@ -126,7 +137,8 @@ noise_lines <- function(fit) {
     switch(setting[[s]],
       replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
                            s, fit_get(fit, "n_rep")[[s]], f(stats::median(sqrt(sigma2)))),
-      given = sprintf("%s: given by the user; median sd %s", s, f(stats::median(sqrt(sigma2[1, ])))),
+      given = sprintf("%s: given by the user; median sd %s", s,
+                      f(stats::median(sqrt(sigma2[1, ])))),
       finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",
                        s, f(sqrt(sigma2[1, 1]))),
       learned = sprintf("%s: learned, %s; %s prior on its sd, scale %s; posterior sd %s [%s, %s]%s",
@@ -179,11 +191,13 @@ registration_lines <- function(fit) {
   }
   shares <- paste(sprintf("%s %.0f%%", names(share), 100 * share), collapse = ", ")
   rs <- fit_get(fit, "registration_shifts")
-  if (is.null(rs)) return(sprintf("Registration: %s added to the variance of the field mean, %s of it", src, shares))
+  if (is.null(rs)) return(
+    sprintf("Registration: %s added to the variance of the field mean, %s of it", src, shares))
   K <- length(rs$variance)
   sprintf(paste("Registration: %s taken as %d shift%s of the landmarks along the curves' time-shift directions",
                 "(prior sd %s, sampled with the inputs), the rest added to the variance of the field mean, %s of it"),
-          src, K, if (K == 1L) "" else "s", paste(format(signif(sqrt(rs$variance), 2), trim = TRUE), collapse = ", "),
+          src, K, if (K == 1L) "" else "s",
+          paste(format(signif(sqrt(rs$variance), 2), trim = TRUE), collapse = ", "),
           shares)
 }
 
@@ -193,12 +207,15 @@ measured_noise_text <- function(ev) {
   if (is.null(ev)) return("")
   f <- function(v) format(signif(v, 3), trim = TRUE)
   ddf <- ev$detail_df %||% 0
-  paste0("\n    from the measured curve on its ", ev$n_stamps, " time stamps: the prior's scale from its detail (sd ",
+  paste0("\n    from the measured curve on its ", ev$n_stamps,
+         " time stamps: the prior's scale from its detail (sd ",
          f(ev$detail_sd), ")",
          if (ddf > 0) sprintf("; its points' differences in the likelihood as data on the noise (%s df, their sd %s)",
                               f(ddf), f(sqrt(ev$detail_ss / ddf))) else "",
-         if (ev$df > 0) sprintf("; %d repeated measurements in the likelihood (%g df, their sd %s)", ev$n_repeated,
+         if (ev$df > 0) sprintf("; %d repeated measurements in the likelihood (%g df, their sd %s)",
+                                ev$n_repeated,
                                 ev$df, f(sqrt(ev$ss / ev$df))) else "",
-         "; each coefficient's variance from the resampling onto the grid (", f(min(ev$mult)), " to ",
+         "; each coefficient's variance from the resampling onto the grid (", f(min(ev$mult)),
+         " to ",
          f(max(ev$mult)), " times one measurement's)")
 }

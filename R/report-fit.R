@@ -34,7 +34,8 @@ print.wv_fit <- function(x, ...) {
   n <- ncol(fit_get(x, "basis")$Psi)
   sites <- fit_sites(x)
   cli::cat_line(sprintf("<wv_fit> %d site%s (%s), %d coefficients, %d draws x %d chain%s (thinning %d)",
-                        length(sites), if (length(sites) == 1) "" else "s", paste(sites, collapse = ", "),
+                        length(sites), if (length(sites) == 1) "" else "s",
+                        paste(sites, collapse = ", "),
                         n, H, length(draws), if (length(draws) == 1) "" else "s",
                         settings$n_inner))
   acc <- fit_get(x, "acceptance")
@@ -64,22 +65,26 @@ print.wv_fit <- function(x, ...) {
   }
   il <- settings$inform_levels
   if (length(il)) {
-    cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ", paste(il, collapse = ", "),
+    cli::cat_line("Inputs informed by wavelet level", if (length(il) > 1) "s " else " ",
+                  paste(il, collapse = ", "),
                   " only; the other levels' bias follows the inputs drawn (inform_levels)")
   }
   tp <- settings$temper %||% 1
-  if (tp < 1) cli::cat_line("Tempered posterior: the likelihood raised to the power ", signif(tp, 3), " (temper)")
+  if (tp < 1) cli::cat_line("Tempered posterior: the likelihood raised to the power ",
+                            signif(tp, 3), " (temper)")
   ctl <- fit_get(x, "control")
   if (!is.null(ctl)) {
     cli::cat_line("Model: ", control_call(ctl$bias, always = "input_likelihood"))
-    cli::cat_line("Sampler: ", control_call(ctl$sampler), ", chains = ", length(draws), ", seed = ", fit_get(x, "seed"))
+    cli::cat_line("Sampler: ", control_call(ctl$sampler), ", chains = ", length(draws), ", seed = ",
+                  fit_get(x, "seed"))
   }
   flags <- fit_get(x, "flags")
   if (length(flags$rhat)) cli::cat_line("! R-hat > 1.1: ", paste(flags$rhat, collapse = ", "))
   b <- flags$boundary
   if (nrow(b)) {
     cli::cat_line("! Posterior piled at a bound: ",
-                  paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior), collapse = ", "))
+                  paste(sprintf("%s (%s, %.0f%% of draws)", b$input, b$bound, 100 * b$posterior),
+                        collapse = ", "))
   }
   cf <- input_conflicts(x)
   if (any(cf$conflict)) {
@@ -87,7 +92,9 @@ print.wv_fit <- function(x, ...) {
     cli::cat_line("! In conflict with their prior (inputs that may mimic a missing effect; where_fails() reads the ",
                   "bias with them held to it): ",
                   paste(sprintf("%s (%+.1f prior sd%s)", cf$input, cf$prior_sds,
-                                ifelse(cf$piled, sprintf(", %.0f%% at its %s bound", 100 * cf$share_at_bound, cf$side), "")),
+                                ifelse(cf$piled,
+                                       sprintf(", %.0f%% at its %s bound", 100 * cf$share_at_bound,
+                                               cf$side), "")),
                         collapse = ", "))
   }
   held <- fit_get(x, "held")
@@ -109,13 +116,15 @@ input_table <- function(x) {
   prior_iu <- fit_get(x, "prior_iu")
   est <- !all_inputs %in% fit_get(x, "conditions")$inputs
   inputs <- all_inputs[est]
-  sd_ratio <- apply(X[, inputs, drop = FALSE], 2, stats::sd) / (fit_get(x, "prior_sd") %||% prior_sds(prior_iu))[inputs]
+  sd_ratio <- apply(X[, inputs, drop = FALSE], 2, stats::sd) /
+    (fit_get(x, "prior_sd") %||% prior_sds(prior_iu))[inputs]
   data.frame(input = inputs, type = prior_iu$type[match(inputs, prior_iu$name)],
              mean = colMeans(X[, inputs, drop = FALSE]),
              q2.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
              q97.5 = apply(X[, inputs, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
              sd_ratio = unname(sd_ratio),
-             rhat = unname(fit_get(x, "rhat")[inputs]), ess = round(unname(fit_get(x, "ess")[inputs])),
+             rhat = unname(fit_get(x, "rhat")[inputs]),
+             ess = round(unname(fit_get(x, "ess")[inputs])),
              stringsAsFactors = FALSE)
 }
 
@@ -126,8 +135,10 @@ summary.wv_fit <- function(object, ...) {
   groups <- fit_get(object, "groups")
   tau <- data.frame(group = groups$name, site = groups$site, level = groups$level,
                     mean = colMeans(X[, tau_cols, drop = FALSE]),
-                    q2.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.025, names = FALSE),
-                    q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975, names = FALSE),
+                    q2.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.025,
+                                 names = FALSE),
+                    q97.5 = apply(X[, tau_cols, drop = FALSE], 2, stats::quantile, 0.975,
+                                  names = FALSE),
                     stringsAsFactors = FALSE)
   rownames(tau) <- NULL
   structure(list(inputs = input_table(object),
@@ -246,7 +257,8 @@ plot_fit_trace <- function(fit) {
 field_long <- function(field) {
   do.call(rbind, lapply(names(field$curves), function(s) {
     m <- field$curves[[s]]
-    data.frame(site = s, t = rep(field$t, each = nrow(m)), replicate = factor(rep(seq_len(nrow(m)), length(field$t))),
+    data.frame(site = s, t = rep(field$t, each = nrow(m)),
+               replicate = factor(rep(seq_len(nrow(m)), length(field$t))),
                y = as.vector(m))
   }))
 }
@@ -254,10 +266,13 @@ field_long <- function(field) {
 plot_fit_band <- function(band, model, field, ylab, title) {
   p <- ggplot2::ggplot(band, ggplot2::aes(.data$t))
   if (!is.null(field)) {
-    p <- p + ggplot2::geom_line(data = field, ggplot2::aes(.data$t, .data$y, group = .data$replicate),
+    p <- p + ggplot2::geom_line(data = field,
+                                ggplot2::aes(.data$t, .data$y, group = .data$replicate),
                                 colour = "goldenrod2", linewidth = 0.3)
   }
-  p <- p + ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "steelblue", alpha = 0.25)
+  p <- p +
+    ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lower, ymax = .data$upper), fill = "steelblue",
+                         alpha = 0.25)
   if (is.null(model)) p <- p + ggplot2::geom_hline(yintercept = 0, colour = "grey50")
   if (!is.null(model)) {
     p <- p + ggplot2::geom_line(data = model, ggplot2::aes(.data$t, .data$mean), colour = "grey50")

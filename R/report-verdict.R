@@ -20,7 +20,8 @@ report_verdict <- function(fit, fails, tolerance, expl = NULL, comparison = NULL
   unmixed <- unmixed_inputs(list(fit = fit))$fit
   adequacy <- if (length(unmixed)) {
     sprintf("**Not judged**: the chains did not mix (R-hat %s, above 1.1), so neither the bias nor the inputs can be read off them; no verdict of adequacy is given. Draw more (`sampler_control(max_draws = )`), give the input a narrower prior, or reparametrise it, then validate again.",
-            paste(sprintf("%s %s", names(unmixed), format(round(unmixed, 2), nsmall = 2)), collapse = ", "))
+            paste(sprintf("%s %s", names(unmixed), format(round(unmixed, 2), nsmall = 2)),
+                  collapse = ", "))
   } else if (!n && length(doubts)) {
     sprintf("**Not shown adequate**: the %s band of the bias %s, but other readings of the same fit disagree: %s. The verdict rests on them: a wrong model whose misfit the noise, an input or the bias prior's shrinkage took up looks like this.",
             level, if (all(tol == 0)) "holds zero everywhere" else sprintf("lies beyond the tolerance %s nowhere", tol_text),
@@ -66,14 +67,16 @@ report_verdict <- function(fit, fails, tolerance, expl = NULL, comparison = NULL
 adequacy_doubts <- function(fails, expl = NULL) {
   out <- character()
   if (!is.null(expl) && nrow(expl) && isTRUE(expl$inclusion_prob[1] >= 0.5)) {
-    out <- c(out, sprintf("the candidate effect %s is included at probability %s", expl$candidate[1],
+    out <- c(out, sprintf("the candidate effect %s is included at probability %s",
+                          expl$candidate[1],
                           format(round(expl$inclusion_prob[1], 2), nsmall = 2)))
   }
   bd <- attr(fails, "boundary")
   if (!is.null(bd) && any(bd$flagged)) {
     piled <- unique(bd$input[bd$flagged])
     out <- c(out, sprintf("the posterior of %s piles up at a bound of %s range (an input acting as a tuning knob)",
-                          paste(piled, collapse = ", "), if (length(piled) == 1L) "its" else "their"))
+                          paste(piled, collapse = ", "),
+                          if (length(piled) == 1L) "its" else "their"))
   }
   out
 }
@@ -83,7 +86,8 @@ conflict_sentence <- function(fit, fails) {
   cf <- attr(fails, "conflicts") %||% input_conflicts(fit)
   if (is.null(cf) || !any(cf$conflict)) return("Inputs in conflict with their prior: none.")
   cf <- cf[cf$conflict, , drop = FALSE]
-  each <- sprintf("%s (posterior median %s, %s prior sds from the prior's mean%s)", cf$input, fmt3(cf$median),
+  each <- sprintf("%s (posterior median %s, %s prior sds from the prior's mean%s)", cf$input,
+                  fmt3(cf$median),
                   fmt3(cf$prior_sds), ifelse(cf$piled, ", piled at a bound", ""))
   sprintf("Inputs in conflict with their prior: %s; an input in conflict can mimic what the model lacks.",
           paste(each, collapse = "; "))
@@ -95,13 +99,15 @@ comparison_sentence <- function(comparison) {
   hr <- attr(comparison, "holdout_ratio")
   verdict <- attr(comparison, "verdict")
   if (is.null(hr) || is.null(verdict) || is.na(verdict)) {
-    return(paste("Model change (no held-out condition, no verdict):", paste(comparison_verdict(comparison), collapse = " ")))
+    return(paste("Model change (no held-out condition, no verdict):",
+                 paste(comparison_verdict(comparison), collapse = " ")))
   }
   f <- function(z) format(round(z, 2), nsmall = 2)
   m <- hr[hr$prediction == "model", ]
   cc <- hr[hr$prediction == "corrected", ]
   word <- switch(verdict, helped = "**helped**", worse = "**did not help** (worse)",
-                 `not judged` = "is **not judged** (the chains of a fit did not mix)", "made **no clear change**")
+                 `not judged` = "is **not judged** (the chains of a fit did not mix)",
+                 "made **no clear change**")
   sprintf("Model change: at the held-out condition it %s: verdict \"%s\"; the model alone errs %s times as much as before (90%% interval %s to %s), the bias-corrected prediction %s times (%s to %s).",
           word, verdict, f(m$ratio), f(m$lower), f(m$upper), f(cc$ratio), f(cc$lower), f(cc$upper))
 }
@@ -117,7 +123,8 @@ report_assumptions <- function(fit) {
 noise_source_text <- function(fit) {
   sites <- fit_sites(fit)
   n <- unlist(fit_get(fit, "n_rep")[sites])
-  src <- fit_get(fit, "noise_setting") %||% stats::setNames(ifelse(n >= 2, "replicates", "given"), sites)
+  src <- fit_get(fit, "noise_setting") %||%
+    stats::setNames(ifelse(n >= 2, "replicates", "given"), sites)
   each <- vapply(sites, function(s) {
     switch(src[[s]],
            replicates = sprintf("%s estimated from %d replicates", s, n[[s]]),
@@ -131,16 +138,19 @@ noise_source_text <- function(fit) {
            sprintf("%s %s", s, src[[s]]))
   }, character(1))
   size <- trimws(fit_assumptions(fit, "noise")[-1])
-  sprintf("Field noise, source: %s. %s.", paste(each, collapse = "; "), paste(size, collapse = "; "))
+  sprintf("Field noise, source: %s. %s.", paste(each, collapse = "; "),
+          paste(size, collapse = "; "))
 }
 
 # The grouping of the bias prior's variances.
 bias_prior_text <- function(fit) {
   groups <- unique(unlist(fit_get(fit, "bias_group"), use.names = FALSE))
   pooled <- fit_get(fit, "settings")$pool_levels
-  bias <- sprintf("Bias prior: one variance per group of wavelet levels, %d group%s (%s)%s.", length(groups),
+  bias <- sprintf("Bias prior: one variance per group of wavelet levels, %d group%s (%s)%s.",
+                  length(groups),
                   if (length(groups) == 1) "" else "s", paste(groups, collapse = ", "),
-                  if (length(pooled)) sprintf("; levels %s pooled", paste(pooled, collapse = ", ")) else "")
+                  if (length(pooled)) sprintf("; levels %s pooled",
+                                              paste(pooled, collapse = ", ")) else "")
   bias
 }
 
@@ -171,8 +181,10 @@ report_inputs_table <- function(fit) {
 report_findings_table <- function(fails) {
   if (!nrow(fails)) return(NULL)
   d <- as.data.frame(fails)
-  signif_table(data.frame(rank = seq_len(nrow(d)), kind = d$kind, site = d$site, start = d$start, end = d$end,
-                          size = d$size, credible = d$credible, share_of_signal = d$share_of_signal, sign = d$sign,
+  signif_table(data.frame(rank = seq_len(nrow(d)), kind = d$kind, site = d$site, start = d$start,
+                          end = d$end,
+                          size = d$size, credible = d$credible, share_of_signal = d$share_of_signal,
+                          sign = d$sign,
                           inputs = d$inputs, stringsAsFactors = FALSE), digits = 3)
 }
 
@@ -181,7 +193,8 @@ report_comparison_tables <- function(comparison) {
   m <- as.data.frame(unclass(comparison)[c("metric", "before", "after", "change")])
   hr <- attr(comparison, "holdout_ratio")
   list(metrics = signif_table(m, digits = 3),
-       ratio = if (!is.null(hr)) signif_table(as.data.frame(hr)[c("prediction", "ratio", "lower", "upper")], digits = 3))
+       ratio = if (!is.null(hr))
+         signif_table(as.data.frame(hr)[c("prediction", "ratio", "lower", "upper")], digits = 3))
 }
 
 # An HTML table (knitr's kable), numbers right-aligned.
@@ -210,7 +223,8 @@ finding_figure <- function(fails, i) {
   b$hi <- if (simultaneous) b$upper_curve else b$upper
   tol <- (attr(fails, "tolerance") %||% c(0))[r$site]
   p <- ggplot2::ggplot(b, ggplot2::aes(.data$t)) +
-    ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf, fill = "#f4cccc", alpha = 0.6) +
+    ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf,
+                      fill = "#f4cccc", alpha = 0.6) +
     ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lo, ymax = .data$hi), fill = "grey75") +
     ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
     ggplot2::geom_line(ggplot2::aes(y = .data$mean), linewidth = 0.4)
@@ -218,8 +232,10 @@ finding_figure <- function(fails, i) {
     p <- p + ggplot2::geom_hline(yintercept = c(-tol, tol), colour = "firebrick", linetype = 3)
   }
   p + ggplot2::labs(x = "time", y = "bias",
-                    title = sprintf("Finding %d: %s at %s [%s, %s]", i, r$kind, r$site, fmt3(r$start), fmt3(r$end)),
-                    subtitle = sprintf("%s band, the interval shaded", if (simultaneous) "whole-curve" else "pointwise")) +
+                    title = sprintf("Finding %d: %s at %s [%s, %s]", i, r$kind, r$site,
+                                    fmt3(r$start), fmt3(r$end)),
+                    subtitle = sprintf("%s band, the interval shaded",
+                                       if (simultaneous) "whole-curve" else "pointwise")) +
     ggplot2::theme_bw(base_size = 10)
 }
 
@@ -236,12 +252,14 @@ misfit_figure <- function(fails, i) {
   d$lo <- d$misfit - d$crit * d$se
   d$hi <- d$misfit + d$crit * d$se
   ggplot2::ggplot(d, ggplot2::aes(.data$t)) +
-    ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf, fill = "#f4cccc", alpha = 0.6) +
+    ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf,
+                      fill = "#f4cccc", alpha = 0.6) +
     ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lo, ymax = .data$hi), fill = "grey75") +
     ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
     ggplot2::geom_line(ggplot2::aes(y = .data$misfit), linewidth = 0.4) +
     ggplot2::labs(x = "time", y = "field mean - model",
-                  title = sprintf("Finding %d: misfit at %s [%s, %s]", i, r$site, fmt3(r$start), fmt3(r$end)),
+                  title = sprintf("Finding %d: misfit at %s [%s, %s]", i, r$site, fmt3(r$start),
+                                  fmt3(r$end)),
                   subtitle = "the field mean less the model at the calibrated inputs, its simultaneous band; the stretch shaded") +
     ggplot2::theme_bw(base_size = 10)
 }

@@ -4,9 +4,11 @@
 validate_wv_testbed <- function(x, call = rlang::caller_env()) {
   conds <- c("A", "B", names(testbed_spec_of(x)$shifted))
   need <- c(list("iu"), lapply(conds, c, "runs"), lapply(conds, c, "field"),
-            list(c("truth", "u"), c("truth", "delta"), c("truth", "reality"), c("truth", "reality_B")))
+            list(c("truth", "u"), c("truth", "delta"), c("truth", "reality"),
+                 c("truth", "reality_B")))
   for (p in need) {
-    if (is.null(x[[p]])) wv_abort("The test bed lacks {.field {paste(p, collapse = '$')}}.", call = call)
+    if (is.null(x[[p]])) wv_abort("The test bed lacks {.field {paste(p, collapse = '$')}}.",
+                                  call = call)
   }
   check_class(x$iu, "wv_iu", "iu", call = call)
   for (cond in conds) {
@@ -23,24 +25,29 @@ print.wv_testbed <- function(x, ...) {
   cli::cat_line(sprintf("%s (seed %s, hidden mechanism: %s)", spec$text$header, x$truth$seed,
                         paste(x$truth$hidden, collapse = ", ")))
   cli::cat_line(sprintf("  %d inputs: %s; %s %s; %d time points in %s", nrow(x$iu),
-                        paste(x$iu$name, collapse = ", "), if (length(sites) > 1L) "sites" else "site",
+                        paste(x$iu$name, collapse = ", "),
+                        if (length(sites) > 1L) "sites" else "site",
                         paste(sites, collapse = ", "), length(x$A$runs$t), spec$text$span))
   n_field <- function(cd) nrow(x[[cd]]$field$curves[[1]])
   n_runs <- function(cd) nrow(x[[cd]]$runs$design)
   cli::cat_line(sprintf("  A: %d model runs, %d field replicates", n_runs("A"), n_field("A")))
-  cli::cat_line(sprintf("  B: %d model runs, %d held-out field replicates (%s)", n_runs("B"), n_field("B"),
+  cli::cat_line(sprintf("  B: %d model runs, %d held-out field replicates (%s)", n_runs("B"),
+                        n_field("B"),
                         spec$text$B))
   for (cd in intersect(names(spec$shifted), names(x))) {
-    cli::cat_line(sprintf("  %s: %d model runs, %d field replicate%s", spec$shifted[[cd]]$label, n_runs(cd),
+    cli::cat_line(sprintf("  %s: %d model runs, %d field replicate%s", spec$shifted[[cd]]$label,
+                          n_runs(cd),
                           n_field(cd), if (n_field(cd) == 1L) "" else "s"))
   }
   if (!is.null(x$doses)) {
     cli::cat_line(sprintf("  doses: %d model runs over the inputs and the dose (%g to %g mg); field replicates at %s mg and A's 400",
-                          nrow(x$doses$runs$design), min(x$doses$runs$design$dose), max(x$doses$runs$design$dose),
+                          nrow(x$doses$runs$design), min(x$doses$runs$design$dose),
+                          max(x$doses$runs$design$dose),
                           paste(x$doses$amounts, collapse = ", ")))
   }
   cli::cat_line(sprintf("  %s: ", spec$text$windows),
-                paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]), character(1)),
+                paste(vapply(x$windows, function(w) sprintf("%s < t < %s", w[1], w[2]),
+                             character(1)),
                       collapse = ", "))
   invisible(x)
 }
@@ -65,7 +72,8 @@ summary.wv_testbed <- function(object, ...) {
 
 #' @export
 print.summary_wv_testbed <- function(x, ...) {
-  cli::cat_line(sprintf("%s, seed %s, hidden mechanism: %s", x$title, x$seed, paste(x$hidden, collapse = ", ")))
+  cli::cat_line(sprintf("%s, seed %s, hidden mechanism: %s", x$title, x$seed,
+                        paste(x$hidden, collapse = ", ")))
   print(data.frame(condition = names(x$runs), model_runs = x$runs, field_replicates = x$replicates,
                    row.names = NULL), row.names = FALSE)
   cli::cat_line("True u* and delta* (condition A):")
@@ -94,7 +102,8 @@ print.summary_wv_testbed <- function(x, ...) {
 #' autoplot(tb, "B")
 #' tb <- testbed_dosing(seed = 2, hidden = "absorption_lag")
 #' autoplot(tb, "B")
-autoplot.wv_testbed <- function(object, condition = testbed_conditions(object), windows = object$windows, ...) {
+autoplot.wv_testbed <- function(object, condition = testbed_conditions(object),
+                                windows = object$windows, ...) {
   condition <- check_choice(condition)
   autoplot(object[[condition]]$runs, field = object[[condition]]$field, windows = windows)
 }

@@ -43,7 +43,8 @@ write_testbed <- function(tb, dir, digits = 6L) {
            "testbed_runs.csv.xz")
   write_xz(do.call(rbind, lapply(conds, function(cd) wide(tb[[cd]]$field$curves, "replicate", cd))),
            "testbed_field.csv.xz")
-  real <- list(A = tb$truth$reality, B = tb$truth$reality_B, added_mass = tb$truth$reality_added_mass)
+  real <- list(A = tb$truth$reality, B = tb$truth$reality_B,
+               added_mass = tb$truth$reality_added_mass)
   real_wide <- do.call(rbind, lapply(conds, function(cd) {
     wide(lapply(real[[cd]], function(y) matrix(y, nrow = 1L)), "replicate", cd)
   }))
@@ -74,7 +75,9 @@ read_testbed <- function(dir) {
         "i" = "Expected one row per curve: {.field {keys}}, then the values at the {length(t)} grid points ({.field y1} to {.field y{length(t)}})."
       ), call = NULL)
     }
-    rd(f, c(ifelse(keys %in% c("run", "replicate"), "integer", "character"), rep("numeric", length(t))))
+    rd(f,
+       c(ifelse(keys %in% c("run", "replicate"), "integer", "character"),
+         rep("numeric", length(t))))
   }
   iu_df <- rd("testbed_iu.csv")
   iu <- iu_map(iu_df$name, iu_df$type, iu_df$lower, iu_df$upper, iu_df$nominal,
@@ -123,7 +126,8 @@ read_testbed <- function(dir) {
     B = B,
     added_mass = am,
     truth = list(u = tv("u"), delta = tv("delta"), delta_B = tv("delta_B"), x_nom_B = tv("x_nom_B"),
-                 reality = reality[[1]], reality_B = reality[[2]], reality_added_mass = reality[[3]],
+                 reality = reality[[1]], reality_B = reality[[2]],
+                 reality_added_mass = reality[[3]],
                  warps = warps, hidden = truth$name[truth$what == "hidden"],
                  seed = as.integer(tv("seed"))),
     windows = testbed_windows()

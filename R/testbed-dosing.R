@@ -92,7 +92,8 @@ testbed_dosing <- function(seed = 1, hidden = "none", doses = NULL, n_dose_runs 
   }
   with_rng_seed(seed, {
     tb <- build_testbed_from_spec(spec, seed, hidden)
-    if (!is.null(doses)) tb$doses <- dosing_conditions(spec, tb, sort(doses), as.integer(n_dose_runs), seed, hidden)
+    if (!is.null(doses)) tb$doses <- dosing_conditions(spec, tb, sort(doses),
+                                                       as.integer(n_dose_runs), seed, hidden)
     tb
   })
 }
@@ -104,7 +105,8 @@ dosing_conditions <- function(spec, tb, amounts, n_runs, seed, hidden) {
   iu <- tb$iu
   xn <- iu$name[iu$type == "variation"]
   span <- range(c(amounts, 400))
-  iu_d <- iu_add(iu, "dose", type = "condition", lower = 0.9 * span[1], upper = 1.1 * span[2], nominal = 400)
+  iu_d <- iu_add(iu, "dose", type = "condition", lower = 0.9 * span[1], upper = 1.1 * span[2],
+                 nominal = 400)
   design <- design_maximin(iu_d, n_runs, seed = seed)
   runs <- new_wv_runs(design, spec$grid, spec_simulate_coded(spec, as.matrix(design)))
   nom <- stats::setNames(iu$nominal, iu$name)
@@ -115,7 +117,8 @@ dosing_conditions <- function(spec, tb, amounts, n_runs, seed, hidden) {
     c(list(reality = reality), make_field(spec, reality, spec$n_field[["A"]], nom[xn], labels[j]))
   })
   names(made) <- labels
-  list(iu = iu_d, runs = runs, fields = lapply(made, `[[`, "field"), amounts = stats::setNames(amounts, labels),
+  list(iu = iu_d, runs = runs, fields = lapply(made, `[[`, "field"),
+       amounts = stats::setNames(amounts, labels),
        truth = list(reality = lapply(made, `[[`, "reality"),
                     warps = do.call(rbind, unname(lapply(made, `[[`, "warps")))))
 }
@@ -255,7 +258,8 @@ dosing_spec <- function() {
     mechanisms = dosing_mechanisms(), mechanisms_fn = "dosing_mechanisms",
     physical = dosing_physical,
     simulator = function(params, strength, t, term = NULL, states = FALSE) {
-      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(), strength = numeric())
+      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(),
+                                      strength = numeric())
       dosing_simulate_cpp(params[, 1:6, drop = FALSE], strength, doses, params[, "dose"], t, 4L,
                           term$state, term$range, term$table, term$strength, states)
     },
@@ -268,7 +272,8 @@ dosing_spec <- function() {
     n_field = c(A = 6L, B = 6L),
     # knots at the start, at each dose, between the doses and at the end;
     # each dose is seen 0.03 to 0.12 hours off either way
-    warp = list(knots = c(0, 2, 8, 14, 20, 26, 37, 48), moved = c(2L, 4L, 6L), shift = c(0.03, 0.12),
+    warp = list(knots = c(0, 2, 8, 14, 20, 26, 37, 48), moved = c(2L, 4L, 6L),
+                shift = c(0.03, 0.12),
                 scale = 1),
     noise = c(sd = 0.04, phi = 0.9),
     text = list(model = "dosing model", title = "Dosing test bed",
@@ -296,7 +301,8 @@ dosing_designs <- function(iu, nom_B, seed) {
   iu_B$lower <- iu$lower + nom_B - nom_A
   iu_B$upper <- iu$upper + nom_B - nom_A
   iu_B$nominal <- unname(nom_B)
-  list(A = design_maximin(iu, 66L, seed = seed), B = design_maximin(iu_B, 65L, nominal = FALSE, seed = seed))
+  list(A = design_maximin(iu, 66L, seed = seed),
+       B = design_maximin(iu_B, 65L, nominal = FALSE, seed = seed))
 }
 
 # Physical parameters (K x 6, order of ParamIndex in dosing.h) of coded

@@ -21,7 +21,8 @@
 # `known` holds the simulator's known inputs outside the I/U map with their
 # default values (the dosing bed's dose amount, mg): a design may set them,
 # and `physical()` receives them as columns.
-new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid, windows,
+new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid,
+                             windows,
                              designs, nominal_B, n_field, warp, noise, shifted = list(), text,
                              max_strength = NULL, known = NULL) {
   structure(list(name = name, iu = iu, mechanisms = mechanisms, mechanisms_fn = mechanisms_fn,
@@ -53,7 +54,8 @@ testbed_conditions <- function(x) setdiff(names(x), c("iu", "truth", "windows", 
 spec_check_hidden <- function(spec, hidden, call = rlang::caller_env()) {
   mechs <- spec$mechanisms
   if (!is.character(hidden) || length(hidden) == 0L || anyNA(hidden)) {
-    wv_abort("{.arg hidden} must be {.val none} or names from {.fn {spec$mechanisms_fn}}.", call = call)
+    wv_abort("{.arg hidden} must be {.val none} or names from {.fn {spec$mechanisms_fn}}.",
+             call = call)
   }
   bad <- setdiff(hidden, c("none", mechs))
   if (length(bad)) {
@@ -71,7 +73,8 @@ spec_check_hidden <- function(spec, hidden, call = rlang::caller_env()) {
 spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::caller_env()) {
   if (is.matrix(design) && !is.null(colnames(design))) design <- as.data.frame(design)
   if (!is.data.frame(design) || nrow(design) == 0L) {
-    wv_abort("{.arg design} must be a data frame with one row per run and named input columns.", call = call)
+    wv_abort("{.arg design} must be a data frame with one row per run and named input columns.",
+             call = call)
   }
   known <- spec$known %||% numeric()
   inputs <- c(spec$iu$name, names(known))
@@ -90,14 +93,16 @@ spec_check_design <- function(spec, design, mechanism, nominal, call = rlang::ca
   }
   for (v in intersect(names(known), names(design))) {
     if (any(design[[v]] <= 0)) {
-      wv_abort("The column {.val {v}} of {.arg design} must be positive (default {known[[v]]}).", call = call)
+      wv_abort("The column {.val {v}} of {.arg design} must be positive (default {known[[v]]}).",
+               call = call)
     }
   }
   nom <- stats::setNames(c(rep(0.5, length(spec$iu$name)), known), inputs)
   if (!is.null(nominal)) {
     if (!is.numeric(nominal) || is.null(names(nominal)) || any(!names(nominal) %in% inputs) ||
         any(!is.finite(nominal))) {
-      wv_abort("{.arg nominal} must be a named numeric vector over the inputs {.val {inputs}}.", call = call)
+      wv_abort("{.arg nominal} must be a named numeric vector over the inputs {.val {inputs}}.",
+               call = call)
     }
     nom[names(nominal)] <- nominal
   }
@@ -125,7 +130,8 @@ check_mechanism_columns <- function(spec, design, mechanism, call) {
   scols <- if (length(mechanism)) paste0("s_", mechanism) else character()
   extra <- setdiff(names(design), c(inputs, paste0("s_", mechs)))
   if (length(extra)) {
-    wv_abort(c(paste0("{.arg design} has column{?s} {.val {extra}} the ", spec$text$model, " does not know."),
+    wv_abort(c(paste0("{.arg design} has column{?s} {.val {extra}} the ", spec$text$model,
+                      " does not know."),
                "i" = "Inputs are {.val {inputs}}; mechanism strengths are {.val {paste0('s_', mechs)}}."),
              call = call)
   }
@@ -164,13 +170,15 @@ spec_simulate_coded <- function(spec, coded, strength = NULL, term = NULL, state
 # The model runs of a user design (simulate_suspension(), simulate_dosing()),
 # with the state histories as the attribute "states" when `states` is TRUE
 # (rows of failed runs dropped as model_runs() drops their curves).
-spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, states = FALSE, term = NULL,
+spec_simulate <- function(spec, design, mechanism = NULL, nominal = NULL, states = FALSE,
+                          term = NULL,
                           call = rlang::caller_env()) {
   check_flag(states, "states", call = call)
   termed <- spec_check_term(spec, design, term, call = call)
   checked <- spec_check_design(spec, termed$design, mechanism, nominal, call = call)
   user <- if (is.null(term)) checked$user else as.data.frame(design)
-  sim <- spec_simulate_coded(spec, checked$full, checked$strength, term = termed$term, states = states,
+  sim <- spec_simulate_coded(spec, checked$full, checked$strength, term = termed$term,
+                             states = states,
                              call = call)
   hist <- attr(sim, "states")
   attr(sim, "states") <- NULL
@@ -254,10 +262,13 @@ build_testbed_from_spec <- function(spec, seed, hidden) {
     list(u = u_star, delta = delta, delta_B = delta_B, x_nom_B = nom_B[xn], reality = reality,
          reality_B = reality_B),
     stats::setNames(lapply(shifted, `[[`, "reality"), sprintf("reality_%s", names(shifted))),
-    list(warps = do.call(rbind, c(list(field_A$warps, field_B$warps), unname(lapply(shifted, `[[`, "warps")))),
+    list(warps = do.call(rbind,
+                         c(list(field_A$warps, field_B$warps),
+                           unname(lapply(shifted, `[[`, "warps")))),
          hidden = hidden, seed = as.integer(seed))
   )
-  new_wv_testbed(c(list(iu = iu), conditions, list(truth = truth, windows = spec$windows)), spec$name)
+  new_wv_testbed(c(list(iu = iu), conditions, list(truth = truth, windows = spec$windows)),
+                 spec$name)
 }
 
 # A condition met by moving the inputs of A by `sh$shift`: the nominal run and
@@ -282,7 +293,8 @@ shifted_condition <- function(spec, condition, sh, nom_A, x_star, hidden) {
 draw_warp <- function(warp) {
   m <- length(warp$moved)
   shift <- numeric(length(warp$knots))
-  shift[warp$moved] <- sample(c(-1, 1), m, replace = TRUE) * stats::runif(m, warp$shift[1], warp$shift[2]) *
+  shift[warp$moved] <- sample(c(-1, 1), m, replace = TRUE) * stats::runif(m, warp$shift[1],
+                                                                          warp$shift[2]) *
     warp$scale
   data.frame(t = warp$knots, w = warp$knots + shift)
 }
@@ -305,7 +317,8 @@ make_field <- function(spec, truth, n_rep, x_nom, condition) {
   t <- spec$grid
   warps <- lapply(seq_len(n_rep), function(r) draw_warp(spec$warp))
   curves <- lapply(truth, function(y) {
-    t(vapply(warps, function(w) apply_warp(y, t, w) + spec_noise(spec, length(t)), numeric(length(t))))
+    t(vapply(warps, function(w) apply_warp(y, t, w) + spec_noise(spec, length(t)),
+             numeric(length(t))))
   })
   knots <- do.call(rbind, lapply(seq_len(n_rep), function(r) {
     cbind(data.frame(condition = condition, replicate = r), warps[[r]])
@@ -322,7 +335,8 @@ make_field <- function(spec, truth, n_rep, x_nom, condition) {
 unwarped_field <- function(tb, seed, warp = NULL) {
   spec <- testbed_spec_of(tb)
   f <- tb$A$field
-  reality <- if (is.null(warp)) tb$truth$reality else lapply(tb$truth$reality, apply_warp, t = f$t, warp = warp)
+  reality <- if (is.null(warp)) tb$truth$reality else lapply(tb$truth$reality, apply_warp, t = f$t,
+                                                             warp = warp)
   with_rng_seed(seed, for (s in names(f$curves)) {
     f$curves[[s]] <- t(vapply(seq_len(nrow(f$curves[[s]])),
                               function(r) reality[[s]] + spec_noise(spec, length(f$t)),

@@ -99,7 +99,8 @@ testbed_term <- function(state, fun, range = NULL, n_table = 4001) {
     wv_abort("{.arg fun} must be a function of the state's values, not {.obj_type_friendly {fun}}.",
              class = c("term", "input"))
   }
-  if (!is.numeric(n_table) || length(n_table) != 1L || !is.finite(n_table) || n_table != round(n_table) ||
+  if (!is.numeric(n_table) || length(n_table) != 1L || !is.finite(n_table) ||
+      n_table != round(n_table) ||
       n_table < 3) {
     wv_abort("{.arg n_table} must be a whole number of at least 3.", class = c("term", "input"))
   }
@@ -127,7 +128,8 @@ testbed_term <- function(state, fun, range = NULL, n_table = 4001) {
 print.wv_testbed_term <- function(x, ...) {
   info <- term_states()
   info <- info[info$state == x$state, ]
-  cat(sprintf("<wv_testbed_term> s_term * f(%s) [%s]: %s (%s)\n", x$state, info$unit, info$enters, info$bed))
+  cat(sprintf("<wv_testbed_term> s_term * f(%s) [%s]: %s (%s)\n", x$state, info$unit, info$enters,
+              info$bed))
   cat(sprintf("  f tabulated on %d points over [%s, %s], linear beyond\n", x$n_table,
               format(x$range[1], digits = 6), format(x$range[2], digits = 6)))
   invisible(x)
@@ -185,10 +187,12 @@ spec_check_term <- function(spec, design, term, call = rlang::caller_env()) {
   }
   s <- design$s_term
   if (!is.numeric(s) || any(!is.finite(s))) {
-    wv_abort("The strength column {.val s_term} must hold finite numbers.", class = c("term", "input"), call = call)
+    wv_abort("The strength column {.val s_term} must hold finite numbers.",
+             class = c("term", "input"), call = call)
   }
   design$s_term <- NULL
   list(design = design,
-       term = list(state = states$index[states$state == term$state], range = term$range, table = term$y,
+       term = list(state = states$index[states$state == term$state], range = term$range,
+                   table = term$y,
                    strength = as.numeric(s)))
 }

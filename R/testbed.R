@@ -149,7 +149,8 @@ testbed_mechanisms <- function() {
 #' damping <- testbed_term("velocity", function(v) v)
 #' runs <- simulate_suspension(data.frame(s_term = c(0, 1)), term = damping, states = TRUE)
 #' names(attr(runs, "states"))
-simulate_suspension <- function(design, mechanism = NULL, nominal = NULL, states = FALSE, term = NULL) {
+simulate_suspension <- function(design, mechanism = NULL, nominal = NULL, states = FALSE,
+                                term = NULL) {
   spec_simulate(suspension_spec(), design, mechanism, nominal, states = states, term = term)
 }
 
@@ -211,8 +212,10 @@ suspension_spec <- function(n_added_mass = 1L) {
     max_strength = c(tire_liftoff = 1),
     physical = testbed_physical,
     simulator = function(params, strength, t, term = NULL, states = FALSE) {
-      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(), strength = numeric())
-      suspension_simulate_cpp(params, strength, t, 4L, term$state, term$range, term$table, term$strength, states)
+      if (is.null(term)) term <- list(state = -1L, range = numeric(), table = numeric(),
+                                      strength = numeric())
+      suspension_simulate_cpp(params, strength, t, 4L, term$state, term$range, term$table,
+                              term$strength, states)
     },
     grid = testbed_grid(), windows = testbed_windows(),
     designs = suspension_designs,
@@ -225,7 +228,8 @@ suspension_spec <- function(n_added_mass = 1L) {
     warp = list(knots = c(0, 8, 23, 39, 52, 65), moved = 2:5, shift = c(0.05, 0.2),
                 scale = c(1, 0.5, 1, 0.5)),
     noise = c(sd = 0.03, phi = 0.95),
-    shifted = list(added_mass = list(shift = c(x1 = 0.15), n_field = n_added_mass, label = "added mass")),
+    shifted = list(added_mass = list(shift = c(x1 = 0.15), n_field = n_added_mass,
+                                     label = "added mass")),
     text = list(model = "test bed", title = "Suspension test bed",
                 header = "<wv_testbed> suspension test bed", span = "[0, 65)",
                 B = "new nominals", windows = "event windows",

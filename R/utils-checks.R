@@ -1,6 +1,7 @@
 # Classed conditions and argument checks shared by every stage.
 
-wv_abort <- function(message, class = "input", ..., call = rlang::caller_env(), .envir = parent.frame()) {
+wv_abort <- function(message, class = "input", ..., call = rlang::caller_env(),
+                     .envir = parent.frame()) {
   cli::cli_abort(
     message,
     class = c(paste0("wavevalid_error_", class), "wavevalid_error"),
@@ -11,7 +12,8 @@ wv_abort <- function(message, class = "input", ..., call = rlang::caller_env(), 
 }
 
 wv_warn <- function(message, class = "warning", ..., .envir = parent.frame()) {
-  cli::cli_warn(message, class = c(paste0("wavevalid_warning_", class), "wavevalid_warning"), ..., .envir = .envir)
+  cli::cli_warn(message, class = c(paste0("wavevalid_warning_", class), "wavevalid_warning"), ...,
+                .envir = .envir)
 }
 
 # An argument renamed from `old` to `new`. A call that still names `old`
@@ -35,7 +37,9 @@ renamed_arg <- function(call, old, new, fun) {
 
 wv_inform <- function(message, ..., class = NULL, .envir = parent.frame()) {
   if (!isTRUE(getOption("wavevalid.quiet", FALSE))) {
-    cli::cli_inform(message, class = c(if (!is.null(class)) paste0("wavevalid_message_", class), "wavevalid_message"),
+    cli::cli_inform(message,
+                    class = c(if (!is.null(class)) paste0("wavevalid_message_", class),
+                              "wavevalid_message"),
                     ..., .envir = .envir)
   }
 }
@@ -43,7 +47,8 @@ wv_inform <- function(message, ..., class = NULL, .envir = parent.frame()) {
 check_number <- function(x, arg = deparse(substitute(x)), min = -Inf, max = Inf,
                          integer = FALSE, call = rlang::caller_env()) {
   if (!is.numeric(x) || length(x) != 1L || !is.finite(x)) {
-    wv_abort("{.arg {arg}} must be a single finite number, not {.obj_type_friendly {x}}.", call = call)
+    wv_abort("{.arg {arg}} must be a single finite number, not {.obj_type_friendly {x}}.",
+             call = call)
   }
   if (integer && x != round(x)) {
     wv_abort("{.arg {arg}} must be a whole number; it is {x}.", call = call)
@@ -130,7 +135,8 @@ with_rng_seed <- function(seed, code) {
 check_choice <- function(arg, arg_name = deparse(substitute(arg)), call = rlang::caller_env()) {
   values <- eval(formals(sys.function(sys.parent()))[[arg_name]], envir = call)
   if (identical(arg, values)) return(values[[1L]])
-  hit <- if (is.character(arg) && length(arg) == 1L && !is.na(arg)) pmatch(arg, values) else NA_integer_
+  hit <- if (is.character(arg) && length(arg) == 1L && !is.na(arg)) pmatch(arg,
+                                                                           values) else NA_integer_
   if (is.na(hit)) {
     wv_abort(c(
       "{.arg {arg_name}} must be one of {.or {.val {values}}}.",

@@ -13,7 +13,8 @@ phase_clock <- function() {
     d <- proc.time() - t0
     if (!phase %in% names(elapsed)) elapsed[[phase]] <<- cpu[[phase]] <<- 0
     elapsed[[phase]] <<- elapsed[[phase]] + d[["elapsed"]]
-    cpu[[phase]] <<- cpu[[phase]] + sum(d[c("user.self", "sys.self", "user.child", "sys.child")], na.rm = TRUE)
+    cpu[[phase]] <<- cpu[[phase]] +
+      sum(d[c("user.self", "sys.self", "user.child", "sys.child")], na.rm = TRUE)
     value
   }
 }

@@ -69,9 +69,11 @@ preflight <- function(runs, field, iu, sigma2 = NULL, windows = NULL, basis_args
   check_class(runs, "wv_runs")
   check_class(field, "wv_field")
   check_class(iu, "wv_iu")
-  if (!is.list(basis_args)) wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
+  if (!is.list(basis_args))
+    wv_abort("{.arg basis_args} must be a list of arguments to {.fn wavelet_basis}.")
   start <- proc.time()[["elapsed"]]
-  tolerance <- check_tolerance(tolerance %||% basis_args$tolerance %||% c(runs = 0.01, field = 0.02))
+  tolerance <- check_tolerance(tolerance %||% basis_args$tolerance %||%
+                               c(runs = 0.01, field = 0.02))
   rows <- list(grid = preflight_grid(runs, field))
   basis <- NULL
   if (rows$grid$status == "error") {
@@ -94,7 +96,8 @@ preflight <- function(runs, field, iu, sigma2 = NULL, windows = NULL, basis_args
     rows$windows <- tryCatch({
       w <- check_windows(windows, field$t)
       preflight_row("ok", sprintf("%d window%s: %s", length(w), if (length(w) == 1L) "" else "s",
-                                  paste(vapply(w, function(x) sprintf("[%s, %s]", format(signif(x[1], 4)),
+                                  paste(vapply(w, function(x) sprintf("[%s, %s]",
+                                                                      format(signif(x[1], 4)),
                                                                       format(signif(x[2], 4))), ""),
                                         collapse = ", ")), "")
     }, wavevalid_error = function(e) preflight_row("error", cli::ansi_strip(conditionMessage(e)),
@@ -117,7 +120,8 @@ preflight_grid <- function(runs, field) {
   n <- length(t)
   bad <- function(figure, fix) preflight_row("error", figure, fix, class = "grid")
   rebuild <- "Build the runs with model_runs() and the field with field_runs(), which put the curves on a dyadic grid."
-  if (!is.numeric(t) || any(!is.finite(t))) return(bad("the grid holds missing or infinite times", rebuild))
+  if (!is.numeric(t) || any(!is.finite(t))) return(bad("the grid holds missing or infinite times",
+                                                       rebuild))
   if (n < 8L || any(diff(t) <= 0)) {
     return(bad(sprintf("the grid of %d points is not strictly increasing or has fewer than 8 points", n), rebuild))
   }
@@ -126,10 +130,12 @@ preflight_grid <- function(runs, field) {
     return(bad(sprintf("%d points%s, steps from %s to %s: not a power of two of equally spaced points", n,
                        if (bitwAnd(n, n - 1L) == 0L) "" else " (not a power of two)",
                        format(signif(min(h), 3)), format(signif(max(h), 3))),
-               paste(rebuild, "Interpolation to", 2L^ceiling(log2(n)), "equally spaced points is done there.")))
+               paste(rebuild, "Interpolation to", 2L^ceiling(log2(n)),
+                     "equally spaced points is done there.")))
   }
   if (length(field$t) != n || max(abs(field$t - t)) > 1e-8 * max(1, abs(t))) {
-    return(bad(sprintf("the field has %d points on [%s, %s], the runs %d on [%s, %s]", length(field$t),
+    return(bad(sprintf("the field has %d points on [%s, %s], the runs %d on [%s, %s]",
+                       length(field$t),
                        format(signif(min(field$t), 4)), format(signif(max(field$t), 4)), n,
                        format(signif(t[1], 4)), format(signif(t[n], 4))),
                "Interpolate the field to the runs' grid (stats::approx onto runs$t) and build it with field_runs()."))
@@ -147,7 +153,8 @@ preflight_grid <- function(runs, field) {
 preflight_basis <- function(basis, field, tolerance) {
   e <- basis$error
   run <- e$rel_l2[e$source == "run"]
-  fig <- sprintf("%d of %d coefficients (%s, %s); relative L2 error %s", length(basis$index), basis$settings$n_t,
+  fig <- sprintf("%d of %d coefficients (%s, %s); relative L2 error %s", length(basis$index),
+                 basis$settings$n_t,
                  basis$settings$retain, basis$settings$boundary, basis_error_text(e))
   fld <- e[e$source == "field", , drop = FALSE]
   # a field curve meets its tolerance within its noise level too
@@ -160,15 +167,19 @@ preflight_basis <- function(basis, field, tolerance) {
                  percent_text(tolerance[["runs"]]), percent_text(tolerance[["field"]]))
   if (stats::median(run) > 5 * tolerance[["runs"]]) {
     return(preflight_row("error", paste0(fig, sprintf("; the median run misses its tolerance of %s more than five times over",
-                                                      percent_text(tolerance[["runs"]]))), fix, class = "basis"))
+                                                      percent_text(tolerance[["runs"]]))), fix,
+                         class = "basis"))
   }
   if (stats::median(run) > tolerance[["runs"]] || any(field_miss)) {
-    what <- c(if (stats::median(run) > tolerance[["runs"]]) sprintf("the median run misses %s",
-                                                                    percent_text(tolerance[["runs"]])),
-              if (any(field_miss)) sprintf("%d field curve%s miss%s %s beyond its noise level", sum(field_miss),
+    what <- c(if (stats::median(run) > tolerance[["runs"]])
+                sprintf("the median run misses %s", percent_text(tolerance[["runs"]])),
+              if (any(field_miss)) sprintf("%d field curve%s miss%s %s beyond its noise level",
+                                           sum(field_miss),
                                            if (sum(field_miss) == 1L) "" else "s",
-                                           if (sum(field_miss) == 1L) "es" else "", percent_text(tolerance[["field"]])))
-    return(preflight_row("warning", paste0(fig, "; ", paste(what, collapse = ", ")), fix, class = "basis"))
+                                           if (sum(field_miss) == 1L) "es" else "",
+                                           percent_text(tolerance[["field"]])))
+    return(preflight_row("warning", paste0(fig, "; ", paste(what, collapse = ", ")), fix,
+                         class = "basis"))
   }
   preflight_row("ok", fig, "")
 }
@@ -176,7 +187,8 @@ preflight_basis <- function(basis, field, tolerance) {
 preflight_noise <- function(field, sigma2) {
   reps <- vapply(field$curves, nrow, integer(1))
   setting <- describe_noise(sigma2, reps, field$noise)
-  fig <- paste(sprintf("%s: %d replicate%s, %s", names(reps), reps, ifelse(reps == 1L, "", "s"), setting$how),
+  fig <- paste(sprintf("%s: %d replicate%s, %s", names(reps), reps, ifelse(reps == 1L, "", "s"),
+                       setting$how),
                collapse = "; ")
   if (any(!setting$ok)) {
     return(preflight_row("error", fig, setting$fix, class = c("noise", "input")))
@@ -202,10 +214,13 @@ describe_noise <- function(sigma2, reps, evidence = NULL) {
     sprintf("one noise variance learned in the posterior (%s prior on its sd, %s)", p$family, sc)
   }
   learn <- !given & (reps < 2L | !is.null(prior))
-  how <- ifelse(reps >= 2L, sprintf("variances estimated from the %d replicates (the method's estimate)", reps), "")
+  how <- ifelse(reps >= 2L,
+                sprintf("variances estimated from the %d replicates (the method's estimate)", reps),
+                "")
   how[learn] <- prior_text(prior %||% noise_prior())
   from_curve <- learn & kept & is.null((prior %||% noise_prior())$scale)
-  how[from_curve] <- sub("scale the finest-level estimate", "scale from the measured curve on its own time stamps",
+  how[from_curve] <- sub("scale the finest-level estimate",
+                         "scale from the measured curve on its own time stamps",
                          how[from_curve], fixed = TRUE)
   how[learn & repeated > 0] <- paste0(how[learn & repeated > 0],
                                       sprintf(", with the scatter of repeated measurements at one time stamp (%g df)",
@@ -217,8 +232,10 @@ describe_noise <- function(sigma2, reps, evidence = NULL) {
     vals <- if (is.list(sigma2)) sigma2[sites] else rep(list(sigma2), length(sites))
     how[given] <- vapply(vals[given], function(v) {
       v <- as.numeric(v)
-      if (length(v) == 1L || length(unique(v)) == 1L) sprintf("variances fixed by sigma2 = %s", format(signif(v[1], 3)))
-      else sprintf("variances fixed by sigma2 (%s to %s)", format(signif(min(v), 3)), format(signif(max(v), 3)))
+      if (length(v) == 1L || length(unique(v)) == 1L) sprintf("variances fixed by sigma2 = %s",
+                                                              format(signif(v[1], 3)))
+      else sprintf("variances fixed by sigma2 (%s to %s)", format(signif(min(v), 3)),
+                   format(signif(max(v), 3)))
     }, "")
   }
   # a curve read as interpolated whose measured points cannot tell its noise,
@@ -226,11 +243,13 @@ describe_noise <- function(sigma2, reps, evidence = NULL) {
   blind <- learn & kept & is.null((prior %||% noise_prior())$scale) &
     vapply(sites, function(s) identical(evidence[[s]]$detail_sd, 0), logical(1))
   if (any(blind)) {
-    how[blind] <- "read as interpolated before it came in, too few measured points to tell its noise"
+    how[blind] <-
+      "read as interpolated before it came in, too few measured points to tell its noise"
     return(list(how = stats::setNames(how, sites), ok = stats::setNames(!blind, sites),
                 weak = stats::setNames(rep(FALSE, length(sites)), sites),
                 fix = sprintf("Give the noise of site%s %s: noise_prior(scale = ) with the instrument's noise sd, or sigma2; or the measured points themselves (field_runs() with the curves on their own times).",
-                              if (sum(blind) == 1L) "" else "s", paste(sites[blind], collapse = ", "))))
+                              if (sum(blind) == 1L) "" else "s",
+                              paste(sites[blind], collapse = ", "))))
   }
   # one replicate and the noise learned: weakly identified against the bias
   weak <- reps < 2L & learn & repeated == 0
@@ -258,8 +277,10 @@ preflight_inputs <- function(runs, iu) {
   fig <- sprintf("%d inputs (%d calibration, %d variation) in the I/U map", length(inputs),
                  sum(iu$type[k] == "calibration"), sum(iu$type[k] == "variation"))
   if (any(beyond)) {
-    detail <- sprintf("%s: I/U [%s, %s], design [%s, %s]", inputs[beyond], format_range(iu$lower[k][beyond]),
-                      format_range(iu$upper[k][beyond]), format_range(lo[beyond]), format_range(hi[beyond]))
+    detail <- sprintf("%s: I/U [%s, %s], design [%s, %s]", inputs[beyond],
+                      format_range(iu$lower[k][beyond]),
+                      format_range(iu$upper[k][beyond]), format_range(lo[beyond]),
+                      format_range(hi[beyond]))
     return(preflight_row("warning", paste0(fig, "; the I/U range reaches beyond the design for ",
                                            paste(detail, collapse = "; ")),
                          "Narrow the I/U ranges to the design's, or add runs that cover them (the emulators would extrapolate).",
@@ -273,12 +294,16 @@ format_range <- function(x) trimws(formatC(x, digits = 3, format = "g"))
 #' @export
 print.wv_preflight <- function(x, ...) {
   cli::cat_line(sprintf("<wv_preflight> %d checks in %.1f s: %s", nrow(x), attr(x, "seconds"),
-                        paste(sprintf("%d %s", as.integer(table(factor(x$status, c("ok", "warning", "error", "skipped")))),
+                        paste(sprintf("%d %s",
+                                      as.integer(table(factor(x$status,
+                                                              c("ok", "warning", "error",
+                                                                "skipped")))),
                                       c("ok", "warning", "error", "skipped")), collapse = ", ")))
   mark <- c(ok = "v", warning = "!", error = "x", skipped = "-")
   for (i in seq_len(nrow(x))) {
     cli::cat_line(sprintf("%s %-7s %s", mark[[x$status[i]]], x$check[i], x$figure[i]))
-    if (nzchar(x$fix[i]) && x$status[i] %in% c("warning", "error")) cli::cat_line("          fix: ", x$fix[i])
+    if (nzchar(x$fix[i]) && x$status[i] %in% c("warning", "error"))
+      cli::cat_line("          fix: ", x$fix[i])
   }
   invisible(x)
 }
@@ -287,7 +312,8 @@ print.wv_preflight <- function(x, ...) {
 enforce_preflight <- function(pf, call = rlang::caller_env()) {
   cond <- attr(pf, "condition")
   for (i in which(pf$status == "error")) {
-    wv_abort(c("The pre-flight check {.val {pf$check[i]}} failed: {pf$figure[i]}.", "i" = "{pf$fix[i]}"),
+    wv_abort(c("The pre-flight check {.val {pf$check[i]}} failed: {pf$figure[i]}.",
+               "i" = "{pf$fix[i]}"),
              class = cond[[i]] %||% "input", call = call)
   }
   for (i in which(pf$status == "warning")) {

@@ -60,7 +60,8 @@ update.wv_fit <- function(object, runs = NULL, iu = NULL, ...) {
   }
   # validate()'s own arguments, the data and the seed, and the controls
   own <- setdiff(names(formals(validate)), c("runs", "iu", "..."))
-  settings <- c(given[intersect(names(given), own)], fit_controls(object), list(seed = fit_get(object, "seed")))
+  settings <- c(given[intersect(names(given), own)], fit_controls(object),
+                list(seed = fit_get(object, "seed")))
   settings <- settings[intersect(own, names(settings))]
   bad <- setdiff(names(over), c(own, unlist(control_fields())))
   if (length(bad)) {
@@ -109,7 +110,8 @@ keep_registration <- function(settings, registered_to, over) {
   if (is.null(registered_to)) return(settings)
   given_ref <- "reference" %in% names(over) || !is.null(over[["registration"]]$reference)
   if (!given_ref && !is.null(registered_to$field)) {
-    settings$registration <- modify_control(settings$registration, list(reference = registered_to$field))
+    settings$registration <- modify_control(settings$registration,
+                                            list(reference = registered_to$field))
   }
   exps <- settings$experiments
   if (!"experiments" %in% names(over) && length(exps) && length(registered_to$experiments)) {

@@ -99,9 +99,11 @@
 #'                  windows = list(c(6, 11), c(37, 41)), n_draws = 200, n_inner = 50, seed = 1)
 #' }
 validate <- function(runs, field, iu, experiments = NULL, registration = registration_control(),
-                     emulation = emulation_control(), bias = bias_control(), sampler = sampler_control(),
+                     emulation = emulation_control(), bias = bias_control(),
+                     sampler = sampler_control(),
                      seed = NULL, ...) {
-  ctl <- resolve_controls(list(registration = registration, emulation = emulation, bias = bias, sampler = sampler),
+  ctl <- resolve_controls(list(registration = registration, emulation = emulation, bias = bias,
+                               sampler = sampler),
                           list(...), "validate")
   reg <- ctl$registration
   windows <- reg$windows
@@ -119,7 +121,8 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   sigma2 <- bias$sigma2
   check_sigma2(sigma2, names(field$curves))
   clock <- phase_clock()
-  enforce_preflight(clock("preflight", preflight(runs, field, iu, sigma2 = sigma2, windows = windows,
+  enforce_preflight(clock("preflight", preflight(runs, field, iu, sigma2 = sigma2,
+                                                 windows = windows,
                                                  basis_args = basis_args)))
   raw_field <- field
   raw_experiments <- experiments
@@ -132,8 +135,10 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   registered_to <- NULL
   if (!is.null(windows)) {
     registered_to <- list(field = reference %||% runs)
-    field <- clock("registration", register_curves(field, registered_to$field, windows, features = features,
-                                                   knots_every = knots_every, check_runs = check_runs,
+    field <- clock("registration", register_curves(field, registered_to$field, windows,
+                                                   features = features,
+                                                   knots_every = knots_every,
+                                                   check_runs = check_runs,
                                                    landmark_site = "all"))
   }
   basis <- clock("basis", do.call(wavelet_basis, c(list(runs, field), basis_args)))
@@ -156,16 +161,20 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   if (!is.null(experiments)) {
     experiments <- check_experiments(experiments, emulators, field, iu = iu)
     if (!is.null(windows)) {
-      experiments <- clock("experiments", register_experiments(experiments, emulators, runs, windows,
-                                                               features = features, knots_every = knots_every,
+      experiments <- clock("experiments", register_experiments(experiments, emulators, runs,
+                                                               windows,
+                                                               features = features,
+                                                               knots_every = knots_every,
                                                                landmark_site = "all",
                                                                quiet = quiet))
       registered_to$experiments <- attr(experiments, "references")
       attr(experiments, "references") <- NULL
     }
   }
-  fit <- clock("calibration", calibrate(emulators, field, iu, experiments = experiments, bias = bias,
+  fit <- clock("calibration", calibrate(emulators, field, iu, experiments = experiments,
+                                        bias = bias,
                                         sampler = ctl$sampler, seed = seed))
   fit_set(fit, control = ctl, timing = clock(),
-          pipeline = list(runs = runs, field = raw_field, experiments = raw_experiments, registered_to = registered_to))
+          pipeline = list(runs = runs, field = raw_field, experiments = raw_experiments,
+                          registered_to = registered_to))
 }
