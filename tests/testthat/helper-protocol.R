@@ -111,23 +111,10 @@ protocol_check_class <- function(x, class, arg = deparse(substitute(x))) {
 }
 
 # Evaluates code with R's RNG (default kinds) seeded by seed, restoring the
-# caller's RNG state and kind.
+# caller's RNG state and kind (the seeding of the package's with_rng_seed(), through withr).
 protocol_with_seed <- function(seed, code) {
-  old_kind <- RNGkind()
-  had_seed <- exists(".Random.seed", envir = globalenv(), inherits = FALSE)
-  if (had_seed) old_seed <- get(".Random.seed", envir = globalenv(), inherits = FALSE)
-  on.exit({
-    if (had_seed) {
-      assign(".Random.seed", old_seed, envir = globalenv())
-    } else {
-      RNGkind(old_kind[1], old_kind[2], old_kind[3])
-      if (exists(".Random.seed", envir = globalenv(), inherits = FALSE)) {
-        rm(".Random.seed", envir = globalenv())
-      }
-    }
-  }, add = TRUE)
-  set.seed(seed, kind = "Mersenne-Twister", normal.kind = "Inversion", sample.kind = "Rejection")
-  force(code)
+  withr::with_seed(seed, code, .rng_kind = "Mersenne-Twister", .rng_normal_kind = "Inversion",
+                   .rng_sample_kind = "Rejection")
 }
 
 # The emulators' engine of the protocol: the report's per-coefficient fit.
