@@ -325,6 +325,7 @@ noise_evidence_summary <- function(field, learned, site_data) {
 # The field data of some sites only.
 subset_field_sites <- function(field, sites) {
   field$curves <- field$curves[sites]
+  if (!is.null(field$units)) field$units <- field$units[sites]
   field
 }
 

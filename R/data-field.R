@@ -96,6 +96,14 @@
 #'   of values and (optional) of replicates.
 #' @param x_nom Optional named numeric vector of nominal input values of the
 #'   tested system (defaults to the nominals of the I/U map at calibration).
+#' @param units How the replicates are declared: `NULL` (the default) when
+#'   they are repeated tests of one unit, whose spread is measurement noise;
+#'   or, when they are different units (subjects, specimens, vehicles of one
+#'   type), the unit of each replicate: a vector in the replicates' order
+#'   (the same at every site) or a list of such vectors by site; with a long
+#'   data frame, the name of its column of units. A unit may have one
+#'   replicate or several. [misfit_check()] then judges the population's
+#'   misfit net of what each unit's own inputs explain (see there).
 #' @param grid Optional dyadic time grid to put the curves on (the model runs'
 #'   `runs$t`); it must lie within the range of `t` (of each curve's times)
 #'   up to one step at either end, where the curves are held at their first
@@ -108,6 +116,7 @@
 #'   `ss`, `df` (repeated stamps), `n_stamps`, `n_repeated`, `detail_sd`,
 #'   `detail_ss`, `detail_df` (the difference residuals on the stamps as
 #'   data on the noise variance, see [noise_prior()]),
+#'   `units` (by site, the unit of each replicate, or `NULL`),
 #'   `map` (the resampling onto the grid; a list of them when the curves had
 #'   their own times) and, for curves read as interpolated, `interpolated`
 #'   (`n_points`, `n_breakpoints`, `n_measured`: the points read as measured,
@@ -148,11 +157,24 @@
 #' f <- field_runs(rbind(y), grid)
 #' f$noise$site1[c("detail_sd", "n_stamps")]
 field_runs <- function(curves, t, x_nom = NULL, site = NULL, grid = NULL, y = NULL,
-                       replicate = NULL) {
+                       replicate = NULL, units = NULL) {
+  unit_ids <- NULL
+  if (is_long_form(curves, t) && !is.null(units)) {
+    unit_ids <- long_units(curves, units, site, replicate)
+  } else if (!is.null(units)) {
+    unit_ids <- units
+  }
+  out <- field_from_curves(curves, t, x_nom, site, grid, y, replicate)
+  if (!is.null(unit_ids)) out$units <- check_units(unit_ids, out$curves)
+  out
+}
+
+field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
+                              call = rlang::caller_env()) {
   labels <- NULL
   if (is_long_form(curves, t)) {
     long <- long_curves(curves, list(t = t, y = y, site = site, replicate = replicate), "replicate",
-                        strict = FALSE)
+                        strict = FALSE, call = call)
     if (!is.null(replicate)) labels <- lapply(long$ids, function(v) paste(replicate, v))
     curves <- long$curves
     t <- long$t
@@ -285,9 +307,83 @@ check_stamps <- function(t, call = rlang::caller_env()) {
   as.numeric(t)
 }
 
-new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL) {
-  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise),
+new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL, units = NULL) {
+  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise,
+                 units = units),
             class = "wv_field")
+}
+
+# The unit of each replicate, by site (a character vector per site), from a
+# vector (every site's replicates in the same order) or a list by site;
+# units may not be shared by fewer than two of them.
+check_units <- function(units, curves, call = rlang::caller_env()) {
+  n_rep <- vapply(curves, nrow, integer(1))
+  if (!is.list(units)) {
+    if (length(unique(n_rep)) != 1L) {
+      wv_abort(c("{.arg units} as one vector needs the same number of replicates at every site.",
+                 "x" = "The sites have {.val {n_rep}} replicates.",
+                 "i" = "Give a list by site, each with the unit of every replicate."),
+               class = "input", call = call)
+    }
+    units <- rep(list(units), length(curves))
+    names(units) <- names(curves)
+  }
+  if (is.null(names(units))) names(units) <- names(curves)
+  if (!setequal(names(units), names(curves))) {
+    wv_abort(c("{.arg units} must name the sites of the curves.",
+               "x" = "It names {.val {names(units)}}; the curves {.val {names(curves)}}."),
+             class = "input", call = call)
+  }
+  units <- units[names(curves)]
+  for (s in names(curves)) {
+    u <- units[[s]]
+    if (!is.atomic(u) || anyNA(u) || length(u) != n_rep[[s]]) {
+      wv_abort(c("{.arg units} must give the unit of each replicate, without NA.",
+                 "x" = "Site {.val {s}} has {n_rep[[s]]} replicate{?s}; {.arg units} gives {length(u)} value{?s}{if (anyNA(u)) ', some NA' else ''}."),
+               class = "input", call = call)
+    }
+    if (length(unique(u)) < 2L) {
+      wv_abort(c("{.arg units} must name at least two units at each site.",
+                 "x" = "Site {.val {s}} has one unit, {.val {unique(u)}}.",
+                 "i" = "Replicates of one unit are repeats: leave {.arg units} out."),
+               class = "input", call = call)
+    }
+    units[[s]] <- as.character(u)
+  }
+  units
+}
+
+# The unit of each replicate of a long data frame, by site, in the order of
+# the replicates field_runs() makes (sorted ids); a replicate must belong to
+# one unit.
+long_units <- function(data, units, site, replicate, call = rlang::caller_env()) {
+  if (!is.character(units) || length(units) != 1L || !units %in% names(data)) {
+    wv_abort(c("With a long data frame, {.arg units} names its column of units.",
+               "i" = "Its columns are {.val {names(data)}}."),
+             class = c("column", "input"), call = call)
+  }
+  if (is.null(replicate)) {
+    wv_abort(c("{.arg units} needs {.arg replicate}: the column telling the curves apart.",
+               "i" = "Give e.g. {.code replicate = \"test\", units = \"{units}\"}."),
+             class = c("column", "input"), call = call)
+  }
+  lev <- function(v) if (is.factor(v)) levels(droplevels(v)) else as.character(sort(unique(v)))
+  sites <- if (is.null(site)) rep("site1", nrow(data)) else as.character(data[[site]])
+  site_lev <- if (is.null(site)) "site1" else lev(data[[site]])
+  out <- lapply(site_lev, function(s) {
+    d <- data[sites == s, , drop = FALSE]
+    ids <- lev(d[[replicate]])
+    vapply(ids, function(r) {
+      u <- unique(as.character(d[[units]][as.character(d[[replicate]]) == r]))
+      if (length(u) != 1L) {
+        wv_abort(c("Each curve belongs to one unit.",
+                   "x" = "Site {.val {s}}, {replicate} {.val {r}} has rows of units {.val {u}}."),
+                 class = c("column", "input"), call = call)
+      }
+      u
+    }, character(1), USE.NAMES = FALSE)
+  })
+  stats::setNames(out, site_lev)
 }
 
 validate_wv_field <- function(x, call = rlang::caller_env()) {
@@ -311,7 +407,8 @@ print.wv_field <- function(x, ...) {
     interp <- x$noise[[s]]$interpolated
     if (!is.null(interp$n_points)) interp <- list(interp)
     interp <- interp[!vapply(interp, is.null, logical(1))]
-    cli::cat_line(sprintf("  %s: %d replicate%s%s", s, n[[s]], if (n[[s]] == 1) "" else "s",
+    units <- if (!is.null(x$units[[s]])) sprintf(" of %d units", length(unique(x$units[[s]]))) else ""
+    cli::cat_line(sprintf("  %s: %d replicate%s%s%s", s, n[[s]], if (n[[s]] == 1) "" else "s", units,
                           if (length(interp)) sprintf(" (%d read as interpolated, noise evidence from %s measured points%s)",
                                                       length(interp),
                                                       sum(vapply(interp, function(z) z$n_measured,

@@ -297,7 +297,8 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
                         left_out = left_out)
   attr(warps, "landmark_settings") <- list(features = features, refine = refine)
   validate_wv_warps(warps)
-  out <- validate_wv_field(new_wv_field(t, curves, field$x_nom, warps, noise = field$noise))
+  out <- validate_wv_field(new_wv_field(t, curves, field$x_nom, warps, noise = field$noise,
+                                              units = field$units))
   if (inherits(reference, "wv_runs") && check_runs > 0L) {
     out$registration_check <- registration_check(out, reference, settings, check_runs)
   }
