@@ -61,9 +61,11 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
   X <- fit_draws_matrix(fit)[, fit_get(fit, "inputs"), drop = FALSE]
   rows <- unique(round(seq(1, nrow(X), length.out = min(nrow(X), 100L))))
   Psi <- fit_get(fit, "basis")$Psi
+  field <- fit_get(fit, "field")
   sims <- with_rng_seed(seed, lapply(stats::setNames(sites, sites), function(s) {
     Z <- shift_inputs(fit, s, X[rows, , drop = FALSE])
-    pr <- bank_predict(site_bank(fit_get(fit, "emulators"), s), Z)
+    bank <- site_bank(fit_get(fit, "emulators"), s)
+    pr <- bank_predict(bank, Z)
     D <- field_mean_draws(fit, s, rows) - pr$mean
     dbar <- colMeans(D)
     k <- ncol(D)
@@ -72,32 +74,152 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
       sqrt(pmax(pr$var[h, , drop = FALSE], 0)) * matrix(stats::rnorm(n_sim * k), n_sim)
     R <- fit_get(fit, "n_rep")[[s]]
     reg <- fit_get(fit, "registration_var")[[s]] %||% 0
-    if (R >= 2L) {
-      Wr <- basis_coef(fit_get(fit, "basis"), fit_get(fit, "field")$curves[[s]])
-      Dr <- sweep(Wr, 2L, colMeans(Wr))
-      E <- E + matrix(stats::rnorm(n_sim * R), n_sim) %*% Dr / sqrt(R * (R - 1))
+    units <- field$units[[s]]
+    Q <- NULL
+    if (!is.null(units)) {
+      Wr <- basis_coef(fit_get(fit, "basis"), field$curves[[s]])
+      Wu <- rowsum(Wr, units) / as.vector(table(units))
+      nu <- nrow(Wu)
+      Du <- sweep(Wu, 2L, colMeans(Wu))
+      E <- E + scatter_draws(Du, n_sim)
+      floor <- unit_noise_floor(Wr, units, fit_get(fit, "basis")$level) - colSums(Du^2) / (nu - 1) / nu
+      E <- E + rep(sqrt(pmax(floor, 0)), each = n_sim) * matrix(stats::rnorm(n_sim * k), n_sim)
       E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
+      Q <- unit_directions(fit, bank, Z, Psi)
+      noise <- c(units = sprintf("the scatter of %d units' means, net of what their own %s explain",
+                                 nu, paste(attr(Q, "inputs"), collapse = ", ")))
+    } else if (R >= 2L) {
+      Wr <- basis_coef(fit_get(fit, "basis"), field$curves[[s]])
+      Dr <- sweep(Wr, 2L, colMeans(Wr))
+      E <- E + scatter_draws(Dr, n_sim)
+      E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
+      noise <- c(replicates = "the replicates' scatter along the record")
     } else {
       v <- field_mean_variance(fit, s, rows[h])
       E <- E + sqrt(v) * matrix(stats::rnorm(n_sim * k), n_sim)
+      noise <- c(learned = "the learned noise")
     }
     Et <- tcrossprod(E, Psi)
-    se <- pmax(sqrt(colMeans(Et^2)), .Machine$double.eps)
-    list(misfit = drop(Psi %*% dbar), se = se,
-         zmax = apply(abs(Et) / rep(se, each = n_sim), 1L, max),
-         noise = if (R >= 2L) "replicates" else "learned")
+    m <- drop(Psi %*% dbar)
+    if (!is.null(Q)) {
+      Et <- Et - tcrossprod(Et %*% Q, Q)
+      m <- m - drop(Q %*% crossprod(Q, m))
+    }
+    c(list(misfit = m, noise = noise), misfit_scan(m, Et))
   }))
   zmax <- do.call(pmax, lapply(sims, `[[`, "zmax"))
   crit <- unname(stats::quantile(zmax, level))
+  t <- fit_get(fit, "basis")$t
   out <- do.call(rbind, lapply(sites, function(s) {
-    z <- sims[[s]]$misfit / sims[[s]]$se
-    data.frame(site = s, t = fit_get(fit, "basis")$t, misfit = sims[[s]]$misfit, se = sims[[s]]$se,
-               z = z, crit = crit,
-               rejected = abs(z) > crit, stringsAsFactors = FALSE)
+    sc <- sims[[s]]
+    ex <- scan_excess(sc$windows, crit, length(t))
+    data.frame(site = s, t = t, misfit = sc$misfit, se = sc$windows[[1]]$se,
+               z = sc$windows[[1]]$z, crit = crit, excess = ex$excess, scale = ex$width * diff(t[1:2]),
+               rejected = ex$excess > 0, stringsAsFactors = FALSE)
   }))
-  observed <- max(abs(out$z))
+  observed <- max(vapply(sims, `[[`, numeric(1), "observed"))
   structure(out, class = c("wv_misfit_check", "data.frame"), level = level, crit = crit,
-            p_value = mean(zmax >= observed), noise = vapply(sims, `[[`, character(1), "noise"))
+            p_value = mean(zmax >= observed),
+            noise = vapply(sims, function(x) names(x$noise), character(1)),
+            noise_text = vapply(sims, function(x) unname(x$noise), character(1)))
+}
+
+# Draws of the error of a mean of n curves (their deviations from it, the
+# rows of `Dev`) estimated from their own scatter: Gaussian multipliers of
+# the deviations, each draw scaled by sqrt(nu / chi^2_nu), nu = n - 1, so
+# that the standardised error has the t tails a scatter of few curves gives.
+scatter_draws <- function(Dev, n_sim) {
+  n <- nrow(Dev)
+  scale <- sqrt((n - 1) / stats::rchisq(n_sim, n - 1))
+  scale * (matrix(stats::rnorm(n_sim * n), n_sim) %*% Dev) / sqrt(n * (n - 1))
+}
+
+# The least variance of a mean of unit means, by coefficient: their
+# measurement noise, from the scatter of each unit's repeats about its mean
+# (pooled over the units, many degrees of freedom) when units were tested
+# more than once, else the level's mean of the unit means' scatter (the
+# noise of a level's coefficients is alike). The scatter of a few units'
+# means alone leaves some coefficients' error far too small by chance.
+unit_noise_floor <- function(Wr, units, level) {
+  n_u <- table(units)
+  nu <- length(n_u)
+  Wu <- rowsum(Wr, units) / as.vector(n_u)
+  if (nrow(Wr) > nu) {
+    within <- colSums((Wr - Wu[match(units, rownames(Wu)), , drop = FALSE])^2) / (nrow(Wr) - nu)
+    return(within * mean(1 / as.vector(n_u)) / nu)
+  }
+  between <- colSums(sweep(Wu, 2L, colMeans(Wu))^2) / (nu - 1) / nu
+  stats::ave(between, level)
+}
+
+# The directions in the time domain along which each unit's own inputs move
+# the model at the calibrated inputs (T x p, orthonormal): the variation
+# inputs of the map, or every estimated input when it has none; from the
+# emulators' mean by central differences of a hundredth of each range.
+unit_directions <- function(fit, bank, Z, Psi) {
+  iu <- fit_get(fit, "iu")
+  inputs <- colnames(Z) %||% fit_get(fit, "inputs")
+  type <- iu$type[match(inputs, iu$name)]
+  own <- inputs[type %in% "variation"]
+  if (!length(own)) own <- inputs[!type %in% "condition"]
+  x0 <- colMeans(Z)
+  width <- (iu$upper - iu$lower)[match(own, iu$name)]
+  step <- 0.01 * ifelse(is.finite(width) & width > 0, width, 1)
+  P <- matrix(x0, 2L * length(own), length(x0), byrow = TRUE, dimnames = list(NULL, inputs))
+  for (j in seq_along(own)) {
+    P[2L * j - 1L, own[j]] <- x0[[own[j]]] + step[j]
+    P[2L * j, own[j]] <- x0[[own[j]]] - step[j]
+  }
+  mu <- bank_predict(bank, P)$mean
+  J <- (mu[c(TRUE, FALSE), , drop = FALSE] - mu[c(FALSE, TRUE), , drop = FALSE]) / step
+  q <- qr(Psi %*% t(J))
+  keep <- seq_len(q$rank)
+  structure(qr.Q(q)[, keep, drop = FALSE], inputs = own)
+}
+
+# The misfit `m` (length T) and its simulated errors `Et` (n_sim x T) averaged
+# over windows of 1, 2, 4, ... points (each width's windows overlapping by
+# half, the last ending at T): by width, the starts, the window means, their
+# standard errors and z; the largest |z| of every simulated curve over all
+# windows (`zmax`) and of the misfit (`observed`). A misfit spread smoothly
+# over the record stands out in the wide windows' means, where the noise
+# averages away; a narrow one in the narrow windows.
+misfit_scan <- function(m, Et) {
+  n <- length(m)
+  Cm <- c(0, cumsum(m))
+  CE <- cbind(0, t(apply(Et, 1L, cumsum)))
+  if (n == 1L) CE <- cbind(0, Et)
+  zmax <- numeric(nrow(Et))
+  observed <- 0
+  windows <- lapply(2^(0:floor(log2(n))), function(w) {
+    st <- unique(c(seq(1L, n - w + 1L, by = max(1L, w %/% 2L)), n - w + 1L))
+    mw <- (Cm[st + w] - Cm[st]) / w
+    Ew <- (CE[, st + w, drop = FALSE] - CE[, st, drop = FALSE]) / w
+    se <- pmax(sqrt(colMeans(Ew^2)), .Machine$double.eps)
+    zmax <<- pmax(zmax, apply(abs(Ew) / rep(se, each = nrow(Ew)), 1L, max))
+    z <- mw / se
+    observed <<- max(observed, abs(z))
+    list(width = w, start = st, mean = mw, se = se, z = z)
+  })
+  list(windows = windows, zmax = zmax, observed = observed)
+}
+
+# By point, the largest excess of a rejected window's mean over the band's
+# edge among the windows holding the point (0 where none is rejected), and
+# that window's width in points (NA).
+scan_excess <- function(windows, crit, n) {
+  excess <- numeric(n)
+  width <- rep(NA_real_, n)
+  for (wd in windows) {
+    gap <- abs(wd$mean) - crit * wd$se
+    for (i in which(abs(wd$z) > crit)) {
+      idx <- wd$start[i] + seq_len(wd$width) - 1L
+      better <- gap[i] > excess[idx]
+      excess[idx[better]] <- gap[i]
+      width[idx[better]] <- wd$width
+    }
+  }
+  list(excess = excess, width = width)
 }
 
 #' @export
@@ -105,16 +227,15 @@ print.wv_misfit_check <- function(x, ...) {
   cli::cat_line(
     "<wv_misfit_check> the field mean against the model at the calibrated inputs, point by point")
   lv <- 100 * attr(x, "level")
-  noise <- attr(x, "noise")
-  cli::cat_line(sprintf("Standard errors: %s.", paste(sprintf("%s from %s", names(noise),
-    ifelse(noise == "replicates", "the replicates' scatter along the record", "the learned noise")),
+  noise <- attr(x, "noise_text") %||% attr(x, "noise")
+  cli::cat_line(sprintf("Standard errors: %s.", paste(sprintf("%s from %s", names(noise), noise),
                                                       collapse = "; ")))
   st <- misfit_stretches(x, tol = stats::setNames(rep(0, length(unique(x$site))), unique(x$site)))
   if (!nrow(st)) {
-    cli::cat_line(sprintf("Not rejected: the misfit lies inside the %g%% simultaneous band (%.2f standard errors) at every point (p = %.2f).",
+    cli::cat_line(sprintf("Not rejected: the misfit lies inside the %g%% simultaneous band (%.2f standard errors) at every point and in every window's mean (p = %.2f).",
                           lv, attr(x, "crit"), attr(x, "p_value")))
   } else {
-    cli::cat_line(sprintf("Rejected (p = %.3f): the misfit lies beyond the %g%% simultaneous band (%.2f standard errors) on %d stretch%s:",
+    cli::cat_line(sprintf("Rejected (p = %.3f): the misfit, point by point or in a window's mean, lies beyond the %g%% simultaneous band (%.2f standard errors) on %d stretch%s:",
                           attr(x, "p_value"), lv, attr(x, "crit"), nrow(st),
                           if (nrow(st) == 1L) "" else "es"))
     for (i in seq_len(min(nrow(st), 5L))) {
@@ -153,7 +274,7 @@ misfit_stretches <- function(x, tol, min_steps = 1L) {
   rows <- lapply(unique(x$site), function(s) {
     d <- x[x$site == s, , drop = FALSE]
     dt <- diff(d$t[1:2])
-    gap <- pmax(abs(d$misfit) - crit * d$se, 0)
+    gap <- d$excess %||% pmax(abs(d$misfit) - crit * d$se, 0)
     hit <- d$rejected & gap > tol[[s]]
     r <- rle(hit)
     ends <- cumsum(r$lengths)

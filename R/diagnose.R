@@ -292,7 +292,7 @@ band_gap <- function(b) pmax(b$lower, -b$upper, 0)
 # flags nothing).
 credible_with_misfit <- function(cr, mc) {
   if (is.null(mc)) return(cr)
-  gap <- ifelse(mc$rejected, pmax(abs(mc$misfit) - mc$crit * mc$se, 0), 0)
+  gap <- ifelse(mc$rejected, mc$excess %||% pmax(abs(mc$misfit) - mc$crit * mc$se, 0), 0)
   for (i in seq_len(nrow(cr))) {
     k <- which(mc$site == cr$site[i])
     j <- k[which.max(gap[k])]

@@ -14,7 +14,8 @@
 #   Rscript studies/units_misfit.R [seeds=1:5] [c=0,0.01,0.03]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
-opt <- study_args(list(seeds = "1:5", c = "0,0.01,0.03"))
+opt <- study_args(list(seeds = "1:5", c = "0,0.01,0.03", units = "TRUE", runs = "40"))
+declare_units <- as.logical(opt$units)
 options(wavevalid.quiet = TRUE)
 t <- seq(0, 10, length.out = 128)
 f <- function(a, k) a * exp(-k * t)
@@ -34,7 +35,9 @@ nested_p <- function(Y, unit) {
 rows <- list()
 for (seed in arg_numbers(opt$seeds)) {
   set.seed(seed)
-  design <- data.frame(a = 0.5 + (sample(40) - stats::runif(40)) / 40, k = 0.3 + 0.2 * (sample(40) - stats::runif(40)) / 40)
+  n_runs <- as.integer(opt$runs)
+  design <- data.frame(a = 0.5 + (sample(n_runs) - stats::runif(n_runs)) / n_runs,
+                       k = 0.3 + 0.2 * (sample(n_runs) - stats::runif(n_runs)) / n_runs)
   runs <- model_runs(design, t(mapply(f, design$a, design$k)), t)
   iu <- iu_map(c("a", "k"), c("calibration", "calibration"), lower = c(0.5, 0.3), upper = c(1.5, 0.5))
   a_u <- stats::rnorm(6, 1, 0.25)
@@ -42,7 +45,7 @@ for (seed in arg_numbers(opt$seeds)) {
   noise <- matrix(stats::rnorm(72 * length(t), sd = 0.01), 72)
   for (cc in arg_numbers(opt$c)) {
     Y <- t(vapply(unit, function(u) f(a_u[u], 0.4) + cc * (t / 10)^2, numeric(length(t)))) + noise
-    field <- field_runs(Y, t)
+    field <- field_runs(Y, t, units = if (declare_units) unit)
     fit <- suppressWarnings(validate(runs, field, iu, seed = 1))
     wf <- where_fails(fit)
     mc <- attr(wf, "misfit")
