@@ -25,12 +25,34 @@
 #' mean's error is the replicates' scatter about their mean (a Gaussian
 #' multiplier draw of their deviations, which keeps how the spread changes
 #' along the record and how the points of a replicate go together) when a
-#' site has two replicates or more, else the noise the fit learned. The band
-#' is simultaneous over every time point of every site: its half-width is
-#' the `level` quantile of the largest standardised deviation of the
-#' simulated curves. Where the standardised misfit lies beyond it, the model
-#' is rejected there; [where_fails()] reports such stretches as findings of
-#' kind `"misfit"` (beyond the tolerance, as the bias's band).
+#' site has two replicates or more, else the noise the fit learned. With few
+#' replicates their scatter is itself uncertain: each simulated draw of it is
+#' scaled by `sqrt(nu / chi^2_nu)`, `nu` one less than their number, which
+#' gives the standardised misfit the t tails it has.
+#'
+#' The band is simultaneous over every time point of every site and over the
+#' means of windows of 2, 4, 8, ... points up to the whole record (each
+#' width's windows overlapping by half): its half-width is the `level`
+#' quantile of the largest standardised deviation of the simulated curves
+#' over all of them. A narrow misfit stands out point by point; a small one
+#' spread over the record in the mean of a wide window, where the noise
+#' averages away. Where a point or a window's mean lies beyond the band, the
+#' model is rejected there; [where_fails()] reports such stretches as
+#' findings of kind `"misfit"` (beyond the tolerance, as the bias's band).
+#'
+#' @section Replicates that are units:
+#' When the field declares its replicates as different units
+#' (`field_runs(units = )`), their spread is not measurement noise: each unit
+#' has its own inputs. The population's misfit is then judged net of what
+#' each unit's own inputs explain: the misfit and its simulated errors are
+#' projected off the directions in which the variation inputs of the map
+#' (every estimated input when it has none) move the model at the calibrated
+#' inputs (the emulators' central differences), and the field mean's error is
+#' the scatter of the units' means (Gaussian multipliers of the units'
+#' deviations with the t scaling above), never below their measurement noise
+#' (from the units' repeats about their own means, or, with one curve per
+#' unit, the level's mean of that scatter). A small smooth misfit that the
+#' spread between units hides when they are read as repeats is found.
 #'
 #' @param fit A `wv_fit`.
 #' @param level Coverage of the simultaneous band.
@@ -40,11 +62,14 @@
 #' @return A `wv_misfit_check` data frame, one row per site and time point:
 #'   `site`, `t`, `misfit` (field mean less model), `se` (its standard
 #'   error), `z` (`misfit / se`), `crit` (the band's half-width in standard
-#'   errors, the same at every point) and `rejected` (`|z| > crit`). Its
-#'   attributes: `level`, `crit`, `p_value` (the share of simulated curves
-#'   whose largest standardised deviation exceeds the observed one: small
-#'   when the model fails somewhere) and `noise` (by site, `"replicates"`
-#'   or `"learned"`).
+#'   errors, the same at every point and window), `excess` (the largest
+#'   amount by which a point or window holding the point lies beyond the
+#'   band, 0 where none does), `scale` (that window's length in time) and
+#'   `rejected` (`excess > 0`). Its attributes: `level`, `crit`, `p_value`
+#'   (the share of simulated curves whose largest standardised deviation
+#'   exceeds the observed one: small when the model fails somewhere),
+#'   `noise` (by site, `"replicates"`, `"units"` or `"learned"`) and
+#'   `noise_text` (the same in words).
 #' @seealso [where_fails()], whose findings include this check's.
 #' @export
 #' @examples

@@ -461,7 +461,6 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
     return(list(sites = out, tested = e, bias_from = "tested", condition = v))
   }
   delta <- v - conditions$base
-  moved <- added_load_emulated(fit, delta, call = call)$Dw
   H <- nrow(fit_get(fit, "wM")[[base[1]]])
   exps <- tab$experiment
   shared <- identical(fit_get(fit, "settings")$experiment_bias, "shared") || length(exps) == 1L
@@ -469,6 +468,7 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
   z <- posterior_mean_inputs(fit)[inputs]
   znew <- z
   znew[names(delta)] <- znew[names(delta)] + delta
+  post <- fit_draws_matrix(fit)[, inputs, drop = FALSE]
   out <- lapply(stats::setNames(base, base), function(s) {
     from <- function(what) {
       X <- fit_get(fit, what)[[s]]
@@ -478,14 +478,44 @@ new_condition_setup <- function(fit, condition, call = rlang::caller_env()) {
       }
       X
     }
-    list(M = fit_get(fit, "wM")[[s]] + moved[[s]],
-         B = if (shared) fit_get(fit, "wb")[[s]] else from("wb"),
+    list(M = moved_model_draws(fit, s, post, delta),
+         B = if (shared) fit_get(fit, "wb")[[s]] else
+           new_member_bias(from("wb"), lapply(exps, function(e) fit_get(fit, "wb")[[site_of(e, s)]])),
          S2 = from("sigma2"),
          pure = drop(bank_predict(site_bank(fit_get(fit, "emulators"), s), matrix(znew, 1L))$mean))
   })
   list(sites = out, tested = NA_character_, bias_from = if (shared) "shared" else "pooled",
        condition = v,
        experiment = exps[pick])
+}
+
+# The model's coefficients at the new condition, draw by draw: the
+# emulators conditioned on the draw's model coefficients at the base
+# condition (wM, at the same inputs) and predicted at the inputs moved by
+# `delta`, their conditional variance drawn. The change from the base
+# condition carries the emulators' uncertainty in it (the variances at both
+# points less twice their covariance), not their mean change alone.
+moved_model_draws <- function(fit, s, post, delta) {
+  Z <- shift_inputs(fit, s, post)
+  Znew <- Z
+  for (p in names(delta)) Znew[, p] <- Znew[, p] + delta[[p]]
+  wM <- fit_get(fit, "wM")[[s]]
+  pa <- bank_predict_augmented(site_bank(fit_get(fit, "emulators"), s), Z, wM, Znew)
+  pa$mean + sqrt(pmax(pa$var, 0)) * matrix(stats::rnorm(length(wM)), nrow(wM))
+}
+
+# The bias at a condition not tested, from J tested conditions' biases
+# (`each`, their draws by condition; `mixed`, draw h taken from one of them):
+# a new member of the family the tested conditions are drawn from. The
+# spread of J members about their mean understates a new member's by
+# (J - 1) / J against its (J + 1) / J about that mean, so each draw's
+# deviation from the conditions' mean of that draw is widened by
+# sqrt((J + 1) / (J - 1)).
+new_member_bias <- function(mixed, each) {
+  J <- length(each)
+  if (J < 2L) return(mixed)
+  centre <- Reduce(`+`, each) / J
+  centre + sqrt((J + 1) / (J - 1)) * (mixed - centre)
 }
 
 # Bands of a new condition at base site `s` from new_condition_setup()'s

@@ -135,8 +135,14 @@ noise_lines <- function(fit) {
     sigma2 <- fit_get(fit, "sigma2")[[s]]
     sd_draws <- sqrt(sigma2[, 1] / (ev$mult %||% 1)[1])
     switch(setting[[s]],
-      replicates = sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
-                           s, fit_get(fit, "n_rep")[[s]], f(stats::median(sqrt(sigma2)))),
+      replicates = if (is.null(fit_get(fit, "field")$units[[s]])) {
+        sprintf("%s: from %d replicates, one variance per coefficient (the method's estimate); median sd %s",
+                s, fit_get(fit, "n_rep")[[s]], f(stats::median(sqrt(sigma2))))
+      } else {
+        sprintf("%s: %d replicates of %d units: the posterior takes their spread (between units and within) as the noise, one variance per coefficient; median sd %s; misfit_check() (and where_fails()) judge the population net of each unit's own inputs",
+                s, fit_get(fit, "n_rep")[[s]], length(unique(fit_get(fit, "field")$units[[s]])),
+                f(stats::median(sqrt(sigma2))))
+      },
       given = sprintf("%s: given by the user; median sd %s", s,
                       f(stats::median(sqrt(sigma2[1, ])))),
       finest = sprintf("%s: estimated from the finest wavelet level, sd %s (too small if the curve was smoothed or interpolated)",

@@ -97,3 +97,60 @@ test_that("preflight() and the fit's print say when the replicates' spread chang
                                     sampler = sampler_control(n_draws = 50, n_inner = 5, quiet = TRUE)))
   expect_true(any(grepl("registered replicates' spread changes", capture.output(print(fit)), fixed = TRUE)))
 })
+
+# Six units (their own x1, the map's variation input), three repeats each, on example_problem()'s emulators.
+units_fit <- function(extra, declare = TRUE, seed = 3) {
+  ex <- example_problem()
+  t <- ex$field$t
+  x <- withr::with_seed(seed, stats::rnorm(6, 0.5, 0.15))
+  unit <- rep(1:6, each = 3)
+  reps <- withr::with_seed(seed + 1, t(vapply(unit, function(i) {
+    (1 + 0.5 * x[i]) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2) + extra(t) +
+      stats::rnorm(length(t), sd = 0.01)
+  }, numeric(length(t)))))
+  field <- field_runs(reps, t, x_nom = c(x1 = 0.5), units = if (declare) unit)
+  suppressWarnings(calibrate(ex$emulators, field, ex$iu, chains = 2, seed = 1,
+                             sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)),
+                   classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary"))
+}
+
+test_that("replicates declared as units are judged net of what each unit's own inputs explain", {
+  right <- misfit_check(units_fit(function(t) 0 * t))
+  expect_identical(unname(attr(right, "noise")), "units")
+  expect_false(any(right$rejected))
+  expect_gt(attr(right, "p_value"), 0.1)
+  expect_output(print(right), "6 units' means, net of what their own x1 explain")
+  # the units' spread along x1's direction is not the error of the population's misfit
+  as_repeats <- misfit_check(units_fit(function(t) 0 * t, declare = FALSE))
+  expect_lt(stats::median(right$se), 0.5 * stats::median(as_repeats$se))
+  drift <- function(t) 0.02 * (t - 0.5)
+  units <- misfit_check(units_fit(drift))
+  repeats <- misfit_check(units_fit(drift, declare = FALSE))
+  expect_lt(attr(units, "p_value"), 0.01)
+  expect_gt(sum(units$rejected), 2 * sum(repeats$rejected))
+})
+
+test_that("a misfit spread over the record is found in the means of wide windows", {
+  chk <- misfit_check(units_fit(function(t) 0.02 * (t - 0.5)))
+  # rejected where no single point lies beyond the band: a window's mean does
+  wide <- chk$rejected & abs(chk$z) < chk$crit
+  expect_gt(sum(wide), 3L)
+  expect_true(all(chk$scale[wide] > diff(chk$t[1:2])))
+  expect_true(all(chk$excess[chk$rejected] > 0))
+  expect_true(all(chk$excess[!chk$rejected] == 0))
+  wf <- where_fails(units_fit(function(t) 0.02 * (t - 0.5)))
+  expect_true("misfit" %in% wf$kind)
+})
+
+test_that("the unit means' least error is their measurement noise", {
+  lev <- rep(0:3, c(1, 1, 2, 4))
+  units <- rep(1:6, each = 12)
+  W <- withr::with_seed(1, matrix(stats::rnorm(72 * 8, sd = 0.01), 72) +
+                          matrix(stats::rnorm(6 * 8, sd = 1), 6)[units, ])
+  # from the repeats about their unit's mean: the noise of a mean of 6 means of 12
+  expect_equal(unit_noise_floor(W, units, lev), rep(0.01^2 / 12 / 6, 8), tolerance = 0.25)
+  # one curve per unit: the level's mean of the unit means' scatter
+  one <- W[!duplicated(units), ]
+  between <- apply(one, 2, stats::var) / 6
+  expect_equal(unit_noise_floor(one, 1:6, lev), stats::ave(between, lev))
+})
