@@ -53,11 +53,12 @@
 #' | --- | --- | --- |
 #' | `"temperature"` | specimen temperature `T` (K) | \[150, 650\] |
 #'
-#' The cooling bed's temperatures lie within 290 to 510 K over its I/U
-#' ranges and conditions; its default range widens that span by about half
-#' of it on either side.
+#' The cooling bed's temperatures lie within 295 to 500 K over the design
+#' ranges of its conditions A and B; its default range widens that span by
+#' at least half of it on either side.
 #'
-#' The default ranges of the suspension and dosing states hold every value the state takes in runs over the I/U
+#' The default ranges of the suspension and dosing states hold every value
+#' the state takes in runs over the I/U
 #' ranges of [testbed_suspension()] and [testbed_dosing()]: the design of
 #' condition A and about 40 corners of the ranges (the dosing runs at 400 and
 #' 1000 mg), without mechanisms and with each mechanism at strength 2 (the
