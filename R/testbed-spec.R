@@ -3,7 +3,8 @@
 # grid and event windows, the designs of the model runs, the warps and noise
 # of the field replicates, and the held-out conditions. One builder, one
 # design check and one signature routine serve every test bed;
-# testbed_suspension() and testbed_dosing() are two specifications.
+# testbed_suspension(), testbed_dosing() and testbed_units() are three
+# specifications.
 
 # `physical(coded)` maps a K x p matrix of coded inputs to the simulator's
 # physical parameters; `simulator(params, strength, t, term = NULL, states =
@@ -20,20 +21,25 @@
 # cannot exceed a physical limit below 2 (the largest strength otherwise).
 # `known` holds the simulator's known inputs outside the I/U map with their
 # default values (the dosing bed's dose amount, mg): a design may set them,
-# and `physical()` receives them as columns.
+# and `physical()` receives them as columns. `units` (NULL for beds whose
+# replicates repeat one unit) holds `n_units` and `n_rep`: the field
+# replicates of A and B are then `n_units` units, each with its own
+# variation inputs, tested `n_rep` times (build_units_testbed()).
 new_testbed_spec <- function(name, iu, mechanisms, mechanisms_fn, physical, simulator, grid,
                              windows,
                              designs, nominal_B, n_field, warp, noise, shifted = list(), text,
-                             max_strength = NULL, known = NULL) {
+                             max_strength = NULL, known = NULL, units = NULL) {
   structure(list(name = name, iu = iu, mechanisms = mechanisms, mechanisms_fn = mechanisms_fn,
                  max_strength = max_strength,
                  physical = physical, simulator = simulator, grid = grid, windows = windows,
                  designs = designs, nominal_B = nominal_B, n_field = n_field, warp = warp,
-                 noise = noise, shifted = shifted, text = text, known = known),
+                 noise = noise, shifted = shifted, text = text, known = known, units = units),
             class = "wv_testbed_spec")
 }
 
-testbed_specs <- function() list(suspension = suspension_spec, dosing = dosing_spec)
+testbed_specs <- function() {
+  list(suspension = suspension_spec, dosing = dosing_spec, units = units_spec)
+}
 
 # The specification of a built test bed (a bare "wv_testbed" is a suspension
 # test bed built before the beds had their own classes).
@@ -227,6 +233,7 @@ spec_signatures <- function(spec, inputs, mechanisms, call = rlang::caller_env()
 # the designs, the true inputs of A, reality and the field of A, then those
 # of B, then the shifted conditions.
 build_testbed_from_spec <- function(spec, seed, hidden) {
+  if (!is.null(spec$units)) return(build_units_testbed(spec, seed, hidden))
   iu <- spec$iu
   inputs <- iu$name
   xn <- inputs[iu$type == "variation"]
@@ -284,6 +291,70 @@ shifted_condition <- function(spec, condition, sh, nom_A, x_star, hidden) {
   x_nom[names(dm)] <- x_nom[names(dm)] + dm
   field <- make_field(spec, reality, sh$n_field, x_nom, condition)
   list(design = design, field = field$field, warps = field$warps, delta = dm, reality = reality)
+}
+
+# --- units ----------------------------------------------------------------------
+
+# A test bed whose field replicates are units (spec$units), with the RNG
+# already seeded: the designs, the true calibration inputs, then the units
+# of A and those of B. The population's delta is the mean unit's.
+build_units_testbed <- function(spec, seed, hidden) {
+  iu <- spec$iu
+  inputs <- iu$name
+  xn <- inputs[iu$type == "variation"]
+  nom_A <- stats::setNames(iu$nominal, inputs)
+  nom_B <- nom_A
+  nom_B[xn] <- spec$nominal_B[xn]
+  designs <- spec$designs(iu, nom_B, seed)
+  u_star <- iu_prior_draws(iu, 1L)[1, inputs[iu$type == "calibration"]]
+  A <- make_units(spec, u_star, nom_A[xn], hidden, "A")
+  B <- make_units(spec, u_star, nom_B[xn], hidden, "B")
+  as_runs <- function(d) {
+    rownames(d) <- NULL
+    d <- as.data.frame(d)
+    new_wv_runs(d, spec$grid, spec_simulate_coded(spec, d))
+  }
+  truth <- list(u = u_star, delta = A$delta, delta_B = B$delta, x_nom_B = nom_B[xn],
+                reality = A$reality, reality_B = B$reality,
+                units_delta = A$units_delta, units_delta_B = B$units_delta,
+                reality_units = A$reality_units, reality_units_B = B$reality_units,
+                warps = NULL, hidden = hidden, seed = as.integer(seed))
+  new_wv_testbed(list(iu = iu, A = list(runs = as_runs(designs$A), field = A$field),
+                      B = list(runs = as_runs(designs$B), field = B$field, x_nom = nom_B[xn]),
+                      truth = truth, windows = spec$windows),
+                 spec$name)
+}
+
+# The units of one condition: each unit's variation inputs drawn from the
+# I/U map's prior around `x_nom`, its noise-free curve at `u_star` with the
+# hidden mechanisms, and `n_rep` tests of it with independent noise, in
+# unit order. Units are labelled by the condition and their number.
+make_units <- function(spec, u_star, x_nom, hidden, condition) {
+  n_units <- spec$units[["n_units"]]
+  n_rep <- spec$units[["n_rep"]]
+  xn <- names(x_nom)
+  labels <- paste0(condition, seq_len(n_units))
+  draws <- iu_prior_draws(spec$iu, n_units, nominal = x_nom)[, xn, drop = FALSE]
+  units_delta <- sweep(draws, 2L, x_nom)
+  dimnames(units_delta) <- list(labels, xn)
+  coded <- cbind(matrix(u_star, n_units, length(u_star), byrow = TRUE,
+                        dimnames = list(NULL, names(u_star))), draws)
+  strength <- hidden_strength(hidden, spec$mechanisms)[rep(1L, n_units), , drop = FALSE]
+  real_units <- lapply(spec_simulate_coded(spec, coded, strength), function(m) {
+    rownames(m) <- labels
+    m
+  })
+  n_t <- length(spec$grid)
+  curves <- lapply(real_units, function(m) {
+    t(vapply(rep(seq_len(n_units), each = n_rep),
+             function(j) unname(m[j, ]) + spec_noise(spec, n_t), numeric(n_t)))
+  })
+  ids <- rep(labels, each = n_rep)
+  units <- check_units(stats::setNames(rep(list(ids), length(curves)), names(curves)), curves)
+  delta <- colMeans(units_delta)
+  list(field = new_wv_field(spec$grid, curves, x_nom, units = units),
+       units_delta = units_delta, delta = delta, reality_units = real_units,
+       reality = spec_reality(spec, c(u_star, x_nom + delta), hidden))
 }
 
 # --- field replicates ----------------------------------------------------------------

@@ -1,7 +1,7 @@
 #' A term added to a test bed's simulator
 #'
-#' Describes a term to add to the equations of [simulate_suspension()] or
-#' [simulate_dosing()]: a function `fun` of one state of the model, times a
+#' Describes a term to add to the equations of [simulate_suspension()],
+#' [simulate_dosing()] or [simulate_units()]: a function `fun` of one state of the model, times a
 #' strength, entering where a force or a rate enters. The strength is the
 #' design column `s_term` (any finite number, negative allowed; 0 gives the
 #' model without the term, exactly). A mechanism the model lacks can be
@@ -46,7 +46,19 @@
 #' | `"bile"` | amount in the bile `Ab` (mg) | \[-200, 2900\] |
 #' | `"induction"` | induction state `E` (dimensionless) | \[-0.1, 1.5\] |
 #'
-#' The default ranges hold every value the state takes in runs over the I/U
+#' Cooling state (the term is an extra heat loss of the specimen,
+#' `m c dT/dt = ... - s_term fun(T)` W):
+#'
+#' | `state` | value of the state | default `range` |
+#' | --- | --- | --- |
+#' | `"temperature"` | specimen temperature `T` (K) | \[150, 650\] |
+#'
+#' The cooling bed's temperatures lie within 295 to 500 K over the design
+#' ranges of its conditions A and B; its default range widens that span by
+#' at least half of it on either side.
+#'
+#' The default ranges of the suspension and dosing states hold every value
+#' the state takes in runs over the I/U
 #' ranges of [testbed_suspension()] and [testbed_dosing()]: the design of
 #' condition A and about 40 corners of the ranges (the dosing runs at 400 and
 #' 1000 mg), without mechanisms and with each mechanism at strength 2 (the
@@ -73,7 +85,7 @@
 #' @param n_table Number of points of the table, a whole number of at least 3.
 #' @return A `wv_testbed_term` object: a list with `state`, `fun`, `range`,
 #'   `n_table`, `x` and `y` (the table).
-#' @seealso [simulate_suspension()], [simulate_dosing()].
+#' @seealso [simulate_suspension()], [simulate_dosing()], [simulate_units()].
 #' @export
 #' @examples
 #' # the progressive bump stop of testbed_mechanisms() at the nominal inputs
@@ -92,7 +104,8 @@ testbed_term <- function(state, fun, range = NULL, n_table = 4001) {
   if (!is.character(state) || length(state) != 1L || is.na(state) || !state %in% known$state) {
     wv_abort(c("{.arg state} must name one state of a test bed's simulator.",
                "i" = "Suspension: {.val {known$state[known$bed == 'suspension']}}.",
-               "i" = "Dosing: {.val {known$state[known$bed == 'dosing']}}."),
+               "i" = "Dosing: {.val {known$state[known$bed == 'dosing']}}.",
+               "i" = "Cooling (units): {.val {known$state[known$bed == 'units']}}."),
              class = c("term", "input"))
   }
   if (!is.function(fun)) {
@@ -143,14 +156,16 @@ term_states <- function() {
   elim <- "an extra elimination (mg/h) from the central compartment"
   data.frame(
     state = c("compression", "velocity", "damper", "tire",
-              "concentration", "gut", "central", "peripheral", "bile", "induction"),
-    bed = rep(c("suspension", "dosing"), c(4, 6)),
-    index = c(0:3, 0:5),
-    unit = c("m", "m/s", "kN", "kN", "mg/L", "mg", "mg", "mg", "mg", "dimensionless"),
+              "concentration", "gut", "central", "peripheral", "bile", "induction",
+              "temperature"),
+    bed = rep(c("suspension", "dosing", "units"), c(4, 6, 1)),
+    index = c(0:3, 0:5, 0L),
+    unit = c("m", "m/s", "kN", "kN", "mg/L", "mg", "mg", "mg", "mg", "dimensionless", "K"),
     enters = c(strut, strut, "a velocity (m/s) added to the damper's velocity law",
-               "a force (kN) added to the tire force", rep(elim, 6)),
-    lower = c(-0.25, -14, -32, -70, -5, -100, -150, -150, -200, -0.1),
-    upper = c(0.25, 14, 32, 90, 75, 1300, 2200, 2300, 2900, 1.5),
+               "a force (kN) added to the tire force", rep(elim, 6),
+               "a heat loss (W) of the specimen"),
+    lower = c(-0.25, -14, -32, -70, -5, -100, -150, -150, -200, -0.1, 150),
+    upper = c(0.25, 14, 32, 90, 75, 1300, 2200, 2300, 2900, 1.5, 650),
     stringsAsFactors = FALSE
   )
 }
@@ -195,4 +210,15 @@ spec_check_term <- function(spec, design, term, call = rlang::caller_env()) {
        term = list(state = states$index[states$state == term$state], range = term$range,
                    table = term$y,
                    strength = as.numeric(s)))
+}
+
+# The value of a tabulated term at `x`: linear between the `table`'s points,
+# equally spaced over `range`, and linear beyond the ends from the two end
+# points (as the compiled simulators read a term's table).
+term_table_value <- function(x, range, table) {
+  n <- length(table)
+  pos <- (x - range[1]) / ((range[2] - range[1]) / (n - 1L))
+  i <- pmin(pmax(floor(pos), 0), n - 2L)
+  w <- pos - i
+  table[i + 1L] * (1 - w) + table[i + 2L] * w
 }
