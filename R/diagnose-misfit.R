@@ -64,8 +64,9 @@
 #'   error), `z` (`misfit / se`), `crit` (the band's half-width in standard
 #'   errors, the same at every point and window), `excess` (the largest
 #'   amount by which a point or window holding the point lies beyond the
-#'   band, 0 where none does), `scale` (that window's length in time) and
-#'   `rejected` (`excess > 0`). Its attributes: `level`, `crit`, `p_value`
+#'   band, 0 where none does), `scale`, `window_mean` and `window_se` (that
+#'   window's length in time, its mean misfit and the mean's standard error;
+#'   `NA` where none is beyond the band) and `rejected` (`excess > 0`). Its attributes: `level`, `crit`, `p_value`
 #'   (the share of simulated curves whose largest standardised deviation
 #'   exceeds the observed one: small when the model fails somewhere),
 #'   `noise` (by site, `"replicates"`, `"units"` or `"learned"`) and
@@ -139,7 +140,8 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     sc <- sims[[s]]
     ex <- scan_excess(sc$windows, crit, length(t))
     data.frame(site = s, t = t, misfit = sc$misfit, se = sc$windows[[1]]$se,
-               z = sc$windows[[1]]$z, crit = crit, excess = ex$excess, scale = ex$width * diff(t[1:2]),
+               z = sc$windows[[1]]$z, crit = crit, excess = ex$excess,
+               scale = ex$width * diff(t[1:2]), window_mean = ex$mean, window_se = ex$se,
                rejected = ex$excess > 0, stringsAsFactors = FALSE)
   }))
   observed <- max(vapply(sims, `[[`, numeric(1), "observed"))
@@ -231,10 +233,10 @@ misfit_scan <- function(m, Et) {
 
 # By point, the largest excess of a rejected window's mean over the band's
 # edge among the windows holding the point (0 where none is rejected), and
-# that window's width in points (NA).
+# that window's width in points, mean and standard error (NA).
 scan_excess <- function(windows, crit, n) {
   excess <- numeric(n)
-  width <- rep(NA_real_, n)
+  width <- mean <- se <- rep(NA_real_, n)
   for (wd in windows) {
     gap <- abs(wd$mean) - crit * wd$se
     for (i in which(abs(wd$z) > crit)) {
@@ -242,9 +244,11 @@ scan_excess <- function(windows, crit, n) {
       better <- gap[i] > excess[idx]
       excess[idx[better]] <- gap[i]
       width[idx[better]] <- wd$width
+      mean[idx[better]] <- wd$mean[i]
+      se[idx[better]] <- wd$se[i]
     }
   }
-  list(excess = excess, width = width)
+  list(excess = excess, width = width, mean = mean, se = se)
 }
 
 #' @export

@@ -501,7 +501,9 @@ moved_model_draws <- function(fit, s, post, delta) {
   for (p in names(delta)) Znew[, p] <- Znew[, p] + delta[[p]]
   wM <- fit_get(fit, "wM")[[s]]
   pa <- bank_predict_augmented(site_bank(fit_get(fit, "emulators"), s), Z, wM, Znew)
-  pa$mean + sqrt(pmax(pa$var, 0)) * matrix(stats::rnorm(length(wM)), nrow(wM))
+  out <- pa$mean + sqrt(pmax(pa$var, 0)) * matrix(stats::rnorm(length(wM)), nrow(wM))
+  dimnames(out) <- dimnames(wM)
+  out
 }
 
 # The bias at a condition not tested, from J tested conditions' biases

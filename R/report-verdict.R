@@ -244,23 +244,32 @@ finding_figure <- function(fails, i) {
 misfit_figure <- function(fails, i) {
   r <- fails[i, ]
   mc <- attr(fails, "misfit")
-  d <- as.data.frame(unclass(mc)[c("site", "t", "misfit", "se", "crit")])
+  cols <- intersect(c("site", "t", "misfit", "se", "crit", "window_mean", "window_se"), names(mc))
+  d <- as.data.frame(unclass(mc)[cols])
   d <- d[d$site == r$site, , drop = FALSE]
   dt <- diff(d$t[1:2])
   margin <- max((r$end - r$start) / 2, 2 * dt)
   d <- d[d$t >= r$start - margin & d$t <= r$end + margin, , drop = FALSE]
   d$lo <- d$misfit - d$crit * d$se
   d$hi <- d$misfit + d$crit * d$se
+  d$window_mean <- d$window_mean %||% rep(NA_real_, nrow(d))
+  d$window_se <- d$window_se %||% rep(NA_real_, nrow(d))
+  d$wlo <- d$window_mean - d$crit * d$window_se
+  d$whi <- d$window_mean + d$crit * d$window_se
   ggplot2::ggplot(d, ggplot2::aes(.data$t)) +
     ggplot2::annotate("rect", xmin = r$start, xmax = r$end, ymin = -Inf, ymax = Inf,
                       fill = "#f4cccc", alpha = 0.6) +
     ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$lo, ymax = .data$hi), fill = "grey75") +
+    ggplot2::geom_ribbon(ggplot2::aes(ymin = .data$wlo, ymax = .data$whi), fill = "#cc4125",
+                         alpha = 0.35, na.rm = TRUE) +
     ggplot2::geom_hline(yintercept = 0, colour = "grey40", linetype = 2) +
     ggplot2::geom_line(ggplot2::aes(y = .data$misfit), linewidth = 0.4) +
+    ggplot2::geom_line(ggplot2::aes(y = .data$window_mean), colour = "#cc4125", linewidth = 0.6,
+                       na.rm = TRUE) +
     ggplot2::labs(x = "time", y = "field mean - model",
                   title = sprintf("Finding %d: misfit at %s [%s, %s]", i, r$site, fmt3(r$start),
                                   fmt3(r$end)),
-                  subtitle = "the field mean less the model at the calibrated inputs, its simultaneous band; the stretch shaded") +
+                  subtitle = "the field mean less the model at the calibrated inputs and its simultaneous band (grey); in red, the mean over the window beyond the band and its band; the stretch shaded") +
     ggplot2::theme_bw(base_size = 10)
 }
 

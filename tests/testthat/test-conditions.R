@@ -116,13 +116,27 @@ test_that("a new condition: a tested one is that experiment's prediction, an unt
   expect_equal(p$summary$model, drop(fit$basis$Psi %*% t(m)))
   expect_true(all(p$summary$model_lower <= p$summary$model_upper))
   expect_output(print(p), "untested, the tested conditions' biases pooled")
-  # each draw's bias is the same draw's bias of one tested condition, in equal shares
+  # each draw's bias is the same draw's bias of one tested condition, in equal shares, its deviation
+  # from the conditions' mean widened by sqrt((J + 1) / (J - 1)) = sqrt(3) as a new member's
   set <- withr::with_seed(2, new_condition_setup(fit, c(x1 = 0.6)))
   B <- set$sites$site1$B
-  from_base <- rowSums(abs(B - fit$wb$site1)) == 0
-  from_hot <- rowSums(abs(B - fit$wb[["hot/site1"]])) == 0
+  centre <- (fit$wb$site1 + fit$wb[["hot/site1"]]) / 2
+  near <- function(A) rowSums(abs(B - A)) < 1e-12 * (1 + rowSums(abs(A)))
+  from_base <- near(centre + sqrt(3) * (fit$wb$site1 - centre))
+  from_hot <- near(centre + sqrt(3) * (fit$wb[["hot/site1"]] - centre))
   expect_true(all(from_base | from_hot))
   expect_equal(sum(from_base), nrow(B) / 2)
+  # the model's draws at the new condition: the emulators conditioned on each draw's value at the base
+  # condition, so that at the base condition itself they are those values, and elsewhere they vary
+  # about the emulators' conditional mean
+  post <- as.matrix(fit$draws)[, fit$inputs]
+  same <- withr::with_seed(1, moved_model_draws(fit, "site1", post, c(x1 = 0)))
+  expect_equal(same, fit$wM$site1, tolerance = 1e-6)
+  moved <- withr::with_seed(1, moved_model_draws(fit, "site1", post, c(x1 = 0.1)))
+  aug <- gasp_bank_predict_augmented_cpp(fit$emulators$banks$site1, post, fit$wM$site1,
+                                         sweep(post, 2, c(0, 0.1), `+`))
+  expect_gt(min(aug$var[, 1]), 0)
+  expect_equal(mean((moved - aug$mean)^2 / aug$var), 1, tolerance = 0.1)
   # one bias shared by the experiments: carried as it is
   sh <- cond_fit(bias_control(experiment_bias = "shared"))$fit
   set <- withr::with_seed(2, new_condition_setup(sh, c(x1 = 0.6)))

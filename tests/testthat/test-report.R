@@ -170,12 +170,13 @@ test_that("the verdict never says adequate while another reading of the fit disa
 test_that("a finding's figure shows the bias and its band on the finding's interval with a margin", {
   fit <- example_fit()
   fails <- where_fails(fit)
-  # a misfit of the field mean against the model: its band about the misfit, beyond zero on the stretch
+  # a misfit of the field mean against the model: the band of the point or window that rejects it,
+  # beyond zero on the stretch
   m <- which(fails$kind == "misfit")[1]
   pm <- finding_figure(fails, m)
   dm <- pm$data
   on <- dm$t >= fails$start[m] & dm$t < fails$end[m]
-  expect_true(all(dm$lo[on] > 0 | dm$hi[on] < 0))
+  expect_true(all(dm$wlo[on] > 0 | dm$whi[on] < 0))
   mc <- attr(fails, "misfit")
   k <- match(dm$t, mc$t[mc$site == fails$site[m]])
   expect_equal(dm$hi - dm$lo, 2 * mc$crit[1] * mc$se[mc$site == fails$site[m]][k])
