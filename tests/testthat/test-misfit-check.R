@@ -154,3 +154,24 @@ test_that("the unit means' least error is their measurement noise", {
   between <- apply(one, 2, stats::var) / 6
   expect_equal(unit_noise_floor(one, 1:6, lev), stats::ave(between, lev))
 })
+
+test_that("units whose means agree by chance keep their measurement noise as the error", {
+  ex <- example_problem()
+  t <- ex$field$t
+  truth <- (1 + 0.5 * 0.55) * sin(2 * pi * t) + 0.3 * exp(-((t - 0.6) / 0.08)^2)
+  # each unit's three repeats sum to three times the truth: the units' means agree exactly
+  reps <- withr::with_seed(4, do.call(rbind, lapply(1:6, function(i) {
+    e <- matrix(stats::rnorm(2 * length(t), sd = 0.05), 2)
+    rbind(truth + e[1, ], truth + e[2, ], truth - e[1, ] - e[2, ])
+  })))
+  fit_of <- function(units) {
+    suppressWarnings(calibrate(ex$emulators, field_runs(reps, t, x_nom = c(x1 = 0.5), units = units),
+                               ex$iu, chains = 2, seed = 1,
+                               sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)),
+                     classes = c("wavevalid_warning_mixing", "wavevalid_warning_boundary"))
+  }
+  as_units <- misfit_check(fit_of(rep(1:6, each = 3)))
+  as_repeats <- misfit_check(fit_of(NULL))
+  # the repeats' noise, 0.05 / sqrt(18) a point, not the units' means' zero scatter
+  expect_gt(stats::median(as_units$se), 0.8 * stats::median(as_repeats$se))
+})
