@@ -201,3 +201,47 @@ test_that("the registration error's sizes are recovered by restricted maximum li
   # and the shift's variance told from none: its 10% quantile above 1
   expect_gt(stats::quantile(est["shift", ], 0.1), 1)
 })
+
+test_that("add_term() adds the top proposal as a calibrated strength and validates again", {
+  fit <- propose_problem(0.5, q = 0.9)
+  pr <- propose_terms(fit, term_library(fit), n_draws = 40, seed = 1)
+  expect_message(fit2 <- add_term(fit, pr), "s_term", class = "wavevalid_message")
+  added <- attr(fit2, "added_term")
+  expect_identical(added$term, pr$term[1])
+  expect_false(added$simulated)
+  expect_equal(added$range, sort(c(0, 2 * pr$strength[1])))
+  expect_true("s_term" %in% fit2$inputs)
+  # the model's own runs joined with the strength at 0, and as many with the term on their output
+  expect_identical(nrow(fit2$pipeline$runs$design), 2L * nrow(fit$pipeline$runs$design))
+  # the planted strength 0.5 is inside the strength's posterior interval, and the bias falls
+  s <- as.matrix(fit2$draws)[, "s_term"]
+  expect_true(stats::quantile(s, 0.025) <= 0.5 && stats::quantile(s, 0.975) >= 0.5,
+              label = paste(signif(stats::quantile(s, c(0.025, 0.975)), 3), collapse = " to "))
+  rms <- function(f) sqrt(mean(bias(f)$mean^2))
+  expect_lt(rms(fit2), 0.5 * rms(fit))
+  # a simulator hook gets the design over the inputs and the strength, the channel and the function
+  seen <- NULL
+  hook <- function(design, channel, fun) {
+    seen <<- list(names = names(design), channel = channel, n = nrow(design))
+    Y <- fit$pipeline$runs$curves$site1[seq_len(nrow(design)), ]
+    model_runs(design, Y + design$s_term * matrix(fun(Y), nrow(Y)), fit$pipeline$runs$t)
+  }
+  fit3 <- suppressWarnings(suppressMessages(add_term(fit, pr, simulate = hook, n_runs = 12)))
+  expect_identical(seen, list(names = c(fit$inputs, "s_term"), channel = pr$channel[1], n = 12L))
+  expect_true(attr(fit3, "added_term")$simulated)
+})
+
+test_that("add_term() refuses what it cannot add before any work", {
+  fit <- propose_problem(0.5, q = 0.9)
+  pr <- propose_terms(fit, term_library(fit), n_draws = 40, seed = 1)
+  expect_error(add_term(fit, pr, which = nrow(pr) + 1), class = "wavevalid_error_input")
+  expect_error(add_term(fit, pr, simulate = 1), class = "wavevalid_error_input")
+  expect_error(add_term(fit, data.frame()), class = "wavevalid_error_input")
+  state <- pr
+  state$channel[1] <- "compression"
+  expect_error(add_term(fit, state), "simulate", class = "wavevalid_error_input")
+  product <- pr
+  attr(product, "funs")[pr$term[1]] <- list(NULL)
+  expect_error(add_term(fit, product), "product", class = "wavevalid_error_input")
+  expect_error(add_term(example_fit(), pr), "validate", class = "wavevalid_error_update")
+})
