@@ -308,9 +308,9 @@ check_stamps <- function(t, call = rlang::caller_env()) {
 }
 
 new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL, units = NULL) {
-  structure(list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise,
-                 units = units),
-            class = "wv_field")
+  out <- list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise)
+  if (!is.null(units)) out$units <- units
+  structure(out, class = "wv_field")
 }
 
 # The unit of each replicate, by site (a character vector per site), from a
