@@ -295,15 +295,7 @@ dosing_iu <- function() {
 
 # A: design_maximin() on the I/U ranges (65 points and the nominal centre);
 # B: the same unit cube on the ranges moved to B's nominals.
-dosing_designs <- function(iu, nom_B, seed) {
-  nom_A <- stats::setNames(iu$nominal, iu$name)
-  iu_B <- iu
-  iu_B$lower <- iu$lower + nom_B - nom_A
-  iu_B$upper <- iu$upper + nom_B - nom_A
-  iu_B$nominal <- unname(nom_B)
-  list(A = design_maximin(iu, 66L, seed = seed),
-       B = design_maximin(iu_B, 65L, nominal = FALSE, seed = seed))
-}
+dosing_designs <- function(iu, nom_B, seed) maximin_designs(iu, nom_B, seed, 66L, 65L)
 
 # Physical parameters (K x 6, order of ParamIndex in dosing.h) of coded
 # inputs, and the dose amount in mg (the column `dose` of `coded`, else 400).

@@ -229,6 +229,26 @@ spec_signatures <- function(spec, inputs, mechanisms, call = rlang::caller_env()
 
 # --- building --------------------------------------------------------------------
 
+# The designs of conditions A and B by design_maximin(): `n_A` points on the
+# I/U ranges (the nominal centre among them), `n_B` on the ranges moved to
+# B's nominals `nom_B`.
+maximin_designs <- function(iu, nom_B, seed, n_A, n_B) {
+  nom_A <- stats::setNames(iu$nominal, iu$name)
+  iu_B <- iu
+  iu_B$lower <- iu$lower + nom_B - nom_A
+  iu_B$upper <- iu$upper + nom_B - nom_A
+  iu_B$nominal <- unname(nom_B)
+  list(A = design_maximin(iu, n_A, seed = seed),
+       B = design_maximin(iu_B, n_B, nominal = FALSE, seed = seed))
+}
+
+# Model runs of the test bed's simulator at the coded design `d`.
+spec_runs <- function(spec, d) {
+  rownames(d) <- NULL
+  d <- as.data.frame(d)
+  new_wv_runs(d, spec$grid, spec_simulate_coded(spec, d))
+}
+
 # Builds a test bed from its specification with the RNG already seeded:
 # the designs, the true inputs of A, reality and the field of A, then those
 # of B, then the shifted conditions.
@@ -255,15 +275,12 @@ build_testbed_from_spec <- function(spec, seed, hidden) {
 
   shifted <- Map(function(cd, sh) shifted_condition(spec, cd, sh, nom_A, x_star, hidden),
                  names(spec$shifted), spec$shifted)
-  as_runs <- function(d) {
-    rownames(d) <- NULL
-    d <- as.data.frame(d)
-    new_wv_runs(d, spec$grid, spec_simulate_coded(spec, d))
-  }
   conditions <- c(
-    list(A = list(runs = as_runs(designs$A), field = field_A$field),
-         B = list(runs = as_runs(designs$B), field = field_B$field, x_nom = nom_B[xn])),
-    lapply(shifted, function(s) list(runs = as_runs(s$design), field = s$field, delta = s$delta))
+    list(A = list(runs = spec_runs(spec, designs$A), field = field_A$field),
+         B = list(runs = spec_runs(spec, designs$B), field = field_B$field,
+                  x_nom = nom_B[xn])),
+    lapply(shifted, function(s) list(runs = spec_runs(spec, s$design), field = s$field,
+                                     delta = s$delta))
   )
   truth <- c(
     list(u = u_star, delta = delta, delta_B = delta_B, x_nom_B = nom_B[xn], reality = reality,
@@ -309,18 +326,14 @@ build_units_testbed <- function(spec, seed, hidden) {
   u_star <- iu_prior_draws(iu, 1L)[1, inputs[iu$type == "calibration"]]
   A <- make_units(spec, u_star, nom_A[xn], hidden, "A")
   B <- make_units(spec, u_star, nom_B[xn], hidden, "B")
-  as_runs <- function(d) {
-    rownames(d) <- NULL
-    d <- as.data.frame(d)
-    new_wv_runs(d, spec$grid, spec_simulate_coded(spec, d))
-  }
   truth <- list(u = u_star, delta = A$delta, delta_B = B$delta, x_nom_B = nom_B[xn],
                 reality = A$reality, reality_B = B$reality,
                 units_delta = A$units_delta, units_delta_B = B$units_delta,
                 reality_units = A$reality_units, reality_units_B = B$reality_units,
                 warps = NULL, hidden = hidden, seed = as.integer(seed))
-  new_wv_testbed(list(iu = iu, A = list(runs = as_runs(designs$A), field = A$field),
-                      B = list(runs = as_runs(designs$B), field = B$field, x_nom = nom_B[xn]),
+  new_wv_testbed(list(iu = iu, A = list(runs = spec_runs(spec, designs$A), field = A$field),
+                      B = list(runs = spec_runs(spec, designs$B), field = B$field,
+                               x_nom = nom_B[xn]),
                       truth = truth, windows = spec$windows),
                  spec$name)
 }

@@ -222,15 +222,7 @@ units_iu <- function() {
 
 # A: design_maximin() on the I/U ranges (59 points and the nominal centre);
 # B: 40 points on the ranges moved to B's nominals.
-units_designs <- function(iu, nom_B, seed) {
-  nom_A <- stats::setNames(iu$nominal, iu$name)
-  iu_B <- iu
-  iu_B$lower <- iu$lower + nom_B - nom_A
-  iu_B$upper <- iu$upper + nom_B - nom_A
-  iu_B$nominal <- unname(nom_B)
-  list(A = design_maximin(iu, 60L, seed = seed),
-       B = design_maximin(iu_B, 40L, nominal = FALSE, seed = seed))
-}
+units_designs <- function(iu, nom_B, seed) maximin_designs(iu, nom_B, seed, 60L, 40L)
 
 # Physical parameters of coded inputs: h (W/m^2/K), eps, T0 (K), m (kg).
 units_physical <- function(coded) {
