@@ -66,9 +66,10 @@
 #'   amount by which a point or window holding the point lies beyond the
 #'   band, 0 where none does), `scale`, `window_mean` and `window_se` (that
 #'   window's length in time, its mean misfit and the mean's standard error;
-#'   `NA` where none is beyond the band) and `rejected` (`excess > 0`). Its attributes: `level`, `crit`, `p_value`
-#'   (the share of simulated curves whose largest standardised deviation
-#'   exceeds the observed one: small when the model fails somewhere),
+#'   `NA` where none is beyond the band) and `rejected` (`excess > 0`).
+#'   Its attributes: `level`, `crit`, `p_value` (the share of simulated
+#'   curves whose largest standardised deviation exceeds the observed one:
+#'   small when the model fails somewhere),
 #'   `noise` (by site, `"replicates"`, `"units"` or `"learned"`) and
 #'   `noise_text` (the same in words).
 #' @seealso [where_fails()], whose findings include this check's.
@@ -102,24 +103,25 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     reg <- fit_get(fit, "registration_var")[[s]] %||% 0
     units <- field$units[[s]]
     Q <- NULL
-    if (!is.null(units)) {
+    if (R >= 2L) {
       Wr <- basis_coef(fit_get(fit, "basis"), field$curves[[s]])
-      Wu <- rowsum(Wr, units) / as.vector(table(units))
-      nu <- nrow(Wu)
-      Du <- sweep(Wu, 2L, colMeans(Wu))
-      E <- E + scatter_draws(Du, n_sim)
-      floor <- unit_noise_floor(Wr, units, fit_get(fit, "basis")$level) - colSums(Du^2) / (nu - 1) / nu
-      E <- E + rep(sqrt(pmax(floor, 0)), each = n_sim) * matrix(stats::rnorm(n_sim * k), n_sim)
+      if (is.null(units)) {
+        E <- E + scatter_draws(sweep(Wr, 2L, colMeans(Wr)), n_sim)
+        noise <- c(replicates = "the replicates' scatter along the record")
+      } else {
+        Wu <- rowsum(Wr, units) / as.vector(table(units))
+        nu <- nrow(Wu)
+        Du <- sweep(Wu, 2L, colMeans(Wu))
+        E <- E + scatter_draws(Du, n_sim)
+        floor <- unit_noise_floor(Wr, units, fit_get(fit, "basis")$level) -
+          colSums(Du^2) / (nu - 1) / nu
+        E <- E + rep(sqrt(pmax(floor, 0)), each = n_sim) * matrix(stats::rnorm(n_sim * k), n_sim)
+        Q <- unit_directions(fit, bank, Z, Psi)
+        noise <- c(units = sprintf(
+          "the scatter of %d units' means, net of what their own %s explain",
+          nu, paste(attr(Q, "inputs"), collapse = ", ")))
+      }
       E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
-      Q <- unit_directions(fit, bank, Z, Psi)
-      noise <- c(units = sprintf("the scatter of %d units' means, net of what their own %s explain",
-                                 nu, paste(attr(Q, "inputs"), collapse = ", ")))
-    } else if (R >= 2L) {
-      Wr <- basis_coef(fit_get(fit, "basis"), field$curves[[s]])
-      Dr <- sweep(Wr, 2L, colMeans(Wr))
-      E <- E + scatter_draws(Dr, n_sim)
-      E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
-      noise <- c(replicates = "the replicates' scatter along the record")
     } else {
       v <- field_mean_variance(fit, s, rows[h])
       E <- E + sqrt(v) * matrix(stats::rnorm(n_sim * k), n_sim)
