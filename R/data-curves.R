@@ -87,7 +87,7 @@ long_curves <- function(data, cols, id_arg, strict, call = rlang::caller_env()) 
 # one row per replicate on the site's vector of times. Returns a list by site
 # of lists of list(t, y), checked: times finite, non-decreasing (`strict`:
 # increasing), at least 8 distinct, one value each.
-own_points <- function(curves, t, site, strict, what, call = rlang::caller_env()) {
+own_points <- function(curves, t, site, strict, what, labels = NULL, call = rlang::caller_env()) {
   unit <- if (what == "runs") "run" else "replicate"
   if (!is.list(curves) || is.data.frame(curves) || length(curves) != length(t)) {
     wv_abort(c("With {.arg t} a list by site, {.arg curves} must be a list with one element per site.",
@@ -125,7 +125,7 @@ own_points <- function(curves, t, site, strict, what, call = rlang::caller_env()
     }
     if (!length(ys)) wv_abort("Site {.val {nm[k]}} has no curves.", call = call)
     out[[k]] <- lapply(seq_along(ys), function(r) {
-      who <- sprintf("Site %s, %s %d", nm[k], unit, r)
+      who <- sprintf("Site %s, %s", nm[k], curve_label(labels, nm[k], r, unit))
       check_own_curve(ts[[r]], ys[[r]], who, strict, call)
     })
   }

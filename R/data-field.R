@@ -186,7 +186,7 @@ field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
   }
   check_x_nom(x_nom)
   if (is.list(t)) {
-    pts <- own_points(curves, t, site, strict = FALSE, what = "field")
+    pts <- own_points(curves, t, site, strict = FALSE, what = "field", labels = labels)
     t <- common_times(pts)
     if (is.null(t)) return(field_on_own_points(pts, x_nom, grid, labels))
     curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))

@@ -12,18 +12,29 @@ as.mcmc.list.wv_fit <- function(x, ...) fit_get(x, "draws")
 #' the inputs' own units: the point at which to run the model once more, for
 #' instance to register the field data to a run at the calibrated inputs.
 #'
+#' Test conditions (inputs of type `"condition"`) are known settings, not
+#' estimates: they are left out, and their values in the base experiment
+#' come as the attribute `conditions`.
+#'
 #' @param object A `wv_fit`.
 #' @param ... Not used; an unknown argument is an error.
-#' @return A named numeric vector, one element per input of the fit.
+#' @return A named numeric vector, one element per estimated input of the
+#'   fit (attribute `conditions` when the fit has test conditions).
 #' @export
 #' @examples
 #' fit <- example_fit()
 #' coef(fit)
-#' # one row of a design, to run the model there
+#' # one row of a design, to run the model there (with a fit's conditions:
+#' # c(coef(fit), attr(coef(fit), "conditions")))
 #' as.data.frame(as.list(coef(fit)))
 coef.wv_fit <- function(object, ...) {
   check_dots_none(...)
-  posterior_mean_inputs(object)
+  z <- posterior_mean_inputs(object)
+  cond <- fit_get(object, "conditions")
+  if (is.null(cond) || !length(cond$inputs)) return(z)
+  out <- z[setdiff(names(z), cond$inputs)]
+  attr(out, "conditions") <- unlist(cond$base)[cond$inputs]
+  out
 }
 
 #' @export

@@ -37,6 +37,14 @@ test_that("a condition input has no prior, prints as a condition and keeps its d
   expect_false(any(grepl("condition", capture.output(print(example_problem()$iu)))))
 })
 
+test_that("coef() gives the estimated inputs and the conditions apart, at their known values", {
+  fit <- cond_fit()$fit
+  z <- coef(fit)
+  expect_identical(names(z), "u1")
+  expect_identical(attr(z, "conditions"), c(x1 = 0.5))
+  expect_equal(z[["u1"]], mean(as.matrix(fit$draws)[, "u1"]))
+})
+
 test_that("the condition path gives the same draws as experiment(change =) with the input held", {
   s <- cond_fit()
   ex <- s$ex

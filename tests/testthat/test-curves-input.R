@@ -149,6 +149,10 @@ test_that("messages about a field curve name it by the user's id column", {
   own$y[own$subject == "S3"][3] <- NaN
   err <- expect_error(field_runs(own, t = "t", y = "y", replicate = "subject"), class = "wavevalid_error_input")
   expect_match(cli::ansi_strip(conditionMessage(err)), "subject S3", fixed = TRUE)
+  # a curve with too few times, by id
+  short <- own[!(own$subject == "S2" & own$t > 0.3), ]
+  err <- expect_error(field_runs(short, t = "t", y = "y", replicate = "subject"), class = "wavevalid_error_stamps")
+  expect_match(cli::ansi_strip(conditionMessage(err)), "subject S2 has", fixed = TRUE)
   # without an id column, by position
   err <- expect_error(field_runs(rbind(sin(t), c(NA, sin(t[-1]))), t), class = "wavevalid_error_input")
   expect_match(cli::ansi_strip(conditionMessage(err)), "replicate 2", fixed = TRUE)
