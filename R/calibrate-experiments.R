@@ -101,6 +101,9 @@ experiment_fit_parts <- function(spec, emulators, field, experiments) {
     emulators <- emulators_add_site(emulators, s, spec$experiment_banks[[s]],
                                     em$params[em$params$site == fs, , drop = FALSE])
     field$curves[[s]] <- experiments[[e]]$field$curves[[fs]]
+    if (!is.null(experiments[[e]]$field$observed[[fs]])) {
+      field$observed[[s]] <- experiments[[e]]$field$observed[[fs]]
+    }
     if (!is.null(experiments[[e]]$field$units)) {
       field$units[[s]] <- experiments[[e]]$field$units[[fs]]
     }

@@ -164,6 +164,11 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     R <- nrow(W)
     wbar[[s]] <- colMeans(W)
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
+    fill <- missing_fill_variance(field$curves[[s]], field$observed[[s]], basis$Psi)
+    if (!is.null(fill)) {
+      extra[[s]] <- (extra[[s]] %||% 0) + fill$var
+      if (any(!fill$cut)) s2[[s]][fill$cut] <- stats::median(s2[[s]][!fill$cut])
+    }
     n_rep[[s]] <- R
     g0 <- if (is.null(groups)) 0L else nrow(groups)
     groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s,
@@ -326,6 +331,7 @@ noise_evidence_summary <- function(field, learned, site_data) {
 subset_field_sites <- function(field, sites) {
   field$curves <- field$curves[sites]
   if (!is.null(field$units)) field$units <- field$units[sites]
+  if (!is.null(field$observed)) field$observed <- field$observed[intersect(sites, names(field$observed))]
   field
 }
 
@@ -358,4 +364,26 @@ informing_groups <- function(inform_levels, coef_level, bias_group, groups,
     wv_abort("{.arg inform_levels} leaves no coefficient to inform the inputs.", call = call)
   }
   unname(out)
+}
+
+# What curves missing beyond their own extent (`observed`: the R x T mask of
+# the points each covers; NULL: all covered) add to the variance of the
+# replicates' mean coefficients (Psi: T x coefficients). A point covered by
+# n of R curves holds a mean of n: sigma2 (1 / n - 1 / R) more, sigma2 the
+# replicates' pooled variance where all cover; a point no curve covers holds
+# nothing: a variance 1e6 times the curves' mean square, so that a
+# coefficient whose function reaches there is left to the bias's prior. A
+# coefficient a tenth of whose weight is missing (`cut`) takes the median
+# scatter of the others as its own (the fill has none).
+missing_fill_variance <- function(curves, observed, Psi) {
+  if (is.null(observed)) return(NULL)
+  R <- nrow(curves)
+  n_at <- colSums(observed)
+  full <- n_at == R
+  s2 <- if (R >= 2L && any(full)) {
+    mean(apply(curves[, full, drop = FALSE], 2L, stats::var))
+  } else 0
+  v <- ifelse(n_at == 0L, 1e6 * mean(curves[observed]^2), s2 * (1 / pmax(n_at, 1) - 1 / R))
+  w_miss <- colSums(Psi^2 * (n_at < R)) / colSums(Psi^2)
+  list(var = colSums(Psi^2 * v), cut = w_miss > 0.1, point = v, covered = n_at > 0L)
 }

@@ -166,38 +166,77 @@ common_times <- function(pts) {
   if (same) first
 }
 
-# The grid for curves on their own times: `grid` checked to lie within every
-# curve's times up to one step of that curve, or 2^k equally spaced points on
-# the range every curve covers, 2^k the next power of two of the most
-# distinct times of any curve.
+# The grid for curves on their own times: `grid` (dyadic; where it reaches
+# beyond every curve, no curve is observed), or 2^k equally spaced
+# points on that range (the longest record), 2^k the next power of two of
+# the most distinct times of any curve. A curve that ends earlier (or
+# starts later) is missing beyond its own extent (own_extent_mask()); each
+# curve must cover at least 8 points of the grid.
 own_points_grid <- function(pts, grid, labels = NULL, call = rlang::caller_env()) {
   curves <- unlist(pts, recursive = FALSE)
-  lo <- max(vapply(curves, function(cv) cv$t[1], numeric(1)))
-  hi <- min(vapply(curves, function(cv) cv$t[length(cv$t)], numeric(1)))
+  firsts <- vapply(curves, function(cv) cv$t[1], numeric(1))
+  lasts <- vapply(curves, function(cv) cv$t[length(cv$t)], numeric(1))
+  lo <- min(firsts)
+  hi <- max(lasts)
   n_range <- range(vapply(curves, function(cv) length(unique(cv$t)), integer(1)))
   n_text <- if (n_range[1] == n_range[2]) n_range[1] else paste(n_range, collapse = " to ")
+  own <- diff(range(firsts)) > 0 || diff(range(lasts)) > 0
   if (!is.null(grid)) {
-    for (s in names(pts)) {
-      for (r in seq_along(pts[[s]])) {
-        stamps <- unique(pts[[s]][[r]]$t)
-        tryCatch(check_field_grid(grid, stamps, call = call), wavevalid_error_grid = function(e) {
-          msg <- cli::ansi_strip(conditionMessage(e))
-          wv_abort(c("Site {.val {s}}, {curve_label(labels, s, r, 'curve')}: {msg}"),
-                   class = "grid", call = call)
-        })
+    # the grid may reach beyond every curve: no curve is observed there
+    grid <- check_field_grid(grid, range(c(grid, firsts, lasts)), call = call)
+    own <- own || grid[1] < lo || grid[length(grid)] > hi
+    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to the {length(grid)} points of {.arg grid}{if (own) ', each over its own extent' else ''}."))
+  } else {
+    grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n_range[2])))
+    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}]{if (own) ', the longest record; each curve is observed over its own extent' else ', the range every curve covers'}."))
+  }
+  for (s in names(pts)) {
+    for (r in seq_along(pts[[s]])) {
+      n_in <- sum(own_extent(pts[[s]][[r]]$t, grid))
+      if (n_in < 8L) {
+        wv_abort(c("Site {.val {s}}, {curve_label(labels, s, r, 'curve')} covers {n_in} point{?s} of the grid; a curve needs at least 8.",
+                   "i" = "Give a finer {.arg grid}, or leave the curve out."), class = "grid", call = call)
       }
     }
-    wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to the {length(grid)} points of {.arg grid}."))
-    return(grid)
   }
-  if (!(hi > lo)) {
-    wv_abort(c("The curves share no range of times: the latest start is {signif(lo, 5)}, the earliest end {signif(hi, 5)}.",
-               "i" = "Give the grid to put them on with {.arg grid}, or leave out the curves that do not overlap."),
-             class = "grid", call = call)
-  }
-  grid <- seq(lo, hi, length.out = 2L^ceiling(log2(n_range[2])))
-  wv_inform(c("i" = "The curves were linearly interpolated from their own times ({n_text} per curve) to {length(grid)} equally spaced points on [{signif(lo, 4)}, {signif(hi, 4)}], the range every curve covers."))
   grid
+}
+
+# The grid points a curve measured at times `tt` covers: within its first
+# and last times up to one step of the grid.
+own_extent <- function(tt, grid) {
+  h <- if (length(grid) > 1L) grid[2] - grid[1] else 0
+  grid >= tt[1] - h * (1 - 1e-9) & grid <= tt[length(tt)] + h * (1 - 1e-9)
+}
+
+# By site, the R x T mask of the grid points each curve covers (NULL for a
+# site whose curves all cover the whole grid; NULL when none is cut).
+own_extent_mask <- function(pts, grid) {
+  out <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) own_extent(cv$t, grid))))
+  out[vapply(out, all, logical(1))] <- list(NULL)
+  if (all(vapply(out, is.null, logical(1)))) NULL else out
+}
+
+# Curves (R x T) with their values where they are missing (`observed`
+# FALSE) filled: by the mean of the site's curves that cover the point,
+# else held at the nearest covered value. What the fill carries is given no
+# weight in the likelihood (missing_fill_variance()).
+fill_missing <- function(m, observed) {
+  if (is.null(observed)) return(m)
+  n_at <- colSums(observed)
+  mean_at <- colSums(m * observed) / pmax(n_at, 1)
+  for (r in seq_len(nrow(m))) {
+    miss <- !observed[r, ]
+    if (!any(miss)) next
+    cov <- miss & n_at > 0
+    m[r, cov] <- mean_at[cov]
+    none <- which(n_at == 0)
+    if (length(none)) {
+      have <- which(n_at > 0)
+      m[r, none] <- m[r, have[vapply(none, function(j) which.min(abs(have - j)), integer(1))]]
+    }
+  }
+  m
 }
 
 # How a message names curves `r` of site `s`: by the user's id column

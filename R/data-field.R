@@ -259,8 +259,10 @@ field_on_own_points <- function(pts, x_nom, grid, labels = NULL, call = rlang::c
     }))
   })
   names(curves) <- names(pts)
+  observed <- own_extent_mask(pts, grid)
+  for (s in names(observed)) curves[[s]] <- fill_missing(curves[[s]], observed[[s]])
   noise <- report_interpolated(lapply(evs, site_evidence))
-  validate_wv_field(new_wv_field(grid, curves, x_nom, noise = noise))
+  validate_wv_field(new_wv_field(grid, curves, x_nom, noise = noise, observed = observed))
 }
 
 # The noise evidence of sites whose curves (rows, at the distinct stamps t)
@@ -307,9 +309,11 @@ check_stamps <- function(t, call = rlang::caller_env()) {
   as.numeric(t)
 }
 
-new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL, units = NULL) {
+new_wv_field <- function(t, curves, x_nom = NULL, warps = NULL, noise = NULL, units = NULL,
+                         observed = NULL) {
   out <- list(t = t, curves = curves, x_nom = x_nom, warps = warps, noise = noise)
   if (!is.null(units)) out$units <- units
+  if (!is.null(observed)) out$observed <- observed
   structure(out, class = "wv_field")
 }
 

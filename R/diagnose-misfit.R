@@ -66,7 +66,9 @@
 #'   amount by which a point or window holding the point lies beyond the
 #'   band, 0 where none does), `scale`, `window_mean` and `window_se` (that
 #'   window's length in time, its mean misfit and the mean's standard error;
-#'   `NA` where none is beyond the band) and `rejected` (`excess > 0`).
+#'   `NA` where none is beyond the band), `rejected` (`excess > 0`) and
+#'   `covered` (`FALSE` where no field curve reaches: misfit 0, never
+#'   rejected).
 #'   Its attributes: `level`, `crit`, `p_value` (the share of simulated
 #'   curves whose largest standardised deviation exceeds the observed one:
 #'   small when the model fails somewhere),
@@ -101,6 +103,10 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
       sqrt(pmax(pr$var[h, , drop = FALSE], 0)) * matrix(stats::rnorm(n_sim * k), n_sim)
     R <- fit_get(fit, "n_rep")[[s]]
     reg <- fit_get(fit, "registration_var")[[s]] %||% 0
+    # curves missing beyond their own extent: judged where some curve
+    # covers, their mean of fewer curves with its own variance there
+    fill <- missing_fill_variance(field$curves[[s]], field$observed[[s]], Psi)
+    if (!is.null(fill)) reg <- pmax(reg - fill$var, 0)
     units <- field$units[[s]]
     Q <- NULL
     if (R >= 2L) {
@@ -124,16 +130,25 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
       E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
     } else {
       v <- field_mean_variance(fit, s, rows[h])
+      if (!is.null(fill)) v <- pmax(sweep(v, 2L, fill$var), 0)
       E <- E + sqrt(v) * matrix(stats::rnorm(n_sim * k), n_sim)
       noise <- c(learned = "the learned noise")
     }
     Et <- tcrossprod(E, Psi)
     m <- drop(Psi %*% dbar)
+    covered <- rep(TRUE, length(m))
+    if (!is.null(fill)) {
+      covered <- fill$covered
+      Et <- Et + sweep(matrix(stats::rnorm(n_sim * length(m)), n_sim), 2L,
+                       sqrt(ifelse(covered, fill$point, 0)), `*`)
+      Et[, !covered] <- 0
+      m[!covered] <- 0
+    }
     if (!is.null(Q)) {
       Et <- Et - tcrossprod(Et %*% Q, Q)
       m <- m - drop(Q %*% crossprod(Q, m))
     }
-    c(list(misfit = m, noise = noise), misfit_scan(m, Et))
+    c(list(misfit = m, noise = noise, covered = covered), misfit_scan(m, Et))
   }))
   zmax <- do.call(pmax, lapply(sims, `[[`, "zmax"))
   crit <- unname(stats::quantile(zmax, level))
@@ -144,7 +159,7 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     data.frame(site = s, t = t, misfit = sc$misfit, se = sc$windows[[1]]$se,
                z = sc$windows[[1]]$z, crit = crit, excess = ex$excess,
                scale = ex$width * diff(t[1:2]), window_mean = ex$mean, window_se = ex$se,
-               rejected = ex$excess > 0, stringsAsFactors = FALSE)
+               rejected = ex$excess > 0, covered = sc$covered, stringsAsFactors = FALSE)
   }))
   observed <- max(vapply(sims, `[[`, numeric(1), "observed"))
   structure(out, class = c("wv_misfit_check", "data.frame"), level = level, crit = crit,

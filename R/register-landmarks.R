@@ -105,10 +105,10 @@ landmark_times <- function(Y, t, windows, features, refine, window, feature) {
 warp_knots_from <- function(rep_lm, ref_lm, t, site, replicate, call = rlang::caller_env()) {
   key <- function(d) paste(d$site %||% "", d$window, d$feature)
   t_rep <- rep_lm$t[match(key(ref_lm), key(rep_lm))]
-  keep <- rep(TRUE, nrow(ref_lm))
+  keep <- !is.na(t_rep)
   for (w in unique(ref_lm$window)) {
-    i <- which(ref_lm$window == w)
-    keep[i] <- ordered_landmarks(ref_lm$t[i], t_rep[i])
+    i <- which(ref_lm$window == w & keep)
+    if (length(i)) keep[i] <- ordered_landmarks(ref_lm$t[i], t_rep[i])
   }
   before <- c(t[1], t_rep[keep], t[length(t)])
   after <- c(t[1], ref_lm$t[keep], t[length(t)])

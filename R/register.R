@@ -213,6 +213,7 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
                                                                         "landmark_site")
 
   curves <- field$curves
+  observed <- field$observed
   n_rep <- vapply(curves, nrow, integer(1))
   if (length(unique(n_rep)) > 1L && !is.null(landmark_site)) {
     wv_abort(c(
@@ -245,7 +246,9 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     }
     targets <- if (is.null(landmark_site)) s else sites
     R <- n_rep[[s]]
-    rep_lms <- lapply(seq_len(R), function(r) site_landmarks(function(m) curves[[m]][r, ], s))
+    rep_lms <- lapply(seq_len(R), function(r) {
+      within_extent(site_landmarks(function(m) curves[[m]][r, ], s), field$observed, r, t, windows)
+    })
     knots <- lapply(seq_len(R),
                     function(r) warp_knots_from(rep_lms[[r]], ref_lm, t, site = s, replicate = r))
     fitted <- NULL
@@ -260,16 +263,18 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
     }
     for (r in seq_len(R)) {
       kept <- knots[[r]]$keep
+      beyond <- is.na(knots[[r]]$t_rep)
       row <- data.frame(
         site = ref_lm$site[kept], replicate = r, window = ref_lm$window[kept],
         feature = ref_lm$feature[kept],
         t_before = knots[[r]]$t_rep[kept], t_after = ref_lm$t[kept], stringsAsFactors = FALSE
       )
-      if (!all(kept)) {
+      if (!all(kept | beyond)) {
+        out_i <- !kept & !beyond
         left_out[[length(left_out) + 1L]] <- data.frame(
-          site = ref_lm$site[!kept], replicate = r, window = ref_lm$window[!kept],
-          feature = ref_lm$feature[!kept],
-          t_before = knots[[r]]$t_rep[!kept], t_after = ref_lm$t[!kept], stringsAsFactors = FALSE
+          site = ref_lm$site[out_i], replicate = r, window = ref_lm$window[out_i],
+          feature = ref_lm$feature[out_i],
+          t_before = knots[[r]]$t_rep[out_i], t_after = ref_lm$t[out_i], stringsAsFactors = FALSE
         )
       }
       kn <- knots[[r]][c("before", "after")]
@@ -283,7 +288,12 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
           row <- row[order(row$t_after), , drop = FALSE]
         }
       }
-      for (s2 in targets) curves[[s2]][r, ] <- apply_inverse_warp(field$curves[[s2]][r, ], t, kn)
+      for (s2 in targets) {
+        curves[[s2]][r, ] <- apply_inverse_warp(field$curves[[s2]][r, ], t, kn)
+        if (!is.null(observed[[s2]])) {
+          observed[[s2]][r, ] <- apply_inverse_warp(as.numeric(field$observed[[s2]][r, ]), t, kn) > 0.5
+        }
+      }
       rows[[length(rows) + 1L]] <- row
     }
   }
@@ -297,8 +307,9 @@ register_curves.wv_field <- function(field, reference, windows, landmark_site = 
                         left_out = left_out)
   attr(warps, "landmark_settings") <- list(features = features, refine = refine)
   validate_wv_warps(warps)
+  for (s in names(observed)) curves[[s]] <- fill_missing(curves[[s]], observed[[s]])
   out <- validate_wv_field(new_wv_field(t, curves, field$x_nom, warps, noise = field$noise,
-                                              units = field$units))
+                                        units = field$units, observed = observed))
   if (inherits(reference, "wv_runs") && check_runs > 0L) {
     out$registration_check <- registration_check(out, reference, settings, check_runs)
   }
@@ -414,4 +425,19 @@ check_features <- function(features, cross_fraction = 0.5, cross_value = NULL,
   out <- intersect(landmark_features, features)
   if ("cross" %in% out) attr(out, "cross") <- list(fraction = cross_fraction, value = cross_value)
   out
+}
+
+# A replicate's landmarks (rows of curve_landmarks()) in the windows its
+# curve covers whole: a window that reaches beyond the curve's own extent
+# (`observed`, by site, NULL when every curve covers the grid) gives no
+# landmark of that replicate; its warp is tied by the others.
+within_extent <- function(lm, observed, r, t, windows) {
+  if (is.null(observed) || !nrow(lm)) return(lm)
+  keep <- vapply(seq_len(nrow(lm)), function(i) {
+    obs <- observed[[lm$site[i]]]
+    if (is.null(obs)) return(TRUE)
+    w <- windows[[lm$window[i]]]
+    all(obs[r, t >= w[1] & t <= w[2]])
+  }, logical(1))
+  lm[keep, , drop = FALSE]
 }
