@@ -188,7 +188,9 @@ field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
   if (is.list(t)) {
     pts <- own_points(curves, t, site, strict = FALSE, what = "field", labels = labels)
     t <- common_times(pts)
-    if (is.null(t)) return(field_on_own_points(pts, x_nom, grid, labels))
+    beyond <- !is.null(t) && !is.null(grid) && length(grid) > 1L &&
+      (min(grid) < min(t) - diff(grid[1:2]) || max(grid) > max(t) + diff(grid[1:2]))
+    if (is.null(t) || beyond) return(field_on_own_points(pts, x_nom, grid, labels))
     curves <- lapply(pts, function(p) do.call(rbind, lapply(p, function(cv) cv$y)))
     site <- NULL
   }

@@ -1,5 +1,6 @@
 # Curves of their own extent: each field curve of a test bed cut at its own
-# end (uniform on [frac, 1] of the record), given on its own times, put on
+# end (uniform on [frac, 1] of the record; the first curve of a site whole,
+# the longest record), given on its own times, put on
 # the runs' grid by field_runs(grid = runs$t) and validated; against the
 # same data uncut. Per seed, bed and case:
 #   covered    share of the true inputs (calibration inputs) inside their 95%
@@ -25,7 +26,7 @@ cut_field <- function(field, seed) {
   t <- field$t
   set.seed(seed)
   lst <- lapply(field$curves, function(m) {
-    ends <- stats::runif(nrow(m), frac, 1) * (max(t) - min(t)) + min(t)
+    ends <- c(max(t), stats::runif(nrow(m) - 1L, frac, 1) * (max(t) - min(t)) + min(t))
     list(t = lapply(ends, function(e) t[t <= e]),
          y = lapply(seq_len(nrow(m)), function(r) m[r, t <= ends[r]]),
          kept = min(ends - min(t)) / (max(t) - min(t)))

@@ -1,0 +1,98 @@
+# Curves of their own extent: each field curve observed where it was
+# measured, missing beyond its end.
+
+long_cut <- function(ends, t = seq(0, 1, length.out = 64)) {
+  do.call(rbind, lapply(seq_along(ends), function(r) {
+    tt <- t[t <= ends[r]]
+    data.frame(rep = paste0("R", r), t = tt, y = sin(2 * pi * tt) + 0.01 * r)
+  }))
+}
+
+test_that("curves that end at different times keep the longest record, each observed over its own extent", {
+  d <- long_cut(c(1, 0.5, 0.75))
+  f <- suppressMessages(field_runs(d, t = "t", y = "y", replicate = "rep"))
+  expect_equal(range(f$t), c(0, 1))
+  obs <- f$observed$site1
+  expect_identical(dim(obs), dim(f$curves$site1))
+  expect_true(all(obs[1, ]))
+  expect_true(all(!obs[2, f$t > 0.5 + diff(f$t[1:2])]))
+  expect_true(all(obs[2, f$t <= 0.5]))
+  # where a curve is missing it holds the mean of the curves that cover the point
+  j <- which(!obs[2, ] & obs[3, ])
+  expect_equal(f$curves$site1[2, j], colMeans(f$curves$site1[c(1, 3), j]))
+  # the message says so
+  expect_message(field_runs(d, t = "t", y = "y", replicate = "rep"), "longest record")
+  # curves of one extent carry no mask
+  g <- suppressMessages(field_runs(long_cut(c(1, 1, 1)), t = "t", y = "y", replicate = "rep"))
+  expect_null(g$observed)
+  # a grid that reaches beyond every curve: nothing is observed there
+  h <- suppressMessages(field_runs(long_cut(c(0.6, 0.6)), t = "t", y = "y", replicate = "rep",
+                                   grid = seq(0, 1, length.out = 64)))
+  expect_true(all(!h$observed$site1[, h$t > 0.62]))
+  # a curve that covers too little of the grid is refused, by its id
+  dense <- rbind(long_cut(1), data.frame(rep = "R2", t = seq(0, 0.3, length.out = 20), y = 0))
+  err <- expect_error(suppressMessages(field_runs(dense, t = "t", y = "y", replicate = "rep",
+                                                  grid = seq(0, 1, length.out = 16))),
+                      class = "wavevalid_error_grid")
+  expect_match(cli::ansi_strip(conditionMessage(err)), "rep R2", fixed = TRUE)
+})
+
+test_that("a coefficient is weighted by the curves that cover it: none, no weight", {
+  b <- example_problem(1)$emulators$basis
+  T <- length(b$t)
+  h <- T / 2
+  m <- rbind(sin(seq_len(T)), cos(seq_len(T)))
+  obs <- matrix(TRUE, 2, T)
+  obs[2, (h + 1):T] <- FALSE
+  fv <- wavevalid:::missing_fill_variance(m, obs, b$Psi)
+  inside <- colSums(b$Psi[(h + 1):T, , drop = FALSE]^2) == 0
+  expect_true(any(inside))
+  expect_equal(fv$var[inside], rep(0, sum(inside)))
+  expect_true(all(fv$var[!inside] > 0))
+  # the extra variance of a point held by one of two curves: sigma2 / 2
+  s2 <- mean(apply(m[, 1:h], 2, stats::var))
+  expect_equal(fv$point[(h + 1):T], rep(s2 / 2, T - h))
+  q <- (T - T / 4 + 1):T
+  obs[, q] <- FALSE
+  fv2 <- wavevalid:::missing_fill_variance(m, obs, b$Psi)
+  expect_true(all(fv2$point[q] > 1e5 * max(m^2)))
+  expect_false(any(fv2$covered[q]))
+})
+
+test_that("curves cut short on a grid beyond them: the right model is not rejected and the inputs hold", {
+  tb <- testbed_units(2)
+  t <- tb$A$runs$t
+  m <- tb$A$field$curves$site1
+  cut <- t <= 0.6 * max(t)
+  f <- suppressMessages(field_runs(list(site1 = lapply(seq_len(nrow(m)), function(r) m[r, cut])),
+                                   t = list(site1 = rep(list(t[cut]), nrow(m))), grid = t,
+                                   units = tb$A$field$units))
+  expect_true(all(!f$observed$site1[, !cut]))
+  fit <- suppressWarnings(validate(tb$A$runs, f, tb$iu, chains = 1, seed = 1,
+                                   sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
+  mc <- misfit_check(fit)
+  expect_false(any(mc$covered[!cut]))
+  expect_false(any(mc$rejected))
+  ci <- summary(fit)$inputs
+  u <- tb$truth$u
+  ci <- ci[match(names(u), ci$input), ]
+  expect_true(all(u >= ci$q2.5 & u <= ci$q97.5))
+})
+
+test_that("registration takes a replicate's landmarks only in windows its curve covers", {
+  tt <- seq(0, 10, length.out = 128)
+  bump <- function(c) exp(-(tt - c)^2)
+  runs_t <- tt
+  ref <- rbind(bump(3) + bump(7))
+  d <- do.call(rbind, lapply(1:3, function(r) {
+    keep <- if (r == 2) tt <= 5.5 else rep(TRUE, length(tt))
+    data.frame(rep = r, t = tt[keep], y = (bump(3 + 0.1 * r) + bump(7 - 0.1 * r))[keep])
+  }))
+  f <- suppressMessages(field_runs(d, t = "t", y = "y", replicate = "rep", grid = tt))
+  reg <- expect_no_warning(register_curves(f, reference = list(site1 = ref[1, ]), windows = list(c(1.5, 4.5), c(5.5, 8.5)),
+                                                features = "max"))
+  w <- reg$warps
+  expect_false(any(w$replicate == 2 & w$window %in% 2))
+  expect_true(any(w$replicate == 1 & w$window %in% 2))
+  expect_true(all(!reg$observed$site1[2, tt > 6]))
+})
