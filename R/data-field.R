@@ -43,11 +43,22 @@
 #' of any lengths) or matrices. Each curve keeps its own noise evidence on its
 #' own times (scatter and deviations summed over the site's curves, sd
 #' averaged, resampling averaged as the noise of their mean). The curves go
-#' onto `grid` when given (within every curve's times up to one of its
-#' steps; `grid = runs$t` for the model runs' grid), else onto 2^k equally
-#' spaced points on the range every curve covers, 2^k the next power of two
-#' of the most times of any curve. Curves on the same times give the result
-#' of the one-`t` form.
+#' onto `grid` when given (`grid = runs$t` for the model runs' grid), else
+#' onto 2^k equally spaced points on the longest record, 2^k the next power
+#' of two of the most times of any curve. Curves on the same times give the
+#' result of the one-`t` form.
+#'
+#' @section Curves of their own extent:
+#' Curves that end (or start) at different times (a specimen breaks, a run
+#' stops) are each observed over their own extent: `observed` holds, by
+#' site, which grid points each curve covers. Where fewer curves cover a
+#' point, their mean has its larger variance in [calibrate()]; where none
+#' does, the data give no weight to any coefficient reaching there (the
+#' bias there is its prior's: the bands are wide), registration takes no
+#' landmark from a window a curve does not cover, and [misfit_check()]
+#' judges only where some curve reaches. A site whose curves all stop early
+#' loses the record-wide coefficients: cut the runs to the measured range
+#' when one curve per site stops well before the others.
 #'
 #' @section Long data frames:
 #' `field_runs(data, t = "strain", y = "stress", site = "temperature",
@@ -117,6 +128,8 @@
 #'   `detail_ss`, `detail_df` (the difference residuals on the stamps as
 #'   data on the noise variance, see [noise_prior()]),
 #'   `units` (by site, the unit of each replicate, or `NULL`),
+#'   `observed` (by site, the replicates x points mask of where each curve
+#'   was measured, only when some curve does not cover the grid),
 #'   `map` (the resampling onto the grid; a list of them when the curves had
 #'   their own times) and, for curves read as interpolated, `interpolated`
 #'   (`n_points`, `n_breakpoints`, `n_measured`: the points read as measured,

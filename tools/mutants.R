@@ -15,6 +15,14 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "own_extent_fill_weighted", file = "R/calibrate-spec.R",
+       pattern = "  if (is.null(observed)) return(NULL)\n  R <- nrow(curves)",
+       replacement = "  return(NULL)\n  R <- nrow(curves)",
+       test = "test-own-extent.R", what = "the part of a curve beyond its end weighs as data"),
+  list(name = "own_extent_landmarks", file = "R/register.R",
+       pattern = "  if (is.null(observed) || !nrow(lm)) return(lm)",
+       replacement = "  return(lm)",
+       test = "test-own-extent.R", what = "landmarks taken in windows beyond a curve's end"),
   list(name = "stopping_never_early", file = "R/calibrate-chains.R",
        pattern = "if (met || n >= sm$max_draws) break", replacement = "if (n >= sm$max_draws) break",
        test = "test-stopping.R", what = "the stopping rule never stops before the ceiling"),
