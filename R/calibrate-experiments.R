@@ -18,11 +18,11 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
   measured <- isTRUE(registration_variance %in% c("auto", "check"))
   if (measured && !is.null(spec$reg_shift_var) && experiment_bias == "shared") {
     # the sampler's shifts need each site's own bias: one variance per site
+    spec$extra <- plus_fill(spec$extra_diag, spec$fill)
     for (s in base_sites) {
       spec$sites[[s]]$reg_U <- NULL
-      spec$sites[[s]]$extra <- spec$extra_diag[[s]]
+      spec$sites[[s]]$extra <- spec$extra[[s]]
     }
-    spec$extra <- spec$extra_diag
     spec$reg_shift_var <- NULL
   }
   for (e in names(experiments)) {
@@ -31,8 +31,8 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
     sub <- calibration_spec(em, x$field, iu, NULL, pool_levels = pool_levels,
                             registration_variance = if (measured) "diagonal" else
                               registration_variance, call = call)
-    if (measured && is.null(sub$extra) && !is.null(spec$extra)) {
-      sub$extra <- (spec$extra_diag %||% spec$extra)[names(sub$sites)]
+    if (measured && is.null(sub$reg_extra) && !is.null(spec$reg_extra)) {
+      sub$extra <- plus_fill((spec$extra_diag %||% spec$reg_extra)[names(sub$sites)], sub$fill)
     }
     sh <- stats::setNames(numeric(p), spec$inputs)
     if (!is.null(x$change)) sh[names(x$change)] <- x$change
@@ -65,6 +65,7 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
       spec$s2[[name]] <- sub$s2[[s]]
       spec$n_rep[[name]] <- sub$n_rep[[s]]
       if (!is.null(sub$extra)) spec$extra[[name]] <- sub$extra[[s]]
+      if (!is.null(sub$fill[[s]])) spec$fill[[name]] <- sub$fill[[s]]
       spec$noise_setting[[name]] <- sub$noise_setting[[s]]
       if (!is.null(sub$noise_evidence[[s]])) spec$noise_evidence[[name]] <- sub$noise_evidence[[s]]
       if (!is.null(sub$noise_prior) && !is.null(sub$noise_prior$scale[s]) &&
@@ -141,3 +142,14 @@ warn_experiment_extrapolation <- function(fit) {
   invisible()
 }
 
+
+# Registration variances by site plus the variance of curves missing beyond
+# their own extent (calibration_spec()'s `fill`), NULL when both are.
+plus_fill <- function(reg, fill) {
+  sites <- union(names(reg), names(fill))
+  if (!length(sites)) return(NULL)
+  out <- lapply(stats::setNames(sites, sites), function(s) {
+    if (is.null(reg[[s]]) && is.null(fill[[s]])) NULL else (reg[[s]] %||% 0) + (fill[[s]] %||% 0)
+  })
+  out[!vapply(out, is.null, logical(1))]
+}

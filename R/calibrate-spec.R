@@ -159,12 +159,25 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   groups <- NULL
   site_data <- list()
   wbar <- s2 <- n_rep <- bias_group <- list()
+  reg_extra <- extra
+  fills <- list()
   for (s in sites) {
-    W <- field$curves[[s]] %*% basis$Psi
+    curves_s <- field$curves[[s]]
+    fill <- NULL
+    if (!is.null(field$observed[[s]])) {
+      fill <- missing_fill_variance(curves_s, field$observed[[s]], basis$Psi)
+      fills[[s]] <- fill$var
+      if (any(!fill$covered)) {
+        gone <- sum(fill$var > 1e5 * mean(curves_s[field$observed[[s]]]^2))
+        wv_inform(c("i" = "Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}); the {gone} of {length(fill$var)} coefficients whose functions reach there get no weight, the record-wide ones among them.",
+                    " " = "To keep them, give the runs and the field on the range the curves cover."),
+                  class = "own_extent")
+      }
+    }
+    W <- curves_s %*% basis$Psi
     R <- nrow(W)
     wbar[[s]] <- colMeans(W)
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)
-    fill <- missing_fill_variance(field$curves[[s]], field$observed[[s]], basis$Psi)
     if (!is.null(fill)) {
       extra[[s]] <- (extra[[s]] %||% 0) + fill$var
       if (any(!fill$cut)) s2[[s]][fill$cut] <- stats::median(s2[[s]][!fill$cut])
@@ -189,7 +202,8 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom,
        wbar = wbar,
-       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, reg_shift_var = shifts$var,
+       s2 = s2, n_rep = n_rep, basis = basis, extra = extra, reg_extra = reg_extra,
+       fill = if (length(fills)) fills, reg_shift_var = shifts$var,
        extra_diag = extra_diag,
        noise_setting = noise_setting, noise_prior = noise,
        noise_evidence = noise_evidence_summary(field, sites[noise_setting == "learned"], site_data))
@@ -368,13 +382,16 @@ informing_groups <- function(inform_levels, coef_level, bias_group, groups,
 
 # What curves missing beyond their own extent (`observed`: the R x T mask of
 # the points each covers; NULL: all covered) add to the variance of the
-# replicates' mean coefficients (Psi: T x coefficients). A point covered by
-# n of R curves holds a mean of n: sigma2 (1 / n - 1 / R) more, sigma2 the
-# replicates' pooled variance where all cover; a point no curve covers holds
-# nothing: a variance 1e6 times the curves' mean square, so that a
-# coefficient whose function reaches there is left to the bias's prior. A
-# coefficient a tenth of whose weight is missing (`cut`) takes the median
-# scatter of the others as its own (the fill has none).
+# replicates' mean coefficients (Psi: T x coefficients), the curves filled
+# there by fill_missing(). A point covered by n of R curves holds a mean of
+# n: sigma2 (1 / n - 1 / R) more, sigma2 the replicates' pooled variance
+# where all cover. A coefficient whose function reaches a point no curve
+# covers is left to the bias's prior (a variance 1e6 times the curves' mean
+# square): the fill there is no evidence, and a guess at it (the model's
+# prior predictive, the bias at the last covered point carried on) was read
+# as a misfit where the curves are different units. A coefficient a tenth
+# of whose weight is missing (`cut`) takes the median scatter of the others
+# as its own (the fill has none).
 missing_fill_variance <- function(curves, observed, Psi) {
   if (is.null(observed)) return(NULL)
   R <- nrow(curves)
@@ -383,7 +400,11 @@ missing_fill_variance <- function(curves, observed, Psi) {
   s2 <- if (R >= 2L && any(full)) {
     mean(apply(curves[, full, drop = FALSE], 2L, stats::var))
   } else 0
-  v <- ifelse(n_at == 0L, 1e6 * mean(curves[observed]^2), s2 * (1 / pmax(n_at, 1) - 1 / R))
+  none <- n_at == 0L
+  v <- s2 * (1 / pmax(n_at, 1) - 1 / R)
+  big <- 1e6 * mean(curves[observed]^2)
+  reach_none <- colSums(Psi^2 * none) > 1e-10 * colSums(Psi^2)
+  var <- colSums(Psi^2 * ifelse(none, 0, v)) + ifelse(reach_none, big, 0)
   w_miss <- colSums(Psi^2 * (n_at < R)) / colSums(Psi^2)
-  list(var = colSums(Psi^2 * v), cut = w_miss > 0.1, point = v, covered = n_at > 0L)
+  list(var = var, cut = w_miss > 0.1, point = ifelse(none, big, v), covered = !none)
 }

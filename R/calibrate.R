@@ -300,7 +300,7 @@ assemble_fit <- function(spec, runs, emulators, field, iu, settings, seed) {
     inputs = spec$inputs, x_nom = spec$x_nom, wbar = spec$wbar, s2 = spec$s2, n_rep = spec$n_rep,
     groups = spec$groups, bias_group = spec$bias_group, acceptance = acceptance, start = start,
     proposal_cov = prop_cov,
-    seed = seed, settings = settings, registration_var = spec$extra,
+    seed = seed, settings = settings, registration_var = spec$extra, missing_var = spec$fill,
     noise_setting = spec$noise_setting, noise_prior = spec$noise_prior,
     noise_evidence = if (length(spec$noise_evidence)) spec$noise_evidence,
     prior_sd = prior_sds(spec$prior_iu),

@@ -218,25 +218,28 @@ own_extent_mask <- function(pts, grid) {
 }
 
 # Curves (R x T) with their values where they are missing (`observed`
-# FALSE) filled: by the mean of the site's curves that cover the point,
-# else held at the nearest covered value. What the fill carries is given no
-# weight in the likelihood (missing_fill_variance()).
+# FALSE) filled. Where other curves cover the point, a curve keeps its
+# deviation from them at its nearest covered point (its unit's offset, or
+# its noise there: the mean of the covering curves is then not moved by
+# which curves cover); where none does, it is held at its nearest covered
+# value. What the fill carries is weighted in the likelihood by
+# missing_fill_variance().
 fill_missing <- function(m, observed) {
   if (is.null(observed)) return(m)
+  y <- m
   n_at <- colSums(observed)
-  mean_at <- colSums(m * observed) / pmax(n_at, 1)
   for (r in seq_len(nrow(m))) {
-    miss <- !observed[r, ]
-    if (!any(miss)) next
-    cov <- miss & n_at > 0
-    m[r, cov] <- mean_at[cov]
-    none <- which(n_at == 0)
-    if (length(none)) {
-      have <- which(n_at > 0)
-      m[r, none] <- m[r, have[vapply(none, function(j) which.min(abs(have - j)), integer(1))]]
+    own <- which(observed[r, ])
+    if (!length(own)) next
+    for (j in which(!observed[r, ])) {
+      b <- own[which.min(abs(own - j))]
+      both <- which(observed[, j] & observed[, b])
+      y[r, j] <- if (length(both)) {
+        m[r, b] + mean(m[both, j]) - mean(m[both, b])
+      } else if (n_at[j] > 0L) mean(m[observed[, j], j]) else m[r, b]
     }
   }
-  m
+  y
 }
 
 # How a message names curves `r` of site `s`: by the user's id column

@@ -106,7 +106,7 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
     # curves missing beyond their own extent: judged where some curve
     # covers, their mean of fewer curves with its own variance there
     fill <- missing_fill_variance(field$curves[[s]], field$observed[[s]], Psi)
-    if (!is.null(fill)) reg <- pmax(reg - fill$var, 0)
+    if (!is.null(fill)) reg <- pmax(reg - (fit_get(fit, "missing_var")[[s]] %||% 0), 0)
     units <- field$units[[s]]
     Q <- NULL
     if (R >= 2L) {
@@ -130,7 +130,7 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
       E <- E + sweep(matrix(stats::rnorm(n_sim * k), n_sim), 2L, sqrt(reg), `*`)
     } else {
       v <- field_mean_variance(fit, s, rows[h])
-      if (!is.null(fill)) v <- pmax(sweep(v, 2L, fill$var), 0)
+      if (!is.null(fill)) v <- pmax(sweep(v, 2L, fit_get(fit, "missing_var")[[s]] %||% 0), 0)
       E <- E + sqrt(v) * matrix(stats::rnorm(n_sim * k), n_sim)
       noise <- c(learned = "the learned noise")
     }

@@ -35,6 +35,8 @@
 # | seed                | integer            | the seed the draws came from
 # | settings            | list               | the sampler's and the bias's settings as run
 # | registration_var    | site list, opt.    | the registration's variance of each coefficient
+# |                     |                    | (with missing_var's)
+# | missing_var         | site list, opt.    | what curves missing beyond their own extent add
 # | noise_setting       | named character    | how each site's noise is known ("replicates", ...)
 # | noise_prior         | list, opt.         | the prior of the learned noise scales
 # | noise_evidence      | site list, opt.    | the measured evidence on the noise
@@ -68,7 +70,7 @@ wv_fit_fields <- c(
   iu = "wv_iu", prior_iu = "wv_iu", inputs = "character", x_nom = "named numeric",
   wbar = "site list", s2 = "site list", n_rep = "site list", groups = "data frame",
   bias_group = "site list", acceptance = "data frame", start = "matrix", proposal_cov = "list",
-  seed = "integer", settings = "list", registration_var = "site list?",
+  seed = "integer", settings = "list", registration_var = "site list?", missing_var = "site list?",
   noise_setting = "named character", noise_prior = "list?", noise_evidence = "site list?",
   registration_shifts = "list?", rhat = "named numeric", ess = "named numeric", flags = "list",
   shared_errors = "list?", sampling_seconds = "number?", stopping = "list?",

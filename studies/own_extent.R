@@ -12,11 +12,12 @@
 #              share: what a common range would keep)
 # Beds: "cooling" (testbed_units(), six units of four tests, unregistered)
 # and "dosing" (testbed_dosing(), six replicates, registered on its windows).
-#   Rscript studies/own_extent.R [seeds=1:3] [beds=cooling,dosing] [hidden=none]
+#   whole=FALSE cuts every curve: no curve reaches the grid's end.
+#   Rscript studies/own_extent.R [seeds=1:3] [beds=cooling,dosing] [hidden=none] [whole=TRUE]
 #                                [frac=0.4] [out=studies/own_extent.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
-opt <- study_args(list(seeds = "1:3", beds = "cooling,dosing", hidden = "none", frac = "0.4",
+opt <- study_args(list(seeds = "1:3", beds = "cooling,dosing", hidden = "none", frac = "0.4", whole = "TRUE",
                        out = "studies/own_extent.csv"))
 options(wavevalid.quiet = TRUE)
 sampler <- sampler_control(n_draws = 200, n_inner = 20, quiet = TRUE)
@@ -26,7 +27,8 @@ cut_field <- function(field, seed) {
   t <- field$t
   set.seed(seed)
   lst <- lapply(field$curves, function(m) {
-    ends <- c(max(t), stats::runif(nrow(m) - 1L, frac, 1) * (max(t) - min(t)) + min(t))
+    ends <- stats::runif(nrow(m), frac, 1) * (max(t) - min(t)) + min(t)
+    if (arg_flag(opt$whole)) ends[1] <- max(t)
     list(t = lapply(ends, function(e) t[t <= e]),
          y = lapply(seq_len(nrow(m)), function(r) m[r, t <= ends[r]]),
          kept = min(ends - min(t)) / (max(t) - min(t)))

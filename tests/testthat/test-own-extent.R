@@ -68,8 +68,10 @@ test_that("curves cut short on a grid beyond them: the right model is not reject
                                    t = list(site1 = rep(list(t[cut]), nrow(m))), grid = t,
                                    units = tb$A$field$units))
   expect_true(all(!f$observed$site1[, !cut]))
-  fit <- suppressWarnings(validate(tb$A$runs, f, tb$iu, chains = 1, seed = 1,
-                                   sampler = sampler_control(n_draws = 150, n_inner = 10, quiet = TRUE)))
+  expect_message(fit <- suppressWarnings(validate(tb$A$runs, f, tb$iu, chains = 1, seed = 1,
+                                                  sampler = sampler_control(n_draws = 150, n_inner = 10,
+                                                                            quiet = TRUE))),
+                 class = "wavevalid_message_own_extent")
   mc <- misfit_check(fit)
   expect_false(any(mc$covered[!cut]))
   expect_false(any(mc$rejected))
