@@ -16,7 +16,8 @@
 #' simulator: it is added to the model's own runs, each run's output plus
 #' its strength times the term's function of that run's output (or of its
 #' time derivative), at strengths drawn evenly over the range; the model
-#' then has the term on its output, not in its equations. A term of a state
+#' then has the term on its output, not in its equations. A term with memory
+#' of the output is added so, on each run's curve. A term of a state
 #' acts through the model's equations, so it needs `simulate`: a function
 #' `function(design, channel, fun)` that runs the simulator at the rows of
 #' `design` (the inputs of `fit` and `s_term`) with the term
@@ -81,12 +82,18 @@ add_term <- function(fit, proposals, simulate = NULL, which = 1L, n_runs = NULL,
   }
   top <- proposals[which, , drop = FALSE]
   fun <- attr(proposals, "funs")[[top$term]]
-  if (is.null(fun)) {
+  op <- attr(proposals, "ops")[[top$term]]
+  output <- top$channel %in% c("output", "d/dt output")
+  if (!is.null(op) && (!output || !is.null(simulate))) {
+    wv_abort(c("Proposal {.val {top$term}} has memory: only a term of the output can be added, to the runs, without {.arg simulate}.",
+               "i" = "{.arg simulate} takes a function of a state's value, not of its history."),
+             class = "input")
+  }
+  if (is.null(fun) && is.null(op)) {
     wv_abort(c("Proposal {.val {top$term}} is a product of two terms: it cannot be added as one.",
                "i" = "Add its factors one at a time, or choose another row with {.arg which}."),
              class = "input")
   }
-  output <- top$channel %in% c("output", "d/dt output")
   if (!output && is.null(simulate)) {
     wv_abort(c("Proposal {.val {top$term}} is a term of the state {.val {top$channel}}: it acts through the model's equations.",
                "i" = "Give {.arg simulate}, {.code function(design, channel, fun)} running the simulator with the term added (see {.fn add_term})."),
@@ -112,7 +119,8 @@ add_term <- function(fit, proposals, simulate = NULL, which = 1L, n_runs = NULL,
     design$s_term <- s
     curves <- lapply(runs$curves, function(Y) {
       X <- if (top$channel == "output") Y else t(apply(Y, 1L, grid_slope, t = runs$t))
-      Y + s * matrix(fun(X), nrow(X))
+      if (is.null(op)) return(Y + s * matrix(fun(X), nrow(X)))
+      Y + s * t(apply(X, 1L, op, t = runs$t))
     })
     off <- runs$design
     off$s_term <- 0

@@ -22,6 +22,14 @@
 #' | `hinge_below` | `(c - x)_+^k` | `k` = 1, 2; `c` = 0 and the quantiles 0.003 to 0.5 |
 #' | `saturating` | `x abs(x) / (c + abs(x))` | `c` the quantiles 0.1, 0.5, 0.9 of `abs(x)` |
 #' | `product` | `x y`, two channels | one per pair |
+#' | `filter` | `z' = x - b z`, `z = 0` at the start | time constants `1/b` of 1/16, 1/4, 1 of the record |
+#' | `delay` | `x(t - d)`, `x` held at its start before it | `d` of 1/32, 1/8, 1/4 of the record |
+#' | `integral` | the integral of `x` from the start | one |
+#' | `product` | a filter or the integral of `x` times `x` (and, for a state, times the output) | as the filter's |
+#'
+#' The last four have memory (a compartment, a lag, an exposure): computed on
+#' the fit's grid (exact for `x` linear between its points), for every
+#' channel but `"d/dt output"`; each acts on the output as it is.
 #'
 #' A stop or a clearance is a hinge, a friction a sign, a saturation a
 #' saturating function, a stiffening a power. A family is weighed once, as a
@@ -41,25 +49,31 @@
 #'   displacement, a velocity, a force, an amount.
 #' @param outputs Include the channels `"output"` and `"d/dt output"`.
 #' @param products Include the products of two channels.
+#' @param memory Include the terms with memory.
 #' @param t The times of state curves not on the fit's grid (as in
 #'   [explain_bias()]).
 #' @param ... Must be empty.
 #' @return A `wv_term_library`: a list with `terms` (a data frame with one
 #'   row per term: `term`, `effect` (the family on its channel), `family`,
-#'   `channel`, `version`), `values` (each term's curve by site on the fit's
-#'   grid), `funs` (each term as a function of its channel's value) and
-#'   `channels` (the channels' curves by site and whether each is a state).
+#'   `channel`, `version`, `memory`, `label` (a readable name)), `values`
+#'   (each term's curve by site on the fit's grid), `funs` (each term as a
+#'   function of its channel's value; `NULL` for a product or a term with
+#'   memory), `ops` (a term with memory of one channel as a function of the
+#'   channel's curve and its times) and `channels` (the channels' curves by
+#'   site and whether each is a state).
 #' @seealso [propose_terms()]
 #' @export
 #' @examples
 #' fit <- example_fit()
 #' lib <- term_library(fit)
 #' lib
-term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t = NULL, ...) {
+term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, memory = TRUE,
+                         t = NULL, ...) {
   check_dots_none(...)
   check_class(fit, "wv_fit")
   check_flag(outputs)
   check_flag(products)
+  check_flag(memory)
   channels <- list()
   kind <- character()
   if (!is.null(states)) {
@@ -91,6 +105,11 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
   names(kind) <- names(channels)
   rows <- unlist(lapply(names(channels), function(ch) channel_terms(ch, channels[[ch]])),
                  recursive = FALSE)
+  tb <- fit_get(fit, "basis")$t
+  mem <- if (memory) memory_channels(channels, kind)
+  rows <- c(rows, unlist(lapply(names(mem), function(ch) {
+    memory_terms(ch, channels[[ch]], tb, with = if (products) mem[[ch]] else list())
+  }), recursive = FALSE))
   if (products && length(channels) > 1L) {
     pairs <- utils::combn(names(channels), 2L, simplify = FALSE)
     rows <- c(rows, lapply(pairs, function(p) product_term(p, channels)))
@@ -99,13 +118,18 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, t 
                       effect = vapply(rows, `[[`, "", "effect"),
                       family = vapply(rows, `[[`, "", "family"),
                       channel = vapply(rows, `[[`, "", "channel"),
-                      version = vapply(rows, `[[`, "", "version"), stringsAsFactors = FALSE)
+                      version = vapply(rows, `[[`, "", "version"),
+                      memory = vapply(rows, function(r) !is.null(r$label), NA),
+                      stringsAsFactors = FALSE)
+  terms$label <- vapply(rows, function(r) r$label %||% r$term, "")
   values <- lapply(rows, `[[`, "values")
   funs <- lapply(rows, `[[`, "fun")
-  names(values) <- names(funs) <- terms$term
+  ops <- lapply(rows, `[[`, "op")
+  names(values) <- names(funs) <- names(ops) <- terms$term
   flat <- vapply(values, function(v) all(vapply(v, function(y) diff(range(y)) == 0, logical(1))),
                  logical(1))
   structure(list(terms = terms[!flat, , drop = FALSE], values = values[!flat], funs = funs[!flat],
+                 ops = ops[!flat],
                  channels = list(curves = channels, kind = kind), sites = fit_sites(fit),
                  grid = fit_get(fit, "basis")$t, n_coef = vapply(fit_get(fit, "wb"), ncol, 1L)),
             class = "wv_term_library")

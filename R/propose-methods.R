@@ -16,9 +16,13 @@ print.wv_proposals <- function(x, ...) {
                    share = signif(top$share_of_bias, 2),
                    acts = sprintf("%s [%s, %s]", top$site, signif(top$from, 4), signif(top$to, 4)))
   print(df, row.names = FALSE)
+  labels <- attr(x, "labels")
+  named <- top$term[!is.na(labels[top$term]) & labels[top$term] != top$term]
+  for (tm in named) cli::cat_line("  ", tm, ": ", labels[[tm]])
   lead <- x[1, ]
   if (lead$inclusion_prob >= 0.5) {
-    cli::cat_line(sprintf("Proposed: %s (inclusion %.2f), acting most at %s [%s, %s].", lead$term,
+    what <- if (lead$term %in% named) sprintf("%s (%s)", lead$term, labels[[lead$term]]) else lead$term
+    cli::cat_line(sprintf("Proposed: %s (inclusion %.2f), acting most at %s [%s, %s].", what,
                           lead$inclusion_prob, lead$site, signif(lead$from, 4), signif(lead$to, 4)))
   } else {
     cli::cat_line(sprintf("No term proposed: none reaches inclusion 0.5 (probability of no term %.2f).",
@@ -32,7 +36,12 @@ print.wv_proposals <- function(x, ...) {
   }
   from <- attr(x, "effects_from")
   cli::cat_line(if (identical(from, "simulated")) {
-    "Effects: output terms act on the output as they are; state terms through the simulated equations."
+    paste0("Effects: output terms act on the output as they are; state terms through the simulated ",
+           "equations", if (isTRUE(attr(x, "memory"))) {
+             paste0(", but terms with memory (filters, delays, integrals) and products act on the ",
+                    "output as they are (`simulate` takes a function of a state's value, not of its ",
+                    "history)")
+           }, ".")
   } else {
     paste0("Effects: each term's curve taken as its effect on the output (a state term acting through the ",
            "equations can differ: give `simulate`).")

@@ -26,10 +26,15 @@ right <- list(
   digressive_damper = c("hinge_above", "hinge_below", "saturating", "abs"),
   tire_liftoff = c("hinge_below", "hinge_above"),
   saturable_elimination = c("saturating", "power"),
-  enterohepatic_recycling = character(),
-  absorption_lag = character(),
+  enterohepatic_recycling = c("filter", "delay"),
+  absorption_lag = "delay",
   induction = "product"
 )
+# induction: the elimination times a filter or the integral of the concentration
+right_term <- list(induction = "^product\\((filter|integral)\\(")
+is_right <- function(hidden, term, family) {
+  family %in% right[[hidden]] && (is.null(right_term[[hidden]]) || grepl(right_term[[hidden]], term))
+}
 
 bed_states <- function(bed, fit) {
   d <- as.data.frame(as.list(coef(fit)))
@@ -70,7 +75,7 @@ one_case <- function(bed, hidden, seed) {
   top <- pr[1, ]
   data.frame(bed = bed, hidden = hidden, seed = seed, top = top$term, family = top$family,
              channel = top$channel, inclusion = round(top$inclusion_prob, 3),
-             right = if (hidden == "none") NA else top$family %in% right[[hidden]],
+             right = if (hidden == "none") NA else is_right(hidden, top$term, top$family),
              proposed = top$inclusion_prob >= 0.5, none = round(attr(pr, "none"), 3),
              acts = sprintf("%s [%.2f, %.2f]", top$site, top$from, top$to),
              secs = round(proc.time()[["elapsed"]] - t0))

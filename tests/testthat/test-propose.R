@@ -69,9 +69,10 @@ test_that("the term library prints its terms, families and channels", {
                                    length(unique(lib$terms$effect))))
   expect_identical(out[2], "Channels: output (output), d/dt output (output)")
   expect_identical(out[3], paste0("Families: ", paste(names(fam), as.integer(fam), collapse = ", ")))
-  # three powers and one linear term per channel, one product of the two channels
+  # three powers and one linear term per channel; the output's three filters, three delays and integral;
+  # the product of the two channels and the output's filters and integral times the output
   expect_match(out[3], "^Families: linear 2, power 6, ")
-  expect_match(out[3], ", product 1$")
+  expect_match(out[3], ", filter 3, delay 3, integral 1, product 5$")
   # a state channel is named as such; without products there is no product family
   st <- term_library(fit, states = list(s = cos(2 * pi * fit$basis$t)), outputs = FALSE, products = FALSE)
   out_st <- capture.output(print(st))
