@@ -50,7 +50,9 @@
 #'
 #' @section Curves of their own extent:
 #' Curves that end (or start) at different times (a specimen breaks, a run
-#' stops) are each observed over their own extent: `observed` holds, by
+#' stops), given on their own times or as rows of a matrix with `NA` after
+#' their end (or before their start), are each observed over their own
+#' extent: `observed` holds, by
 #' site, which grid points each curve covers. Where fewer curves cover a
 #' point, their mean has its larger variance in [calibrate()]; where none
 #' does, the data give no weight to any coefficient reaching there (the
@@ -209,6 +211,15 @@ field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
   }
   t <- check_stamps(t)
   curves <- as_site_list(curves, site, NULL, length(t), what = "field")
+  if (ends_missing_only(curves)) {
+    # curves that end (or start) at their own times: NA before or after them
+    pts <- lapply(curves, function(m) lapply(seq_len(nrow(m)), function(r) {
+      ok <- is.finite(m[r, ])
+      list(t = t[ok], y = m[r, ok])
+    }))
+    if (is.null(grid) && is_dyadic_grid(t) && !anyDuplicated(t)) grid <- t
+    return(field_on_own_points(pts, x_nom, grid, labels))
+  }
   for (s in names(curves)) {
     bad <- which(!is.finite(curves[[s]]), arr.ind = TRUE)
     if (nrow(bad)) {
@@ -216,7 +227,8 @@ field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
       wv_abort(c(
         "Field curves must be complete: site {.val {s}} has {nrow(bad)} missing or non-finite value{?s}.",
         "x" = "{.val {reps}}; the first gap is at t = {signif(t[bad[1, 2]], 5)}.",
-        "i" = "Fill the gap (e.g. by interpolation) or remove the replicate."
+        "i" = "Fill the gap (e.g. by interpolation) or remove the replicate.",
+        "i" = "NA only before a curve's start or after its end are read as its own extent."
       ), class = "input")
     }
   }
@@ -249,6 +261,23 @@ field_from_curves <- function(curves, t, x_nom, site, grid, y, replicate,
   })
   if (!repeats) noise <- interpolated_evidence(noise, curves, t, regridded$t)
   validate_wv_field(new_wv_field(regridded$t, regridded$curves, x_nom, noise = noise))
+}
+
+# Whether the only missing values of the curves (matrices by site) are runs
+# of NA at the start or the end of some rows, each row keeping 8 values.
+ends_missing_only <- function(curves) {
+  any_na <- FALSE
+  for (m in curves) {
+    for (r in seq_len(nrow(m))) {
+      ok <- is.finite(m[r, ])
+      if (all(ok)) next
+      if (any(!is.na(m[r, !ok])) || sum(ok) < 8L) return(FALSE)
+      w <- which(ok)
+      if (!all(ok[w[1]:w[length(w)]])) return(FALSE)
+      any_na <- TRUE
+    }
+  }
+  any_na
 }
 
 # Field curves each on their own times (own_points()), onto one grid: each
@@ -427,6 +456,12 @@ print.wv_field <- function(x, ...) {
     if (!is.null(interp$n_points)) interp <- list(interp)
     interp <- interp[!vapply(interp, is.null, logical(1))]
     units <- if (!is.null(x$units[[s]])) sprintf(" of %d units", length(unique(x$units[[s]]))) else ""
+    obs <- x$observed[[s]]
+    if (!is.null(obs)) {
+      k <- range(rowSums(obs))
+      units <- sprintf("%s, each over its own extent (%s of %d points)", units,
+                       if (k[1] == k[2]) k[1] else paste(k, collapse = " to "), ncol(obs))
+    }
     cli::cat_line(sprintf("  %s: %d replicate%s%s%s", s, n[[s]], if (n[[s]] == 1) "" else "s", units,
                           if (length(interp)) sprintf(" (%d read as interpolated, noise evidence from %s measured points%s)",
                                                       length(interp),

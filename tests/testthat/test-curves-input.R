@@ -154,6 +154,6 @@ test_that("messages about a field curve name it by the user's id column", {
   err <- expect_error(field_runs(short, t = "t", y = "y", replicate = "subject"), class = "wavevalid_error_stamps")
   expect_match(cli::ansi_strip(conditionMessage(err)), "subject S2 has", fixed = TRUE)
   # without an id column, by position
-  err <- expect_error(field_runs(rbind(sin(t), c(NA, sin(t[-1]))), t), class = "wavevalid_error_input")
+  err <- expect_error(field_runs(rbind(sin(t), c(sin(t[1:5]), NA, sin(t[-(1:6)]))), t), class = "wavevalid_error_input")
   expect_match(cli::ansi_strip(conditionMessage(err)), "replicate 2", fixed = TRUE)
 })

@@ -37,6 +37,22 @@ test_that("curves that end at different times keep the longest record, each obse
   expect_match(cli::ansi_strip(conditionMessage(err)), "rep R2", fixed = TRUE)
 })
 
+test_that("a matrix with NA after a curve's end (or before its start) holds curves of their own extent", {
+  t <- seq(0, 1, length.out = 64)
+  m <- rbind(sin(2 * pi * t), cos(2 * pi * t), sin(2 * pi * t) + 0.1)
+  m[2, 41:64] <- NA
+  m[3, 1:5] <- NA
+  f <- suppressMessages(field_runs(m, t))
+  expect_identical(f$t, t)
+  expect_identical(unname(rowSums(f$observed$site1)), c(64, 40, 59))
+  expect_true(all(is.finite(f$curves$site1)))
+  expect_equal(f$curves$site1[1, ], m[1, ])
+  expect_output(print(f), "own extent \\(40 to 64 of 64 points\\)")
+  # a gap inside a curve is still refused
+  m[1, 20] <- NA
+  expect_error(field_runs(m, t), class = "wavevalid_error_input")
+})
+
 test_that("a coefficient is weighted by the curves that cover it: none, no weight", {
   b <- example_problem(1)$emulators$basis
   T <- length(b$t)
