@@ -38,6 +38,13 @@ print.wv_fails <- function(x, ...) {
     print(utils::head(df, 10), row.names = FALSE)
     if (nrow(df) > 10) cli::cat_line(sprintf("... and %d more", nrow(df) - 10))
   }
+  nd <- attr(x, "no_data")
+  if (!is.null(nd)) {
+    cli::cat_line("No field data (no curve reaches): ",
+                  paste(sprintf("%s [%s, %s]", nd$site, format(signif(nd$start, 4)), format(signif(nd$end, 4))),
+                        collapse = "; "),
+                  ". The bias there is its prior's: nothing can be found there.")
+  }
   rw <- attr(x, "record_wide")
   if (!is.null(rw)) {
     txt <- sprintf("%s %s [%s, %s]%s", rw$site, format(signif(rw$offset, 3)),

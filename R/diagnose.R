@@ -119,7 +119,9 @@
 #'   landmark: `site`, `window`, `feature`, `field` and `model` times, `shift`
 #'   with `lower`, `upper`, `flagged`, `size`, `credible`) and `unmixed` (the
 #'   R-hat, above 1.1, of each input whose chains did not mix: the print then
-#'   leads with it, and the report gives no verdict). `as.data.frame()`
+#'   leads with it, and the report gives no verdict), `no_data` (site,
+#'   `start`, `end` where no field curve reaches, curves of their own
+#'   extent; `NULL` when there is none). `as.data.frame()`
 #'   gives a plain data frame, with `covered_by` when inputs were held.
 #' @export
 #' @examples
@@ -221,10 +223,26 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
               pooled_level0 = 0 %in% fit_get(fit, "settings")$pool_levels,
               experiments = fit_get(fit, "experiments"),
               conflicts = cf, held = held, holds = fit_get(fit, "held"), timing = tm, misfit = mc,
-              unmixed = unmixed_inputs(list(fit = fit))$fit)
+              unmixed = unmixed_inputs(list(fit = fit))$fit, no_data = no_data_stretches(fit))
   for (nm in names(att)) attr(out, nm) <- att[[nm]]
   class(out) <- c("wv_fails", "data.frame")
   out
+}
+
+# Where no field curve of a site reaches (curves of their own extent): a
+# data frame of site, start and end, NULL when every point has data.
+no_data_stretches <- function(fit) {
+  obs <- fit_get(fit, "field")$observed
+  t <- fit_get(fit, "basis")$t
+  out <- do.call(rbind, lapply(names(obs), function(s) {
+    none <- colSums(obs[[s]]) == 0
+    if (!any(none)) return(NULL)
+    r <- rle(none)
+    ends <- cumsum(r$lengths)
+    starts <- ends - r$lengths + 1L
+    data.frame(site = s, start = t[starts[r$values]], end = t[ends[r$values]], stringsAsFactors = FALSE)
+  }))
+  if (!is.null(out) && nrow(out)) out
 }
 
 # The bias band of the part of the bias carried by the coefficients `keep`.

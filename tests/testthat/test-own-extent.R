@@ -90,6 +90,11 @@ test_that("curves cut short on a grid beyond them: the right model is not reject
                  class = "wavevalid_message_own_extent")
   mc <- misfit_check(fit)
   expect_false(any(mc$covered[!cut]))
+  wf <- where_fails(fit)
+  nd <- attr(wf, "no_data")
+  expect_equal(nd$start, min(t[!cut]))
+  expect_equal(nd$end, max(t))
+  expect_output(print(wf), "No field data")
   expect_false(any(mc$rejected))
   ci <- summary(fit)$inputs
   u <- tb$truth$u
