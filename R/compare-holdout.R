@@ -177,7 +177,8 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
   parts <- lapply(ho, function(h) {
     lapply(stats::setNames(sites, sites), function(s) {
       ps <- h$pred$summary[h$pred$summary$site == s, , drop = FALSE]
-      list(y = h$field$curves[[s]], model = ps$model, corrected = ps$mean, draws = h$draws[[s]])
+      list(y = h$field$curves[[s]], model = ps$model, corrected = ps$mean, draws = h$draws[[s]],
+           obs = observed_mask(h$field, s))
     })
   })
   n_rep <- vapply(sites, function(s) min(nrow(parts$before[[s]]$y), nrow(parts$after[[s]]$y)),
@@ -201,7 +202,8 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
         for (kind in c("model", "corrected")) {
           sse[, m, kind] <- sse[, m, kind] + resampled_sse(p$y[seq_len(R), , drop = FALSE],
                                                            p[[kind]], p$corrected,
-                                                           rows, time, p$draws, kind, h)
+                                                           rows, time, p$draws, kind, h,
+                                                           p$obs[seq_len(R), , drop = FALSE])
         }
       }
       rm(time)
@@ -229,8 +231,10 @@ moving_blocks <- function(n, L) {
 # (Psi d_h, or the curve deviation d_h when Psi is NULL) against each
 # resample of the data: for each of the R curve slots j, the replicate
 # rows[, j] (n_boot x R) rebuilt as `corrected` plus its residuals about
-# `corrected` taken at the block-resampled times time[[j]] (n_boot x T).
-resampled_sse <- function(y, center, corrected, rows, time, d, kind, h) {
+# `corrected` taken at the block-resampled times time[[j]] (n_boot x T);
+# `obs` (R x T) the points measured (curves of their own extent), the others
+# left out.
+resampled_sse <- function(y, center, corrected, rows, time, d, kind, h, obs = NULL) {
   e <- sweep(y, 2L, corrected)
   n_boot <- nrow(rows)
   n_t <- ncol(y)
@@ -239,8 +243,9 @@ resampled_sse <- function(y, center, corrected, rows, time, d, kind, h) {
   shift <- matrix(corrected - center, n_boot, n_t, byrow = TRUE) - dev
   out <- numeric(n_boot)
   for (j in seq_len(ncol(rows))) {
-    E <- matrix(e[cbind(rep(rows[, j], times = n_t), as.vector(time[[j]]))], n_boot)
-    out <- out + rowSums((E + shift)^2)
+    at <- cbind(rep(rows[, j], times = n_t), as.vector(time[[j]]))
+    E <- matrix(e[at], n_boot)
+    out <- out + if (is.null(obs)) rowSums((E + shift)^2) else rowSums((E + shift)^2 * matrix(obs[at], n_boot))
   }
   out
 }

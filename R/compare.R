@@ -209,7 +209,9 @@ validation_metrics <- function(fit, level) {
   r <- reality(fit, level)
   mp <- model_prediction(fit, level)
   fm <- do.call(rbind, lapply(names(fit_get(fit, "field")$curves), function(s) {
-    data.frame(site = s, t = fit_get(fit, "field")$t, y = field_mean_curve(fit, s))
+    y <- field_mean_curve(fit, s)
+    y[!covered_points(fit_get(fit, "field"), s)] <- NA
+    data.frame(site = s, t = fit_get(fit, "field")$t, y = y)
   }))
   mp <- merge(mp[c("site", "t", "mean")], fm, by = c("site", "t"))
   wide <- fit_get(fit, "basis")$level %in% record_wide_levels(fit_get(fit, "basis"))
@@ -219,7 +221,7 @@ validation_metrics <- function(fit, level) {
     bias_rms_record = part_rms(fit, wide),
     bias_peak = max(abs(b$mean)),
     band_width = mean(r$upper - r$lower),
-    model_rmse = sqrt(mean((mp$mean - mp$y)^2))
+    model_rmse = sqrt(mean((mp$mean - mp$y)^2, na.rm = TRUE))
   )
 }
 
@@ -234,6 +236,13 @@ field_mean_curve <- function(fit, s) {
   dw <- colMeans(as.matrix(rs$draws)) %*% t(U)
   y - drop(tcrossprod(dw, fit_get(fit, "basis")$Psi))
 }
+
+# Where the curves of site `s` of `field` were measured (curves of their own
+# extent): the replicates x points mask, and the points some curve covers.
+observed_mask <- function(field, s) {
+  field$observed[[s]] %||% matrix(TRUE, nrow(field$curves[[s]]), ncol(field$curves[[s]]))
+}
+covered_points <- function(field, s) colSums(observed_mask(field, s)) > 0
 
 # Whether two fits grade their models against the same registered field
 # data (the same grid, sites and registered curves).
@@ -260,9 +269,10 @@ holdout_metrics <- function(pred, field, call = rlang::caller_env()) {
       wv_abort("The held-out field data are not on the prediction's grid.", call = call)
     }
     y <- field$curves[[s]]
-    err <- c(err, as.vector(sweep(y, 2, ps$mean)))
-    err_model <- c(err_model, as.vector(sweep(y, 2, ps$model)))
-    inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`)))
+    obs <- as.vector(observed_mask(field, s))
+    err <- c(err, as.vector(sweep(y, 2, ps$mean))[obs])
+    err_model <- c(err_model, as.vector(sweep(y, 2, ps$model))[obs])
+    inside <- c(inside, as.vector(sweep(y, 2, ps$lower, `>=`) & sweep(y, 2, ps$upper, `<=`))[obs])
   }
   c(holdout_rmse = sqrt(mean(err^2)), holdout_rmse_model = sqrt(mean(err_model^2)),
     holdout_coverage = mean(inside))
@@ -440,6 +450,7 @@ holdout_plot <- function(object) {
     for (s in intersect(unique(p$site), names(fields[[m]]$curves))) {
       ps <- p[p$site == s, , drop = FALSE]
       y <- colMeans(fields[[m]]$curves[[s]])
+      y[!covered_points(fields[[m]], s)] <- NA
       rows[[length(rows) + 1L]] <- data.frame(
         t = rep(ps$t, 2L), site = s, model = m,
         prediction = rep(c("model alone", "bias-corrected"), each = nrow(ps)),

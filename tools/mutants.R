@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "own_extent_holdout_unmasked", file = "R/compare-holdout.R",
+       pattern = "rowSums((E + shift)^2 * matrix(obs[at], n_boot))", replacement = "rowSums((E + shift)^2)",
+       test = "test-own-extent.R", what = "a held-out curve graded beyond its end"),
   list(name = "own_extent_fill_weighted", file = "R/calibrate-spec.R",
        pattern = "  if (is.null(observed)) return(NULL)\n  R <- nrow(curves)",
        replacement = "  return(NULL)\n  R <- nrow(curves)",

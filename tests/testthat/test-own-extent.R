@@ -119,3 +119,26 @@ test_that("registration takes a replicate's landmarks only in windows its curve 
   expect_true(any(w$replicate == 1 & w$window %in% 2))
   expect_true(all(!reg$observed$site1[2, tt > 6]))
 })
+
+test_that("a held-out field of its own extent is graded where it was measured", {
+  fit <- example_fit()
+  fld <- fit$field
+  m <- fld$curves$site1
+  m[1, (ncol(m) - 20):ncol(m)] <- NA
+  f <- suppressMessages(field_runs(m, fld$t))
+  expect_false(is.null(f$observed))
+  g <- f
+  g$curves$site1[!f$observed$site1] <- 1e6
+  pred <- predict(fit, type = "field_run", seed = 1)
+  expect_equal(wavevalid:::holdout_metrics(pred, g), wavevalid:::holdout_metrics(pred, f))
+  a <- suppressWarnings(compare_validations(fit, fit, holdout = f, seed = 1, n_boot = 100))
+  b <- suppressWarnings(compare_validations(fit, fit, holdout = g, seed = 1, n_boot = 100))
+  num <- function(x) {
+    d <- as.data.frame(unclass(x)[c("before", "after")])
+    d[] <- lapply(d, as.numeric)
+    d
+  }
+  expect_equal(num(a), num(b))
+  hr <- function(x) as.data.frame(attr(x, "holdout_ratio"))[c("ratio", "lower", "upper")]
+  expect_equal(hr(a), hr(b))
+})
