@@ -131,8 +131,9 @@ test_that("a held-out field of its own extent is graded where it was measured", 
   g$curves$site1[!f$observed$site1] <- 1e6
   pred <- predict(fit, type = "field_run", seed = 1)
   expect_equal(wavevalid:::holdout_metrics(pred, g), wavevalid:::holdout_metrics(pred, f))
-  a <- suppressWarnings(compare_validations(fit, fit, holdout = f, seed = 1, n_boot = 100))
-  b <- suppressWarnings(compare_validations(fit, fit, holdout = g, seed = 1, n_boot = 100))
+  fit2 <- example_fit(2)
+  a <- suppressWarnings(compare_validations(fit, fit2, holdout = f, seed = 1, n_boot = 100))
+  b <- suppressWarnings(compare_validations(fit, fit2, holdout = g, seed = 1, n_boot = 100))
   num <- function(x) {
     d <- as.data.frame(unclass(x)[c("before", "after")])
     d[] <- lapply(d, as.numeric)
