@@ -160,7 +160,9 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #' mechanism added to the model: a calibration input whose lower bound
 #' switches the mechanism off, so that the model with the mechanism can be
 #' run at a design, emulated and validated again (see [compare_validations()]
-#' and the re-validated candidates of [explain_bias()]).
+#' and the re-validated candidates of [explain_bias()]). A mechanism may add
+#' several inputs (a strength and a rate): `off` gives each its no-effect
+#' value.
 #'
 #' @inheritParams calibrate
 #' @param name Names of the new inputs, none of them already in `iu`.
@@ -169,6 +171,10 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #'   [iu_map()], section Conditions).
 #' @param lower,upper Uncertainty range of each new input.
 #' @inheritParams iu_map
+#' @param off `NULL` or, for each new input, the value at which it switches
+#'   the mechanism off (its no-effect value, inside its range), or `NA` for an
+#'   input that acts only while others are on (a rate or time constant of the
+#'   mechanism). Kept as the attribute `off` of the map.
 #' @return The `wv_iu` object with the new inputs after those of `iu`.
 #' @seealso [iu_map()].
 #' @export
@@ -176,8 +182,10 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #' iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1))
 #' # the strength of a bump stop, 0 for none
 #' iu_add(iu, "s_bumpstop", lower = 0, upper = 1, nominal = 0.5)
+#' # an exchange (off at 0) and its return rate
+#' attr(iu_add(iu, c("s_ex", "k_ret"), lower = c(0, 1), upper = c(1, 5), off = c(0, NA)), "off")
 iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lower + upper) / 2,
-                   prior_sd = NULL, prior = NULL, prior_mean = NULL) {
+                   prior_sd = NULL, prior = NULL, prior_mean = NULL, off = NULL) {
   check_class(iu, "wv_iu")
   if (!is.character(name) || length(name) == 0L) {
     wv_abort("{.arg name} must be a non-empty character vector of input names.")
@@ -194,9 +202,10 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
   lens <- c(type = length(type), lower = length(lower), upper = length(upper),
             nominal = length(nominal),
             prior_sd = length(prior_sd %||% NA), prior = length(prior %||% NA),
-            prior_mean = length(prior_mean %||% NA))
+            prior_mean = length(prior_mean %||% NA), off = length(off %||% NA))
   bad <-
-    lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L)]
+    lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L) &
+           !(names(lens) == "off" & is.null(off))]
   if (length(bad)) {
     wv_abort(c(
       "Every argument must have one value per new input ({n} input{?s}).",
@@ -209,6 +218,19 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
                 prior_mean = prior_mean)
   out <- new_wv_iu(rbind(as.data.frame(iu), as.data.frame(new)))
   attr(out, "joint") <- attr(iu, "joint")
+  if (!is.null(off)) {
+    if (!is.numeric(off) && !all(is.na(off))) {
+      wv_abort("{.arg off} must be numeric (NA for an input without a no-effect value of its own).",
+               class = "input")
+    }
+    off <- stats::setNames(as.numeric(off), name)
+    outside <- !is.na(off) & (off < lower | off > upper)
+    if (any(outside)) {
+      wv_abort("The no-effect value {.arg off} of {.val {name[outside]}} must lie inside its range.",
+               class = "input")
+    }
+  }
+  attr(out, "off") <- c(attr(iu, "off"), off)
   validate_wv_iu(out)
 }
 
@@ -400,6 +422,11 @@ min_prior_mass <- 1e-4
     })
     blocks <- Filter(Negate(is.null), blocks)
     attr(out, "joint") <- if (length(blocks)) blocks else NULL
+  }
+  off <- attr(x, "off")
+  if (!is.null(out$name)) {
+    off <- off[names(off) %in% out$name]
+    attr(out, "off") <- if (length(off)) off
   }
   out
 }
