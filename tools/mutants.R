@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "refit_off_at_lower_bound", file = "R/explain-refits.R",
+       pattern = "off <- unname(e$off[e$strength])", replacement = "off <- prior_iu$lower[idx]",
+       test = "test-explain-strengths.R", what = "re-validated candidates weighed against the strength's lower bound, not its no-effect value"),
   list(name = "own_extent_fill_weighted", file = "R/calibrate-spec.R",
        pattern = "  if (is.null(observed)) return(NULL)\n  R <- nrow(curves)",
        replacement = "  return(NULL)\n  R <- nrow(curves)",

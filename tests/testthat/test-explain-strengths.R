@@ -58,7 +58,7 @@ test_that("a mechanism with a strength and a rate: the real one is weighed above
 
 test_that("a rate the model ignores leaves the answer of the one-input candidate", {
   withr::local_options(list(wavevalid.quiet = TRUE))
-  p <- strengths_problem(bump = 0.1)
+  p <- strengths_problem(bump = 0.15)
   t <- p$t
   # the same content: a bump of fixed width, with and without an input that does nothing
   bump <- function(z) p$base(z) + z[["s_bump"]] * 0.5 * exp(-((t - 0.25) / 0.05)^2)
@@ -70,7 +70,7 @@ test_that("a rate the model ignores leaves the answer of the one-input candidate
   two <- strengths_calibrate(p$make(bump), p$ex$field, iu2, n_draws = 400, bias = ctl)
   ex <- explain_bias(fit, list(one = one, two = two), n_draws = 400)
   lbf <- attr(ex, "log_bf")
-  expect_gt(lbf[["one"]], 1)
+  expect_gt(lbf[["one"]], 0.5)
   expect_lt(abs(lbf[["one"]] - lbf[["two"]]), 0.5, label = paste(signif(lbf, 3), collapse = " vs "))
   ins <- attr(ex, "inputs")
   s1 <- ins[ins$candidate == "one", ]
