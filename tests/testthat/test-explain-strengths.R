@@ -153,3 +153,10 @@ test_that("update() takes a mechanism that adds two inputs, their no-effect valu
   expect_true(all(c("s_bump", "w_bump") %in% fit2$inputs))
   expect_identical(attr(fit2$iu, "off"), c(s_bump = 0, w_bump = NA_real_))
 })
+
+test_that("the trapezoidal integral over a grid of two strengths is exact for a bilinear integrand", {
+  axes <- list(c(0, 0.3, 1), c(0, 0.5, 1.2, 2))
+  S <- as.matrix(expand.grid(axes))
+  expect_equal(log_trapezoid_grid(axes, log((1 + S[, 1]) * (2 + S[, 2]))), log(1.5 * 6))
+  expect_equal(log_trapezoid_grid(axes[1], log(1 + axes[[1]])), log(1.5))
+})
