@@ -36,6 +36,13 @@ print.wv_explain <- function(x, ...) {
                   "(log Bayes factor: ",
                   paste(sprintf("%s %.1f", names(lbf), lbf), collapse = ", "), ")")
     cli::cat_line("Most probable: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
+    ins <- attr(x, "inputs")
+    for (k in unique(ins$candidate[duplicated(ins$candidate)])) {
+      r <- ins[ins$candidate == k, , drop = FALSE]
+      cli::cat_line("Inputs added by ", k, ": ", paste(sprintf(
+        "%s %.3g [%.3g, %.3g]%s", r$input, r$mean, r$lower, r$upper,
+        ifelse(is.na(r$off), " (rate)", sprintf(" (off at %.3g)", r$off))), collapse = ", "))
+    }
   } else if (!is.null(sub)) {
     cli::cat_line("Most probable subset: ", sub$subset[1], sprintf(" (%.2f)", sub$probability[1]))
   }

@@ -160,7 +160,9 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #' mechanism added to the model: a calibration input whose lower bound
 #' switches the mechanism off, so that the model with the mechanism can be
 #' run at a design, emulated and validated again (see [compare_validations()]
-#' and the re-validated candidates of [explain_bias()]).
+#' and the re-validated candidates of [explain_bias()]). A mechanism may add
+#' several inputs (a strength and a rate): `off` gives each its no-effect
+#' value.
 #'
 #' @inheritParams calibrate
 #' @param name Names of the new inputs, none of them already in `iu`.
@@ -169,6 +171,10 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #'   [iu_map()], section Conditions).
 #' @param lower,upper Uncertainty range of each new input.
 #' @inheritParams iu_map
+#' @param off `NULL` or, for each new input, the value at which it switches
+#'   the mechanism off (its no-effect value, inside its range), or `NA` for an
+#'   input that acts only while others are on (a rate or time constant of the
+#'   mechanism). Kept as the attribute `off` of the map.
 #' @return The `wv_iu` object with the new inputs after those of `iu`.
 #' @seealso [iu_map()].
 #' @export
@@ -176,8 +182,10 @@ fill_prior_defaults <- function(x, call = rlang::caller_env()) {
 #' iu <- iu_map(c("u1", "x1"), c("calibration", "variation"), lower = c(0, 0), upper = c(1, 1))
 #' # the strength of a bump stop, 0 for none
 #' iu_add(iu, "s_bumpstop", lower = 0, upper = 1, nominal = 0.5)
+#' # an exchange (off at 0) and its return rate
+#' attr(iu_add(iu, c("s_ex", "k_ret"), lower = c(0, 1), upper = c(1, 5), off = c(0, NA)), "off")
 iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lower + upper) / 2,
-                   prior_sd = NULL, prior = NULL, prior_mean = NULL) {
+                   prior_sd = NULL, prior = NULL, prior_mean = NULL, off = NULL) {
   check_class(iu, "wv_iu")
   if (!is.character(name) || length(name) == 0L) {
     wv_abort("{.arg name} must be a non-empty character vector of input names.")
@@ -194,9 +202,10 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
   lens <- c(type = length(type), lower = length(lower), upper = length(upper),
             nominal = length(nominal),
             prior_sd = length(prior_sd %||% NA), prior = length(prior %||% NA),
-            prior_mean = length(prior_mean %||% NA))
+            prior_mean = length(prior_mean %||% NA), off = length(off %||% NA))
   bad <-
-    lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L)]
+    lens[lens != n & !(names(lens) %in% c("type", "prior_sd", "prior", "prior_mean") & lens == 1L) &
+           !(names(lens) == "off" & is.null(off))]
   if (length(bad)) {
     wv_abort(c(
       "Every argument must have one value per new input ({n} input{?s}).",
@@ -209,91 +218,20 @@ iu_add <- function(iu, name, type = "calibration", lower, upper, nominal = (lowe
                 prior_mean = prior_mean)
   out <- new_wv_iu(rbind(as.data.frame(iu), as.data.frame(new)))
   attr(out, "joint") <- attr(iu, "joint")
+  if (!is.null(off)) {
+    if (!is.numeric(off) && !all(is.na(off))) {
+      wv_abort("{.arg off} must be numeric (NA for an input without a no-effect value of its own).",
+               class = "input")
+    }
+    off <- stats::setNames(as.numeric(off), name)
+    outside <- !is.na(off) & (off < lower | off > upper)
+    if (any(outside)) {
+      wv_abort("The no-effect value {.arg off} of {.val {name[outside]}} must lie inside its range.",
+               class = "input")
+    }
+  }
+  attr(out, "off") <- c(attr(iu, "off"), off)
   validate_wv_iu(out)
-}
-
-#' Hold inputs of an I/U map at given values
-#'
-#' Takes inputs out of the calibration by fixing them: each input named in
-#' `values` becomes a calibration input with a uniform prior on a point-like
-#' range about its value (a relative width of 1e-7 of its range), its
-#' nominal the value. [calibrate()] and [validate()] given the returned map
-#' sample the other inputs with these held, as [hold_inputs()] does for
-#' each of its strata; the emulators still take the held inputs as inputs,
-#' so the model runs need not change.
-#'
-#' Read the result as any I/U map: the held inputs print as `calibration`
-#' inputs with `uniform` priors on ranges that are their value, and their
-#' posterior draws are that value. An input under a joint prior
-#' ([iu_prior_joint()]) cannot be held alone; a `"condition"` input is held
-#' already, at each experiment's value.
-#'
-#' @param iu A `wv_iu` object ([iu_map()]).
-#' @param values A named numeric vector: the value of each input to hold, in
-#'   its own units, inside its range `[lower, upper]`.
-#' @return The `wv_iu` object with the inputs of `values` held; the other
-#'   inputs as they were.
-#' @seealso [hold_inputs()] to calibrate a fit again with inputs held at
-#'   strata of their prior.
-#' @export
-#' @examples
-#' ex <- example_problem()
-#' held <- iu_hold(ex$iu, c(x1 = 0.5))
-#' held
-#' fit <- calibrate(ex$emulators, ex$field, held, chains = 1, seed = 1,
-#'                  sampler = sampler_control(n_draws = 50, n_inner = 10, quiet = TRUE))
-#' # x1 stays at 0.5; u1 is calibrated with it held
-#' range(as.matrix(fit$draws)[, "x1"])
-iu_hold <- function(iu, values) {
-  check_class(iu, "wv_iu")
-  if (!is.numeric(values) || !length(values) || is.null(names(values)) ||
-      any(!nzchar(names(values))) ||
-      anyNA(names(values)) || anyDuplicated(names(values)) || any(!is.finite(values))) {
-    wv_abort(c("{.arg values} must be a named numeric vector of finite values, one per input to hold.",
-               "i" = "For example {.code c(x1 = 0.5)}."))
-  }
-  unknown <- setdiff(names(values), iu$name)
-  if (length(unknown)) {
-    wv_abort(c("{.val {unknown}} {?is/are} not {?an input/inputs} of {.arg iu}.",
-               "i" = "Its inputs are {.val {iu$name}}."))
-  }
-  k <- match(names(values), iu$name)
-  cond <- names(values)[iu$type[k] == "condition"]
-  if (length(cond)) {
-    wv_abort(c("{.val {cond}} {?is a condition/are conditions}, held at each experiment's value already.",
-               "i" = "Set the base experiment's value with {.arg nominal} of {.fn iu_map}."))
-  }
-  joint <- intersect(names(values), unlist(lapply(attr(iu, "joint"), `[[`, "names")))
-  if (length(joint)) {
-    wv_abort("{.val {joint}} {?has/have} a joint prior with other inputs and cannot be held alone.")
-  }
-  out <- values < iu$lower[k] | values > iu$upper[k]
-  if (any(out)) {
-    where <- paste0(names(values)[out], " = ", values[out], " outside [", iu$lower[k][out], ", ",
-                    iu$upper[k][out], "]")
-    wv_abort(c("Every value must lie in its input's range.", "x" = "{where}."))
-  }
-  hold_at(iu, values)
-}
-
-# The I/U map `iu` with the inputs `values` (named, in their own units)
-# held: each a calibration input with a uniform prior on a point-like range
-# at its value (iu_hold() once checked, hold_inputs(), and the conditions
-# of calibrate()).
-hold_at <- function(iu, values) {
-  for (nm in names(values)) {
-    k <- match(nm, iu$name)
-    v <- values[[nm]]
-    eps <- 1e-7 * max(iu$upper[k] - iu$lower[k], abs(v), 1e-8)
-    iu$type[k] <- "calibration"
-    iu$lower[k] <- v - eps
-    iu$upper[k] <- v + eps
-    iu$nominal[k] <- v
-    if ("prior" %in% names(iu)) iu$prior[k] <- "uniform"
-    if ("prior_sd" %in% names(iu)) iu$prior_sd[k] <- NA_real_
-    if ("prior_mean" %in% names(iu)) iu$prior_mean[k] <- NA_real_
-  }
-  iu
 }
 
 new_wv_iu <- function(x) {
@@ -400,6 +338,11 @@ min_prior_mass <- 1e-4
     })
     blocks <- Filter(Negate(is.null), blocks)
     attr(out, "joint") <- if (length(blocks)) blocks else NULL
+  }
+  off <- attr(x, "off")
+  if (!is.null(out$name)) {
+    off <- off[names(off) %in% out$name]
+    attr(out, "off") <- if (length(off)) off
   }
   out
 }

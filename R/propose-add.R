@@ -109,7 +109,7 @@ add_term <- function(fit, proposals, simulate = NULL, which = 1L, n_runs = NULL,
   }
   ends <- sort(c(0, 2 * strength))
   iu <- iu_add(fit_get(fit, "iu"), "s_term", lower = ends[1], upper = ends[2],
-               nominal = mean(ends))
+               nominal = mean(ends), off = 0)
   runs <- given$runs
   if (is.null(simulate)) {
     s <- with_rng_seed(seed, ends[1] + diff(ends) *

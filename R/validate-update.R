@@ -19,10 +19,11 @@
 #'
 #' @param object A `wv_fit` made by [validate()].
 #' @param runs The new model runs (`wv_runs`); default: the fit's own. Runs
-#'   of a model with an added effect have its strength as a further input.
+#'   of a model with an added effect have its inputs (a strength, perhaps
+#'   rates) as further inputs.
 #' @param iu The I/U map of `runs` (default: the fit's own); it must name
-#'   the inputs of `runs`' design, the added strength included (see
-#'   [iu_add()]).
+#'   the inputs of `runs`' design, the added ones included (see [iu_add()],
+#'   whose `off` gives each its no-effect value).
 #' @param ... Arguments of [validate()] that replace the fit's own, matched
 #'   as [validate()] matches them: `field`, `experiments`, `seed`, a control
 #'   object (`registration`, `emulation`, `bias`, `sampler`) or any argument

@@ -212,6 +212,8 @@ test_that("add_term() adds the top proposal as a calibrated strength and validat
   expect_false(added$simulated)
   expect_equal(added$range, sort(c(0, 2 * pr$strength[1])))
   expect_true("s_term" %in% fit2$inputs)
+  # the term is off at 0, whichever bound of the range that is
+  expect_identical(attr(fit2$iu, "off"), c(s_term = 0))
   # the model's own runs joined with the strength at 0, and as many with the term on their output
   expect_identical(nrow(fit2$pipeline$runs$design), 2L * nrow(fit$pipeline$runs$design))
   # the planted strength 0.5 is inside the strength's posterior interval, and the bias falls
