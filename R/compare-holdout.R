@@ -249,3 +249,10 @@ resampled_sse <- function(y, center, corrected, rows, time, d, kind, h, obs = NU
   }
   out
 }
+
+# Where the curves of site `s` of `field` were measured (curves of their own
+# extent): the replicates x points mask, and the points some curve covers.
+observed_mask <- function(field, s) {
+  field$observed[[s]] %||% matrix(TRUE, nrow(field$curves[[s]]), ncol(field$curves[[s]]))
+}
+covered_points <- function(field, s) colSums(observed_mask(field, s)) > 0

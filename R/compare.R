@@ -237,13 +237,6 @@ field_mean_curve <- function(fit, s) {
   y - drop(tcrossprod(dw, fit_get(fit, "basis")$Psi))
 }
 
-# Where the curves of site `s` of `field` were measured (curves of their own
-# extent): the replicates x points mask, and the points some curve covers.
-observed_mask <- function(field, s) {
-  field$observed[[s]] %||% matrix(TRUE, nrow(field$curves[[s]]), ncol(field$curves[[s]]))
-}
-covered_points <- function(field, s) colSums(observed_mask(field, s)) > 0
-
 # Whether two fits grade their models against the same registered field
 # data (the same grid, sites and registered curves).
 same_field <- function(a, b) {
