@@ -17,7 +17,10 @@
 #' its strength times the term's function of that run's output (or of its
 #' time derivative), at strengths drawn evenly over the range; the model
 #' then has the term on its output, not in its equations. A term with memory
-#' of the output is added so, on each run's curve. A term of a state
+#' of the output is added so, on each run's curve; a filter's time constant
+#' (`tau_term`) or a delay's lag (`lag_term`) is then calibrated too, over
+#' the range of the library's versions, each run at its own value (the
+#' versions that differ only in it are one effect). A term of a state
 #' acts through the model's equations, so it needs `simulate`: a function
 #' `function(design, channel, fun)` that runs the simulator at the rows of
 #' `design` (the inputs of `fit` and `s_term`) with the term
@@ -41,7 +44,9 @@
 #' @return The `wv_fit` of the model with the term, as [update()] gives it,
 #'   with an attribute `added_term`: `term`, `channel`, `strength` (the
 #'   proposal's), `range` of `s_term`, `runs` (how many were made) and
-#'   `simulated` (whether through `simulate`).
+#'   `simulated` (whether through `simulate`), and `rate` (the calibrated
+#'   time constant or lag: `name`, `lower`, `upper`, the proposal's `value`;
+#'   `NULL` for other terms).
 #' @seealso [propose_terms()], [update()], [compare_validations()].
 #' @export
 #' @examples
@@ -110,20 +115,37 @@ add_term <- function(fit, proposals, simulate = NULL, which = 1L, n_runs = NULL,
   ends <- sort(c(0, 2 * strength))
   iu <- iu_add(fit_get(fit, "iu"), "s_term", lower = ends[1], upper = ends[2],
                nominal = mean(ends), off = 0)
+  # a filter's time constant or a delay's lag: calibrated beside the strength
+  rate <- if (is.null(simulate)) attr(proposals, "rates")[[top$term]]
+  if (!is.null(rate)) {
+    if (rate$name %in% fit_get(fit, "inputs")) {
+      wv_abort("The fit already has an input {.val {rate$name}}: add one term at a time.", class = "input")
+    }
+    iu <- iu_add(iu, rate$name, lower = rate$lower, upper = rate$upper, nominal = rate$value, off = NA)
+  }
   runs <- given$runs
   if (is.null(simulate)) {
-    s <- with_rng_seed(seed, ends[1] + diff(ends) *
-                         (sample(nrow(runs$design)) - stats::runif(nrow(runs$design))) /
-                         nrow(runs$design))
+    n <- nrow(runs$design)
+    strata <- function() (sample(n) - stats::runif(n)) / n
+    s <- with_rng_seed(seed, ends[1] + diff(ends) * strata())
     design <- runs$design
     design$s_term <- s
+    if (!is.null(rate)) {
+      r <- with_rng_seed(seed + 1L, rate$lower + (rate$upper - rate$lower) * strata())
+      design[[rate$name]] <- r
+    }
     curves <- lapply(runs$curves, function(Y) {
       X <- if (top$channel == "output") Y else t(apply(Y, 1L, grid_slope, t = runs$t))
       if (is.null(op)) return(Y + s * matrix(fun(X), nrow(X)))
+      if (!is.null(rate)) {
+        return(Y + s * t(vapply(seq_len(nrow(X)), function(i) rate$op(X[i, ], runs$t, r[i]),
+                                numeric(ncol(X)))))
+      }
       Y + s * t(apply(X, 1L, op, t = runs$t))
     })
     off <- runs$design
     off$s_term <- 0
+    if (!is.null(rate)) off[[rate$name]] <- rate$value
     new_runs <- c(model_runs(off, runs$curves, runs$t), model_runs(design, curves, runs$t))
     made <- nrow(design)
   } else {
@@ -139,9 +161,10 @@ add_term <- function(fit, proposals, simulate = NULL, which = 1L, n_runs = NULL,
     new_runs <- c(model_runs(off, runs$curves, runs$t), made_runs)
     made <- nrow(made_runs$design)
   }
-  wv_inform(c("i" = "Added {.val {top$term}} as {.code s_term} on [{signif(ends[1], 3)}, {signif(ends[2], 3)}], {made} run{?s} {if (is.null(simulate)) 'of the term on the output' else 'simulated'}; validating again with {.fn update}."))
+  wv_inform(c("i" = "Added {.val {top$term}} as {.code s_term} on [{signif(ends[1], 3)}, {signif(ends[2], 3)}]{if (is.null(rate)) '' else sprintf(', its %s as %s on [%s, %s]', rate$what, rate$name, signif(rate$lower, 3), signif(rate$upper, 3))}, {made} run{?s} {if (is.null(simulate)) 'of the term on the output' else 'simulated'}; validating again with {.fn update}."))
   out <- stats::update(fit, runs = new_runs, iu = iu)
   attr(out, "added_term") <- list(term = top$term, channel = top$channel, strength = strength,
-                                  range = ends, runs = made, simulated = !is.null(simulate))
+                                  range = ends, runs = made, simulated = !is.null(simulate),
+                                  rate = if (!is.null(rate)) rate[c("name", "lower", "upper", "value")])
   out
 }

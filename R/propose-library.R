@@ -125,11 +125,12 @@ term_library <- function(fit, states = NULL, outputs = TRUE, products = TRUE, me
   values <- lapply(rows, `[[`, "values")
   funs <- lapply(rows, `[[`, "fun")
   ops <- lapply(rows, `[[`, "op")
-  names(values) <- names(funs) <- names(ops) <- terms$term
+  rates <- lapply(rows, `[[`, "rate")
+  names(values) <- names(funs) <- names(ops) <- names(rates) <- terms$term
   flat <- vapply(values, function(v) all(vapply(v, function(y) diff(range(y)) == 0, logical(1))),
                  logical(1))
   structure(list(terms = terms[!flat, , drop = FALSE], values = values[!flat], funs = funs[!flat],
-                 ops = ops[!flat],
+                 ops = ops[!flat], rates = rates[!flat],
                  channels = list(curves = channels, kind = kind), sites = fit_sites(fit),
                  grid = fit_get(fit, "basis")$t, n_coef = vapply(fit_get(fit, "wb"), ncol, 1L)),
             class = "wv_term_library")

@@ -35,12 +35,15 @@ memory_integral <- function(u, t) {
 # rows as channel_terms() makes them, each with `op`, the term as a function
 # of the channel's curve and its grid, `label`, its readable name, and no
 # `fun` (a term with memory is no function of the channel's value at one
-# time). With `with`, the curves of further channels (named): the products
+# time), and for a filter or a delay `rate`: its time constant or lag as an
+# input (`name`, `lower`, `upper` spanning the library's versions, `value`,
+# and `op`, the term as a function of the curve, its grid and the rate). With `with`, the curves of further channels (named): the products
 # of the channel's filters and integral with each.
 memory_terms <- function(ch, x, t, with = list()) {
   len <- diff(range(t))
   fmt <- function(v) format(signif(v, 3))
-  row <- function(term, effect, family, channel, version, label, op, by = NULL, self = FALSE) {
+  row <- function(term, effect, family, channel, version, label, op, by = NULL, self = FALSE,
+                  rate = NULL) {
     values <- lapply(names(x), function(s) {
       v <- op(x[[s]], t)
       if (!is.null(by)) v <- v * by[[s]]
@@ -48,27 +51,38 @@ memory_terms <- function(ch, x, t, with = list()) {
     })
     list(term = term, effect = effect, family = family, channel = channel, version = version,
          label = label, values = stats::setNames(values, names(x)), fun = NULL,
-         op = if (is.null(by)) op else if (self) function(u, t) op(u, t) * u)
+         op = if (is.null(by)) op else if (self) function(u, t) op(u, t) * u,
+         rate = if (!is.null(rate) && (is.null(by) || self)) {
+           if (self) rate$op <- local({
+             f <- rate$op
+             function(u, t, r) f(u, t, r) * u
+           })
+           rate
+         })
   }
   filters <- lapply(c(1 / 16, 1 / 4, 1), function(f) {
     tau <- f * len
     list(version = paste0("tau = ", fmt(tau)), tau = tau, f = f,
-         op = function(u, t) memory_filter(u, t, 1 / tau))
+         op = function(u, t) memory_filter(u, t, 1 / tau),
+         rate = list(name = "tau_term", what = "time constant", lower = len / 16, upper = len,
+                     value = tau, op = function(u, t, r) memory_filter(u, t, 1 / r)))
   })
   delays <- lapply(c(32, 8, 4), function(k) {
     d <- len / k
     list(version = paste0("lag = ", fmt(d)), d = d, k = k,
-         op = function(u, t) memory_delay(u, t, d))
+         op = function(u, t) memory_delay(u, t, d),
+         rate = list(name = "lag_term", what = "lag", lower = len / 32, upper = len / 4, value = d,
+                     op = function(u, t, r) memory_delay(u, t, r)))
   })
   integral <- function(u, t) memory_integral(u, t)
   out <- lapply(filters, function(v) {
     row(sprintf("filter(%s; %s)", ch, v$version), sprintf("filter(%s)", ch), "filter", ch,
         v$version, sprintf("first-order filter of %s, time constant %s (%s of the record)", ch,
-                           fmt(v$tau), fmt(v$f)), v$op)
+                           fmt(v$tau), fmt(v$f)), v$op, rate = v$rate)
   })
   out <- c(out, lapply(delays, function(v) {
     row(sprintf("delay(%s; %s)", ch, v$version), sprintf("delay(%s)", ch), "delay", ch, v$version,
-        sprintf("delay of %s by %s (1/%d of the record)", ch, fmt(v$d), v$k), v$op)
+        sprintf("delay of %s by %s (1/%d of the record)", ch, fmt(v$d), v$k), v$op, rate = v$rate)
   }))
   out <- c(out, list(row(sprintf("integral(%s)", ch), sprintf("integral(%s)", ch), "integral", ch,
                          "", sprintf("running integral of %s", ch), integral)))
@@ -81,7 +95,7 @@ memory_terms <- function(ch, x, t, with = list()) {
           sprintf("product(filter(%s), %s)", ch, other), "product", chan, v$version,
           sprintf("first-order filter of %s, time constant %s (%s of the record), times %s", ch,
                   fmt(v$tau), fmt(v$f), other),
-          v$op, by, other == ch)
+          v$op, by, other == ch, rate = v$rate)
     }))
     out <- c(out, list(row(sprintf("product(integral(%s), %s)", ch, other),
                            sprintf("product(integral(%s), %s)", ch, other), "product", chan, "",

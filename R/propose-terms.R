@@ -125,6 +125,7 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   library$terms <- library$terms[sig$keep, , drop = FALSE]
   library$funs <- library$funs[sig$keep]
   library$ops <- library$ops[sig$keep]
+  library$rates <- library$rates[sig$keep]
   N <- proposal_nuisance(fit, reg)
   H <- nrow(fit_get(fit, "wb")[[1]])
   keep <- unique(round(seq(1, H, length.out = min(n_draws, H))))
@@ -162,6 +163,7 @@ propose_terms <- function(fit, library, simulate = NULL, max_size = 2L, n_draws 
   attr(out, "nuisance") <- N$label
   attr(out, "funs") <- library$funs[out$term]
   attr(out, "ops") <- library$ops[out$term]
+  attr(out, "rates") <- library$rates[out$term]
   attr(out, "labels") <- stats::setNames(lib$label[match(out$term, lib$term)], out$term)
   attr(out, "memory") <- any(lib$memory)
   attr(out, "n_terms") <- c(terms = nrow(lib), families = length(unique(lib$effect)))

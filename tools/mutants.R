@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "add_term_rate_fixed", file = "R/propose-add.R",
+       pattern = "rate$op(X[i, ], runs$t, r[i])", replacement = "rate$op(X[i, ], runs$t, rate$value)",
+       test = "test-propose-memory.R", what = "every run of an added filter at the proposal's time constant"),
   list(name = "own_extent_holdout_unmasked", file = "R/compare-holdout.R",
        pattern = "rowSums((E + shift)^2 * matrix(obs[at], n_boot))", replacement = "rowSums((E + shift)^2)",
        test = "test-own-extent.R", what = "a held-out curve graded beyond its end"),

@@ -100,7 +100,14 @@ test_that("a planted filtered output is proposed as a filter, named in the print
   d <- fit2$pipeline$runs$design
   on <- which(d$s_term != 0)[1]
   base <- fit$pipeline$runs$curves$site1[on - nrow(fit$pipeline$runs$design), ]
-  expect_equal(X[on, ], base + d$s_term[on] * memory_filter(base, t, 4))
+  # the time constant calibrated beside the strength, each run at its own
+  expect_true("tau_term" %in% fit2$inputs)
+  expect_equal(attr(fit2, "added_term")$rate$name, "tau_term")
+  expect_gt(length(unique(d$tau_term[d$s_term != 0])), 10)
+  expect_equal(X[on, ], base + d$s_term[on] * memory_filter(base, t, 1 / d$tau_term[on]))
+  ci <- summary(fit2)$inputs
+  expect_true(ci["tau_term", "q2.5"] <= 0.25 && ci["tau_term", "q97.5"] >= 0.25,
+              label = sprintf("tau [%.3f, %.3f]", ci["tau_term", "q2.5"], ci["tau_term", "q97.5"]))
   expect_error(add_term(fit, pr, simulate = function(design, channel, fun) NULL), "memory",
                class = "wavevalid_error_input")
 })
