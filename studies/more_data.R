@@ -6,7 +6,8 @@
 #                   every input
 #   in95            true inputs inside their 95% intervals (of 9)
 #   weight          the inputs' likelihood weight for shared errors
-#   Rscript studies/more_data.R [seeds=1:5] [n_draws=300] [n_inner=20] [out=studies/more_data.csv]
+#   bias=independent: the inputs' likelihood unweighted (bias_control(input_likelihood =)).
+#   Rscript studies/more_data.R [seeds=1:5] [n_draws=300] [n_inner=20] [bias=] [out=studies/more_data.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(seeds = "1:5", n_draws = "300", n_inner = "20", out = "studies/more_data.csv",
@@ -29,7 +30,8 @@ for (seed in arg_numbers(opt$seeds)) {
   z_star <- true_inputs(tb)
   for (cond in c("A", "A+added_mass")) {
     exps <- if (cond == "A") NULL else list(added_mass = experiment(field_M, change = dm))
-    fit <- suppressWarnings(calibrate(em, field_A, tb$iu, chains = 1, seed = 1, experiments = exps,
+    bias <- if (nzchar(opt$bias)) bias_control(input_likelihood = opt$bias) else bias_control()
+    fit <- suppressWarnings(calibrate(em, field_A, tb$iu, chains = 1, seed = 1, experiments = exps, bias = bias,
                                       sampler = sampler_control(n_draws = as.integer(opt$n_draws),
                                                                 n_inner = as.integer(opt$n_inner), quiet = TRUE)))
     X <- as.matrix(fit$draws)[, fit$inputs]
