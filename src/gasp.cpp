@@ -120,6 +120,7 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
     Rcpp::stop("gasp_finalize_cpp: inconsistent dimensions");
   }
   const Eigen::MatrixXd Xc = X;
+  const wavevalid::GaspPowers powers(Xc);
   Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
   Rcpp::IntegerVector chol_of(n);
   Eigen::MatrixXd weights(K, n);
@@ -148,7 +149,8 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
     if (u < 0) {
       u = static_cast<int>(rep.size());
       rep.push_back(i);
-      factors.push_back(wavevalid::gasp_factor(Xc, beta.row(i).transpose(), alpha.row(i).transpose(), nugget(i)));
+      factors.push_back(wavevalid::gasp_factor(Xc, beta.row(i).transpose(), alpha.row(i).transpose(), nugget(i),
+                                               &powers));
     }
     last = u;
     const wavevalid::GaspFinal f = wavevalid::gasp_finish(factors[u], Y.col(i), false);
