@@ -79,6 +79,10 @@ inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, d
   for (int q = 0; q < p; ++q) {
     const double lb = theta(q);
     const double a = theta(p + q);
+    if (vexp_eigen_available && (a == 0.0 || a == 1.0)) {  // the two loops below in one pass
+      scale_add_to((a == 0.0 ? D.d2 : D.d1).col(q).data(), std::exp(lb), T.col(q).data(), S.data(), T.rows());
+      continue;
+    }
     if (a == 0.0) {
       T.col(q).noalias() = std::exp(lb) * D.d2.col(q);
     } else if (a == 1.0) {
@@ -230,6 +234,12 @@ class GaspLik {
 
   // Profile log-likelihood at theta; -inf when R is numerically singular.
   double value(const Eigen::VectorXd& theta, double nugget, double rcond_fail) {
+    // the point of the last successful evaluation again (the optimum, once
+    // the optimiser stops there): what value() keeps is that point's
+    if (ok_ && nugget == last_nugget_ && rcond_fail <= last_fail_ && theta.size() == last_theta_.size() &&
+        (theta.array() == last_theta_.array()).all()) {
+      return last_value_;
+    }
     ++n_eval;
     ok_ = false;
     build(theta, nugget);
@@ -252,7 +262,11 @@ class GaspLik {
     for (int k = 0; k < K_; ++k) logdet += std::log(L(k, k));
     logdet *= 2.0;
     ok_ = true;
-    return -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+    last_theta_ = theta;
+    last_nugget_ = nugget;
+    last_fail_ = rcond_fail;
+    last_value_ = -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+    return last_value_;
   }
 
   // Gradient in (log beta, alpha) at the point of the last successful value():
@@ -266,12 +280,25 @@ class GaspLik {
     const double is2 = 1.0 / sigma2_;
     for (int k = 0; k < K_; ++k) {
       const double uk = u_(k) * is2;
+      // factor 2 (symmetry) times 1/2
+      if (vexp_eigen_available) {
+        scaled_difference(u_.data() + k + 1, uk, &Ri_(k + 1, k), C_.data() + idx, Mp_.data() + idx, K_ - k - 1);
+        idx += K_ - k - 1;
+        continue;
+      }
       for (int j = k + 1; j < K_; ++j) {
-        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);  // factor 2 (symmetry) times 1/2
+        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);
         ++idx;
       }
     }
     for (int q = 0; q < p_; ++q) {
+      if (vexp_eigen_available && P_ >= 4) {  // the two sums below, to the bit, in one pass
+        double s = 0.0, sl = 0.0;
+        product_sums(Mp_.data(), T_.col(q).data(), D_.logd_clip.col(q).data(), P_, &s, &sl);
+        grad(q) = -s;
+        grad(p_ + q) = sl;
+        continue;
+      }
       mt_ = Mp_ * T_.col(q).array();
       grad(q) = -mt_.sum();
       grad(p_ + q) = (mt_ * D_.logd_clip.col(q).array()).sum();
@@ -320,6 +347,8 @@ class GaspLik {
   LLTNorm llt_;
   double mu_ = 0.0, sigma2_ = 0.0, rcond_ = 0.0;
   bool ok_ = false, rcond_known_ = false, inverse_ready_ = false;
+  Eigen::VectorXd last_theta_;
+  double last_nugget_ = 0.0, last_fail_ = 0.0, last_value_ = 0.0;
 };
 
 // Quantities of a fitted emulator at given (beta, alpha, nugget): mu, lambda,
