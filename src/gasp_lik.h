@@ -282,7 +282,8 @@ class GaspLik {
       const double uk = u_(k) * is2;
       // factor 2 (symmetry) times 1/2
       if (vexp_eigen_available) {
-        scaled_difference(u_.data() + k + 1, uk, &Ri_(k + 1, k), C_.data() + idx, Mp_.data() + idx, K_ - k - 1);
+        scaled_difference(u_.data() + k + 1, uk, Ri_.data() + static_cast<std::ptrdiff_t>(k) * K_ + k + 1, C_.data() + idx,
+                          Mp_.data() + idx, K_ - k - 1);
         idx += K_ - k - 1;
         continue;
       }
