@@ -53,6 +53,10 @@ vexp_identity_cpp <- function(x, X) {
     .Call(`_wavevalid_vexp_identity_cpp`, x, X)
 }
 
+gasp_inverse_diag_cpp <- function(chol) {
+    .Call(`_wavevalid_gasp_inverse_diag_cpp`, chol)
+}
+
 gasp_bank_augment_cpp <- function(bank, z, w) {
     .Call(`_wavevalid_gasp_bank_augment_cpp`, bank, z, w)
 }

@@ -348,11 +348,10 @@ loo_residuals <- function(emulators, ...) {
 bank_loo <- function(b) {
   k <- nrow(b$X)
   n <- length(b$mu)
-  # diag(R^-1) once per distinct factor
+  # diag(R^-1) once per distinct factor, colSums(forwardsolve(L, diag(k))^2)
+  # to the bit
   of <- b$chol_of %||% seq_len(n)
-  m <- dim(b$chol)[3]
-  own <- matrix(vapply(seq_len(m), function(u) colSums(forwardsolve(b$chol[, , u], diag(k))^2),
-                       numeric(k)), k)
+  own <- gasp_inverse_diag_cpp(b$chol)
   Ri_diag <- own[, of, drop = FALSE]
   list(e = b$weights / Ri_diag, sd = sqrt(1 / (rep(b$lambda, each = k) * Ri_diag)))
 }

@@ -7,6 +7,8 @@
 # fit_emulators() computes for either engine with the same code from the
 # fitted beta, alpha and nugget.
 #
+# Argument: [seed=1] (positional), the test bed's seed (DiceKriging's starting
+# points use the same seed).
 # Environment: WAVEVALID_BENCH_DK=<file.rds> reuses a saved DiceKriging fit
 # (written there when the file does not exist yet); WAVEVALID_BENCH_SAVE=<file>
 # saves both fits.
@@ -14,13 +16,15 @@ suppressPackageStartupMessages(library(wavevalid))
 options(wavevalid.quiet = TRUE)
 future::plan(future::sequential)
 
-tb <- testbed_suspension(seed = 1)
+args <- commandArgs(trailingOnly = TRUE)
+bench_seed <- if (length(args) >= 1L) as.integer(args[1]) else 1L
+tb <- testbed_suspension(seed = bench_seed)
 f <- register_curves(tb$A$field, tb$A$runs, tb$windows)
 basis <- wavelet_basis(tb$A$runs, f)
 runs <- tb$A$runs
 runs$curves <- runs$curves["site1"]
-cat(sprintf("test bed condition A, site 1: %d runs, %d inputs, %d coefficients\n", nrow(runs$design),
-            ncol(runs$design), length(basis$index)))
+cat(sprintf("test bed seed %d, condition A, site 1: %d runs, %d inputs, %d coefficients\n", bench_seed,
+            nrow(runs$design), ncol(runs$design), length(basis$index)))
 
 # gasp is timed just before and just after DiceKriging and the two times
 # averaged, so that a change of the machine's load during the run weighs on
@@ -40,7 +44,7 @@ if (nzchar(dk_file) && file.exists(dk_file)) {
   time_g <- before$time
   cat(sprintf("dicekriging engine: %7.1f s (saved fit from %s)\n", time_d, dk_file))
 } else {
-  time_d <- system.time(d <- suppressWarnings(fit_emulators(runs, basis, engine = "dicekriging", seed = 1)))[["elapsed"]]
+  time_d <- system.time(d <- suppressWarnings(fit_emulators(runs, basis, engine = "dicekriging", seed = bench_seed)))[["elapsed"]]
   cat(sprintf("dicekriging engine: %7.1f s (%.1f ms per coefficient)\n", time_d, 1000 * time_d / nrow(d$params)))
   if (nzchar(dk_file)) saveRDS(list(d = d, time = time_d), dk_file)
   after <- fit_gasp()

@@ -196,6 +196,17 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// gasp_inverse_diag_cpp
+Rcpp::NumericMatrix gasp_inverse_diag_cpp(Rcpp::NumericVector chol);
+RcppExport SEXP _wavevalid_gasp_inverse_diag_cpp(SEXP cholSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< Rcpp::NumericVector >::type chol(cholSEXP);
+    rcpp_result_gen = Rcpp::wrap(gasp_inverse_diag_cpp(chol));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_bank_augment_cpp
 Rcpp::List gasp_bank_augment_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::VectorXd>& z, const Eigen::Map<Eigen::VectorXd>& w);
 RcppExport SEXP _wavevalid_gasp_bank_augment_cpp(SEXP bankSEXP, SEXP zSEXP, SEXP wSEXP) {
@@ -327,6 +338,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_level_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_level_loglik_cpp, 6},
     {"_wavevalid_gasp_level_fit_cpp", (DL_FUNC) &_wavevalid_gasp_level_fit_cpp, 6},
     {"_wavevalid_vexp_identity_cpp", (DL_FUNC) &_wavevalid_vexp_identity_cpp, 2},
+    {"_wavevalid_gasp_inverse_diag_cpp", (DL_FUNC) &_wavevalid_gasp_inverse_diag_cpp, 1},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},

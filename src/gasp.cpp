@@ -120,6 +120,7 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
     Rcpp::stop("gasp_finalize_cpp: inconsistent dimensions");
   }
   const Eigen::MatrixXd Xc = X;
+  const wavevalid::GaspPowers powers(Xc);
   Rcpp::NumericVector mu(n), lambda(n), nug(n), loglik(n);
   Rcpp::IntegerVector chol_of(n);
   Eigen::MatrixXd weights(K, n);
@@ -148,7 +149,8 @@ Rcpp::List gasp_finalize_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::
     if (u < 0) {
       u = static_cast<int>(rep.size());
       rep.push_back(i);
-      factors.push_back(wavevalid::gasp_factor(Xc, beta.row(i).transpose(), alpha.row(i).transpose(), nugget(i)));
+      factors.push_back(wavevalid::gasp_factor(Xc, beta.row(i).transpose(), alpha.row(i).transpose(), nugget(i),
+                                               &powers));
     }
     last = u;
     const wavevalid::GaspFinal f = wavevalid::gasp_finish(factors[u], Y.col(i), false);
@@ -270,4 +272,36 @@ Rcpp::List vexp_identity_cpp(const Eigen::Map<Eigen::ArrayXd>& x, const Eigen::M
   return Rcpp::List::create(Rcpp::Named("in_use") = wavevalid::vexp_eigen_available, Rcpp::Named("values") = values,
                             Rcpp::Named("exp") = d_exp,
                             Rcpp::Named("inverse") = d_inv, Rcpp::Named("gram") = d_ri);
+}
+
+// diag(R^-1) of each lower Cholesky factor of `chol` (K x K x m): column u is
+// colSums(forwardsolve(chol[, , u], diag(K))^2) to the bit, the forward
+// substitution in the order of the reference BLAS's dtrsm and the squares
+// summed in long double as colSums() sums them.
+// [[Rcpp::export]]
+Rcpp::NumericMatrix gasp_inverse_diag_cpp(Rcpp::NumericVector chol) {
+  Rcpp::IntegerVector dim = chol.attr("dim");
+  if (dim.size() != 3 || dim[0] != dim[1]) Rcpp::stop("chol must be a K x K x m array");
+  const int K = dim[0], m = dim[2];
+  Rcpp::NumericMatrix out(K, m);
+  std::vector<double> x(K);
+  for (int u = 0; u < m; ++u) {
+    const double* A = chol.begin() + static_cast<R_xlen_t>(u) * K * K;
+    for (int j = 0; j < K; ++j) {
+      std::fill(x.begin(), x.end(), 0.0);
+      x[j] = 1.0;
+      for (int k = 0; k < K; ++k) {
+        if (x[k] != 0.0) {
+          x[k] = x[k] / A[k + static_cast<R_xlen_t>(k) * K];
+          const double xk = x[k];
+          const double* ak = A + static_cast<R_xlen_t>(k) * K;
+          for (int i = k + 1; i < K; ++i) x[i] = x[i] - xk * ak[i];
+        }
+      }
+      long double s = 0.0;
+      for (int i = 0; i < K; ++i) s += x[i] * x[i];
+      out(j, u) = static_cast<double>(s);
+    }
+  }
+  return out;
 }

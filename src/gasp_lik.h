@@ -29,6 +29,7 @@ namespace wavevalid {
 struct GaspDist {
   int K = 0, p = 0, P = 0;
   Eigen::MatrixXd logd, d1, d2;  // P x p
+  Eigen::MatrixXd logd_clip;      // log|d| bounded below by -745 (for the gradient in alpha)
   explicit GaspDist(const Eigen::MatrixXd& X) {
     K = static_cast<int>(X.rows());
     p = static_cast<int>(X.cols());
@@ -47,6 +48,7 @@ struct GaspDist {
       }
     }
     d2 = d1.array().square().matrix();
+    logd_clip = logd.array().max(-745.0).matrix();
     // mean and variance of log|d| per input, for the optimiser's preconditioner
     c.resize(p);
     v.resize(p);
@@ -77,6 +79,10 @@ inline void build_correlation(const GaspDist& D, const Eigen::VectorXd& theta, d
   for (int q = 0; q < p; ++q) {
     const double lb = theta(q);
     const double a = theta(p + q);
+    if (vexp_eigen_available && (a == 0.0 || a == 1.0)) {  // the two loops below in one pass
+      scale_add_to((a == 0.0 ? D.d2 : D.d1).col(q).data(), std::exp(lb), T.col(q).data(), S.data(), T.rows());
+      continue;
+    }
     if (a == 0.0) {
       T.col(q).noalias() = std::exp(lb) * D.d2.col(q);
     } else if (a == 1.0) {
@@ -122,13 +128,53 @@ class InverseGram {
   }
 
   void compute(const Eigen::MatrixXd& L, Eigen::MatrixXd& Ri) {
-    if (!vexp_eigen_available) return eigen(L, Linv_, Ri);
-    const int K = static_cast<int>(L.rows()), Kp = static_cast<int>(LT_.rows());
-    tri_inverse_t(L.data(), LT_.data(), K, Kp);
-    gram_lower_t(LT_.data(), Ri.data(), acc_.data(), K, Kp);
+    factor_inverse(L);
+    gram(Ri);
+  }
+
+  // The first stage: L^-1 (transposed in LT_, or in Linv_ without the kernels).
+  void factor_inverse(const Eigen::MatrixXd& L) {
+    if (!vexp_eigen_available) return eigen_inverse(L, Linv_);
+    tri_inverse_t(L.data(), LT_.data(), static_cast<int>(L.rows()), static_cast<int>(LT_.rows()));
+  }
+
+  // The second stage: the lower triangle of R^-1 from L^-1 (after factor_inverse()).
+  void gram(Eigen::MatrixXd& Ri) {
+    if (!vexp_eigen_available) return eigen_gram(Linv_, Ri);
+    gram_lower_t(LT_.data(), Ri.data(), acc_.data(), static_cast<int>(Ri.rows()), static_cast<int>(LT_.rows()));
+  }
+
+  // The product |L^-1|_inf |L^-1|_1 (after factor_inverse()), an upper bound of |R^-1|_1.
+  double inverse_norm_bound(int K) {
+    double inf = 0.0, one = 0.0;
+    if (!vexp_eigen_available) {
+      inf = Linv_.cwiseAbs().rowwise().sum().maxCoeff();
+      one = Linv_.cwiseAbs().colwise().sum().maxCoeff();
+      return inf * one;
+    }
+    const int Kp = static_cast<int>(LT_.rows());
+    double* col = acc_.data();  // |L^-1| summed by column, lanes of LT_'s rows
+    for (int j = 0; j < K; ++j) col[j] = 0.0;
+    for (int i = 0; i < K; ++i) {  // column i of LT_: row i of L^-1, zero beyond lane i
+      const double* r = LT_.data() + static_cast<std::ptrdiff_t>(i) * Kp;
+      double s = 0.0;
+      for (int j = 0; j <= i; ++j) {
+        const double v = std::abs(r[j]);
+        s += v;
+        col[j] += v;
+      }
+      inf = std::max(inf, s);
+    }
+    for (int j = 0; j < K; ++j) one = std::max(one, col[j]);
+    return inf * one;
   }
 
   static void eigen(const Eigen::MatrixXd& L, Eigen::MatrixXd& Linv, Eigen::MatrixXd& Ri) {
+    eigen_inverse(L, Linv);
+    eigen_gram(Linv, Ri);
+  }
+
+  static void eigen_inverse(const Eigen::MatrixXd& L, Eigen::MatrixXd& Linv) {
     const int K = static_cast<int>(L.rows());
     Linv.setZero();
     for (int j = 0; j < K; ++j) {
@@ -140,6 +186,10 @@ class InverseGram {
         if (rest > 0) Linv.col(j).segment(k + 1, rest) -= xk * L.col(k).segment(k + 1, rest);
       }
     }
+  }
+
+  static void eigen_gram(const Eigen::MatrixXd& Linv, Eigen::MatrixXd& Ri) {
+    const int K = static_cast<int>(Linv.rows());
     for (int k = 0; k < K; ++k) {
       for (int j = k; j < K; ++j) Ri(j, k) = Linv.col(j).segment(j, K - j).dot(Linv.col(k).segment(j, K - j));
     }
@@ -149,6 +199,13 @@ class InverseGram {
 
  private:
   Eigen::MatrixXd Linv_, LT_, acc_;
+};
+
+// Eigen's Cholesky factorisation, with the 1-norm of the factored matrix it
+// keeps for its reciprocal condition number.
+class LLTNorm : public Eigen::LLT<Eigen::MatrixXd> {
+ public:
+  double l1_norm() const { return m_l1_norm; }
 };
 
 class GaspLik {
@@ -163,6 +220,7 @@ class GaspLik {
     Ri_.resize(K_, K_);
     inverse_.resize(K_);
     Mp_.resize(P_);
+    mt_.resize(P_);
     ones_ = Eigen::VectorXd::Ones(K_);
   }
 
@@ -176,13 +234,22 @@ class GaspLik {
 
   // Profile log-likelihood at theta; -inf when R is numerically singular.
   double value(const Eigen::VectorXd& theta, double nugget, double rcond_fail) {
+    // the point of the last successful evaluation again (the optimum, once
+    // the optimiser stops there): what value() keeps is that point's
+    if (ok_ && nugget == last_nugget_ && rcond_fail <= last_fail_ && theta.size() == last_theta_.size() &&
+        (theta.array() == last_theta_.array()).all()) {
+      return last_value_;
+    }
     ++n_eval;
     ok_ = false;
     build(theta, nugget);
     llt_.compute(R_);  // reads the lower triangle only
     if (llt_.info() != Eigen::Success) return -std::numeric_limits<double>::infinity();
-    rcond_ = llt_.rcond();
-    if (!(rcond_ >= rcond_fail)) return -std::numeric_limits<double>::infinity();
+    rcond_known_ = false;
+    inverse_ready_ = false;
+    if (!(rcond_fail > 0.0 && well_conditioned(rcond_fail))) {
+      if (!(rcond() >= rcond_fail)) return -std::numeric_limits<double>::infinity();
+    }
     a_ = llt_.solve(ones_);
     b_ = llt_.solve(y_);
     mu_ = ones_.dot(b_) / ones_.dot(a_);
@@ -195,7 +262,11 @@ class GaspLik {
     for (int k = 0; k < K_; ++k) logdet += std::log(L(k, k));
     logdet *= 2.0;
     ok_ = true;
-    return -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+    last_theta_ = theta;
+    last_nugget_ = nugget;
+    last_fail_ = rcond_fail;
+    last_value_ = -0.5 * K_ * std::log(2.0 * M_PI * s2) - 0.5 * logdet - 0.5 * K_;
+    return last_value_;
   }
 
   // Gradient in (log beta, alpha) at the point of the last successful value():
@@ -203,20 +274,35 @@ class GaspLik {
   void gradient(Eigen::VectorXd& grad) {
     ++n_grad;
     grad.resize(2 * p_);
-    inverse_.compute(llt_.matrixLLT(), Ri_);  // R^-1, lower triangle
+    if (!inverse_ready_) inverse_.factor_inverse(llt_.matrixLLT());
+    inverse_.gram(Ri_);  // R^-1, lower triangle
     int idx = 0;
     const double is2 = 1.0 / sigma2_;
     for (int k = 0; k < K_; ++k) {
       const double uk = u_(k) * is2;
+      // factor 2 (symmetry) times 1/2
+      if (vexp_eigen_available) {
+        scaled_difference(u_.data() + k + 1, uk, Ri_.data() + static_cast<std::ptrdiff_t>(k) * K_ + k + 1, C_.data() + idx,
+                          Mp_.data() + idx, K_ - k - 1);
+        idx += K_ - k - 1;
+        continue;
+      }
       for (int j = k + 1; j < K_; ++j) {
-        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);  // factor 2 (symmetry) times 1/2
+        Mp_(idx) = (u_(j) * uk - Ri_(j, k)) * C_(idx);
         ++idx;
       }
     }
     for (int q = 0; q < p_; ++q) {
-      const Eigen::ArrayXd mt = Mp_ * T_.col(q).array();
-      grad(q) = -mt.sum();
-      grad(p_ + q) = (mt * D_.logd.col(q).array().max(-745.0)).sum();
+      if (vexp_eigen_available && P_ >= 4) {  // the two sums below, to the bit, in one pass
+        double s = 0.0, sl = 0.0;
+        product_sums(Mp_.data(), T_.col(q).data(), D_.logd_clip.col(q).data(), P_, &s, &sl);
+        grad(q) = -s;
+        grad(p_ + q) = sl;
+        continue;
+      }
+      mt_ = Mp_ * T_.col(q).array();
+      grad(q) = -mt_.sum();
+      grad(p_ + q) = (mt_ * D_.logd_clip.col(q).array()).sum();
     }
   }
 
@@ -228,19 +314,42 @@ class GaspLik {
 
   double mu() const { return mu_; }
   double sigma2() const { return sigma2_; }
-  double rcond() const { return rcond_; }
+  // Eigen's estimate of the reciprocal condition number of R at the last
+  // factorisation (computed when first asked).
+  double rcond() {
+    if (!rcond_known_) {
+      rcond_ = llt_.rcond();
+      rcond_known_ = true;
+    }
+    return rcond_;
+  }
 
  private:
+  // Whether Eigen's estimate llt_.rcond() is at least `thr`, shown without
+  // computing it where a lower bound is: the estimate is 1 / (|R|_1 |R^-1 v|_1)
+  // for vectors v of unit norm (Hager's method), |R^-1 v|_1 <= |R^-1|_1 <=
+  // |L^-1|_inf |L^-1|_1 with L^-1 the inverse Cholesky factor, which the
+  // gradient needs anyway (kept). The bound is taken with a margin of 1000
+  // for the rounding of the estimate's solves (relative kappa K eps, at most
+  // about 1e-3 there).
+  bool well_conditioned(double thr) {
+    inverse_.factor_inverse(llt_.matrixLLT());
+    inverse_ready_ = true;
+    return 1.0 / (llt_.l1_norm() * inverse_.inverse_norm_bound(K_)) >= 1e3 * thr;
+  }
+
   const GaspDist& D_;
   Eigen::VectorXd y_;
   int K_, p_, P_;
   Eigen::MatrixXd T_, R_, Ri_;
   InverseGram inverse_;
-  Eigen::ArrayXd S_, C_, Mp_;
+  Eigen::ArrayXd S_, C_, Mp_, mt_;
   Eigen::VectorXd ones_, u_, a_, b_;
-  Eigen::LLT<Eigen::MatrixXd> llt_;
+  LLTNorm llt_;
   double mu_ = 0.0, sigma2_ = 0.0, rcond_ = 0.0;
-  bool ok_ = false;
+  bool ok_ = false, rcond_known_ = false, inverse_ready_ = false;
+  Eigen::VectorXd last_theta_;
+  double last_nugget_ = 0.0, last_fail_ = 0.0, last_value_ = 0.0;
 };
 
 // Quantities of a fitted emulator at given (beta, alpha, nugget): mu, lambda,
@@ -262,19 +371,56 @@ struct GaspFactor {
   bool ok = false;
 };
 
+// The distances |d| of the pairs j > k (k-major) per input of a design, and
+// std::pow(|d|, 2) and std::pow(|d|, 1): the powers of the inputs whose alpha
+// is 0 or 1 (most of them), computed once for the coefficients of a design
+// with the same calls as gasp_factor() makes for the others.
+struct GaspPowers {
+  Eigen::MatrixXd d, sq, id;  // K (K - 1) / 2 x p
+  explicit GaspPowers(const Eigen::MatrixXd& X) {
+    const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
+    const int P = K * (K - 1) / 2;
+    d.resize(P, p);
+    sq.resize(P, p);
+    id.resize(P, p);
+    volatile double two = 2.0, one = 1.0;  // the library's pow, as for any exponent
+    for (int q = 0; q < p; ++q) {
+      int idx = 0;
+      for (int k = 0; k < K; ++k) {
+        for (int j = k + 1; j < K; ++j) {
+          const double v = std::abs(X(j, q) - X(k, q));
+          d(idx, q) = v;
+          sq(idx, q) = std::pow(v, static_cast<double>(two));
+          id(idx, q) = std::pow(v, static_cast<double>(one));
+          ++idx;
+        }
+      }
+    }
+  }
+};
+
+// With `pw` (GaspPowers of X), the powers for alpha 0 and 1 are read from it.
 inline GaspFactor gasp_factor(const Eigen::MatrixXd& X, const Eigen::VectorXd& beta, const Eigen::VectorXd& alpha,
-                              double nugget) {
+                              double nugget, const GaspPowers* pw = nullptr) {
   const int K = static_cast<int>(X.rows()), p = static_cast<int>(X.cols());
   GaspFactor out;
   Eigen::MatrixXd R(K, K);
+  int idx = 0;
   for (int k = 0; k < K; ++k) {
     R(k, k) = 1.0;
-    for (int j = k + 1; j < K; ++j) {
+    for (int j = k + 1; j < K; ++j, ++idx) {
       double s = 0.0;
       for (int q = 0; q < p; ++q) {
         if (beta(q) == 0.0) continue;
-        const double d = std::abs(X(j, q) - X(k, q));
-        if (d > 0.0) s += beta(q) * std::pow(d, 2.0 - alpha(q));
+        const double e = 2.0 - alpha(q);
+        if (pw) {
+          const double d = pw->d(idx, q);
+          if (!(d > 0.0)) continue;
+          s += beta(q) * (e == 2.0 ? pw->sq(idx, q) : e == 1.0 ? pw->id(idx, q) : std::pow(d, e));
+        } else {
+          const double d = std::abs(X(j, q) - X(k, q));
+          if (d > 0.0) s += beta(q) * std::pow(d, e);
+        }
       }
       R(j, k) = R(k, j) = std::exp(-s);
     }

@@ -192,6 +192,62 @@ WAVEVALID_CLONES inline void affine_eigen(const double* __restrict x, double a, 
   for (std::ptrdiff_t i = 0; i < n; ++i) out[i] = a * x[i] + b;
 }
 
+// t[i] = a * x[i] and s[i] += t[i]: a product as Eigen's `a * x` rounds it,
+// and add_to(), in one pass.
+WAVEVALID_CLONES inline void scale_add_to(const double* __restrict x, double a, double* __restrict t,
+                                          double* __restrict s, std::ptrdiff_t n) {
+  for (std::ptrdiff_t i = 0; i < n; ++i) {
+    const double v = a * x[i];
+    t[i] = v;
+    s[i] = s[i] + v;
+  }
+}
+
+// out[t] = (u[t] * uk - r[t]) * c[t].
+WAVEVALID_CLONES inline void scaled_difference(const double* __restrict u, double uk, const double* __restrict r,
+                                               const double* __restrict c, double* __restrict out, std::ptrdiff_t n) {
+  for (std::ptrdiff_t t = 0; t < n; ++t) out[t] = (u[t] * uk - r[t]) * c[t];
+}
+
+// With x[i] = a[i] * b[i], the sums of x[i] and of x[i] * c[i] over i < n
+// (n >= 4), each summed as Eigen 3.3's SSE2 redux sums an array that starts
+// aligned: two packets of two partial sums, one lane per i modulo 4, the
+// packets added, a last full packet added to them, the two lanes added, an
+// odd last element at the end.
+WAVEVALID_CLONES inline void product_sums(const double* __restrict a, const double* __restrict b,
+                                          const double* __restrict c, std::ptrdiff_t n, double* sum_x,
+                                          double* sum_xc) {
+  double s[4], t[4];
+  for (int r = 0; r < 4; ++r) {
+    s[r] = a[r] * b[r];
+    t[r] = s[r] * c[r];
+  }
+  const std::ptrdiff_t e2 = (n / 4) * 4, e1 = (n / 2) * 2;
+  for (std::ptrdiff_t i = 4; i < e2; i += 4) {
+    for (int r = 0; r < 4; ++r) {
+      const double x = a[i + r] * b[i + r];
+      s[r] = s[r] + x;
+      t[r] = t[r] + x * c[i + r];
+    }
+  }
+  double s0 = s[0] + s[2], s1 = s[1] + s[3], t0 = t[0] + t[2], t1 = t[1] + t[3];
+  if (e1 > e2) {
+    const double x0 = a[e2] * b[e2], x1 = a[e2 + 1] * b[e2 + 1];
+    s0 = s0 + x0;
+    s1 = s1 + x1;
+    t0 = t0 + x0 * c[e2];
+    t1 = t1 + x1 * c[e2 + 1];
+  }
+  double rs = s0 + s1, rt = t0 + t1;
+  for (std::ptrdiff_t i = e1; i < n; ++i) {
+    const double x = a[i] * b[i];
+    rs = rs + x;
+    rt = rt + x * c[i];
+  }
+  *sum_x = rs;
+  *sum_xc = rt;
+}
+
 // s[i] += x[i].
 WAVEVALID_CLONES inline void add_to(double* __restrict s, const double* __restrict x, std::ptrdiff_t n) {
   for (std::ptrdiff_t i = 0; i < n; ++i) s[i] = s[i] + x[i];
