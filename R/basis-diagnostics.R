@@ -239,3 +239,13 @@ plot.wv_error_processes <- function(x, ...) {
   print(autoplot(x, ...))
   invisible(x)
 }
+
+# The levels (the report's numbering) whose functions each span the whole
+# record: the scaling coefficient, and the detail levels whose wavelets'
+# support, (2N - 1) / 2^j of the record for Daubechies' wavelets with N
+# vanishing moments at wavethresh level j, is at least the record.
+record_wide_levels <- function(basis) {
+  N <- basis$settings$filter.number
+  j_max <- floor(log2(2 * N - 1))
+  0:(j_max + 1L)
+}

@@ -491,13 +491,3 @@ renamed_keep_levels <- function(dots, whole_levels, call = rlang::caller_env()) 
   if (!is.numeric(old)) return(old)
   c(0L, old + 1L)
 }
-
-# The levels (the report's numbering) whose functions each span the whole
-# record: the scaling coefficient, and the detail levels whose wavelets'
-# support, (2N - 1) / 2^j of the record for Daubechies' wavelets with N
-# vanishing moments at wavethresh level j, is at least the record.
-record_wide_levels <- function(basis) {
-  N <- basis$settings$filter.number
-  j_max <- floor(log2(2 * N - 1))
-  0:(j_max + 1L)
-}

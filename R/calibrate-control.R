@@ -384,19 +384,6 @@ control_value_text <- function(v) {
   paste(format(v, digits = 3), collapse = ", ")
 }
 
-# Whole wavelet levels (0 for the scaling coefficient), or NULL.
-check_levels_arg <- function(x, arg, min_length = 1L, call = rlang::caller_env()) {
-  if (is.null(x)) return(invisible(x))
-  if (!is.numeric(x) || anyNA(x) || any(x != round(x)) || any(x < 0) ||
-      length(unique(x)) < min_length) {
-    wv_abort(c(
-      "{.arg {arg}} must be {if (min_length > 1L) 'two or more' else 'one or more'} whole wavelet levels (0 for the scaling coefficient), or NULL.",
-      "x" = "It is {.code {deparse(x)}}."
-    ), call = call)
-  }
-  invisible(x)
-}
-
 # The control objects by kind, and the settings each holds: the arguments
 # of its constructor, read from it (never typed again).
 control_kinds <- function() {

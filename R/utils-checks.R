@@ -181,3 +181,16 @@ check_same_grid <- function(t1, t2, arg1, arg2, call = rlang::caller_env()) {
   }
   invisible(TRUE)
 }
+
+# Whole wavelet levels (0 for the scaling coefficient), or NULL.
+check_levels_arg <- function(x, arg, min_length = 1L, call = rlang::caller_env()) {
+  if (is.null(x)) return(invisible(x))
+  if (!is.numeric(x) || anyNA(x) || any(x != round(x)) || any(x < 0) ||
+      length(unique(x)) < min_length) {
+    wv_abort(c(
+      "{.arg {arg}} must be {if (min_length > 1L) 'two or more' else 'one or more'} whole wavelet levels (0 for the scaling coefficient), or NULL.",
+      "x" = "It is {.code {deparse(x)}}."
+    ), call = call)
+  }
+  invisible(x)
+}
