@@ -49,6 +49,17 @@ add_experiments <- function(spec, experiments, emulators, iu, pool_levels, regis
                    class = "experiment", call = call)
         }
         d$group <- match(lab, spec$groups$name) - 1L
+        if (anyNA(d$group)) {
+          # a level the base site pooled (its curves reach no data there):
+          # the base group of the nearest level
+          base_g <- which(spec$groups$site == s)
+          lv <- sub$groups$level[match(lab, sub$groups$name)]
+          for (i in which(is.na(d$group))) {
+            dd <- abs(spec$groups$level[base_g] - lv[i])
+            d$group[i] <- base_g[which(dd == min(dd))[1]] - 1L
+          }
+          lab <- spec$groups$name[d$group + 1L]
+        }
       } else {
         own <- sub$groups[sub$groups$site == s, , drop = FALSE]
         own$name <- paste0(e, "/", own$name)

@@ -167,6 +167,11 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
     if (!is.null(field$observed[[s]])) {
       fill <- missing_fill_variance(curves_s, field$observed[[s]], basis$Psi)
       fills[[s]] <- fill$var
+      if (sum(!fill$no_data) < 3L) {
+        wv_abort(c("Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}), and {sum(fill$no_data)} of the {length(fill$no_data)} coefficients reach there: the data inform {sum(!fill$no_data)}.",
+                   "i" = "Give the runs and the field on the range the curves cover (the runs cut there, and {.code field_runs(grid = )} on that range)."),
+                 class = c("own_extent", "input"), call = call)
+      }
       if (any(!fill$covered)) {
         gone <- sum(fill$var > 1e5 * mean(curves_s[field$observed[[s]]]^2))
         wv_inform(c("i" = "Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}); the {gone} of {length(fill$var)} coefficients whose functions reach there get no weight, the record-wide ones among them.",
@@ -183,12 +188,15 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
       if (any(!fill$cut)) s2[[s]][fill$cut] <- stats::median(s2[[s]][!fill$cut])
     }
     n_rep[[s]] <- R
+    grp <- tau_group$group
+    if (!is.null(fill)) grp <- pool_data_free(grp, tau_group$level, fill$no_data)
+    used <- sort(unique(grp))
     g0 <- if (is.null(groups)) 0L else nrow(groups)
-    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label), site = s,
-                                       level = tau_group$level,
+    groups <- rbind(groups, data.frame(name = paste0(s, ":", tau_group$label[used]), site = s,
+                                       level = tau_group$level[used],
                                        stringsAsFactors = FALSE))
     site_data[[s]] <- list(bank = site_bank(emulators, s), wbar = wbar[[s]], s2 = s2[[s]], R = R,
-                           sigma2 = sigma2[[s]], group = g0 + tau_group$group - 1L,
+                           sigma2 = sigma2[[s]], group = g0 + match(grp, used) - 1L,
                            extra = extra[[s]],
                            reg_U = shifts$U[[s]])
     if (noise_setting[[s]] == "learned") {
@@ -197,7 +205,7 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
                                                     c("half-cauchy", "half-normal")) - 1L),
                                 measured_noise_evidence(field$noise[[s]], basis))
     }
-    bias_group[[s]] <- paste0(s, ":", tau_group$label[tau_group$group])
+    bias_group[[s]] <- paste0(s, ":", tau_group$label[grp])
   }
   list(sites = site_data, priors = priors, inputs = inputs, x_nom = x_nom, prior_iu = prior_iu,
        groups = groups, bias_group = bias_group, pool_levels = tau_group$pooled, z_init = x_nom,
@@ -406,5 +414,26 @@ missing_fill_variance <- function(curves, observed, Psi) {
   reach_none <- colSums(Psi^2 * none) > 1e-10 * colSums(Psi^2)
   var <- colSums(Psi^2 * ifelse(none, 0, v)) + ifelse(reach_none, big, 0)
   w_miss <- colSums(Psi^2 * (n_at < R)) / colSums(Psi^2)
-  list(var = var, cut = w_miss > 0.1, point = ifelse(none, big, v), covered = !none)
+  list(var = var, cut = w_miss > 0.1, point = ifelse(none, big, v), covered = !none,
+       no_data = reach_none)
+}
+
+# The bias-variance group of each coefficient (`group`, indices into the
+# levels `level`) with every group that has fewer than three coefficients
+# with data (the others reach where no curve does, `no_data`) pooled with
+# the nearest level's group that has three (the finer on a tie). The prior
+# of a group's variance is flat up to the variance of its coefficients'
+# data, which no data makes unbounded; the posterior is then proper only
+# with three coefficients of data (its tail tau2^(-n/2)), and without them
+# the variance, and the bias with it, wander without bound.
+pool_data_free <- function(group, level, no_data) {
+  n_data <- tabulate(group[!no_data], max(group))
+  informed <- which(n_data >= 3L)
+  if (!length(informed)) return(group)
+  for (g in setdiff(unique(group), informed)) {
+    d <- abs(level[informed] - level[g])
+    near <- informed[d == min(d)]
+    group[group == g] <- near[which.max(level[near])]
+  }
+  group
 }

@@ -15,6 +15,10 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "own_extent_groups_unpooled", file = "R/calibrate-spec.R",
+       pattern = "if (!is.null(fill)) grp <- pool_data_free(grp, tau_group$level, fill$no_data)",
+       replacement = "grp <- grp",
+       test = "test-own-extent.R", what = "bias-variance groups without data left to wander"),
   list(name = "add_term_rate_fixed", file = "R/propose-add.R",
        pattern = "rate$op(X[i, ], runs$t, r[i])", replacement = "rate$op(X[i, ], runs$t, rate$value)",
        test = "test-propose-memory.R", what = "every run of an added filter at the proposal's time constant"),

@@ -53,6 +53,17 @@ test_that("a matrix with NA after a curve's end (or before its start) holds curv
   expect_error(field_runs(m, t), class = "wavevalid_error_input")
 })
 
+test_that("a bias-variance group with fewer than three coefficients of data joins the nearest that has three", {
+  level <- c(0, 4, 5, 6)
+  group <- c(1, 1, 2, 2, 2, 3, 3, 3, 4, 4)
+  no_data <- c(TRUE, FALSE, FALSE, FALSE, FALSE, FALSE, FALSE, FALSE, TRUE, TRUE)
+  expect_identical(wavevalid:::pool_data_free(group, level, no_data), c(2, 2, 2, 2, 2, 3, 3, 3, 3, 3))
+  # a tie goes to the finer level; without a group of three, nothing moves
+  expect_identical(wavevalid:::pool_data_free(c(1, 2, 2, 2, 3, 3, 3), c(5, 4, 6), c(TRUE, rep(FALSE, 6))),
+                   c(3, 2, 2, 2, 3, 3, 3))
+  expect_identical(wavevalid:::pool_data_free(c(1, 2), c(0, 1), c(FALSE, TRUE)), c(1, 2))
+})
+
 test_that("a coefficient is weighted by the curves that cover it: none, no weight", {
   b <- example_problem(1)$emulators$basis
   T <- length(b$t)
@@ -76,30 +87,42 @@ test_that("a coefficient is weighted by the curves that cover it: none, no weigh
 })
 
 test_that("curves cut short on a grid beyond them: the right model is not rejected and the inputs hold", {
-  tb <- testbed_units(2)
+  tb <- testbed_dosing(1, "none")
   t <- tb$A$runs$t
-  m <- tb$A$field$curves$site1
-  cut <- t <= 0.6 * max(t)
-  f <- suppressMessages(field_runs(list(site1 = lapply(seq_len(nrow(m)), function(r) m[r, cut])),
-                                   t = list(site1 = rep(list(t[cut]), nrow(m))), grid = t,
-                                   units = tb$A$field$units))
-  expect_true(all(!f$observed$site1[, !cut]))
-  expect_message(fit <- suppressWarnings(validate(tb$A$runs, f, tb$iu, chains = 1, seed = 1,
-                                                  sampler = sampler_control(n_draws = 150, n_inner = 10,
+  m <- tb$A$field$curves$plasma
+  ends <- withr::with_seed(1, stats::runif(nrow(m), 0.5, 1)) * max(t)
+  for (r in seq_len(nrow(m))) m[r, t > ends[r]] <- NA
+  f <- suppressMessages(field_runs(list(plasma = m), t))
+  beyond <- t > max(ends) + diff(t[1:2])
+  expect_true(any(beyond))
+  expect_true(all(!f$observed$plasma[, beyond]))
+  expect_message(fit <- suppressWarnings(validate(tb$A$runs, f, tb$iu, windows = tb$windows, chains = 1, seed = 1,
+                                                  sampler = sampler_control(n_draws = 100, n_inner = 10,
                                                                             quiet = TRUE))),
                  class = "wavevalid_message_own_extent")
   mc <- misfit_check(fit)
-  expect_false(any(mc$covered[!cut]))
+  expect_false(any(mc$covered[beyond]))
+  expect_false(any(mc$rejected))
   wf <- where_fails(fit)
   nd <- attr(wf, "no_data")
-  expect_equal(nd$start, min(t[!cut]))
   expect_equal(nd$end, max(t))
+  expect_lt(nd$start, min(t[beyond]) + 1e-9)
   expect_output(print(wf), "No field data")
-  expect_false(any(mc$rejected))
+  # a bias-variance group with no data is pooled with its neighbour: the bias stays the size of the data's
+  expect_lt(max(abs(bias(fit)$mean)), 0.2 * diff(range(m, na.rm = TRUE)))
   ci <- summary(fit)$inputs
   u <- tb$truth$u
   ci <- ci[match(names(u), ci$input), ]
   expect_true(all(u >= ci$q2.5 & u <= ci$q97.5))
+  # where no coefficient has data, a classed error says how to cut the runs
+  tc <- testbed_units(2)
+  tt <- tc$A$runs$t
+  mm <- tc$A$field$curves$site1
+  mm[, tt > 0.6 * max(tt)] <- NA
+  fc <- suppressMessages(field_runs(mm, tt, units = tc$A$field$units))
+  expect_error(suppressWarnings(validate(tc$A$runs, fc, tc$iu, chains = 1, seed = 1,
+                                         sampler = sampler_control(n_draws = 20, n_inner = 2, quiet = TRUE))),
+               class = "wavevalid_error_own_extent")
 })
 
 test_that("registration takes a replicate's landmarks only in windows its curve covers", {
