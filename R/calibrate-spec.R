@@ -162,10 +162,9 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
   reg_extra <- extra
   fills <- list()
   for (s in sites) {
-    curves_s <- field$curves[[s]]
     fill <- NULL
     if (!is.null(field$observed[[s]])) {
-      fill <- missing_fill_variance(curves_s, field$observed[[s]], basis$Psi)
+      fill <- missing_fill_variance(field$curves[[s]], field$observed[[s]], basis$Psi)
       fills[[s]] <- fill$var
       if (sum(!fill$no_data) < 3L) {
         wv_abort(c("Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}), and {sum(fill$no_data)} of the {length(fill$no_data)} coefficients reach there: the data inform {sum(!fill$no_data)}.",
@@ -173,13 +172,12 @@ calibration_spec <- function(emulators, field, iu, sigma2 = NULL, pool_levels = 
                  class = c("own_extent", "input"), call = call)
       }
       if (any(!fill$covered)) {
-        gone <- sum(fill$var > 1e5 * mean(curves_s[field$observed[[s]]]^2))
-        wv_inform(c("i" = "Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}); the {gone} of {length(fill$var)} coefficients whose functions reach there get no weight, the record-wide ones among them.",
+        wv_inform(c("i" = "Site {.val {s}}: no field curve reaches {sum(!fill$covered)} of the {length(fill$covered)} points (from t = {signif(field$t[which(!fill$covered)[1]], 4)}); the {sum(fill$no_data)} of {length(fill$var)} coefficients whose functions reach there get no weight, the record-wide ones among them.",
                     " " = "To keep them, give the runs and the field on the range the curves cover."),
                   class = "own_extent")
       }
     }
-    W <- curves_s %*% basis$Psi
+    W <- field$curves[[s]] %*% basis$Psi
     R <- nrow(W)
     wbar[[s]] <- colMeans(W)
     s2[[s]] <- colSums(sweep(W, 2L, wbar[[s]])^2)

@@ -178,7 +178,7 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
     lapply(stats::setNames(sites, sites), function(s) {
       ps <- h$pred$summary[h$pred$summary$site == s, , drop = FALSE]
       list(y = h$field$curves[[s]], model = ps$model, corrected = ps$mean, draws = h$draws[[s]],
-           obs = observed_mask(h$field, s))
+           obs = h$field$observed[[s]])
     })
   })
   n_rep <- vapply(sites, function(s) min(nrow(parts$before[[s]]$y), nrow(parts$after[[s]]$y)),
@@ -203,7 +203,7 @@ holdout_margin <- function(ho, n_boot, seed, interval = 0.9) {
           sse[, m, kind] <- sse[, m, kind] + resampled_sse(p$y[seq_len(R), , drop = FALSE],
                                                            p[[kind]], p$corrected,
                                                            rows, time, p$draws, kind, h,
-                                                           p$obs[seq_len(R), , drop = FALSE])
+                                                           if (!is.null(p$obs)) p$obs[seq_len(R), , drop = FALSE])
         }
       }
       rm(time)
@@ -249,10 +249,3 @@ resampled_sse <- function(y, center, corrected, rows, time, d, kind, h, obs = NU
   }
   out
 }
-
-# Where the curves of site `s` of `field` were measured (curves of their own
-# extent): the replicates x points mask, and the points some curve covers.
-observed_mask <- function(field, s) {
-  field$observed[[s]] %||% matrix(TRUE, nrow(field$curves[[s]]), ncol(field$curves[[s]]))
-}
-covered_points <- function(field, s) colSums(observed_mask(field, s)) > 0

@@ -444,3 +444,10 @@ validate_wv_field <- function(x, call = rlang::caller_env()) {
   }
   x
 }
+
+# Where the curves of site `s` of `field` were measured (curves of their own
+# extent): the replicates x points mask, and the points some curve covers.
+observed_mask <- function(field, s) {
+  field$observed[[s]] %||% matrix(TRUE, nrow(field$curves[[s]]), ncol(field$curves[[s]]))
+}
+covered_points <- function(field, s) colSums(observed_mask(field, s)) > 0

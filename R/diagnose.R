@@ -232,10 +232,10 @@ fails_table <- function(fit, level = 0.9, band = c("simultaneous", "pointwise"),
 # Where no field curve of a site reaches (curves of their own extent): a
 # data frame of site, start and end, NULL when every point has data.
 no_data_stretches <- function(fit) {
-  obs <- fit_get(fit, "field")$observed
+  field <- fit_get(fit, "field")
   t <- fit_get(fit, "basis")$t
-  out <- do.call(rbind, lapply(names(obs), function(s) {
-    none <- colSums(obs[[s]]) == 0
+  out <- do.call(rbind, lapply(names(field$observed), function(s) {
+    none <- !covered_points(field, s)
     if (!any(none)) return(NULL)
     r <- rle(none)
     ends <- cumsum(r$lengths)
