@@ -180,6 +180,7 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
     if (!sm$quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {sm$threads}.")
     sm$threads <- free
   }
+  use_cores(chains, sm$quiet)
   fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
   fit <- fit_set(fit, control = list(bias = bias, sampler = sampler))
   hint_parallel_chains(fit_get(fit, "sampling_seconds"), chains, free, sm$quiet)

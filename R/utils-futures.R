@@ -22,3 +22,39 @@ run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, len
   if (!quiet) cli::cli_progress_done(.envir = environment())
   out
 }
+
+# The plan a call runs under when the user set none. With future's default
+# (sequential) plan and the option wavevalid.workers "auto" (the default),
+# or a number of workers, a multisession plan over the free cores
+# (free_cores(): the cores R sees less the other processes' load) is set for
+# the caller's duration and the old plan restored on its exit; says so once
+# per call. A plan the user set (other than sequential, or through the
+# option future.plan or R_FUTURE_PLAN) is left alone, and so is
+# wavevalid.workers = 1. The results are the same under every plan.
+use_cores <- function(tasks, quiet, envir = parent.frame()) {
+  want <- getOption("wavevalid.workers", "auto")
+  ok <- identical(want, "auto") ||
+    (is.numeric(want) && length(want) == 1L && is.finite(want) && want >= 1)
+  if (!ok) {
+    cli::cli_abort(c("The option {.code wavevalid.workers} must be {.val auto} or a number of workers (1 or more).",
+                     "x" = "It is {.obj_type_friendly {want}}.",
+                     "i" = "{.code options(wavevalid.workers = 1)} keeps the work in this R process."),
+                   class = "wavevalid_error_workers")
+  }
+  if (!requireNamespace("future", quietly = TRUE) || !inherits(future::plan(), "sequential") ||
+      !is.null(getOption("future.plan")) || nzchar(Sys.getenv("R_FUTURE_PLAN"))) {
+    return(invisible(0L))
+  }
+  n <- if (identical(want, "auto")) free_cores() else as.integer(want)
+  n <- min(n, tasks)
+  if (n < 2L) return(invisible(0L))
+  old <- future::plan(future::multisession, workers = n)
+  do.call(on.exit, list(substitute(future::plan(old), list(old = old)), add = TRUE), envir = envir)
+  if (!quiet) {
+    wv_inform(c("i" = paste0("Running on {n} cores (future's multisession plan, for this call); ",
+                             "{.code options(wavevalid.workers = 1)} keeps the work in this R process, ",
+                             "and a {.fn future::plan} of your own is used as it is.")),
+              class = "cores")
+  }
+  invisible(n)
+}

@@ -124,6 +124,7 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   enforce_preflight(clock("preflight", preflight(runs, field, iu, sigma2 = sigma2,
                                                  windows = windows,
                                                  basis_args = basis_args)))
+  use_cores(Inf, quiet)
   raw_field <- field
   raw_experiments <- experiments
   knots_every <- registration_knots(reg$knots_every, field$t)

@@ -61,7 +61,7 @@
 #   e.g. Rscript bench/bench_scale.R base,points; the exponents need base and
 #   the doubled sizes in one run; WAVEVALID_BENCH_SAVE=<file.rds> saves the
 #   results of every size
-#   R_LIBS=<lib> [WAVEVALID_BENCH_PLAN=multisession] Rscript bench/bench_scale.R large default
+#   R_LIBS=<lib> [WAVEVALID_BENCH_PLAN=auto|sequential|multisession|slurm] Rscript bench/bench_scale.R large default
 #   runs validate() itself with every default at that size (its phases from
 #   fit$timing, the chains' rounds, ESS and R-hat), then where_fails() and
 #   validation_report() on its fit
@@ -116,6 +116,36 @@ stop_cycles <- 2 * (200 * 50 + max(5000, 200 * 50 / 4))
 args <- commandArgs(trailingOnly = TRUE)
 child <- length(args) >= 1L && args[1] == "--one"
 
+# A size given as SxTxKxE (sites x points x runs x experiments, e.g.
+# 16x8192x500x4) besides the named ones: its calibrations are shorter
+# (n_draws 20, burn-in 100, n_inner 5 and 25: 800 cycles between them), as
+# a cycle there costs up to hundreds of times the base's.
+custom_size <- function(size) {
+  if (size %in% names(sizes_all)) return(NULL)
+  v <- suppressWarnings(as.integer(strsplit(size, "x", fixed = TRUE)[[1]]))
+  if (length(v) != 4L || anyNA(v) || any(v < 1L) || v[2] < 64L || v[3] < 10L) {
+    stop("size ", size, ": give one of ", paste(names(sizes_all), collapse = ", "),
+         " or sites x points x runs x experiments as SxTxKxE, e.g. 16x8192x500x4")
+  }
+  stats::setNames(v, c("S", "T", "K", "E"))
+}
+for (a in unique(unlist(strsplit(args[!startsWith(args, "-") & !grepl("\\.rds$", args) &
+                                      !args %in% c("default")], ",", fixed = TRUE)))) {
+  d <- custom_size(a)
+  if (!is.null(d)) {
+    sizes_all[[a]] <- d
+    n_inner_long[[a]] <- 25L
+  }
+}
+short_of <- function(size) {
+  if (size %in% c("base", "sites", "points", "runs", "experiments", "large")) {
+    return(list(n_draws = 100L, n_inner = 20L, burnin = NULL))
+  }
+  list(n_draws = 20L, n_inner = 5L, burnin = 100L)
+}
+# the phases one by one in this process: the chains one after the other
+options(wavevalid.workers = 1)
+
 # --- the synthetic problem ------------------------------------------------------
 inputs <- c("u1", "u2", "u3", "x1", "x2", "x3")
 u_true <- c(u1 = 0.3, u2 = 0.6, u3 = 0.45)
@@ -163,11 +193,14 @@ problem <- function(S, T, K, E, seed = 1) {
   runs <- model_runs(design, run_curves, t)
   field <- field_runs(field_of(t, S, c(u_true, x_nom)), t, x_nom = x_nom)
   experiments <- NULL
-  if (E >= 2L) {
-    x2 <- x_nom
-    x2[["x1"]] <- x2[["x1"]] + 0.1
-    field2 <- field_runs(field_of(t, S, c(u_true, x2)), t, x_nom = x_nom)
-    experiments <- list(changed_x1 = experiment(field2, change = c(x1 = 0.1)))
+  # experiments 2, 3, 4, ...: x1, x2, x3, x1, ... changed by +0.1
+  for (e in seq_len(max(0L, E - 1L))) {
+    p <- names(x_nom)[(e - 1L) %% 3L + 1L]
+    step <- 0.1 * ((e - 1L) %/% 3L + 1L)
+    xe <- x_nom
+    xe[[p]] <- xe[[p]] + step
+    fe <- field_runs(field_of(t, S, c(u_true, xe)), t, x_nom = x_nom)
+    experiments[[sprintf("changed_%s_%d", p, e)]] <- experiment(fe, change = stats::setNames(step, p))
   }
   iu <- iu_map(inputs, rep(c("calibration", "variation"), each = 3), lower = rep(0, 6), upper = rep(1, 6),
                nominal = rep(0.5, 6))
@@ -244,8 +277,9 @@ run_one <- function(size, out_file) {
   runs <- pr$runs
   windows <- pr$windows
   knots_every <- diff(range(pr$field$t)) / 32
-  short <- sampler_control(n_draws = 100, n_inner = 20, quiet = TRUE)
-  longer <- sampler_control(n_draws = 100, n_inner = n_inner_long[[size]], quiet = TRUE)
+  sh <- short_of(size)
+  short <- sampler_control(n_draws = sh$n_draws, n_inner = sh$n_inner, burnin = sh$burnin, quiet = TRUE)
+  longer <- sampler_control(n_draws = sh$n_draws, n_inner = n_inner_long[[size]], burnin = sh$burnin, quiet = TRUE)
   pf <- measure("preflight", preflight(runs, pr$field, pr$iu, windows = windows))
   if (any(pf$status == "error")) stop("the pre-flight check failed: ", paste(pf$check[pf$status == "error"], collapse = ", "))
   field <- measure("register", register_curves(pr$field, runs, windows, features = c("min", "max"),
@@ -276,25 +310,68 @@ run_one <- function(size, out_file) {
   rownames(tab) <- NULL
   n_coef <- length(basis$index)
   saveRDS(list(size = size, dims = d, phases = tab, n_coef = n_coef, burnin = fit$settings$burnin,
-               n_inner_long = n_inner_long[[size]]),
+               n_inner_long = n_inner_long[[size]], short = sh),
           out_file)
 }
 
 # --- validate() itself with every default, then where_fails() and the report ---
-# One call of validate() as a user makes it (windows and the second
-# experiment given, seed = 1, every other argument its default: the stopping
-# rule, two chains under the plan set in the environment variable
-# WAVEVALID_BENCH_PLAN: "sequential" (future's default) or "multisession"
-# (two workers)), its phases as fit$timing records them, the chains' rounds,
-# ESS and R-hat (fit$stopping); the process's peak RSS over validate() (the
-# workers' own, under multisession, are read from their /proc entries while
-# they run, not here: see the output's note); then where_fails() and
-# validation_report() on the fit.
+# One call of validate() as a user makes it (windows and the experiments
+# given, seed = 1, every other argument its default: the stopping rule, two
+# chains) under the plan named in the environment variable
+# WAVEVALID_BENCH_PLAN:
+#   auto          (the default) the package's own: with no plan set, a
+#                 multisession plan over the free cores for the call
+#   sequential    every phase in this process (options(wavevalid.workers = 1))
+#   multisession  future::plan(multisession, workers = 2) set beforehand
+#   slurm         future.batchtools' Slurm template through a stand-in for
+#                 Slurm's commands on this machine (the one the tests use):
+#                 sbatch keeps each job script and runs it at once, under
+#                 /usr/bin/time where there is one, which gives each job's
+#                 peak resident set; the number of jobs and their peaks
+#                 are reported
+# Its phases as fit$timing records them, the chains' rounds, ESS and R-hat
+# (fit$stopping); the peak resident set of the process and of its
+# descendants together (the multisession workers; sampled every half
+# second by a shell loop); then where_fails() and validation_report() on
+# the fit.
+tree_rss_monitor <- function(out) {
+  script <- sprintf(paste0(
+    "max=0; while kill -0 %d 2>/dev/null; do ",
+    "s=$(ps -e -o pid=,ppid=,rss= | awk -v root=%d '{p[$1]=$2; r[$1]=$3} END {",
+    "t=0; for (q in p) { x=q; while (x != 0 && x != 1 && x != root && (x in p)) x=p[x]; if (x == root) t+=r[q] } print t}'); ",
+    "if [ \"$s\" -gt \"$max\" ]; then max=$s; echo $max > %s; fi; sleep 0.5; done"),
+    Sys.getpid(), Sys.getpid(), out)
+  system2("bash", c("-c", shQuote(script)), wait = FALSE)
+}
+fake_slurm <- function(dir) {
+  dir.create(dir, showWarnings = FALSE, recursive = TRUE)
+  timer <- if (file.exists("/usr/bin/time")) sprintf("/usr/bin/time -a -o %s -f %%M ", file.path(dir, "rss_kib.txt")) else ""
+  writeLines(c("#!/bin/sh", "cat \"$1\" >> \"$(dirname \"$0\")/submitted.txt\"",
+               sprintf("%sbash \"$1\" >/dev/null 2>&1", timer), "echo \"Submitted batch job $$\""),
+             file.path(dir, "sbatch"))
+  writeLines(c("#!/bin/sh", "exit 0"), file.path(dir, "squeue"))
+  writeLines(c("#!/bin/sh", "exit 0"), file.path(dir, "scancel"))
+  Sys.chmod(file.path(dir, c("sbatch", "squeue", "scancel")), "0755")
+  dir
+}
 run_default <- function(size, out_file) {
   d <- sizes_all[[size]]
   pr <- problem(d[["S"]], d[["T"]], d[["K"]], d[["E"]])
-  plan <- Sys.getenv("WAVEVALID_BENCH_PLAN", "sequential")
+  plan <- Sys.getenv("WAVEVALID_BENCH_PLAN", "auto")
+  options(wavevalid.workers = "auto")
+  jobs <- NULL
+  if (plan == "sequential") options(wavevalid.workers = 1)
   if (plan == "multisession") future::plan(future::multisession, workers = 2)
+  if (plan == "slurm") {
+    home <- tempfile("slurm")
+    bin <- fake_slurm(file.path(home, "bin"))
+    Sys.setenv(PATH = paste(bin, Sys.getenv("PATH"), sep = .Platform$path.sep))
+    setwd(home)  # batchtools keeps its registries under the working directory
+    future::plan(future.batchtools::batchtools_slurm, template = "slurm-simple",
+                 resources = list(walltime = 3600, memory = 8000, ncpus = 1))
+  }
+  rss_file <- tempfile()
+  tree_rss_monitor(rss_file)
   options(wavevalid.quiet = FALSE)
   fit <- measure("validate_default", validate(pr$runs, pr$field, pr$iu, windows = pr$windows,
                                               experiments = pr$experiments, seed = 1), reps = 1L)
@@ -305,9 +382,16 @@ run_default <- function(size, out_file) {
     invisible(measure("validation_report", suppressMessages(suppressWarnings(validation_report(fit, f))), reps = 1L))
     unlink(f)
   }
+  tree_peak <- if (file.exists(rss_file)) as.numeric(readLines(rss_file, n = 1L)) / 1024 else NA_real_
+  if (plan == "slurm") {
+    submitted <- readLines(file.path(bin, "submitted.txt"))
+    rss <- if (file.exists(file.path(bin, "rss_kib.txt"))) as.numeric(readLines(file.path(bin, "rss_kib.txt"))) / 1024
+    jobs <- list(n = sum(grepl("batchtools::doJobCollection", submitted, fixed = TRUE)), rss_mib = rss)
+  }
   tab <- do.call(rbind, phases)
   rownames(tab) <- NULL
   saveRDS(list(size = size, dims = d, phases = tab, timing = fit$timing, stopping = fit$stopping, plan = plan,
+               tree_peak_mib = tree_peak, jobs = jobs,
                n_coef = length(fit$basis$index), findings = nrow(suppressWarnings(where_fails(fit)))),
           out_file)
 }
@@ -335,6 +419,11 @@ if (length(args) >= 2L && args[2] == "default") {
                 size, d[["S"]], d[["T"]], d[["K"]], d[["E"]], if (d[["E"]] > 1) "s" else "", r$plan))
     print(data.frame(call = r$phases$phase, elapsed_s = round(r$phases$sec, 1), cpu_s = round(r$phases$cpu, 1),
                      R_peak_MiB = round(r$phases$r_mib), RSS_peak_MiB = round(r$phases$rss_mib)), row.names = FALSE)
+    cat(sprintf("peak resident set of this process and its workers together: %.0f MiB\n", r$tree_peak_mib))
+    if (!is.null(r$jobs)) {
+      cat(sprintf("jobs submitted through the Slurm template: %d; their peak resident sets (MiB): %s\n", r$jobs$n,
+                  paste(round(r$jobs$rss_mib), collapse = ", ")))
+    }
     cat("validate()'s phases (fit$timing):\n")
     print(r$timing, row.names = FALSE)
     st <- r$stopping
@@ -371,8 +460,9 @@ for (size in sizes) {
   cyc <- function(col) {
     long <- tab[[col]][tab$phase == "calibrate_longer"]
     short <- tab[[col]][tab$phase == "calibrate"]
-    per_cycle <- (long - short) / (2 * 100 * (r$n_inner_long - 20))
-    short_cycles <- 2 * (100 * 20 + r$burnin)
+    sh <- r$short
+    per_cycle <- (long - short) / (2 * sh$n_draws * (r$n_inner_long - sh$n_inner))
+    short_cycles <- 2 * (sh$n_draws * sh$n_inner + r$burnin)
     before <- sum(tab[[col]][tab$phase %in% c("preflight", "register", "wavelet_basis", "fit_emulators",
                                                "register_experiments")])
     proj_cal <- short + (default_cycles - short_cycles) * per_cycle

@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "cores_never_used", file = "R/utils-futures.R",
+       pattern = "  if (n < 2L) return(invisible(0L))", replacement = "  return(invisible(0L))",
+       test = "test-plans.R", what = "validate() keeps every chain in one process under future's default plan"),
   list(name = "own_extent_groups_unpooled", file = "R/calibrate-spec.R",
        pattern = "if (!is.null(fill)) grp <- pool_data_free(grp, tau_group$level, fill$no_data)",
        replacement = "grp <- grp",

@@ -137,3 +137,42 @@ test_that("chains that resume in rounds (n_draws = NULL) give the sequential dra
   whole <- run(ref$stopping$draws)
   expect_identical(as.matrix(whole$draws), as.matrix(ref$draws))
 })
+
+test_that("validate() with future's default plan runs on the free cores for the call, with the same draws", {
+  skip_unless_installed()
+  skip_if_not_installed("future")
+  ex <- example_problem()
+  runs <- model_runs(as.data.frame(ex$emulators$design),
+                     ex$emulators$banks$site1$y %*% t(ex$emulators$basis$Psi), ex$field$t, site = "site1")
+  old <- future::plan(future::sequential)
+  withr::defer(future::plan(old))
+  go <- function(quiet = TRUE) {
+    suppressWarnings(validate(runs, ex$field, ex$iu, chains = 2, seed = 3,
+                              sampler = sampler_control(n_draws = 30, n_inner = 5, quiet = quiet)))
+  }
+  withr::local_options(wavevalid.workers = 1)
+  ref <- go()
+  # "auto" with two free cores: a multisession plan while validate() runs,
+  # the sequential one again after it; the workers ran the emulators' fits
+  # and the chains (the draws are the one-process draws)
+  withr::local_options(wavevalid.workers = "auto", wavevalid.free_cores = 2L)
+  seen <- NULL
+  trace_plan <- function() seen <<- c(seen, inherits(future::plan(), "multisession"))
+  withr::local_options(wavevalid.quiet = FALSE)
+  msg <- expect_message(par <- withCallingHandlers(go(quiet = FALSE), wavevalid_message_cores = function(m) trace_plan()),
+                        class = "wavevalid_message_cores")
+  expect_match(conditionMessage(msg), "Running on 2 cores", fixed = TRUE)
+  expect_identical(seen, TRUE)
+  expect_true(inherits(future::plan(), "sequential"))
+  expect_identical(as.matrix(par$draws), as.matrix(ref$draws))
+  expect_identical(par$emulators$banks, ref$emulators$banks)
+  # a plan of the user's own is kept; calibrate() with one chain starts none
+  future::plan(future::multisession, workers = 2)
+  expect_no_message(go(quiet = FALSE), class = "wavevalid_message_cores")
+  future::plan(future::sequential)
+  expect_no_message(suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 1, seed = 1,
+                                               sampler = sampler_control(n_draws = 20, n_inner = 5))),
+                    class = "wavevalid_message_cores")
+  withr::local_options(wavevalid.workers = "all")
+  expect_error(go(), class = "wavevalid_error_workers")
+})
