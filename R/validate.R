@@ -64,6 +64,8 @@
 #'   variances, the inputs' likelihood.
 #' @param sampler A [sampler_control()] object: chains, draws, thinning,
 #'   proposal; its `quiet` also silences the messages on the registration.
+#'   With no [future::plan()] set, the emulators' fits and the chains run
+#'   on the free cores ([wavevalid-package], "Where the work runs").
 #' @param ... Arguments of the four controls given directly, by name
 #'   (`windows = list(c(6, 11))`, `engine = "gasp"`, `n_draws = 200`,
 #'   `chains = 1`): each replaces that setting of its control. A name no

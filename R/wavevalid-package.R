@@ -30,13 +30,10 @@
 #' fit <- validate(runs, field, iu, windows = windows, chains = 4)
 #' ```
 #' submits each chain and each batch of emulator fits as a job, with the
-#' Slurm template that `batchtools` ships (or a path to one's own); on one
-#' machine, `future::plan(future::multisession, workers = 2)` or
-#' `future::plan(future.callr::callr, workers = 2)` runs two chains at once
-#' (about half the calibration's time on a large problem; figures in
-#' `studies/README.md` in the package's source repository, "Where the work
-#' runs"). When chains ran one after the other for a minute or more while
-#' other cores were free, [calibrate()] says so and names the plan.
+#' Slurm template that `batchtools` ships (or a path to one's own). With no
+#' plan set, [validate()] (and [calibrate()] with two or more chains) runs
+#' on the free cores through a multisession plan for the call, and says so;
+#' `options(wavevalid.workers = 1)` keeps the work in one process.
 #'
 #' @keywords internal
 #' @useDynLib wavevalid, .registration = TRUE
