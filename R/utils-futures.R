@@ -26,7 +26,8 @@ run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, len
 # The plan a call runs under when the user set none. With future's default
 # (sequential) plan and the option wavevalid.workers "auto" (the default),
 # or a number of workers, a multisession plan over the free cores
-# (free_cores(): the cores R sees less the other processes' load) is set for
+# (free_cores(): the cores R sees less the other processes' load, within
+# future::availableCores()) is set for
 # the caller's duration and the old plan restored on its exit; says so once
 # per call. A plan the user set (other than sequential, or through the
 # option future.plan or R_FUTURE_PLAN) is left alone, and so is
@@ -45,7 +46,8 @@ use_cores <- function(tasks, quiet, envir = parent.frame()) {
       !is.null(getOption("future.plan")) || nzchar(Sys.getenv("R_FUTURE_PLAN"))) {
     return(invisible(0L))
   }
-  n <- if (identical(want, "auto")) free_cores() else as.integer(want)
+  # inside a future's worker availableCores() is 1: no plan within a plan
+  n <- if (identical(want, "auto")) min(free_cores(), future::availableCores()) else as.integer(want)
   n <- min(n, tasks)
   if (n < 2L) return(invisible(0L))
   old <- future::plan(future::multisession, workers = n)

@@ -155,6 +155,7 @@ test_that("validate() with future's default plan runs on the free cores for the 
   # "auto" with two free cores: a multisession plan while validate() runs,
   # the sequential one again after it; the workers ran the emulators' fits
   # and the chains (the draws are the one-process draws)
+  skip_if(future::availableCores() < 2L, "one core available")
   withr::local_options(wavevalid.workers = "auto", wavevalid.free_cores = 2L)
   seen <- NULL
   trace_plan <- function() seen <<- c(seen, inherits(future::plan(), "multisession"))
