@@ -16,8 +16,11 @@
 #              475, simulated). On the study clock instead, seed 1 covers 34%.
 #   cover_model  the same for the band of the model alone
 #   width      median width of the bias-corrected band (mg/L)
-#   cover_250  the same coverage at the tested 250 mg (that experiment's own
-#              draws), for comparison
+#   cover_250, cover_550
+#              the same coverage at the tested 250 and 550 mg (that
+#              experiment's own draws), for comparison
+#   findings   where_fails(fit)'s findings (rows; a right model: none), and
+#              findings_at their conditions (base, 250, 550)
 #   verdict, ratio_model, ratio_corrected
 #              (hidden mechanism cases) compare_validations() of the model
 #              (before) and the model with the hidden mechanism added as a
@@ -66,11 +69,15 @@ fit_doses <- function(tb, runs, iu) {
 # The band at the held-out dose and at a tested one.
 band_row <- function(fit, tb) {
   p <- predict(fit, type = "new_condition", condition = c(dose = held_out), noise = FALSE, seed = 1)
-  p250 <- predict(fit, type = "new_condition", condition = c(dose = 250), noise = FALSE, seed = 1)
+  at <- lapply(stats::setNames(tested, tested), function(d)
+    cover(predict(fit, type = "new_condition", condition = c(dose = d), noise = FALSE, seed = 1),
+          registered_truth(tb, d)))
   truth <- registered_truth(tb, held_out)
+  wf <- where_fails(fit)
   data.frame(cover = cover(p, truth), cover_model = cover(p, truth, "model_lower", "model_upper"),
              width = stats::median(p$summary$upper - p$summary$lower),
-             cover_250 = cover(p250, registered_truth(tb, 250)), bias_from = p$bias_from)
+             cover_250 = at[["250"]], cover_550 = at[["550"]], bias_from = p$bias_from,
+             findings = nrow(wf), findings_at = paste(wf$experiment %||% rep("base", nrow(wf)), collapse = " "))
 }
 
 rows <- list()
@@ -109,5 +116,6 @@ for (seed in seeds) {
 out <- do.call(rbind, rows)
 utils::write.csv(out, opt$out, row.names = FALSE)
 print(out, digits = 3)
-agg <- stats::aggregate(cbind(cover, cover_model, width, cover_250) ~ case + model, data = out, FUN = mean)
+agg <- stats::aggregate(cbind(cover, cover_model, width, cover_250, cover_550, findings) ~ case + model, data = out,
+                        FUN = mean)
 print(agg, digits = 3)

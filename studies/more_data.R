@@ -6,12 +6,18 @@
 #                   every input
 #   in95            true inputs inside their 95% intervals (of 9)
 #   weight          the inputs' likelihood weight for shared errors
+#   reg_M           the registration variance the added-mass experiment's
+#                   coefficients take, summed over its sites and coefficients
 #   bias=independent: the inputs' likelihood unweighted (bias_control(input_likelihood =)).
-#   Rscript studies/more_data.R [seeds=1:5] [n_draws=300] [n_inner=20] [bias=] [out=studies/more_data.csv]
+#   check=base: the added-mass field without its own registration check, so
+#   that it takes the base field's (as validate() gave experiments before it
+#   checked their own registration).
+#   Rscript studies/more_data.R [seeds=1:5] [n_draws=300] [n_inner=20] [bias=] [check=own]
+#                               [out=studies/more_data.csv]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(seeds = "1:5", n_draws = "300", n_inner = "20", out = "studies/more_data.csv",
-                       bias = ""))
+                       bias = "", check = "own"))
 options(wavevalid.quiet = TRUE)
 features <- testbed_beds()$suspension$features
 rows <- list()
@@ -25,6 +31,7 @@ for (seed in arg_numbers(opt$seeds)) {
   for (p in names(dm)) d[[p]] <- d[[p]] + dm[[p]]
   field_M <- register_curves(tb$added_mass$field, simulate_suspension(d), tb$windows, features = features,
                              knots_every = knots, check_runs = 5)
+  if (identical(opt$check, "base")) field_M$registration_check <- NULL
   basis <- wavelet_basis(tb$A$runs, field_A)
   em <- suppressWarnings(fit_emulators(tb$A$runs, basis))
   z_star <- true_inputs(tb)
@@ -42,7 +49,10 @@ for (seed in arg_numbers(opt$seeds)) {
     rows[[length(rows) + 1L]] <- data.frame(seed = seed, case = cond, var_u = sum(v[u]), var_all = sum(v),
                                             in95 = sum(zs >= q[1, ] & zs <= q[2, ]),
                                             out = paste(fit$inputs[!(zs >= q[1, ] & zs <= q[2, ])], collapse = " "),
-                                            weight = fit$shared_errors$weight %||% NA_real_)
+                                            weight = fit$shared_errors$weight %||% NA_real_,
+                                            reg_M = if (is.null(exps)) NA_real_ else
+                                              sum(unlist(fit$registration_var[grep("^added_mass/",
+                                                                                   names(fit$registration_var))])))
     print(utils::tail(do.call(rbind, rows), 1))
   }
 }
