@@ -248,6 +248,9 @@ measure <- function(phase, expr, reps = 3L) {
     n <- n + 1L
   }
   phases[[phase]] <<- data.frame(phase = phase, sec = sec, cpu = cpu, r_mib = r_mib, rss_mib = rss_mib, reps = n)
+  # each phase as it ends, to stderr: a long size's phases can be read while it runs
+  message(sprintf("[%s] %s: %.1f s elapsed, %.1f s CPU, R peak %.0f MiB, RSS peak %.0f MiB", format(Sys.time(), "%H:%M:%S"),
+                  phase, sec, cpu, r_mib, rss_mib))
   res
 }
 
