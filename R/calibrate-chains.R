@@ -1,21 +1,6 @@
 # Running the chains of calibrate(): one future per chain, each the C++
 # sampler, on as many threads as there are free cores.
 
-# Cores free for this process: the option wavevalid.free_cores when set, else
-# the cores R sees less the other processes the 1-minute load average counts
-# (this one counted once; Linux, elsewhere every core), at least 1.
-free_cores <- function() {
-  set <- getOption("wavevalid.free_cores")
-  if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
-  n <- suppressWarnings(parallel::detectCores())
-  if (is.na(n) || n < 1L) return(1L)
-  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE),
-                                       " ")[[1L]][1L]),
-                   error = function(e) NA_real_, warning = function(w) NA_real_)
-  busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
-  as.integer(max(1, n - busy))
-}
-
 # One future per chain. `sm`: the sampler's settings, a sampler_control()
 # with `burnin` and `threads` resolved (calibrate()). debug_break (1: no
 # proposal-density ratio of the global moves, 2: no tau2 ratio, ...) exists

@@ -23,6 +23,21 @@ run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, len
   out
 }
 
+# Cores free for this process: the option wavevalid.free_cores when set, else
+# the cores R sees less the other processes the 1-minute load average counts
+# (this one counted once; Linux, elsewhere every core), at least 1.
+free_cores <- function() {
+  set <- getOption("wavevalid.free_cores")
+  if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
+  n <- suppressWarnings(parallel::detectCores())
+  if (is.na(n) || n < 1L) return(1L)
+  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE),
+                                       " ")[[1L]][1L]),
+                   error = function(e) NA_real_, warning = function(w) NA_real_)
+  busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
+  as.integer(max(1, n - busy))
+}
+
 # The plan a call runs under when the user set none. With future's default
 # (sequential) plan and the option wavevalid.workers "auto" (the default),
 # or a number of workers, a multisession plan over the free cores
