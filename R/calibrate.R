@@ -180,7 +180,6 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
     if (!sm$quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {sm$threads}.")
     sm$threads <- free
   }
-  use_cores(chains, sm$quiet)
   fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
   fit <- fit_set(fit, control = list(bias = bias, sampler = sampler))
   hint_parallel_chains(fit_get(fit, "sampling_seconds"), chains, free, sm$quiet)
@@ -235,6 +234,9 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
     shared <- shared_error_weight(spec, field, tau, seed, sm)
     spec$input_weight <- shared$weight
   }
+  # the workers start once the inputs and the data have passed their checks,
+  # and stop as calibrate() returns (after its hint on the plan)
+  use_cores(chains, sm$quiet, envir = parent.frame())
   t_sampling <- proc.time()[["elapsed"]]
   runs <- run_chains(spec, sm, chains, seed, tau)
   t_sampling <- proc.time()[["elapsed"]] - t_sampling

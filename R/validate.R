@@ -126,7 +126,6 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
   enforce_preflight(clock("preflight", preflight(runs, field, iu, sigma2 = sigma2,
                                                  windows = windows,
                                                  basis_args = basis_args)))
-  use_cores(Inf, quiet)
   raw_field <- field
   raw_experiments <- experiments
   knots_every <- registration_knots(reg$knots_every, field$t)
@@ -134,6 +133,7 @@ validate <- function(runs, field, iu, experiments = NULL, registration = registr
     check_experiment_list(experiments)
     check_not_base_data(experiments, field)
   }
+  use_cores(Inf, quiet)
   check_runs <- if (isTRUE(bias$registration_variance %in% c("auto", "check"))) 5L else 0L
   registered_to <- NULL
   if (!is.null(windows)) {

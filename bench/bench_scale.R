@@ -114,6 +114,7 @@ default_cycles <- 2 * (1000 * 200 + max(5000, 1000 * 200 / 4))
 stop_cycles <- 2 * (200 * 50 + max(5000, 200 * 50 / 4))
 
 args <- commandArgs(trailingOnly = TRUE)
+named_sizes <- names(sizes_all)
 child <- length(args) >= 1L && args[1] == "--one"
 
 # A size given as SxTxKxE (sites x points x runs x experiments, e.g.
@@ -138,7 +139,7 @@ for (a in unique(unlist(strsplit(args[!startsWith(args, "-") & !grepl("\\.rds$",
   }
 }
 short_of <- function(size) {
-  if (size %in% c("base", "sites", "points", "runs", "experiments", "large")) {
+  if (size %in% named_sizes) {
     return(list(n_draws = 100L, n_inner = 20L, burnin = NULL))
   }
   list(n_draws = 20L, n_inner = 5L, burnin = 100L)
