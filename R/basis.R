@@ -406,6 +406,7 @@ validate_wv_basis <- function(x, call = rlang::caller_env()) {
 # N x T curves -> N x |I| coefficients.
 basis_coef <- function(basis, curves) {
   if (is.null(dim(curves))) curves <- matrix(curves, nrow = 1L)
+  if (basis_uses_transform(basis)) return(transform_coef(basis, curves))
   curves %*% basis$Psi
 }
 
@@ -416,6 +417,7 @@ basis_remainder <- function(basis, curves) curves - basis_curves(basis, basis_co
 # N x |I| coefficients -> N x T curves.
 basis_curves <- function(basis, W) {
   if (is.null(dim(W))) W <- matrix(W, nrow = 1L)
+  if (basis_uses_transform(basis)) return(transform_curves(basis, W))
   tcrossprod(W, basis$Psi)
 }
 

@@ -134,8 +134,8 @@ misfit_check <- function(fit, level = 0.9, n_sim = 400L, seed = 1L) {
       E <- E + sqrt(v) * matrix(stats::rnorm(n_sim * k), n_sim)
       noise <- c(learned = "the learned noise")
     }
-    Et <- tcrossprod(E, Psi)
-    m <- drop(Psi %*% dbar)
+    Et <- basis_curves(fit_get(fit, "basis"), E)
+    m <- drop(basis_curves(fit_get(fit, "basis"), dbar))
     covered <- rep(TRUE, length(m))
     if (!is.null(fill)) {
       covered <- fill$covered

@@ -237,7 +237,7 @@ emulator_coefficients <- function(runs, basis) {
   sites <- names(runs$curves)
   if (!is.null(basis$sites)) sites <- intersect(sites, basis$sites)
   out <- lapply(sites, function(s) {
-    W <- runs$curves[[s]] %*% basis$Psi
+    W <- basis_coef(basis, runs$curves[[s]])
     colnames(W) <- basis$index
     W
   })

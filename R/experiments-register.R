@@ -27,20 +27,26 @@ experiment_reference <- function(x, emulators, runs) {
     # a condition is known: every run at the experiment's value
     for (p in intersect(names(x$condition), names(design))) design[[p]] <- x$condition[[p]]
     near <- condition_neighbours(runs$design, x$condition)
+    basis <- emulators$basis
     curves <- lapply(sites, function(s) {
-      rest <- basis_remainder(emulators$basis, runs$curves[[s]])
-      if (!is.null(near)) rest <- matrix(colMeans(rest[near, , drop = FALSE]), nrow(rest),
-                                         ncol(rest), byrow = TRUE)
-      basis_curves(emulators$basis, stats::predict(emulators, design, site = s)$mean) + rest
+      Y <- runs$curves[[s]]
+      mean_s <- stats::predict(emulators, design, site = s)$mean
+      if (is.null(near)) {
+        # each run's own part outside the basis: the run moved by the change
+        # of its retained coefficients (one pass back to the grid)
+        return(Y + basis_curves(basis, mean_s - basis_coef(basis, Y)))
+      }
+      rest <- basis_remainder(basis, colMeans(Y[near, , drop = FALSE]))
+      sweep(basis_curves(basis, mean_s), 2L, drop(rest), `+`)
     })
   } else {
     em <- x$emulators
     design <- as.data.frame(em$design)
     curves <- lapply(sites, function(s) {
       y <- basis_curves(em$basis, stats::predict(em, em$design, site = s)$mean)
-      if (s %in% names(runs$curves)) y <- sweep(y, 2L,
-                                                colMeans(basis_remainder(em$basis,
-                                                                         runs$curves[[s]])), `+`)
+      if (s %in% names(runs$curves)) {
+        y <- sweep(y, 2L, drop(basis_remainder(em$basis, colMeans(runs$curves[[s]]))), `+`)
+      }
       y
     })
   }

@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "transform_levels_in_wd_order", file = "R/basis-transform.R",
+       pattern = "      out[i, ] <- c(w$C, w$D)[at]", replacement = "      out[i, ] <- c(w$C, rev(w$D))[at]",
+       test = "test-wavelet-basis.R", what = "the fast transform reading the detail levels in wavethresh's storage order"),
   list(name = "cores_never_used", file = "R/utils-futures.R",
        pattern = "  if (n < 2L) return(invisible(0L))", replacement = "  return(invisible(0L))",
        test = "test-plans.R", what = "validate() keeps every chain in one process under future's default plan"),

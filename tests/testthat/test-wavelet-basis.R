@@ -289,3 +289,21 @@ test_that("retention and boundary arguments are checked", {
   # a partial tolerance keeps the other default
   expect_equal(wavelet_basis(bed$runs, tolerance = c(runs = 0.05))$settings$tolerance, c(runs = 0.05, field = 0.02))
 })
+
+test_that("large bases go through the transform and give the dense product's numbers", {
+  withr::local_seed(13)
+  for (b in c("periodic", "interval")) {
+    s <- basis_settings(2048, 2, "DaubExPhase", 0:3, 0.025, boundary = b)
+    idx <- sort(c(1:16, sample(17:2048, 600)))
+    bas <- new_wv_basis(idx, index_level(idx), basis_matrix(idx, s), seq_len(2048), "a", s)
+    expect_true(basis_uses_transform(bas))
+    Y <- matrix(rnorm(3 * 2048), 3)
+    W <- matrix(rnorm(3 * length(idx)), 3)
+    expect_equal(basis_coef(bas, Y), Y %*% bas$Psi, tolerance = 1e-12)
+    expect_equal(basis_curves(bas, W), tcrossprod(W, bas$Psi), tolerance = 1e-12)
+    expect_equal(drop(basis_curves(bas, W[1, ])), drop(tcrossprod(W[1, ], bas$Psi)),
+                 tolerance = 1e-12)
+  }
+  small <- new_wv_basis(1:8, index_level(1:8), basis_matrix(1:8, s), seq_len(2048), "a", s)
+  expect_false(basis_uses_transform(small))
+})
