@@ -84,3 +84,12 @@ transform_curves <- function(basis, W) {
   }
   out
 }
+
+# The transform on the interval (Cohen, Daubechies and Vial), without
+# preconditioning so that it is orthonormal. Its coefficient vector holds the
+# scaling coefficient and then the detail levels 0, 1, ..., J - 1, level l at
+# positions 2^l + 1 .. 2^(l + 1): the package's index order.
+interval_wd <- function(y, settings) {
+  wavethresh::wd(y, filter.number = settings$filter.number, family = "DaubExPhase", bc = "interval",
+                 precond = FALSE)
+}

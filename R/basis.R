@@ -339,15 +339,6 @@ full_curve <- function(coef, settings) {
   wavethresh::wr(w)
 }
 
-# The transform on the interval (Cohen, Daubechies and Vial), without
-# preconditioning so that it is orthonormal. Its coefficient vector holds the
-# scaling coefficient and then the detail levels 0, 1, ..., J - 1, level l at
-# positions 2^l + 1 .. 2^(l + 1): the package's index order.
-interval_wd <- function(y, settings) {
-  wavethresh::wd(y, filter.number = settings$filter.number, family = "DaubExPhase", bc = "interval",
-                 precond = FALSE)
-}
-
 # Column j: the curve whose only non-zero coefficient is index[j], equal to one.
 # On the interval, one inverse transform per column. In the periodic transform
 # the k-th wavelet of detail level l is the first one circularly shifted by
