@@ -231,8 +231,10 @@ unit_directions <- function(fit, bank, Z, Psi) {
 misfit_scan <- function(m, Et) {
   n <- length(m)
   Cm <- c(0, cumsum(m))
-  CE <- cbind(0, t(apply(Et, 1L, cumsum)))
-  if (n == 1L) CE <- cbind(0, Et)
+  # each simulated misfit's running sum, column by column (the same sums as
+  # cumsum() of each row)
+  CE <- matrix(0, nrow(Et), n + 1L)
+  for (j in seq_len(n)) CE[, j + 1L] <- CE[, j] + Et[, j]
   zmax <- numeric(nrow(Et))
   observed <- 0
   windows <- lapply(2^(0:floor(log2(n))), function(w) {
@@ -240,7 +242,8 @@ misfit_scan <- function(m, Et) {
     mw <- (Cm[st + w] - Cm[st]) / w
     Ew <- (CE[, st + w, drop = FALSE] - CE[, st, drop = FALSE]) / w
     se <- pmax(sqrt(colMeans(Ew^2)), .Machine$double.eps)
-    zmax <<- pmax(zmax, apply(abs(Ew) / rep(se, each = nrow(Ew)), 1L, max))
+    A <- abs(Ew) / rep(se, each = nrow(Ew))
+    zmax <<- pmax(zmax, A[cbind(seq_len(nrow(A)), max.col(A, ties.method = "first"))])
     z <- mw / se
     observed <<- max(observed, abs(z))
     list(width = w, start = st, mean = mw, se = se, z = z)

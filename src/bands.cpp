@@ -14,8 +14,15 @@
 namespace {
 
 // Y (H x m) = W %*% t(Psi[cols, ]) (cols 1-based), from the columns of Psi
-// that are not zero on these time points.
+// that are not zero on these time points, in stretches of kChunk time points,
+// each with the columns not zero on it: a wavelet of level l is not zero on
+// about T / 2^l points, so a stretch meets a few wavelets of each level
+// besides its share of the finest ones (at 8192 points and 3800 retained
+// coefficients, about 60 of them in a stretch of 32 points, against all 3800
+// in a stretch of a few thousand).
 // With `add`, Y += W %*% t(Psi[cols, ]).
+constexpr int kChunk = 32;
+
 void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
                    const Rcpp::IntegerVector& cols, Eigen::Map<Eigen::MatrixXd>& Y, bool add = false) {
   const int H = W.rows(), K = W.cols(), m = cols.size(), T = Psi.rows();
@@ -23,32 +30,35 @@ void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen:
   for (int i = 0; i < m; ++i) {
     if (cols[i] < 1 || cols[i] > T) Rcpp::stop("time point out of range");
   }
+  if (H == 0 || m == 0) return;
   std::vector<int> active;
   active.reserve(K);
-  for (int k = 0; k < K; ++k) {
-    const double* p = Psi.data() + static_cast<std::ptrdiff_t>(k) * T;
-    for (int i = 0; i < m; ++i) {
-      if (p[cols[i] - 1] != 0.0) {
-        active.push_back(k);
-        break;
+  Eigen::MatrixXd Pt, Wa;
+  for (int c0 = 0; c0 < m; c0 += kChunk) {
+    const int w = std::min(kChunk, m - c0);
+    active.clear();
+    for (int k = 0; k < K; ++k) {
+      const double* p = Psi.data() + static_cast<std::ptrdiff_t>(k) * T;
+      for (int i = c0; i < c0 + w; ++i) {
+        if (p[cols[i] - 1] != 0.0) {
+          active.push_back(k);
+          break;
+        }
       }
     }
-  }
-  const int a = active.size();
-  if (a == 0 || H == 0 || m == 0) {
-    if (!add) Y.setZero();
-    return;
-  }
-  Eigen::MatrixXd Pt(a, m);
-  for (int i = 0; i < m; ++i) {
-    for (int j = 0; j < a; ++j) Pt(j, i) = Psi(cols[i] - 1, active[j]);
-  }
-  if (a == K) {
-    if (add) Y.noalias() += W * Pt; else Y.noalias() = W * Pt;
-  } else {
-    Eigen::MatrixXd Wa(H, a);
+    const int a = active.size();
+    auto Yc = Y.middleCols(c0, w);
+    if (a == 0) {
+      if (!add) Yc.setZero();
+      continue;
+    }
+    Pt.resize(a, w);
+    for (int i = 0; i < w; ++i) {
+      for (int j = 0; j < a; ++j) Pt(j, i) = Psi(cols[c0 + i] - 1, active[j]);
+    }
+    Wa.resize(H, a);
     for (int j = 0; j < a; ++j) Wa.col(j) = W.col(active[j]);
-    if (add) Y.noalias() += Wa * Pt; else Y.noalias() = Wa * Pt;
+    if (add) Yc.noalias() += Wa * Pt; else Yc.noalias() = Wa * Pt;
   }
 }
 

@@ -178,3 +178,18 @@ test_that("predictions rebuilt by blocks of time points match the draws computed
   expect_equal(unname(al$draws$site1), unname(expected))
   expect_equal(unname(al$n_guarded), sum(small))
 })
+
+test_that("curve draws rebuilt in stretches from the wavelets not zero there equal the dense product", {
+  withr::local_seed(5)
+  s <- basis_settings(512, 2, "DaubExPhase", 0:3, 0.025)
+  idx <- sort(c(1:16, sample(17:512, 180)))
+  Psi <- basis_matrix(idx, s)
+  W <- matrix(stats::rnorm(7 * length(idx)), 7)
+  for (cols in list(37:300, 1:512, 5L, 480:512)) {
+    expect_equal(basis_curves_block(W, Psi, cols), tcrossprod(W, Psi[cols, , drop = FALSE]),
+                 tolerance = 1e-13)
+  }
+  W2 <- matrix(stats::rnorm(7 * length(idx)), 7)
+  expect_equal(linear_block(list(W = W, B = Psi, W2 = W2, B2 = Psi), 101:260),
+               tcrossprod(W + W2, Psi[101:260, ]), tolerance = 1e-13)
+})
