@@ -189,9 +189,12 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
 }
 
 # When the chains ran one after the other (future's sequential plan) for a
-# minute or more while other cores were free: how to run them at once.
+# minute or more while other cores were free: how to run them at once. Not
+# when the user chose one process (options(wavevalid.workers = 1)).
 hint_parallel_chains <- function(seconds, chains, free, quiet) {
   if (isTRUE(quiet) || chains < 2L || free < 2L || !isTRUE(seconds >= 60)) return(invisible(FALSE))
+  want <- getOption("wavevalid.workers", "auto")
+  if (is.numeric(want) && isTRUE(all(want <= 1))) return(invisible(FALSE))
   if (!requireNamespace("future", quietly = TRUE) || !inherits(future::plan(), "sequential"))
     return(invisible(FALSE))
   workers <- min(chains, free)

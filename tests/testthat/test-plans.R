@@ -99,7 +99,7 @@ test_that("chains that ran one after the other for a minute with free cores get 
   skip_if_not_installed("future")
   old <- future::plan(future::sequential)
   withr::defer(future::plan(old))
-  withr::local_options(wavevalid.quiet = FALSE)
+  withr::local_options(wavevalid.quiet = FALSE, wavevalid.workers = "auto")
   hint <- hint_parallel_chains
   msg <- expect_message(hint(75, 2L, 2L, FALSE), class = "wavevalid_message_parallel")
   expect_match(conditionMessage(msg), "multisession, workers = 2", fixed = TRUE)
@@ -109,6 +109,9 @@ test_that("chains that ran one after the other for a minute with free cores get 
   expect_no_message(expect_false(hint(75, 1L, 2L, FALSE)))
   expect_no_message(expect_false(hint(75, 2L, 1L, FALSE)))
   expect_no_message(expect_false(hint(30, 2L, 2L, FALSE)))
+  # nor when the user chose one process
+  withr::with_options(list(wavevalid.workers = 1),
+                      expect_no_message(expect_false(hint(75, 2L, 2L, FALSE))))
   future::plan(future::multisession, workers = 2)
   expect_no_message(expect_false(hint(75, 2L, 2L, FALSE)))
 })
