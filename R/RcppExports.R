@@ -65,6 +65,10 @@ gasp_bank_predict_cpp <- function(bank, Z) {
     .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
 }
 
+misfit_scan_cpp <- function(m, Et) {
+    .Call(`_wavevalid_misfit_scan_cpp`, m, Et)
+}
+
 gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {
     .Call(`_wavevalid_gasp_bank_predict_augmented_cpp`, bank, Zstar, Wstar, Znew)
 }

@@ -229,26 +229,8 @@ unit_directions <- function(fit, bank, Z, Psi) {
 # over the record stands out in the wide windows' means, where the noise
 # averages away; a narrow one in the narrow windows.
 misfit_scan <- function(m, Et) {
-  n <- length(m)
-  Cm <- c(0, cumsum(m))
-  # each simulated misfit's running sum, column by column (the same sums as
-  # cumsum() of each row)
-  CE <- matrix(0, nrow(Et), n + 1L)
-  for (j in seq_len(n)) CE[, j + 1L] <- CE[, j] + Et[, j]
-  zmax <- numeric(nrow(Et))
-  observed <- 0
-  windows <- lapply(2^(0:floor(log2(n))), function(w) {
-    st <- unique(c(seq(1L, n - w + 1L, by = max(1L, w %/% 2L)), n - w + 1L))
-    mw <- (Cm[st + w] - Cm[st]) / w
-    Ew <- (CE[, st + w, drop = FALSE] - CE[, st, drop = FALSE]) / w
-    se <- pmax(sqrt(colMeans(Ew^2)), .Machine$double.eps)
-    A <- abs(Ew) / rep(se, each = nrow(Ew))
-    zmax <<- pmax(zmax, A[cbind(seq_len(nrow(A)), max.col(A, ties.method = "first"))])
-    z <- mw / se
-    observed <<- max(observed, abs(z))
-    list(width = w, start = st, mean = mw, se = se, z = z)
-  })
-  list(windows = windows, zmax = zmax, observed = observed)
+  if (!is.double(Et)) storage.mode(Et) <- "double"
+  misfit_scan_cpp(as.numeric(m), Et)
 }
 
 # By point, the largest excess of a rejected window's mean over the band's

@@ -195,7 +195,7 @@ struct GaspBank {
   struct Workspace {
     Eigen::MatrixXd d1, d2, logd;
     Eigen::ArrayXd s;
-    Eigen::MatrixXd r;   // K x n: r_i(z) of the last mean_into(), one column per coefficient
+    Eigen::MatrixXd r;   // K x distinct correlations: r(z) of the last mean_into(), column slot[i] for coefficient i
     Eigen::VectorXd x;   // K: forward substitution
     Eigen::VectorXd q;   // per distinct correlation: 1 - r' R^-1 r
     int threads = 1;     // OpenMP threads over coefficients (1: serial)
@@ -208,7 +208,7 @@ struct GaspBank {
     ws.d2.resize(K, p);
     ws.logd.resize(K, p);
     ws.s.resize(K);
-    ws.r.setZero(K, n_coef());
+    ws.r.setZero(K, uniq.empty() ? n_coef() : static_cast<int>(uniq.size()));
     ws.x.resize(K);
     ws.q.resize(static_cast<Eigen::Index>(uniq.empty() ? n_coef() : uniq.size()));
   }
@@ -295,13 +295,41 @@ struct GaspBank {
   // representative coefficient (uniq) in ws.r for var_into(). Inputs whose
   // beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
+    corr_into(z, ws);
+    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
+      m(i) = mu(i) + ws.r.col(slot[i]).dot(weights.col(i));
+    });
+  }
+
+  // The correlation vector of every distinct correlation at raw input z, in
+  // ws.r.
+  void corr_into(const Eigen::VectorXd& z, Workspace& ws) const {
     distances(z, ws.d1, ws.d2, ws.logd);
     for_each(static_cast<int>(uniq.size()), ws.threads, ws.s, [&](int u, Eigen::ArrayXd& s) {
-      corr_vector(uniq[u], ws.d1, ws.d2, ws.logd, s, ws.r.col(uniq[u]));
+      corr_vector(uniq[u], ws.d1, ws.d2, ws.logd, s, ws.r.col(u));
     });
-    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
-      m(i) = mu(i) + ws.r.col(rep[i]).dot(weights.col(i));
+  }
+
+  // predict_into() at several inputs at once (zs[e] into m[e], v[e], with
+  // workspace ws[e]), each value computed as predict_into() computes it, to
+  // the bit: the weights of a coefficient and the packed factor of a
+  // correlation are read from memory once for all the inputs (while they are
+  // in cache) instead of once per input. The experiments of a validation
+  // evaluate a site's emulators at their own inputs in every cycle.
+  void predict_many(const std::vector<const Eigen::VectorXd*>& zs, const std::vector<Eigen::VectorXd*>& m,
+                    const std::vector<Eigen::VectorXd*>& v, const std::vector<Workspace*>& ws) const {
+    const int E = static_cast<int>(zs.size());
+    for (int e = 0; e < E; ++e) corr_into(*zs[e], *ws[e]);
+    for_each(n_coef(), ws[0]->threads, ws[0]->s, [&](int i, Eigen::ArrayXd&) {
+      const auto w = weights.col(i);
+      for (int e = 0; e < E; ++e) (*m[e])(i) = mu(i) + ws[e]->r.col(slot[i]).dot(w);
     });
+    for_each(static_cast<int>(uniq.size()), ws[0]->threads, ws[0]->x, [&](int u, Eigen::VectorXd& x) {
+      for (int e = 0; e < E; ++e) ws[e]->q(u) = unexplained(u, *ws[e], x);
+    });
+    for (int e = 0; e < E; ++e) {
+      for (int i = 0; i < n_coef(); ++i) (*v[e])(i) = ws[e]->q(slot[i]) / lambda(i);
+    }
   }
 
   // Variances v (length n) at the z of the last mean_into(ws):
@@ -339,7 +367,7 @@ struct GaspBank {
   // correlation vector in ws.r.
   double unexplained(int u, const Workspace& ws, Eigen::VectorXd& xv) const {
     const int K = n_runs();
-    xv = ws.r.col(uniq[u]);
+    xv = ws.r.col(u);
     double* x = xv.data();
     const double* P = packed.data() + packed_stride() * static_cast<std::size_t>(u);
     double q = 0.0;

@@ -51,6 +51,17 @@ class SamplerState {
         throw std::invalid_argument("a site's input shift has the wrong length");
     }
     zs_.resize(S);
+    for (std::size_t s = 0; s < S; ++s) {
+      bool placed = false;
+      for (std::vector<int>& grp : bank_groups_) {
+        if (sites_[grp[0]].bank == sites_[s].bank) {
+          grp.push_back(static_cast<int>(s));
+          placed = true;
+          break;
+        }
+      }
+      if (!placed) bank_groups_.push_back({static_cast<int>(s)});
+    }
     resid_.resize(S);
     dependents_.assign(S, std::vector<int>());
     for (std::size_t s = 0; s < S; ++s) {
@@ -173,17 +184,37 @@ class SamplerState {
   bool any_learn_ = false;
   double acc_noise_ = 0, n_noise_ = 0, noise_adapt_n_ = 0;
 
+  // The emulators' means and variances at every site at inputs z (each site
+  // at z plus its shift). The sites that share a bank (an experiment's site
+  // and the base site at the same gauge) are predicted together
+  // (predict_many()), the same numbers as one by one.
   void predict_all(const Eigen::VectorXd& z, std::vector<Eigen::VectorXd>& m,
                    std::vector<Eigen::VectorXd>& v) {
     for (std::size_t s = 0; s < sites_.size(); ++s) {
-      if (sites_[s].shift.size() == 0) {
-        sites_[s].bank->predict_into(z, m[s], v[s], ws_[s], true);
-      } else {
-        zs_[s] = z + sites_[s].shift;
-        sites_[s].bank->predict_into(zs_[s], m[s], v[s], ws_[s], true);
+      if (sites_[s].shift.size() > 0) zs_[s] = z + sites_[s].shift;
+    }
+    for (const std::vector<int>& grp : bank_groups_) {
+      if (grp.size() == 1) {
+        const int s = grp[0];
+        sites_[s].bank->predict_into(sites_[s].shift.size() ? zs_[s] : z, m[s], v[s], ws_[s], true);
+        continue;
       }
+      std::vector<const Eigen::VectorXd*> zp;
+      std::vector<Eigen::VectorXd*> mp, vp;
+      std::vector<GaspBank::Workspace*> wp;
+      for (int s : grp) {
+        zp.push_back(sites_[s].shift.size() ? &zs_[s] : &z);
+        mp.push_back(&m[s]);
+        vp.push_back(&v[s]);
+        wp.push_back(&ws_[s]);
+      }
+      sites_[grp[0]].bank->predict_many(zp, mp, vp, wp);
     }
   }
+
+  // The sites grouped by the emulator bank they evaluate, in order of first
+  // appearance.
+  std::vector<std::vector<int>> bank_groups_;
 
   void draw_sigma2() {
     sigbar_.setZero();

@@ -175,3 +175,31 @@ test_that("units whose means agree by chance keep their measurement noise as the
   # the repeats' noise, 0.05 / sqrt(18) a point, not the units' means' zero scatter
   expect_gt(stats::median(as_units$se), 0.8 * stats::median(as_repeats$se))
 })
+
+test_that("the windows' scan gives the numbers of its definition in R, to the bit", {
+  scan_r <- function(m, Et) {
+    n <- length(m)
+    Cm <- c(0, cumsum(m))
+    CE <- cbind(0, t(apply(Et, 1L, cumsum)))
+    if (n == 1L) CE <- cbind(0, Et)
+    zmax <- numeric(nrow(Et))
+    observed <- 0
+    windows <- lapply(2L^(0:floor(log2(n))), function(w) {
+      st <- as.integer(unique(c(seq(1L, n - w + 1L, by = max(1L, w %/% 2L)), n - w + 1L)))
+      mw <- (Cm[st + w] - Cm[st]) / w
+      Ew <- (CE[, st + w, drop = FALSE] - CE[, st, drop = FALSE]) / w
+      se <- pmax(sqrt(colMeans(Ew^2)), .Machine$double.eps)
+      zmax <<- pmax(zmax, apply(abs(Ew) / rep(se, each = nrow(Ew)), 1L, max))
+      z <- mw / se
+      observed <<- max(observed, abs(z))
+      list(width = as.integer(w), start = st, mean = mw, se = se, z = z)
+    })
+    list(windows = windows, zmax = zmax, observed = observed)
+  }
+  withr::local_seed(3)
+  for (n in c(1L, 2L, 7L, 100L, 1024L)) {
+    m <- stats::rnorm(n)
+    Et <- matrix(stats::rnorm(50 * n), 50)
+    expect_identical(misfit_scan(m, Et), scan_r(m, Et))
+  }
+})
