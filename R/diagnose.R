@@ -357,8 +357,9 @@ bias_by_level <- function(fit, level) {
   do.call(rbind, lapply(fit_sites(fit), function(s) {
     wb <- fit_get(fit, "wb")[[s]]
     e <- colMeans(wb^2)
-    lo <- apply(wb, 2, stats::quantile, probs = a, names = FALSE)
-    hi <- apply(wb, 2, stats::quantile, probs = 1 - a, names = FALSE)
+    q <- pointwise_quantiles(wb, c(a, 1 - a))
+    lo <- q[1, ]
+    hi <- q[2, ]
     lev <- fit_get(fit, "basis")$level
     out <- data.frame(
       site = s,

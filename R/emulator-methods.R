@@ -65,11 +65,10 @@ print.wv_emulators <- function(x, ...) {
 #' summary(em)
 summary.wv_emulators <- function(object, new_runs = NULL, ...) {
   p <- object$params
-  loo <- loo_residuals(object)
   held <- if (is.null(new_runs)) NULL else heldout_residuals(object, new_runs)
   key <- paste(p$site, p$level, sep = "\r")
   groups <- unique(key)
-  ls <- residual_stats_by_level(p, loo)
+  ls <- loo_stats_by_level(object)
   by_level <- do.call(rbind, lapply(seq_along(groups), function(i) {
     rows <- key == groups[i]
     data.frame(site = ls$site[i], level = ls$level[i], n = sum(rows),
@@ -108,6 +107,37 @@ residual_stats_by_level <- function(p, res) {
                                   NA_real_)
   data.frame(site = p$site[first], level = p$level[first], n = n, mean_square = sum_or_na(r^2),
              beyond_3 = sum_or_na(abs(r) > 3), stringsAsFactors = FALSE)
+}
+
+# The leave-one-out studentised residuals summed up as
+# residual_stats_by_level() sums those of loo_residuals(), from each bank's
+# runs x coefficients matrix: the long table of every run and coefficient
+# (30 million rows at 16 sites x 500 runs x 3800 coefficients) is not built.
+loo_stats_by_level <- function(emulators) {
+  p <- emulators$params
+  key <- paste(p$site, p$level, sep = "\r")
+  groups <- unique(key)
+  first <- match(groups, key)
+  sums <- matrix(0, length(groups), 3L)
+  for (s in names(emulators$banks)) {
+    b <- emulators$banks[[s]]
+    if (!length(b$mu)) next
+    at <- which(p$site == s)
+    lo <- bank_loo(b)
+    r <- lo$e / lo$sd
+    r[, !is.finite(p$loglik[at])] <- NA
+    ok <- is.finite(r)
+    r[!ok] <- 0
+    by_coef <- cbind(colSums(ok), colSums(r^2), colSums(abs(r) > 3))
+    g <- match(key[at], groups)
+    part <- rowsum(by_coef, g)
+    rows <- as.integer(rownames(part))
+    sums[rows, ] <- sums[rows, ] + part
+  }
+  n <- sums[, 1]
+  per <- function(x) ifelse(n > 0, x / pmax(n, 1), NA_real_)
+  data.frame(site = p$site[first], level = p$level[first], n = as.integer(n),
+             mean_square = per(sums[, 2]), beyond_3 = per(sums[, 3]), stringsAsFactors = FALSE)
 }
 
 # Studentised errors (w - m) / sqrt(V) of the emulators at held-out runs: one
