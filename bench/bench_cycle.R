@@ -54,7 +54,7 @@ if (large) {
   t0 <- proc.time()[["elapsed"]]
   defs <- parse(file.path("bench", "bench_scale.R"))
   keep <- c("sizes_all", "inputs", "u_true", "x_nom", "event_at", "windows", "doublet", "model", "lhs", "field_of",
-            "problem", "register_experiment")
+            "problem", "register_all_experiments")
   for (e in defs) {
     if (is.call(e) && identical(e[[1]], as.name("<-")) && as.character(e[[2]]) %in% keep) eval(e, globalenv())
   }
@@ -64,8 +64,8 @@ if (large) {
   field <- register_curves(pr$field, pr$runs, pr$windows, features = c("min", "max"), knots_every = ke)
   basis <- wavelet_basis(pr$runs, field)
   em <- suppressWarnings(fit_emulators(pr$runs, basis, "gasp_level"))
-  ex <- lapply(pr$experiments, register_experiment, em, pr$runs, pr$windows, features = c("min", "max"),
-               knots_every = ke)
+  ex <- register_all_experiments(pr$experiments, em, pr$runs, field, pr$iu, pr$windows,
+                                 features = c("min", "max"), knots_every = ke)
   cat(sprintf("Large size: %d sites x %d coefficients, %d runs, %d inputs, 2 experiments (built in %.0f s)\n\n",
               length(em$banks), length(basis$index), nrow(em$design), length(em$inputs),
               proc.time()[["elapsed"]] - t0))

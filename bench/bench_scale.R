@@ -3,9 +3,9 @@
 # are those validate() runs (R/validate.R), called one by one as it calls
 # them: preflight(), register_curves() of the field curves (windows on the
 # events, knots_every = "auto"), wavelet_basis(), fit_emulators() (engine
-# "gasp_level"), for E = 2 the registration of the second experiment's field
-# data (as validate() registers it, on exported functions:
-# register_experiment() below), calibrate() with a short
+# "gasp_level"), for E >= 2 the registration of the other experiments' field
+# data (the package's register_experiments(), as validate() calls it:
+# register_all_experiments() below), calibrate() with a short
 # sampler, sampler_control(n_draws = 100, n_inner = 20), two chains
 # (validate()'s default), then the reality band (predict(fit, type =
 # "reality")), where_fails() and validation_report() (to a temporary file;
@@ -255,23 +255,16 @@ measure <- function(phase, expr, reps = 3L) {
   res
 }
 
-# An experiment with a change (experiment(field, change = )) with its field
-# data registered as validate() registers them: to the mean of the model
-# runs with the change, each run's retained wavelet coefficients the
-# emulators' means at its inputs changed, the part of the run the basis
-# leaves out kept from the run itself (the arguments of register_curves()
-# in `...`).
-register_experiment <- function(x, emulators, runs, windows, ...) {
-  design <- runs$design
-  for (p in names(x$change)) design[[p]] <- design[[p]] + x$change[[p]]
-  basis <- emulators$basis
-  sites <- names(x$field$curves)
-  curves <- lapply(stats::setNames(sites, sites), function(s) {
-    y <- runs$curves[[s]]
-    rest <- y - wavelet_reconstruct(basis, wavelet_coef(basis, y))
-    wavelet_reconstruct(basis, predict(emulators, design, site = s)$mean) + rest
-  })
-  experiment(register_curves(x$field, model_runs(design, curves, runs$t), windows, ...), change = x$change)
+# The experiments with a change (experiment(field, change = )), their field
+# data registered as validate() registers them (the package's own
+# register_experiments(): to the mean of the model runs with the change, each
+# run moved by the emulators' change of its retained coefficients).
+register_all_experiments <- function(experiments, emulators, runs, field, iu, windows, ...) {
+  ns <- asNamespace("wavevalid")
+  ex <- ns$check_experiments(experiments, emulators, field, iu = iu)
+  ex <- ns$register_experiments(ex, emulators, runs, windows, ..., landmark_site = "all", quiet = TRUE)
+  attr(ex, "references") <- NULL
+  ex
 }
 
 # --- one size, in its own process ----------------------------------------------
@@ -292,9 +285,9 @@ run_one <- function(size, out_file) {
   emulators <- measure("fit_emulators", suppressWarnings(fit_emulators(runs, basis, "gasp_level")), reps = 1L)
   experiments <- NULL
   if (!is.null(pr$experiments)) {
-    experiments <- measure("register_experiments", lapply(pr$experiments, register_experiment, emulators, runs,
-                                                          windows, features = c("min", "max"),
-                                                          knots_every = knots_every))
+    experiments <- measure("register_experiments",
+                           register_all_experiments(pr$experiments, emulators, runs, field, pr$iu, windows,
+                                                    features = c("min", "max"), knots_every = knots_every))
   }
   fit <- measure("calibrate", suppressWarnings(calibrate(emulators, field, pr$iu, experiments = experiments,
                                                          sampler = short, chains = 2, seed = 1)), reps = 1L)
