@@ -195,6 +195,23 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   cluster <- if (!is.null(segments)) coefficient_segments(fit, segments)
   use <- scope$use %||% rep(TRUE, ncol(Y))
   if (!any(use)) wv_abort("The finding {scope$label} holds no coefficient to regress.")
+  absorbed <- NULL
+  if (isTRUE(shifts)) {
+    absorbed <- shift_absorption(user[use, , drop = FALSE], sh[use, , drop = FALSE],
+                                 colMeans(Wt[, use, drop = FALSE]))
+    # a candidate the shifts span (to rounding) is a change of inputs: it
+    # cannot be weighed beside them
+    spanned <- absorbed$candidate[absorbed$absorbed > 1 - 1e-8]
+    if (length(spanned)) {
+      wv_inform(c("!" = "Skipped {.val {spanned}}: the shifts of the inputs span {?its/their} signature{?s} (a change of {absorbed$inputs[match(spanned, absorbed$candidate)]}), so the bias cannot tell {?it/them} from that change.",
+                  "i" = "{.fn explain_bias} weighs the shifts themselves (the rows {.val shift:...})."),
+                class = "spanned")
+      drop <- colnames(cand) %in% spanned
+      cand <- cand[, !drop, drop = FALSE]
+      pos <- pos[!drop]
+      group <- group[!drop]
+    }
+  }
   res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],
                                              Wt[, use, drop = FALSE], max_size = max_size,
                                              level = level, cluster = cluster[use],
@@ -207,10 +224,7 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
   colnames(lead) <- names(res$lead)
   attr(out, "curves") <- explain_curves(fit, lead, out)
   attr(out, "boundary") <- unique(fit_get(fit, "flags")$boundary$input)
-  if (isTRUE(shifts)) {
-    attr(out, "absorbed") <- shift_absorption(user[use, , drop = FALSE], sh[use, , drop = FALSE],
-                                              colMeans(Wt[, use, drop = FALSE]))
-  }
+  if (isTRUE(shifts)) attr(out, "absorbed") <- absorbed
   attr(out, "finding") <- scope$label
   attr(out, "positive") <- colnames(cand)[pos]
   class(out) <- c("wv_explain", "data.frame")

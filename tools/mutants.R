@@ -15,6 +15,9 @@
 # Runs one R process at a time.
 
 mutants <- list(
+  list(name = "spanned_candidate_kept", file = "R/explain-bias.R",
+       pattern = "spanned <- absorbed$candidate[absorbed$absorbed > 1 - 1e-8]", replacement = "spanned <- character()",
+       test = "test-explain.R", what = "a candidate the shifts span weighed beside them"),
   list(name = "transform_levels_in_wd_order", file = "R/basis-transform.R",
        pattern = "      out[i, ] <- c(w$C, w$D)[at]", replacement = "      out[i, ] <- c(w$C, rev(w$D))[at]",
        test = "test-wavelet-basis.R", what = "the fast transform reading the detail levels in wavethresh's storage order"),

@@ -65,3 +65,22 @@ test_that("candidates on the user's grid of a non-dyadic field are interpolated 
   holed[10] <- NA
   expect_error(explain_bias(fit, list(holed = holed)), class = "wavevalid_error_input")
 })
+
+test_that("a candidate the inputs' shifts span is skipped with a message, a partly spanned one is weighed", {
+  fit <- example_fit()
+  sh <- shift_candidates(fit)
+  Psi <- fit$basis$Psi
+  t <- fit$basis$t
+  same <- list(site1 = drop(Psi %*% (sh[, 1] - 2 * sh[, 2])))
+  bump <- list(site1 = 0.3 * exp(-((t - 0.25) / 0.05)^2))
+  msg <- expect_message(ex <- explain_bias(fit, list(same = same, bump = bump), shifts = TRUE),
+                        class = "wavevalid_message_spanned")
+  expect_match(conditionMessage(msg), "same", fixed = TRUE)
+  expect_false("same" %in% ex$candidate)
+  expect_true("bump" %in% ex$candidate)
+  expect_equal(attr(ex, "absorbed")$absorbed[attr(ex, "absorbed")$candidate == "same"], 1)
+  # without the shifts nothing is skipped
+  expect_no_message(ex0 <- explain_bias(fit, list(same = same, bump = bump), shifts = FALSE),
+                    class = "wavevalid_message_spanned")
+  expect_true("same" %in% ex0$candidate)
+})
