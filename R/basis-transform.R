@@ -1,4 +1,5 @@
-# --- curves to coefficients and back by the fast wavelet transform ------------
+# --- curves to coefficients and back: the fast wavelet transform, and the --
+# --- product from the wavelets not zero at each stretch of points --------
 
 # Multiply-adds per curve (points x retained coefficients) above which one
 # wavethresh::wd() or wr() per curve is cheaper than the dense product with
@@ -92,4 +93,11 @@ transform_curves <- function(basis, W) {
 interval_wd <- function(y, settings) {
   wavethresh::wd(y, filter.number = settings$filter.number, family = "DaubExPhase", bc = "interval",
                  precond = FALSE)
+}
+
+# Curve draws W %*% t(Psi[cols, ]) at the time points `cols`, from the basis
+# functions that are not zero there (basis_block_cpp()).
+basis_curves_block <- function(W, Psi, cols) {
+  if (!is.double(W)) storage.mode(W) <- "double"
+  basis_block_cpp(W, Psi, as.integer(cols))
 }

@@ -408,7 +408,12 @@ basis_remainder <- function(basis, curves) curves - basis_curves(basis, basis_co
 # N x |I| coefficients -> N x T curves.
 basis_curves <- function(basis, W) {
   if (is.null(dim(W))) W <- matrix(W, nrow = 1L)
-  if (basis_uses_transform(basis)) return(transform_curves(basis, W))
+  if (basis_uses_transform(basis)) {
+    # many curves: the product from the wavelets not zero at each stretch of
+    # points (its scan of Psi paid once) beats one inverse transform a curve
+    if (nrow(W) > length(basis$index) / 60) return(basis_curves_block(W, basis$Psi, seq_len(nrow(basis$Psi))))
+    return(transform_curves(basis, W))
+  }
   tcrossprod(W, basis$Psi)
 }
 

@@ -50,12 +50,6 @@ source_matrix <- function(src) {
   Y
 }
 
-# Curve draws W %*% t(Psi[cols, ]) at the time points `cols`, from the basis
-# functions that are not zero there (basis_block_cpp()).
-basis_curves_block <- function(W, Psi, cols) {
-  if (!is.double(W)) storage.mode(W) <- "double"
-  basis_block_cpp(W, Psi, as.integer(cols))
-}
 
 # W %*% t(B[cols, ]) (+ W2 %*% t(B2[cols, ])) of a linear source, as
 # band_block_into_cpp() computes it.
