@@ -109,16 +109,15 @@ residual_stats_by_level <- function(p, res) {
              beyond_3 = sum_or_na(abs(r) > 3), stringsAsFactors = FALSE)
 }
 
-# The leave-one-out studentised residuals summed up as
-# residual_stats_by_level() sums those of loo_residuals(), from each bank's
-# runs x coefficients matrix: the long table of every run and coefficient
-# (30 million rows at 16 sites x 500 runs x 3800 coefficients) is not built.
-loo_stats_by_level <- function(emulators) {
+# The leave-one-out studentised residuals of every coefficient summed over
+# its runs, from each bank's runs x coefficients matrix (the long table of
+# loo_residuals(), 30 million rows at 16 sites x 500 runs x 3800
+# coefficients, is not built): a matrix with one row per row of
+# emulators$params and columns n (finite residuals), sq (their sum of
+# squares), beyond_3 and within_90 (counts of |r| > 3 and |r| <= qnorm(0.95)).
+loo_sums <- function(emulators) {
   p <- emulators$params
-  key <- paste(p$site, p$level, sep = "\r")
-  groups <- unique(key)
-  first <- match(groups, key)
-  sums <- matrix(0, length(groups), 3L)
+  out <- matrix(0, nrow(p), 4L, dimnames = list(NULL, c("n", "sq", "beyond_3", "within_90")))
   for (s in names(emulators$banks)) {
     b <- emulators$banks[[s]]
     if (!length(b$mu)) next
@@ -128,16 +127,25 @@ loo_stats_by_level <- function(emulators) {
     r[, !is.finite(p$loglik[at])] <- NA
     ok <- is.finite(r)
     r[!ok] <- 0
-    by_coef <- cbind(colSums(ok), colSums(r^2), colSums(abs(r) > 3))
-    g <- match(key[at], groups)
-    part <- rowsum(by_coef, g)
-    rows <- as.integer(rownames(part))
-    sums[rows, ] <- sums[rows, ] + part
+    out[at, ] <- cbind(colSums(ok), colSums(r^2), colSums(abs(r) > 3),
+                       colSums(ok & abs(r) <= stats::qnorm(0.95)))
   }
-  n <- sums[, 1]
-  per <- function(x) ifelse(n > 0, x / pmax(n, 1), NA_real_)
+  out
+}
+
+# The leave-one-out studentised residuals summed up by site and level as
+# residual_stats_by_level() sums those of loo_residuals().
+loo_stats_by_level <- function(emulators) {
+  p <- emulators$params
+  key <- paste(p$site, p$level, sep = "\r")
+  groups <- unique(key)
+  first <- match(groups, key)
+  sums <- rowsum(loo_sums(emulators), match(key, groups), reorder = TRUE)
+  n <- unname(sums[, "n"])
+  per <- function(x) ifelse(n > 0, unname(x) / pmax(n, 1), NA_real_)
   data.frame(site = p$site[first], level = p$level[first], n = as.integer(n),
-             mean_square = per(sums[, 2]), beyond_3 = per(sums[, 3]), stringsAsFactors = FALSE)
+             mean_square = per(sums[, "sq"]), beyond_3 = per(sums[, "beyond_3"]),
+             stringsAsFactors = FALSE)
 }
 
 # Studentised errors (w - m) / sqrt(V) of the emulators at held-out runs: one
@@ -464,14 +472,12 @@ plot.wv_emulators <- function(x, ...) {
 # Leave-one-out studentised residuals summed up by level (pooled over the
 # sites): number, mean square and share inside +-1.645 (the 90% interval).
 loo_check <- function(em) {
-  loo <- loo_residuals(em)
-  loo <- loo[is.finite(loo$residual), , drop = FALSE]
-  if (!nrow(loo)) return(NULL)
-  by <- split(loo$residual, loo$level)
-  data.frame(level = as.integer(names(by)), n = lengths(by, use.names = FALSE),
-             mean_square = vapply(by, function(r) mean(r^2), numeric(1), USE.NAMES = FALSE),
-             cover90 = vapply(by, function(r) mean(abs(r) <= stats::qnorm(0.95)), numeric(1),
-                              USE.NAMES = FALSE))
+  sums <- rowsum(loo_sums(em), em$params$level, reorder = TRUE)
+  sums <- sums[sums[, "n"] > 0, , drop = FALSE]
+  if (!nrow(sums)) return(NULL)
+  data.frame(level = as.integer(rownames(sums)), n = as.integer(sums[, "n"]),
+             mean_square = unname(sums[, "sq"] / sums[, "n"]),
+             cover90 = unname(sums[, "within_90"] / sums[, "n"]))
 }
 
 # One line on the emulators' calibration: the mean squares of the

@@ -281,6 +281,13 @@ test_that("print, summary and plots work", {
   expect_identical(nrow(pl$data[[2]]), sum(is.finite(loo$residual)))
   expect_equal(sort(pl$data[[2]]$y), sort(loo$residual[is.finite(loo$residual)]))
   expect_identical(pl$labels$title, "Leave-one-out residuals of the emulators")
+  # the summaries by level, summed from the banks, are those of the long table
+  r <- loo$residual[is.finite(loo$residual)]
+  lv <- loo$level[is.finite(loo$residual)]
+  lc <- loo_check(em)
+  expect_equal(lc$mean_square, as.vector(tapply(r^2, lv, mean)))
+  expect_equal(lc$cover90, as.vector(tapply(abs(r) <= stats::qnorm(0.95), lv, mean)))
+  expect_equal(s$by_level$loo_rms, sqrt(as.vector(tapply(r^2, lv, mean))))
 })
 
 test_that("summary() reports the studentised errors of the emulators at held-out runs", {
