@@ -29,6 +29,10 @@ band_envelope_cpp <- function(val, idx, dropped, lower) {
     .Call(`_wavevalid_band_envelope_cpp`, val, idx, dropped, lower)
 }
 
+misfit_scan_cpp <- function(m, Et) {
+    .Call(`_wavevalid_misfit_scan_cpp`, m, Et)
+}
+
 gasp_loglik_cpp <- function(X, y, theta, nugget) {
     .Call(`_wavevalid_gasp_loglik_cpp`, X, y, theta, nugget)
 }
@@ -63,10 +67,6 @@ gasp_bank_augment_cpp <- function(bank, z, w) {
 
 gasp_bank_predict_cpp <- function(bank, Z) {
     .Call(`_wavevalid_gasp_bank_predict_cpp`, bank, Z)
-}
-
-misfit_scan_cpp <- function(m, Et) {
-    .Call(`_wavevalid_misfit_scan_cpp`, m, Et)
 }
 
 gasp_bank_predict_augmented_cpp <- function(bank, Zstar, Wstar, Znew) {

@@ -107,6 +107,18 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// misfit_scan_cpp
+Rcpp::List misfit_scan_cpp(const Rcpp::NumericVector& m, const Rcpp::NumericMatrix& Et);
+RcppExport SEXP _wavevalid_misfit_scan_cpp(SEXP mSEXP, SEXP EtSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type m(mSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Et(EtSEXP);
+    rcpp_result_gen = Rcpp::wrap(misfit_scan_cpp(m, Et));
+    return rcpp_result_gen;
+END_RCPP
+}
 // gasp_loglik_cpp
 Rcpp::List gasp_loglik_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen::Map<Eigen::VectorXd>& y, const Eigen::Map<Eigen::VectorXd>& theta, double nugget);
 RcppExport SEXP _wavevalid_gasp_loglik_cpp(SEXP XSEXP, SEXP ySEXP, SEXP thetaSEXP, SEXP nuggetSEXP) {
@@ -232,18 +244,6 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
-// misfit_scan_cpp
-Rcpp::List misfit_scan_cpp(const Rcpp::NumericVector& m, const Rcpp::NumericMatrix& Et);
-RcppExport SEXP _wavevalid_misfit_scan_cpp(SEXP mSEXP, SEXP EtSEXP) {
-BEGIN_RCPP
-    Rcpp::RObject rcpp_result_gen;
-    Rcpp::RNGScope rcpp_rngScope_gen;
-    Rcpp::traits::input_parameter< const Rcpp::NumericVector& >::type m(mSEXP);
-    Rcpp::traits::input_parameter< const Rcpp::NumericMatrix& >::type Et(EtSEXP);
-    rcpp_result_gen = Rcpp::wrap(misfit_scan_cpp(m, Et));
-    return rcpp_result_gen;
-END_RCPP
-}
 // gasp_bank_predict_augmented_cpp
 Rcpp::List gasp_bank_predict_augmented_cpp(const Rcpp::List& bank, const Eigen::Map<Eigen::MatrixXd>& Zstar, const Eigen::Map<Eigen::MatrixXd>& Wstar, const Eigen::Map<Eigen::MatrixXd>& Znew);
 RcppExport SEXP _wavevalid_gasp_bank_predict_augmented_cpp(SEXP bankSEXP, SEXP ZstarSEXP, SEXP WstarSEXP, SEXP ZnewSEXP) {
@@ -344,6 +344,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},
     {"_wavevalid_band_envelope_cpp", (DL_FUNC) &_wavevalid_band_envelope_cpp, 4},
+    {"_wavevalid_misfit_scan_cpp", (DL_FUNC) &_wavevalid_misfit_scan_cpp, 2},
     {"_wavevalid_gasp_loglik_cpp", (DL_FUNC) &_wavevalid_gasp_loglik_cpp, 4},
     {"_wavevalid_gasp_fit_cpp", (DL_FUNC) &_wavevalid_gasp_fit_cpp, 6},
     {"_wavevalid_gasp_finalize_cpp", (DL_FUNC) &_wavevalid_gasp_finalize_cpp, 5},
@@ -353,7 +354,6 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_inverse_diag_cpp", (DL_FUNC) &_wavevalid_gasp_inverse_diag_cpp, 1},
     {"_wavevalid_gasp_bank_augment_cpp", (DL_FUNC) &_wavevalid_gasp_bank_augment_cpp, 3},
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
-    {"_wavevalid_misfit_scan_cpp", (DL_FUNC) &_wavevalid_misfit_scan_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
