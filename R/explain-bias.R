@@ -206,10 +206,10 @@ explain_bias <- function(fit, candidates = list(), shifts = TRUE, positive = TRU
       wv_inform(c("!" = "Skipped {.val {spanned}}: the shifts of the inputs span {?its/their} signature{?s} (a change of {absorbed$inputs[match(spanned, absorbed$candidate)]}), so the bias cannot tell {?it/them} from that change.",
                   "i" = "{.fn explain_bias} weighs the shifts themselves (the rows {.val shift:...})."),
                 class = "spanned")
-      drop <- colnames(cand) %in% spanned
-      cand <- cand[, !drop, drop = FALSE]
-      pos <- pos[!drop]
-      group <- group[!drop]
+      gone <- colnames(cand) %in% spanned
+      cand <- cand[, !gone, drop = FALSE]
+      pos <- pos[!gone]
+      group <- group[!gone]
     }
   }
   res <- with_rng_seed(seed, bias_regression(Y[, use, drop = FALSE], cand[use, , drop = FALSE],

@@ -199,22 +199,28 @@ class SamplerState {
         sites_[s].bank->predict_into(sites_[s].shift.size() ? zs_[s] : z, m[s], v[s], ws_[s], true);
         continue;
       }
-      std::vector<const Eigen::VectorXd*> zp;
-      std::vector<Eigen::VectorXd*> mp, vp;
-      std::vector<GaspBank::Workspace*> wp;
+      group_z_.clear();
+      group_m_.clear();
+      group_v_.clear();
+      group_ws_.clear();
       for (int s : grp) {
-        zp.push_back(sites_[s].shift.size() ? &zs_[s] : &z);
-        mp.push_back(&m[s]);
-        vp.push_back(&v[s]);
-        wp.push_back(&ws_[s]);
+        group_z_.push_back(sites_[s].shift.size() ? &zs_[s] : &z);
+        group_m_.push_back(&m[s]);
+        group_v_.push_back(&v[s]);
+        group_ws_.push_back(&ws_[s]);
       }
-      sites_[grp[0]].bank->predict_many(zp, mp, vp, wp);
+      sites_[grp[0]].bank->predict_many(group_z_, group_m_, group_v_, group_ws_);
     }
   }
 
   // The sites grouped by the emulator bank they evaluate, in order of first
   // appearance.
   std::vector<std::vector<int>> bank_groups_;
+  // predict_all()'s pointers to one group's inputs, outputs and workspaces,
+  // kept between cycles so that a cycle allocates nothing
+  std::vector<const Eigen::VectorXd*> group_z_;
+  std::vector<Eigen::VectorXd*> group_m_, group_v_;
+  std::vector<GaspBank::Workspace*> group_ws_;
 
   void draw_sigma2() {
     sigbar_.setZero();
