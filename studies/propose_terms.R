@@ -13,10 +13,11 @@
 # family is one the mechanism can be written as (`right`, below), and the
 # probability of no term.
 #   Rscript studies/propose_terms.R [mode=outputs] [seeds=1:3] [null_seeds=1:5] [n_draws=150] [n_inner=20]
+#                                   [beds=suspension,dosing] [memory=TRUE] (FALSE: the library without the terms with memory)
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/args.R")
 a <- study_args(list(mode = "outputs", seeds = "1:3", null_seeds = "1:5", n_draws = "150", n_inner = "20",
-                     beds = "suspension,dosing"))
+                     beds = "suspension,dosing", memory = "TRUE"))
 options(wavevalid.quiet = TRUE, width = 250)
 
 # The families each mechanism can be written as, on a state or on the output
@@ -66,10 +67,10 @@ one_case <- function(bed, hidden, seed) {
                                    sampler = sampler_control(n_draws = as.integer(a$n_draws),
                                                              n_inner = as.integer(a$n_inner), quiet = TRUE)))
   if (a$mode == "states") {
-    lib <- suppressMessages(term_library(fit, states = bed_states(bed, fit)))
+    lib <- suppressMessages(term_library(fit, states = bed_states(bed, fit), memory = as.logical(a$memory)))
     pr <- propose_terms(fit, lib, simulate = bed_simulator(bed, fit), seed = 1)
   } else {
-    lib <- term_library(fit)
+    lib <- term_library(fit, memory = as.logical(a$memory))
     pr <- propose_terms(fit, lib, seed = 1)
   }
   top <- pr[1, ]
