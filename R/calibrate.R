@@ -110,7 +110,9 @@
 #' about `delta_k h_k(t) ybar'(t)`, `h_k` the warp's hat function, `ybar'` the
 #' mean's slope); the shifts get normal priors and are drawn with the inputs,
 #' so a misfit along a time shift is no finding while a change of height at
-#' an event still is. What they leave is added, one mean square per site, to
+#' an event still is. The inputs' steps take the shifts integrated out (they
+#' are normal and linear), and the shifts are drawn given the inputs, so an
+#' input that moves an event in time mixes as freely as without them. What they leave is added, one mean square per site, to
 #' every coefficient's variance; the print says how many shifts and their sd.
 #' `"check"` requires the measure, `FALSE` is the method's field mean, `TRUE`
 #' a first-order variance from each landmark's spread over the runs. On both

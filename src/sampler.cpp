@@ -222,7 +222,7 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 //   optional: debug_break (0; 1: no proposal-density ratio of the global moves, 2: no tau2 ratio,
 //   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
 //   5: no likelihood of the sites with a shift, 6: the learned noise's multipliers taken as 1,
-//   only to show that the
+//   8: the inputs' steps given the registration's shifts, not with them integrated out; only to show that the
 //   simulation-based checks detect errors), progress
 //   (R function called with the number of finished draws, or NULL), adaptive
 //   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs

@@ -127,6 +127,8 @@ class Sampler : public SamplerState {
       refresh_cache();
       double ll = loglik(tau2_);
       for (int it = 0; it < set_.n_inner; ++it) ll = cycle(ll, -1);
+      // the shifts given the inputs last drawn without them
+      if (K_ > 0) registration_shift_step();
       out.inputs.row(h) = z_.transpose();
       out.tau2.row(h) = tau2_.transpose();
       if (K_ > 0) out.reg_shift.row(h) = a_.transpose();

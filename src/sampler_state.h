@@ -141,40 +141,12 @@ class SamplerState {
   int K_ = 0;                               // the registration's shifts
   Eigen::VectorXd a_;                       // their current values
 
-  // The registration's error along the curves' time-shift directions: the
-  // shifts a (prior N(0, diag(reg_shift_var))) move the field means by
-  // shift_U a. Given the inputs, tau2 and sigma2 (the bias integrated out)
-  // the coefficients are independent normals, so a's conditional is normal,
-  // precision P = diag(1 / var) + temper sum_s U_s' D_s^-1 U_s and mean
-  // P^-1 temper sum_s U_s' D_s^-1 (wbar0_s - m_s), D = V + sigma2 / R +
-  // extra + tau2: a Gibbs step, after which wbar = wbar0 - U a.
-  void registration_shift_step() {
-    if (K_ == 0) return;
-    Eigen::MatrixXd P = set_.reg_shift_var.cwiseInverse().asDiagonal();
-    Eigen::VectorXd b = Eigen::VectorXd::Zero(K_);
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      const SiteData& d = sites_[s];
-      if (d.shift_U.cols() == 0 || dropped(d)) continue;
-      const int n = d.bank->n_coef();
-      Eigen::VectorXd w(n), y(n);
-      for (int i = 0; i < n; ++i) {
-        w(i) = set_.temper / (base_[s](i) + tau2_(d.group[i]));
-        y(i) = w(i) * (d.wbar0(i) - m_[s](i));
-      }
-      P.noalias() += d.shift_U.transpose() * w.asDiagonal() * d.shift_U;
-      b.noalias() += d.shift_U.transpose() * y;
-    }
-    Eigen::LLT<Eigen::MatrixXd> llt(P);
-    Eigen::VectorXd xi(K_);
-    for (int k = 0; k < K_; ++k) xi(k) = norm_(rng_);
-    a_ = llt.solve(b) + llt.matrixU().solve(xi);
-    for (std::size_t s = 0; s < sites_.size(); ++s) {
-      SiteData& d = sites_[s];
-      if (d.shift_U.cols() == 0) continue;
-      d.wbar = d.wbar0 - d.shift_U * a_;
-    }
-    refresh_cache();
-  }
+  // The registration's shifts (sampler_shifts.h): their Gibbs step, and the
+  // inputs' target with them integrated out (debug_break 8: given them).
+  void registration_shift_step();
+  double collapsed_loglik(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
+                          const Eigen::VectorXd& tau2) const;
+  bool collapsed() const { return K_ > 0 && set_.debug_break != 8; }
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
 
@@ -366,6 +338,7 @@ class SamplerState {
   // acceptance ratio takes them as they are.
   double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
                      const Eigen::VectorXd& tau2) const {
+    if (collapsed()) return collapsed_loglik(m, v, tau2);
     if (shared_) {
       return shared_loglik(tau2, false, [&](int q, int i) { return v[q](i) + ebar_[q](i); },
                            [&](int q, int i) { return sites_[q].wbar(i) - m[q](i); });
@@ -388,6 +361,7 @@ class SamplerState {
   // The log likelihood of the coefficients that inform the inputs (all of
   // them with `all`), at the cached m, V.
   double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
+    if (!all && collapsed()) return collapsed_loglik(m_, v_, tau2);
     if (shared_) {
       return shared_loglik(tau2, all, [&](int q, int i) { return base_[q](i); },
                            [&](int q, int i) { return resid_[q](i); });
@@ -481,5 +455,7 @@ class SamplerState {
 };
 
 }  // namespace wavevalid
+
+#include "sampler_shifts.h"
 
 #endif

@@ -5,7 +5,8 @@
 # One chain of the C++ sampler on sbc_setup()'s problem with field means
 # `wbar`, optional shift columns U (n x K) and variances `var`, or a known
 # `extra` variance per coefficient.
-shift_chain <- function(s, wbar, U = NULL, var = NULL, extra = NULL, seed = 1, n_draws = 2000L, tau2 = 0.05) {
+shift_chain <- function(s, wbar, U = NULL, var = NULL, extra = NULL, seed = 1, n_draws = 2000L, tau2 = 0.05,
+                        debug_break = 0L) {
   spec <- s$spec
   spec$sites$site1$wbar <- wbar
   spec$sites$site1$reg_U <- U
@@ -13,7 +14,7 @@ shift_chain <- function(s, wbar, U = NULL, var = NULL, extra = NULL, seed = 1, n
   calibrate_chain_cpp(spec$sites, spec$priors, list(
     n_groups = s$G, z_init = 0.5, tau2_init = rep(tau2, s$G), fix_tau2 = TRUE, n_draws = n_draws,
     n_inner = 5L, step = 0.5, seed = seed, chain = 1L, adaptive = TRUE, burnin = 300L, n_search = 20L,
-    reg_shift_var = var))
+    reg_shift_var = var, debug_break = debug_break))
 }
 
 test_that("a shift acting on one coefficient gives the posterior of a known variance added to it", {
@@ -74,6 +75,24 @@ test_that("simulation-based calibration with registration shifts: the input, a b
   expect_true(all(p > 0.01), label = paste(signif(p, 3), collapse = ", "))
   # told a quarter of the shifts' variance, the shifts' ranks are not uniform
   expect_lt(sbc(v / 4)[["a1"]], 0.01)
+})
+
+test_that("the inputs' steps take the shifts integrated out: a shift that moves the data as the input does costs no mixing", {
+  s <- sbc_setup(R = 2, sigma2 = 0.02)
+  withr::local_seed(7)
+  wbar <- s$pb$f(0.4) + stats::rnorm(s$n, 0, 0.1)
+  # the shift's column is the model's change per unit of u1 at 0.4: shift and
+  # input move the field means the same way, the shift's prior (sd 0.1 of u1)
+  # against the data's narrow constraint on their sum
+  h <- 1e-4
+  U <- matrix((s$pb$f(0.4 + h) - s$pb$f(0.4 - h)) / (2 * h), ncol = 1)
+  a <- shift_chain(s, wbar, U = U, var = 0.01, seed = 1, n_draws = 3000L)
+  b <- shift_chain(s, wbar, U = U, var = 0.01, seed = 1, n_draws = 3000L, debug_break = 8L)
+  ess <- function(x) coda::effectiveSize(x)[[1]]
+  # the same posterior (both chains are valid), far more effective draws when
+  # the inputs' steps integrate the shift out
+  expect_lt(abs(stats::median(a$inputs[, 1]) - stats::median(b$inputs[, 1])), 0.03)
+  expect_gt(ess(a$inputs[, 1]), 3 * ess(b$inputs[, 1]))
 })
 
 test_that("the sampler refuses shifts it cannot take", {
