@@ -37,7 +37,9 @@ write.csv(cbind(run = seq_len(nrow(design)), signif(design, 6)), file.path(dir, 
 con <- xzfile(file.path(dir, "byom-runs.csv.xz"), "w", compression = 9)
 write.csv(long(runs), con, row.names = FALSE)
 close(con)
-write.csv(long(field), file.path(dir, "byom-field.csv"), row.names = FALSE)
+con <- xzfile(file.path(dir, "byom-field.csv.xz"), "w", compression = 9)
+write.csv(long(field), con, row.names = FALSE)
+close(con)
 write.csv(data.frame(name = rownames(ranges), type = c("variation", "calibration", "variation"),
                      lower = ranges[, 1], upper = ranges[, 2], nominal = c(100, 5, 1)),
           file.path(dir, "byom-iu.csv"), row.names = FALSE)
