@@ -57,8 +57,9 @@
 #' **What it found on the test beds.** With the simulator's states it
 #' proposed the right family for some hidden mechanisms of the suspension
 #' test bed (a bump stop, a damper) and for none of the dosing bed's, and
-#' with nothing hidden it made proposals at some suspension seeds, at the
-#' sharp events where the registration's error exceeds its model above.
+#' with nothing hidden it made proposals at most suspension seeds, at the
+#' sharp events, where the field's, the emulators' and the inputs' errors
+#' leave a misfit alike at every event.
 #' The terms with memory put a right family first in two of the dosing bed's
 #' twelve cases (output channels), at inclusion near 0.2, and lowered every null's largest
 #' inclusion (`studies/README.md` in the package's source repository,
