@@ -19,19 +19,13 @@
 #   Rscript studies/propose_loop.R [bed=suspension] [seeds=1] [hidden=all] [n_draws=150] [n_inner=20]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
+source("studies/propose_beds.R")
 a <- study_args(list(bed = "suspension", seeds = "1", hidden = "all", n_draws = "150", n_inner = "20"))
 susp <- a$bed == "suspension"
 simulate_bed <- if (susp) simulate_suspension else simulate_dosing
 options(wavevalid.quiet = TRUE, width = 250)
 hidden <- if (a$hidden == "all") (if (susp) testbed_mechanisms() else dosing_mechanisms()) else arg_names(a$hidden)
 sampler <- sampler_control(n_draws = as.integer(a$n_draws), n_inner = as.integer(a$n_inner), quiet = TRUE)
-
-states_at <- function(z) {
-  st <- attr(simulate_bed(z, states = TRUE), "states")
-  if (!susp) return(lapply(st[c("concentration", "gut", "peripheral", "bile", "induction")], function(m) m[1, ]))
-  lapply(c(compression = "compression", velocity = "velocity", damper = "damper", tire = "tire"),
-         function(k) list(site1 = st[[paste0(k, "_front")]][1, ], site2 = st[[paste0(k, "_rear")]][1, ]))
-}
 
 # Runs of the model with the term `fun` of `channel` at the strengths of the
 # design's column s_term.
@@ -54,11 +48,9 @@ one <- function(hd, seed) {
   fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = 1, seed = 1,
                                    sampler = sampler))
   z <- as.data.frame(as.list(coef(fit)))
-  sim <- function(channel, fun, strength) {
-    lapply(simulate_bed(transform(z, s_term = strength), term = testbed_term(channel, fun))$curves,
-           function(m) m[1, ])
-  }
-  pr <- propose_terms(fit, suppressMessages(term_library(fit, states = states_at(z))), simulate = sim, seed = 1)
+  sim <- bed_simulator_at(a$bed, z)
+  pr <- propose_terms(fit, suppressMessages(term_library(fit, states = bed_states_at(a$bed, z))), simulate = sim,
+                      seed = 1)
   top <- pr[1, ]
   fun <- attr(pr, "funs")[[top$term]]
   ex <- if (susp) experiment(tb$added_mass$field, change = tb$added_mass$delta) else

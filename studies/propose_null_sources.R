@@ -15,6 +15,7 @@
 #   Rscript studies/propose_null_sources.R [seeds=1:5] [n_draws=150] [n_inner=20]
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/args.R")
+source("studies/propose_beds.R")
 a <- study_args(list(seeds = "1:5", n_draws = "150", n_inner = "20"))
 options(wavevalid.quiet = TRUE, width = 200)
 W <- asNamespace("wavevalid")
@@ -25,14 +26,9 @@ for (seed in arg_numbers(a$seeds)) {
   fit <- suppressWarnings(validate(tb$A$runs, tb$A$field, tb$iu, windows = tb$windows, chains = 1, seed = 1,
                                    sampler = sampler_control(n_draws = as.integer(a$n_draws),
                                                              n_inner = as.integer(a$n_inner), quiet = TRUE)))
-  hat <- as.data.frame(as.list(coef(fit)))
-  st <- attr(simulate_suspension(hat, states = TRUE), "states")
-  states <- lapply(c(compression = "compression", velocity = "velocity", damper = "damper", tire = "tire"),
-                   function(k) list(site1 = st[[paste0(k, "_front")]][1, ], site2 = st[[paste0(k, "_rear")]][1, ]))
-  sim <- function(channel, fun, strength) {
-    hat$s_term <- strength
-    lapply(simulate_suspension(hat, term = testbed_term(channel, fun))$curves, function(m) m[1, ])
-  }
+  hat <- fit_inputs(fit)
+  states <- bed_states("suspension", fit)
+  sim <- bed_simulator("suspension", fit)
   lib <- suppressMessages(term_library(fit, states = states))
   pr <- propose_terms(fit, lib, simulate = sim, seed = 1)
   top <- pr$term[1]

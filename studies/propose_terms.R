@@ -16,6 +16,7 @@
 #                                   [beds=suspension,dosing] [memory=TRUE] (FALSE: the library without the terms with memory)
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/args.R")
+source("studies/propose_beds.R")
 a <- study_args(list(mode = "outputs", seeds = "1:3", null_seeds = "1:5", n_draws = "150", n_inner = "20",
                      beds = "suspension,dosing", memory = "TRUE"))
 options(wavevalid.quiet = TRUE, width = 250)
@@ -35,28 +36,6 @@ right <- list(
 right_term <- list(induction = "^product\\((filter|integral)\\(")
 is_right <- function(hidden, term, family) {
   family %in% right[[hidden]] && (is.null(right_term[[hidden]]) || grepl(right_term[[hidden]], term))
-}
-
-bed_states <- function(bed, fit) {
-  d <- as.data.frame(as.list(coef(fit)))
-  if (bed == "suspension") {
-    st <- attr(simulate_suspension(d, states = TRUE), "states")
-    lapply(c(compression = "compression", velocity = "velocity", damper = "damper", tire = "tire"),
-           function(k) list(site1 = st[[paste0(k, "_front")]][1, ], site2 = st[[paste0(k, "_rear")]][1, ]))
-  } else {
-    st <- attr(simulate_dosing(d, states = TRUE), "states")
-    lapply(st[c("concentration", "gut", "peripheral", "bile", "induction")], function(m) m[1, ])
-  }
-}
-
-bed_simulator <- function(bed, fit) {
-  d <- as.data.frame(as.list(coef(fit)))
-  sim <- if (bed == "suspension") simulate_suspension else simulate_dosing
-  function(channel, fun, strength) {
-    d$s_term <- strength
-    r <- sim(d, term = testbed_term(channel, fun))
-    lapply(r$curves, function(m) m[1, ])
-  }
 }
 
 one_case <- function(bed, hidden, seed) {
