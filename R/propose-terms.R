@@ -56,7 +56,7 @@
 #'
 #' **What it found on the test beds.** With the simulator's states it
 #' proposed the right family for some hidden mechanisms of the suspension
-#' test bed (a bump stop, a damper) and for none of the dosing bed's, and
+#' test bed (a bump stop, a damper, a tire lift-off) and for none of the dosing bed's, and
 #' with nothing hidden it made proposals at most suspension seeds, at the
 #' sharp events, where the field's, the emulators' and the inputs' errors
 #' leave a misfit alike at every event.
