@@ -26,8 +26,9 @@ run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global =
 # more, its R-hat (coda::gelman.diag()) is at most `sm$rhat`, or until they
 # hold `sm$max_draws` draws each. The first round gives each chain
 # ess / chains draws; each further round continues every chain from where it
-# stopped (its state: the draws are those of one chain run at once) by the
-# draws the slowest input's ESS says are missing, a fifth more, and at least
+# stopped (its state), its walk re-learned from its own draws so far
+# (relearn_walk()), by the draws the slowest input's ESS says are missing, a
+# fifth more, and at least
 # twice the draws held while R-hat is above its target. Inputs held to a
 # point are not judged. The runs carry attribute `stopping`.
 chain_rounds <- function(run, spec, sm, chains) {
@@ -48,6 +49,7 @@ chain_rounds <- function(run, spec, sm, chains) {
                                 if (is.na(chk$rhat)) "" else sprintf(", the largest R-hat %.3f (target %s)",
                                                                      chk$rhat, sm$rhat))))
     }
+    if (sm$proposal == "adaptive") runs <- lapply(runs, relearn_walk, priors = spec$priors)
     more_runs <- run(lapply(seq_len(chains),
                             function(ch) list(chain = ch, n_draws = more,
                                               resume = runs[[ch]]$state)))
@@ -60,6 +62,34 @@ chain_rounds <- function(run, spec, sm, chains) {
                                  draws = n, rounds = rounds, ess = chk$ess, rhat = chk$rhat,
                                  slowest = chk$slowest)
   runs
+}
+
+# The walk a continued chain takes: the covariance of its own draws so far
+# times 2.38^2 / p (Haario, Saksman and Tamminen 2001), and the independence
+# proposal the moments of those draws. The burn-in's covariance rests on a
+# few thousand cycles, a noisy estimate where a chain moves slowly; the
+# draws of a round are many more cycles. Each round is a
+# time-homogeneous Metropolis-Hastings chain, its proposal learned from the
+# draws before it (a finite number of adaptations). Unchanged with fewer
+# than 20 p draws or a covariance that is not positive definite.
+relearn_walk <- function(r, priors) {
+  z <- r$inputs
+  p <- ncol(z)
+  if (!p || nrow(z) < 20L * p || is.null(r$state$walk_chol)) return(r)
+  range <- priors$upper - priors$lower
+  S <- stats::cov(z) + diag(1e-6 * range^2, p)
+  L <- tryCatch(t(chol(S)), error = function(e) NULL)
+  if (is.null(L) || anyNA(L)) return(r)
+  st <- r$state
+  st$walk_chol <- L * (2.38 / sqrt(p))
+  if (isTRUE(st$has_indep)) {
+    nu <- 4
+    st$ind_chol <- L
+    st$ind_mean <- unname(colMeans(z))
+    st$log_t_const <- lgamma(0.5 * (nu + p)) - lgamma(0.5 * nu) - 0.5 * p * log(nu * pi) - sum(log(diag(L)))
+  }
+  r$state <- st
+  r
 }
 
 # Draws per chain of the stopping rule's first round: ess / chains, at least
@@ -92,7 +122,8 @@ chain_convergence <- function(runs, judged, inputs) {
 }
 
 # One chain's draws of two rounds, the second continuing the first: the draws
-# stacked, the acceptance rates weighted by the draws, the state the second's.
+# stacked, the acceptance rates weighted by the draws, the state and the
+# walk's covariance the second's.
 join_chain_runs <- function(a, b) {
   ha <- nrow(a$inputs)
   hb <- nrow(b$inputs)
@@ -102,6 +133,8 @@ join_chain_runs <- function(a, b) {
   for (nm in c("sigma2", "wb", "wM")) out[[nm]] <- Map(rbind, a[[nm]], b[[nm]])
   for (nm in c("acc_tau", "acc_input", "acc_global", "acc_noise")) out[[nm]] <- w(a[[nm]], b[[nm]])
   out$state <- b$state
+  # the walk of the last round (each round re-learns it: relearn_walk())
+  if (!is.null(b$proposal_cov)) out$proposal_cov <- b$proposal_cov
   out
 }
 

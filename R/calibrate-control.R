@@ -161,9 +161,16 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' chains or more, its R-hat at most `rhat`, or at `max_draws` draws per chain
 #' with a warning. The chains first run `ess / chains` draws each after a
 #' burn-in sized to them; while a target is unmet, every chain continues from
-#' where it stopped (the draws are those of the same chain run at once) by the
-#' draws the slowest input's ESS says are missing, a fifth more, or twice its
-#' draws while R-hat is above target. The print of the fit says where and why
+#' where it stopped by the draws the slowest input's ESS says are missing, a
+#' fifth more, or twice its draws while R-hat is above target. A continued
+#' chain's random walk is learned anew from that chain's draws so far
+#' (`2.38^2 / d` times their covariance; with `global_moves`, the
+#' independence proposal their mean and covariance): the burn-in's estimate
+#' rests on a few thousand cycles, noisy where an input moves slowly, and a
+#' round's draws on many more. Each round is then a time-homogeneous chain.
+#' At 4 sites x 4096 points x 200 runs x 2 experiments this took the slowest
+#' input from 0.2 to 0.4 effective draws per draw after the first round, and
+#' the chains stopped at 692 draws each instead of 1000. The print of the fit says where and why
 #' the chains stopped, and the slowest input's effective draws per second. On
 #' both test beds the chains stopped after two rounds, several times sooner
 #' than the former fixed 1000 draws of 200 cycles, with the same findings

@@ -28,6 +28,39 @@ test_that("a chain continued from its state draws what the chain run at once dra
   }
 })
 
+test_that("a continued chain's walk is learned from its own draws", {
+  s <- resume_setup()
+  first <- s$worker(list(chain = 2L, n_draws = 40L, resume = NULL))
+  re <- relearn_walk(first, s$spec$priors)
+  z <- first$inputs
+  p <- ncol(z)
+  rng <- s$spec$priors$upper - s$spec$priors$lower
+  learned <- 2.38^2 / p * (stats::cov(z) + diag(1e-6 * rng^2, p))
+  expect_equal(tcrossprod(re$state$walk_chol), learned, ignore_attr = TRUE)
+  expect_false(isTRUE(all.equal(tcrossprod(first$state$walk_chol), learned, check.attributes = FALSE)))
+  # the continued chain moves by it
+  rest <- s$worker(list(chain = 2L, n_draws = 5L, resume = re$state))
+  expect_equal(rest$proposal_cov, tcrossprod(re$state$walk_chol), ignore_attr = TRUE)
+  # fewer than 20 draws per input: the burn-in's walk is kept
+  few <- s$worker(list(chain = 2L, n_draws = 10L, resume = NULL))
+  expect_identical(relearn_walk(few, s$spec$priors), few)
+  # with independence moves, their t takes the draws' mean and covariance, its
+  # normalising constant computed as the sampler computes it at the burn-in's end
+  sm <- sampler_control(n_inner = 5L, burnin = 300, global_moves = 0.5, quiet = TRUE)
+  w <- chain_worker(s$spec, sm, seed = 5, s$tau, 0L, 0.1)
+  g <- w(list(chain = 1L, n_draws = 40L, resume = NULL))
+  expect_true(g$state$has_indep)
+  L <- g$state$ind_chol
+  const <- lgamma(0.5 * (4 + p)) - lgamma(2) - 0.5 * p * log(4 * pi) - sum(log(diag(L)))
+  expect_equal(g$state$log_t_const, const)
+  rg <- relearn_walk(g, s$spec$priors)
+  expect_equal(tcrossprod(rg$state$ind_chol), stats::cov(g$inputs) + diag(1e-6 * rng^2, p), ignore_attr = TRUE)
+  expect_equal(rg$state$ind_mean, unname(colMeans(g$inputs)))
+  expect_equal(rg$state$log_t_const,
+               lgamma(0.5 * (4 + p)) - lgamma(2) - 0.5 * p * log(4 * pi) - sum(log(diag(rg$state$ind_chol))))
+  expect_no_error(w(list(chain = 1L, n_draws = 5L, resume = rg$state)))
+})
+
 test_that("a state that does not match the sampler is refused", {
   s <- resume_setup()
   st <- s$worker(list(chain = 1L, n_draws = 5L, resume = NULL))$state
@@ -73,6 +106,13 @@ test_that("the chains stop when every input's ESS and R-hat meet the targets, or
   missed <- coda::effectiveSize(held) < 150 ||
     coda::gelman.diag(held, autoburnin = FALSE, multivariate = FALSE)$psrf[1, 1] > 1.05
   expect_true(missed)
+  # the last round's walk was learned from each chain's draws before it
+  rng <- fit$prior_iu$upper - fit$prior_iu$lower
+  for (ch in seq_along(fit$draws)) {
+    z <- as.matrix(fit$draws[[ch]])[seq_len(before), fit$inputs, drop = FALSE]
+    expect_equal(unname(fit$proposal_cov[[ch]]),
+                 2.38^2 / ncol(z) * unname(stats::cov(z) + diag(1e-6 * rng^2, ncol(z))))
+  }
   # the burn-in is sized to the first round, max(5000, 75 * n_inner / 4)
   expect_identical(as.integer(fit$settings$burnin), 5000L)
   thin <- calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
