@@ -31,11 +31,14 @@
 # each mechanism of `hidden` (reality has it; coverage of before and after,
 # and the verdict).
 #   Rscript studies/conditions.R [seeds=1:5] [hidden=enterohepatic_recycling] [none=TRUE]
-#                                [n_draws=150] [n_inner=20] [chains=1] [out=studies/conditions.csv]
+#                                [n_draws=150] [n_inner=20] [chains=1] [level_variances=shared]
+#                                [out=studies/conditions.csv]
+# level_variances: bias_control()'s, "shared" (the default) or "per_experiment".
 suppressPackageStartupMessages(library(wavevalid))
 source("studies/common.R")
 opt <- study_args(list(seeds = "1:5", hidden = "enterohepatic_recycling", none = "TRUE", n_draws = "150",
-                       n_inner = "20", chains = "1", out = "studies/conditions.csv"))
+                       n_inner = "20", chains = "1", level_variances = "shared",
+                       out = "studies/conditions.csv"))
 seeds <- arg_numbers(opt$seeds)
 hidden <- setdiff(arg_names(opt$hidden), "none")
 sampler <- sampler_control(n_draws = as.integer(opt$n_draws), n_inner = as.integer(opt$n_inner), quiet = TRUE)
@@ -63,6 +66,7 @@ cover <- function(p, truth, lower = "lower", upper = "upper") {
 fit_doses <- function(tb, runs, iu) {
   exps <- experiments_at(tb$doses$fields[paste0("dose_", tested)], data.frame(dose = tested))
   suppressWarnings(validate(runs, tb$A$field, iu, windows = tb$windows, experiments = exps, sampler = sampler,
+                            bias = bias_control(level_variances = opt$level_variances),
                             chains = as.integer(opt$chains), seed = 1))
 }
 
