@@ -71,11 +71,13 @@ chain_rounds <- function(run, spec, sm, chains) {
 # draws of a round are many more cycles. Each round is a
 # time-homogeneous Metropolis-Hastings chain, its proposal learned from the
 # draws before it (a finite number of adaptations). Unchanged with fewer
-# than 20 p draws or a covariance that is not positive definite.
+# than 20 p distinct draws (a chain that hardly moved) or a covariance that
+# is not positive definite.
 relearn_walk <- function(r, priors) {
   z <- r$inputs
   p <- ncol(z)
-  if (!p || nrow(z) < 20L * p || is.null(r$state$walk_chol)) return(r)
+  # the covariance of the moves: a chain that hardly moved keeps its walk
+  if (!p || nrow(unique(z)) < 20L * p || is.null(r$state$walk_chol)) return(r)
   range <- priors$upper - priors$lower
   S <- stats::cov(z) + diag(1e-6 * range^2, p)
   L <- tryCatch(t(chol(S)), error = function(e) NULL)

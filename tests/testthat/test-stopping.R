@@ -44,6 +44,10 @@ test_that("a continued chain's walk is learned from its own draws", {
   # fewer than 20 draws per input: the burn-in's walk is kept
   few <- s$worker(list(chain = 2L, n_draws = 10L, resume = NULL))
   expect_identical(relearn_walk(few, s$spec$priors), few)
+  # a chain that hardly moved (its draws repeat): its walk is kept, not shrunk to the repeats' spread
+  stuck <- first
+  stuck$inputs <- first$inputs[rep(1:3, length.out = nrow(first$inputs)), , drop = FALSE]
+  expect_identical(relearn_walk(stuck, s$spec$priors), stuck)
   # with independence moves, their t takes the draws' mean and covariance, its
   # normalising constant computed as the sampler computes it at the burn-in's end
   sm <- sampler_control(n_inner = 5L, burnin = 300, global_moves = 0.5, quiet = TRUE)
