@@ -77,6 +77,10 @@ calibrate_chain_cpp <- function(sites, priors, settings) {
     .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, settings)
 }
 
+relearn_walk_cpp <- function(priors, state, Z) {
+    .Call(`_wavevalid_relearn_walk_cpp`, priors, state, Z)
+}
+
 input_log_prior_cpp <- function(priors, Z, debug_break = 0L) {
     .Call(`_wavevalid_input_log_prior_cpp`, priors, Z, debug_break)
 }

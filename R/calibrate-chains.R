@@ -66,31 +66,20 @@ chain_rounds <- function(run, spec, sm, chains) {
 
 # The walk a continued chain takes: the covariance of its own draws so far
 # times 2.38^2 / p (Haario, Saksman and Tamminen 2001), and the independence
-# proposal the moments of those draws. The burn-in's covariance rests on a
-# few thousand cycles, a noisy estimate where a chain moves slowly; the
-# draws of a round are many more cycles. Each round is a
-# time-homogeneous Metropolis-Hastings chain, its proposal learned from the
-# draws before it (a finite number of adaptations). Unchanged with fewer
-# than 20 p distinct draws (a chain that hardly moved) or a covariance that
-# is not positive definite.
+# proposal the moments of those draws, set by the sampler's own rule
+# (relearn_walk_cpp()). The burn-in's covariance rests on a few thousand
+# cycles, a noisy estimate where a chain moves slowly; the draws of a round
+# are many more cycles. Each round is a time-homogeneous Metropolis-Hastings
+# chain, its proposal learned from the draws before it (a finite number of
+# adaptations). Unchanged with fewer than 20 p distinct draws (a chain that
+# hardly moved) or a covariance that is not positive definite.
 relearn_walk <- function(r, priors) {
   z <- r$inputs
   p <- ncol(z)
-  # the covariance of the moves: a chain that hardly moved keeps its walk
+  # a chain that hardly moved keeps its walk
   if (!p || nrow(unique(z)) < 20L * p || is.null(r$state$walk_chol)) return(r)
-  range <- priors$upper - priors$lower
-  S <- stats::cov(z) + diag(1e-6 * range^2, p)
-  L <- tryCatch(t(chol(S)), error = function(e) NULL)
-  if (is.null(L) || anyNA(L)) return(r)
-  st <- r$state
-  st$walk_chol <- L * (2.38 / sqrt(p))
-  if (isTRUE(st$has_indep)) {
-    nu <- 4
-    st$ind_chol <- L
-    st$ind_mean <- unname(colMeans(z))
-    st$log_t_const <- lgamma(0.5 * (nu + p)) - lgamma(0.5 * nu) - 0.5 * p * log(nu * pi) - sum(log(diag(L)))
-  }
-  r$state <- st
+  st <- relearn_walk_cpp(priors, r$state, z)
+  if (!is.null(st)) r$state <- st
   r
 }
 

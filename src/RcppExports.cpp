@@ -271,6 +271,19 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// relearn_walk_cpp
+SEXP relearn_walk_cpp(const Rcpp::List& priors, const Rcpp::List& state, const Eigen::Map<Eigen::MatrixXd>& Z);
+RcppExport SEXP _wavevalid_relearn_walk_cpp(SEXP priorsSEXP, SEXP stateSEXP, SEXP ZSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type priors(priorsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type state(stateSEXP);
+    Rcpp::traits::input_parameter< const Eigen::Map<Eigen::MatrixXd>& >::type Z(ZSEXP);
+    rcpp_result_gen = Rcpp::wrap(relearn_walk_cpp(priors, state, Z));
+    return rcpp_result_gen;
+END_RCPP
+}
 // input_log_prior_cpp
 Rcpp::NumericVector input_log_prior_cpp(const Rcpp::List& priors, const Eigen::Map<Eigen::MatrixXd>& Z, int debug_break);
 RcppExport SEXP _wavevalid_input_log_prior_cpp(SEXP priorsSEXP, SEXP ZSEXP, SEXP debug_breakSEXP) {
@@ -356,6 +369,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
+    {"_wavevalid_relearn_walk_cpp", (DL_FUNC) &_wavevalid_relearn_walk_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
     {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 9},
     {"_wavevalid_suspension_road_cpp", (DL_FUNC) &_wavevalid_suspension_road_cpp, 1},

@@ -77,6 +77,25 @@ Rcpp::List state_list(const wavevalid::ChainState& c) {
       Rcpp::Named("rng") = c.rng);
 }
 
+// A chain's state from its list (state_list()).
+wavevalid::ChainState read_state(const Rcpp::List& st) {
+  wavevalid::ChainState c;
+  c.z = required_vector(st, "z");
+  c.tau2 = required_vector(st, "tau2");
+  c.a = required_vector(st, "a");
+  const Eigen::VectorXd eta = required_vector(st, "eta"), eta_step = required_vector(st, "eta_step");
+  c.eta.assign(eta.data(), eta.data() + eta.size());
+  c.eta_step.assign(eta_step.data(), eta_step.data() + eta_step.size());
+  c.walk_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "walk_chol"));
+  c.ind_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "ind_chol"));
+  c.ind_mean = required_vector(st, "ind_mean");
+  c.has_indep = required_scalar<bool>(st, "has_indep");
+  c.log_t_const = required_scalar<double>(st, "log_t_const");
+  c.log_box = required_scalar<double>(st, "log_box");
+  c.rng = Rcpp::as<std::string>(required_entry(st, "rng"));
+  return c;
+}
+
 ChainSettings read_settings(const Rcpp::List& x) {
   SEXP nm = Rf_getAttrib(x, R_NamesSymbol);
   if (x.size() > 0 && Rf_isNull(nm)) Rcpp::stop("settings must be a named list");
@@ -128,21 +147,7 @@ ChainSettings read_settings(const Rcpp::List& x) {
   if (has_entry(x, "reg_shift_var") && !Rf_isNull(x["reg_shift_var"]))
     set.reg_shift_var = Rcpp::as<Eigen::VectorXd>(x["reg_shift_var"]);
   if (has_entry(x, "resume") && !Rf_isNull(x["resume"])) {
-    Rcpp::List st = x["resume"];
-    wavevalid::ChainState& c = set.state;
-    c.z = required_vector(st, "z");
-    c.tau2 = required_vector(st, "tau2");
-    c.a = required_vector(st, "a");
-    const Eigen::VectorXd eta = required_vector(st, "eta"), eta_step = required_vector(st, "eta_step");
-    c.eta.assign(eta.data(), eta.data() + eta.size());
-    c.eta_step.assign(eta_step.data(), eta_step.data() + eta_step.size());
-    c.walk_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "walk_chol"));
-    c.ind_chol = Rcpp::as<Eigen::MatrixXd>(required_entry(st, "ind_chol"));
-    c.ind_mean = required_vector(st, "ind_mean");
-    c.has_indep = required_scalar<bool>(st, "has_indep");
-    c.log_t_const = required_scalar<double>(st, "log_t_const");
-    c.log_box = required_scalar<double>(st, "log_box");
-    c.rng = Rcpp::as<std::string>(required_entry(st, "rng"));
+    set.state = read_state(x["resume"]);
     set.resume = true;
   }
   if (has_entry(x, "progress")) {
@@ -340,6 +345,28 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
       Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov,
       Rcpp::Named("reg_shift") = out.reg_shift, Rcpp::Named("state") = state_list(out.end));
+}
+
+// A chain's state (state_list()) with its frozen walk learned anew from its
+// draws Z (one row per draw, at least 20 per input) by the walk's own rule
+// (AdaptiveWalk::learn_from_draws()); NULL when their covariance is not
+// positive definite. priors as for calibrate_chain_cpp().
+// [[Rcpp::export]]
+SEXP relearn_walk_cpp(const Rcpp::List& priors, const Rcpp::List& state, const Eigen::Map<Eigen::MatrixXd>& Z) {
+  std::vector<wavevalid::InputPrior> pr;
+  std::vector<wavevalid::JointPrior> joints;
+  read_priors(priors, pr, joints);
+  wavevalid::ChainState st = read_state(state);
+  wavevalid::AdaptiveWalk walk;
+  walk.init(pr);
+  try {
+    walk.restore(st);
+    if (!walk.learn_from_draws(Z)) return R_NilValue;
+  } catch (const std::invalid_argument& e) {
+    Rcpp::stop(e.what());
+  }
+  walk.save(st);
+  return state_list(st);
 }
 
 // Log prior density of the inputs at each row of Z (own units), as the

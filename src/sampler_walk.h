@@ -86,22 +86,29 @@ class AdaptiveWalk {
     chol_ *= sc;
     log_scale_ = 0.0;
     has_indep_ = false;
-    if (acc_n_ >= 20.0 * p_ && p_ > 0) {
-      Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
-      for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
-      Eigen::LLT<Eigen::MatrixXd> llt(C);
-      if (llt.info() == Eigen::Success) {
-        ind_chol_ = llt.matrixL();
-        ind_mean_ = acc_mean_;
-        // log normalising constants of the t density and of the uniform on the box
-        double logdet = 0.0;
-        for (int k = 0; k < p_; ++k) logdet += std::log(ind_chol_(k, k));
-        log_t_const_ = std::lgamma(0.5 * (kNu + p_)) - std::lgamma(0.5 * kNu) -
-                       0.5 * p_ * std::log(kNu * M_PI) - logdet;
-        log_box_ = -range_.array().log().sum();
-        has_indep_ = true;
-      }
-    }
+    if (acc_n_ >= 20.0 * p_ && p_ > 0) set_independence(acc_mean_, accumulated_covariance());
+  }
+
+  // A frozen walk learned anew from a chain's draws (rows of Z, at least
+  // 20 p of them): the walk 2.38^2 / p times their covariance, and, where the
+  // walk has an independence proposal, that proposal their mean and
+  // covariance, as the burn-in learns them from its running moments. False,
+  // and the walk unchanged, when the covariance is not positive definite.
+  bool learn_from_draws(const Eigen::MatrixXd& Z) {
+    if (Z.cols() != p_ || Z.rows() < 20 * p_ || p_ == 0)
+      throw std::invalid_argument("the draws must have one column per input and at least 20 rows per input");
+    const Eigen::VectorXd m = Z.colwise().mean().transpose();
+    const Eigen::MatrixXd D = Z.rowwise() - m.transpose();
+    Eigen::MatrixXd C = D.transpose() * D / static_cast<double>(Z.rows() - 1);
+    jitter(C);
+    Eigen::MatrixXd W = C;
+    W *= kWalk / p_;
+    Eigen::LLT<Eigen::MatrixXd> llt(W);
+    if (llt.info() != Eigen::Success) return false;
+    chol_ = llt.matrixL();
+    log_scale_ = 0.0;
+    if (has_indep_) set_independence(m, C);
+    return true;
   }
 
   bool has_independence() const { return has_indep_; }
@@ -164,6 +171,8 @@ class AdaptiveWalk {
   int adapt_n_ = 0;
   bool use_acc_ = false;
   static constexpr int kNu = 4;
+  // the walk's size, 2.38^2 / p times the covariance (Gelman, Roberts and Gilks 1996)
+  static constexpr double kWalk = 2.38 * 2.38;
   static constexpr double kEps = 0.2;
   Eigen::VectorXd lower_;
   double log_t_const_ = 0.0, log_box_ = 0.0;
@@ -178,13 +187,41 @@ class AdaptiveWalk {
     acc_cov_ += d * (z - acc_mean_).transpose();
   }
 
+  // The running covariance, with a jitter of 1e-6 of each input's range
+  // squared on the diagonal.
+  Eigen::MatrixXd accumulated_covariance() const {
+    Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
+    jitter(C);
+    return C;
+  }
+
+  void jitter(Eigen::MatrixXd& C) const {
+    for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
+  }
+
   // Proposal covariance from the running covariance of the chain.
   void set_from_accumulator() {
-    Eigen::MatrixXd C = acc_cov_ / std::max(acc_n_ - 1.0, 1.0);
-    for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
-    C *= 2.38 * 2.38 / p_;
+    Eigen::MatrixXd C = accumulated_covariance();
+    C *= kWalk / p_;
     Eigen::LLT<Eigen::MatrixXd> llt(C);
     if (llt.info() == Eigen::Success) chol_ = llt.matrixL();
+  }
+
+  // The independence proposal's t with location m and scale matrix C; left
+  // off when C is not positive definite.
+  void set_independence(const Eigen::VectorXd& m, const Eigen::MatrixXd& C) {
+    has_indep_ = false;
+    Eigen::LLT<Eigen::MatrixXd> llt(C);
+    if (llt.info() != Eigen::Success) return;
+    ind_chol_ = llt.matrixL();
+    ind_mean_ = m;
+    // log normalising constants of the t density and of the uniform on the box
+    double logdet = 0.0;
+    for (int k = 0; k < p_; ++k) logdet += std::log(ind_chol_(k, k));
+    log_t_const_ = std::lgamma(0.5 * (kNu + p_)) - std::lgamma(0.5 * kNu) -
+                   0.5 * p_ * std::log(kNu * M_PI) - logdet;
+    log_box_ = -range_.array().log().sum();
+    has_indep_ = true;
   }
 };
 
