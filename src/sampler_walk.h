@@ -90,24 +90,25 @@ class AdaptiveWalk {
   }
 
   // A frozen walk learned anew from a chain's draws (rows of Z, at least
-  // 20 p of them): the walk 2.38^2 / p times their covariance, and, where the
-  // walk has an independence proposal, that proposal their mean and
-  // covariance, as the burn-in learns them from its running moments. False,
+  // 20 p of them), their moments accumulated as the burn-in accumulates its
+  // own: the walk 2.38^2 / p times their covariance, and, where the walk has
+  // an independence proposal, that proposal their mean and covariance. False,
   // and the walk unchanged, when the covariance is not positive definite.
   bool learn_from_draws(const Eigen::MatrixXd& Z) {
     if (Z.cols() != p_ || Z.rows() < 20 * p_ || p_ == 0)
       throw std::invalid_argument("the draws must have one column per input and at least 20 rows per input");
-    const Eigen::VectorXd m = Z.colwise().mean().transpose();
-    const Eigen::MatrixXd D = Z.rowwise() - m.transpose();
-    Eigen::MatrixXd C = D.transpose() * D / static_cast<double>(Z.rows() - 1);
-    jitter(C);
+    acc_n_ = 0.0;
+    acc_mean_.setZero();
+    acc_cov_.setZero();
+    for (Eigen::Index r = 0; r < Z.rows(); ++r) accumulate(Z.row(r).transpose());
+    const Eigen::MatrixXd C = accumulated_covariance();
     Eigen::MatrixXd W = C;
     W *= kWalk / p_;
     Eigen::LLT<Eigen::MatrixXd> llt(W);
     if (llt.info() != Eigen::Success) return false;
     chol_ = llt.matrixL();
     log_scale_ = 0.0;
-    if (has_indep_) set_independence(m, C);
+    if (has_indep_) set_independence(acc_mean_, C);
     return true;
   }
 
