@@ -229,7 +229,8 @@ Rcpp::List gasp_level_fit_cpp(const Eigen::Map<Eigen::MatrixXd>& X, const Eigen:
 // Eigen's expressions they stand for, for their tests: exp of x written at
 // each offset 0..2 of an aligned array (Eigen takes the C library's exp at
 // unaligned ends), and the inverse factor and R^-1's lower triangle for a
-// correlation matrix on the design X (K runs). Returns
+// correlation matrix on the design X (K runs), the means' dot products and
+// the variances' forward substitution on them. Returns
 // the number of entries that differ in any bit, by kernel, whether the
 // kernels are in use on this build, and the kernel's exp of x.
 // [[Rcpp::export]]
@@ -267,11 +268,49 @@ Rcpp::List vexp_identity_cpp(const Eigen::Map<Eigen::ArrayXd>& x, const Eigen::M
   for (int j = 0; j < K; ++j)
     for (int i = 0; i < K; ++i) d_inv += differ(&Linv(i, j), &LT(j, i), 1);
   for (int k = 0; k < K; ++k) d_ri += differ(&Ri(k, k), &Ri2(k, k), K - k);
+  // the emulators' means: dots of R's columns with the inverse factor's,
+  // one to five at once, against Eigen's dot
+  int d_dot = 0;
+  for (int D = 1; D <= 5; ++D) {
+    for (int j0 = 0; j0 + D <= K; j0 += D) {
+      const double* a[5];
+      const double* b[5];
+      double got[5];
+      for (int d = 0; d < D; ++d) {
+        a[d] = R.col(j0 + d).data();
+        b[d] = Linv.col((j0 + d + 1) % K).data();
+      }
+      wavevalid::dots_eigen(a, b, D, K, got);
+      for (int d = 0; d < D; ++d) {
+        const double want = R.col(j0 + d).dot(Linv.col((j0 + d + 1) % K));
+        d_dot += differ(&want, &got[d], 1);
+      }
+    }
+  }
+  // the variances' forward substitution: x - a0 p0 - a1 p1 - a2 p2 - a3 p3,
+  // each product and difference rounded on its own, over R's columns
+  int d_sub = 0;
+  if (K >= 4) {
+    const double c[4] = {0.3, -1.7, 2.9, 1e-3};
+    Eigen::VectorXd got = Linv.col(0), want = Linv.col(0);
+    for (int k = 0; k < K; ++k) {
+      volatile double v = want(k);
+      for (int q = 0; q < 4; ++q) {
+        volatile double prod = c[q] * R(k, q);
+        v = v - prod;
+      }
+      want(k) = v;
+    }
+    wavevalid::sub_products4(got.data(), K, c[0], c[1], c[2], c[3], R.col(0).data(), R.col(1).data(),
+                             R.col(2).data(), R.col(3).data());
+    d_sub = differ(want.data(), got.data(), K);
+  }
   Rcpp::NumericVector values(n);
   wavevalid::vexp_eigen(x.data(), values.begin(), n);
   return Rcpp::List::create(Rcpp::Named("in_use") = wavevalid::vexp_eigen_available, Rcpp::Named("values") = values,
                             Rcpp::Named("exp") = d_exp,
-                            Rcpp::Named("inverse") = d_inv, Rcpp::Named("gram") = d_ri);
+                            Rcpp::Named("inverse") = d_inv, Rcpp::Named("gram") = d_ri,
+                            Rcpp::Named("dot") = d_dot, Rcpp::Named("sub") = d_sub);
 }
 
 // diag(R^-1) of each lower Cholesky factor of `chol` (K x K x m): column u is

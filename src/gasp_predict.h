@@ -296,9 +296,22 @@ struct GaspBank {
   // beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     corr_into(z, ws);
+#if WAVEVALID_VEXP_EIGEN
+    // Eigen's dot to the bit, in AVX2 vectors where the processor has them
+    // (vexp.h)
+    const int K = n_runs();
+    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
+      const double* a = ws.r.col(slot[i]).data();
+      const double* b = weights.col(i).data();
+      double d;
+      dots_eigen(&a, &b, 1, K, &d);
+      m(i) = mu(i) + d;
+    });
+#else
     for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
       m(i) = mu(i) + ws.r.col(slot[i]).dot(weights.col(i));
     });
+#endif
   }
 
   // The correlation vector of every distinct correlation at raw input z, in
@@ -320,10 +333,28 @@ struct GaspBank {
                     const std::vector<Eigen::VectorXd*>& v, const std::vector<Workspace*>& ws) const {
     const int E = static_cast<int>(zs.size());
     for (int e = 0; e < E; ++e) corr_into(*zs[e], *ws[e]);
+#if WAVEVALID_VEXP_EIGEN
+    // Eigen's dots to the bit, a coefficient's at up to four inputs at once,
+    // its weights read once for all of them (vexp.h)
+    const int K = n_runs();
+    for_each(n_coef(), ws[0]->threads, ws[0]->s, [&](int i, Eigen::ArrayXd&) {
+      const double* w = weights.col(i).data();
+      const double* a[4];
+      const double* b[4] = {w, w, w, w};
+      double d[4];
+      for (int e0 = 0; e0 < E; e0 += 4) {
+        const int ne = E - e0 < 4 ? E - e0 : 4;
+        for (int e = 0; e < ne; ++e) a[e] = ws[e0 + e]->r.col(slot[i]).data();
+        dots_eigen(a, b, ne, K, d);
+        for (int e = 0; e < ne; ++e) (*m[e0 + e])(i) = mu(i) + d[e];
+      }
+    });
+#else
     for_each(n_coef(), ws[0]->threads, ws[0]->s, [&](int i, Eigen::ArrayXd&) {
       const auto w = weights.col(i);
       for (int e = 0; e < E; ++e) (*m[e])(i) = mu(i) + ws[e]->r.col(slot[i]).dot(w);
     });
+#endif
     for_each(static_cast<int>(uniq.size()), ws[0]->threads, ws[0]->x, [&](int u, Eigen::VectorXd& x) {
       for (int e = 0; e < E; ++e) ws[e]->q(u) = unexplained(u, *ws[e], x);
     });
@@ -406,6 +437,11 @@ struct GaspBank {
   // x[k] = (((x[k] - a0 p0[k]) - a1 p1[k]) - a2 p2[k]) - a3 p3[k], k < len.
   static void forward_rows(double* x, int len, const double* a, const double* p0, const double* p1,
                            const double* p2, const double* p3) {
+#if WAVEVALID_VEXP_EIGEN
+    // the same operations per row in AVX-512 or AVX2 vectors where the
+    // processor has them (vexp.h)
+    sub_products4(x, len, a[0], a[1], a[2], a[3], p0, p1, p2, p3);
+#else
     int k = 0;
 #ifdef __SSE2__
     const __m128d a0 = _mm_set1_pd(a[0]), a1 = _mm_set1_pd(a[1]), a2 = _mm_set1_pd(a[2]), a3 = _mm_set1_pd(a[3]);
@@ -426,6 +462,7 @@ struct GaspBank {
       v -= a[3] * p3[k];
       x[k] = v;
     }
+#endif
   }
 
  public:

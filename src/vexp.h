@@ -248,6 +248,108 @@ WAVEVALID_CLONES inline void product_sums(const double* __restrict a, const doub
   *sum_xc = rt;
 }
 
+// Dot products summed as Eigen 3.3's SSE2 `a.dot(b)` of two columns sums
+// them (its linear vectorised redux, the packets from the first element on):
+// every product rounded on its own, four partial sums, one lane per k modulo
+// 4 (two packets of two), the packets added, a last full packet added to
+// them, the two lanes added, an odd last element at the end; for n < 4 one
+// packet and the rest in order. dot_eigen_ref() is that order one element
+// at a time; dots_eigen() computes several at once, in AVX2 vectors of four
+// lanes (the four partial sums) where the processor has them, so that the
+// dependent additions of different products overlap. (In the sampler, at the
+// large size, dots over two different weight columns at once were slower than
+// one column at a time: the callers give it one coefficient's weights.)
+WAVEVALID_NO_CONTRACT inline double dot_eigen_ref(const double* a, const double* b, std::ptrdiff_t n) {
+  if (n < 2) return n == 1 ? a[0] * b[0] : 0.0;
+  const std::ptrdiff_t e2 = (n / 4) * 4, e1 = (n / 2) * 2;
+  double res;
+  if (n >= 4) {
+    double s[4];
+    for (int r = 0; r < 4; ++r) s[r] = a[r] * b[r];
+    for (std::ptrdiff_t k = 4; k < e2; k += 4)
+      for (int r = 0; r < 4; ++r) s[r] = s[r] + a[k + r] * b[k + r];
+    double s0 = s[0] + s[2], s1 = s[1] + s[3];
+    if (e1 > e2) {
+      s0 = s0 + a[e2] * b[e2];
+      s1 = s1 + a[e2 + 1] * b[e2 + 1];
+    }
+    res = s0 + s1;
+  } else {
+    res = a[0] * b[0] + a[1] * b[1];
+  }
+  for (std::ptrdiff_t k = e1; k < n; ++k) res = res + a[k] * b[k];
+  return res;
+}
+
+#if WAVEVALID_VEXP_EIGEN
+// D products at once (n >= 4): lanes 0-3 of an AVX2 vector are Eigen's four
+// partial sums, its halves its two packets.
+template <int D>
+WAVEVALID_VEXP_TARGET("avx2")
+inline void dots_eigen_avx2(const double* const* a, const double* const* b, std::ptrdiff_t n, double* out) {
+  const std::ptrdiff_t e2 = (n / 4) * 4, e1 = (n / 2) * 2;
+  __m256d acc[D];
+#pragma GCC unroll 4
+  for (int d = 0; d < D; ++d) acc[d] = _mm256_mul_pd(_mm256_loadu_pd(a[d]), _mm256_loadu_pd(b[d]));
+  for (std::ptrdiff_t k = 4; k < e2; k += 4) {
+#pragma GCC unroll 4
+    for (int d = 0; d < D; ++d)
+      acc[d] = _mm256_add_pd(acc[d], _mm256_mul_pd(_mm256_loadu_pd(a[d] + k), _mm256_loadu_pd(b[d] + k)));
+  }
+#pragma GCC unroll 4
+  for (int d = 0; d < D; ++d) {
+    __m128d v = _mm_add_pd(_mm256_castpd256_pd128(acc[d]), _mm256_extractf128_pd(acc[d], 1));
+    if (e1 > e2) v = _mm_add_pd(v, _mm_mul_pd(_mm_loadu_pd(a[d] + e2), _mm_loadu_pd(b[d] + e2)));
+    double res = _mm_cvtsd_f64(v) + _mm_cvtsd_f64(_mm_unpackhi_pd(v, v));
+    for (std::ptrdiff_t k = e1; k < n; ++k) res = res + a[d][k] * b[d][k];
+    out[d] = res;
+  }
+}
+
+inline bool has_avx2() {
+  static const bool yes = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return yes;
+}
+#endif
+
+// out[d] = the dot product of a[d] and b[d], n values each, for d < D, each
+// as dot_eigen_ref() sums it.
+inline void dots_eigen(const double* const* a, const double* const* b, int D, std::ptrdiff_t n, double* out) {
+  int d = 0;
+#if WAVEVALID_VEXP_EIGEN
+  if (n >= 4 && has_avx2()) {
+    for (; d + 4 <= D; d += 4) dots_eigen_avx2<4>(a + d, b + d, n, out + d);
+    if (d + 2 <= D) {
+      dots_eigen_avx2<2>(a + d, b + d, n, out + d);
+      d += 2;
+    }
+    if (d < D) dots_eigen_avx2<1>(a + d, b + d, n, out + d);
+    return;
+  }
+#endif
+  for (; d < D; ++d) out[d] = dot_eigen_ref(a[d], b[d], n);
+}
+
+// x[k] = (((x[k] - a0 p0[k]) - a1 p1[k]) - a2 p2[k]) - a3 p3[k] for k < len,
+// each product and difference rounded on its own (no fused multiply-adds), as
+// SSE2's packets of two compute them: every element the same operations in
+// the same order, in the widest vectors.
+WAVEVALID_CLONES inline void sub_products4(double* __restrict x, std::ptrdiff_t len, double a0, double a1, double a2,
+                                           double a3, const double* __restrict p0, const double* __restrict p1,
+                                           const double* __restrict p2, const double* __restrict p3) {
+  for (std::ptrdiff_t k = 0; k < len; ++k) {
+    double v = x[k];
+    v = v - a0 * p0[k];
+    v = v - a1 * p1[k];
+    v = v - a2 * p2[k];
+    v = v - a3 * p3[k];
+    x[k] = v;
+  }
+}
+
 // s[i] += x[i].
 WAVEVALID_CLONES inline void add_to(double* __restrict s, const double* __restrict x, std::ptrdiff_t n) {
   for (std::ptrdiff_t i = 0; i < n; ++i) s[i] = s[i] + x[i];

@@ -331,8 +331,8 @@ test_that("the wide-vector kernels give Eigen's results to the bit", {
     X <- matrix(stats::runif(K * 9), K, 9)
     res <- vexp_identity_cpp(x, X)
     if (!res$in_use) skip("this build keeps Eigen's own expressions")
-    expect_identical(unlist(res[c("exp", "inverse", "gram")]), c(exp = 0L, inverse = 0L, gram = 0L),
-                     label = paste("K =", K))
+    expect_identical(unlist(res[c("exp", "inverse", "gram", "dot", "sub")]),
+                     c(exp = 0L, inverse = 0L, gram = 0L, dot = 0L, sub = 0L), label = paste("K =", K))
   }
   # and the exp is the exp: within 2 units in the last place where the result is a normal number
   e <- x[x > -708 & x < 709]
