@@ -1,16 +1,9 @@
 # Pieces shared by the studies, on the package's exported functions. Source
 # from the package's root after library(wavevalid); it sources the argument
-# parser (studies/args.R) and brings in the test bed protocol the diagnosis
-# tests use, internal to the package (R/testbed-protocol.R).
+# parser (studies/args.R) and the test bed protocol the diagnosis tests use
+# (tests/testthat/helper-protocol.R).
 source("studies/args.R")
-local({
-  ns <- asNamespace("wavevalid")
-  protocol <- c("testbed_engine", "testbed_register", "testbed_emulators", "testbed_calibrate",
-                "testbed_validation", "testbed_two_pass", "testbed_first_pass", "testbed_revalidation",
-                "testbed_check_runs", "testbed_where_verdict", "testbed_explain_verdict", "testbed_loop",
-                "testbed_run_at", "testbed_beds", "testbed_default_fit", "testbed_default_refits")
-  for (nm in protocol) assign(nm, get(nm, envir = ns), envir = globalenv())
-})
+source("tests/testthat/helper-protocol.R")
 
 clock <- function() as.numeric(proc.time()[["elapsed"]])
 

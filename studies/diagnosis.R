@@ -5,7 +5,7 @@
 # seed) the model without any mechanism is validated on condition A as the
 # diagnosis tests validate it (66 runs, 150 x 20 draws, one chain; the field
 # registered to the runs' mean, testbed_validation(), see
-# R/testbed-protocol.R), with calibrate()'s `pool_levels` and
+# tests/testthat/helper-protocol.R), with calibrate()'s `pool_levels` and
 # `registration_variance`. Printed per case (by site where it applies):
 #   recall     share of the grid points where the mechanism acts (its effect
 #              above 10% of its peak) that are flagged (flagged_share());

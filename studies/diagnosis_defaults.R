@@ -5,7 +5,7 @@
 #   fit        validate() with its defaults (registration with a knot every
 #              1/32 of the record, the default basis and emulators), the
 #              test bed's windows and the landmarks that mark when its events
-#              happen (testbed_beds(), R/testbed-protocol.R:
+#              happen (testbed_beds(), helper-protocol.R:
 #              suspension, the load's minimum and maximum; dosing, each
 #              dose's steepest rise), one chain of n_draws x n_inner.
 #   C1         where_fails(fit) (the record-wide part reported apart):

@@ -4,7 +4,7 @@
 # input on [0, 1] ("after", its 66 runs the test bed's condition A design with
 # the strength spread over [0, 1]), are each validated and compared by
 # compare_validations() with condition B held out (testbed_loop(), see
-# R/testbed-protocol.R: each model's runs at B registered to their
+# tests/testthat/helper-protocol.R: each model's runs at B registered to their
 # mean, the after-model's strength spread over its 99% posterior interval).
 # The package's test (test-diagnose-loop.R) asks bias_rms to fall by more than
 # 70% and holdout_rmse to fall.

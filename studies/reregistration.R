@@ -12,7 +12,7 @@
 #           mean of the emulated model) instead of a run; passes = 3 or more
 #           registers again to a run at the last pass's inputs, as many times
 #           (again = run only).
-# This is testbed_two_pass() (R/testbed-protocol.R), each chain's
+# This is testbed_two_pass() (tests/testthat/helper-protocol.R), each chain's
 # start the best of n_search prior draws. Printed for the last pass (and the
 # longest flag of pass 1): criterion 1, recall, precision and base of
 # where_fails() against where the mechanism acts (studies/diagnosis.R), with

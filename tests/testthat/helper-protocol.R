@@ -5,8 +5,9 @@
 # where the model fails (where_fails()), which effect is missing
 # (explain_bias()) and whether adding it fixes the model
 # (compare_validations()). The test bed's truth is known, so each verdict
-# says whether the diagnosis found it. Internal: the tests reach it in the
-# package's namespace, the studies through studies/common.R.
+# says whether the diagnosis found it. It calls only the package's exported
+# functions, so that a study can source it after library(wavevalid):
+#   source("tests/testthat/helper-protocol.R")
 #
 # The protocol's choices (the method's own, not the package's defaults):
 # * the report's wavelet basis (wavelet_basis(retain = "report"));
@@ -97,6 +98,25 @@
 # studies count a case as passing when adding the mechanism cuts bias_rms by
 # more than 70% and the held-out error falls.
 
+# Bad input stops with the package's error classes.
+protocol_abort <- function(message, .envir = parent.frame()) {
+  cli::cli_abort(message, class = c("wavevalid_error_input", "wavevalid_error"), call = NULL, .envir = .envir)
+}
+
+protocol_check_class <- function(x, class, arg = deparse(substitute(x))) {
+  if (!inherits(x, class)) {
+    protocol_abort("{.arg {arg}} must be a {.cls {class}} object, not {.obj_type_friendly {x}}.")
+  }
+  invisible(x)
+}
+
+# Evaluates code with R's RNG (default kinds) seeded by seed, restoring the
+# caller's RNG state and kind (the seeding of the package's with_rng_seed(), through withr).
+protocol_with_seed <- function(seed, code) {
+  withr::with_seed(seed, code, .rng_kind = "Mersenne-Twister", .rng_normal_kind = "Inversion",
+                   .rng_sample_kind = "Rejection")
+}
+
 # The emulators' engine of the protocol: the report's per-coefficient fit.
 testbed_engine <- "gasp"
 
@@ -174,7 +194,7 @@ testbed_check_runs <- function(iu, mechanism = NULL, n = 30L) {
 }
 
 testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
-  check_class(fails, "wv_fails")
+  protocol_check_class(fails, "wv_fails")
   t <- attr(fails, "bias")$t
   iv <- if (is.null(fails$kind)) fails else fails[fails$kind %in% "interval", , drop = FALSE]
   longest <- if (nrow(iv)) round(max(iv$end - iv$start) / (t[2] - t[1])) else 0
@@ -182,7 +202,7 @@ testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
     ok <- longest <= max_steps
     return(list(longest = longest, recall = NULL, precision = NULL, base = NULL, where_ok = ok, localised = ok))
   }
-  if (is.null(effect)) wv_abort("A hidden mechanism needs its {.arg effect} to judge the flags.")
+  if (is.null(effect)) protocol_abort("A hidden mechanism needs its {.arg effect} to judge the flags.")
   recall <- flagged_share(fails, effect)
   precision <- flagged_share(fails, effect, of = "flags")
   base <- attr(precision, "acting")
@@ -194,14 +214,14 @@ testbed_where_verdict <- function(fails, hidden, effect = NULL, max_steps = 3) {
 }
 
 testbed_explain_verdict <- function(ex, hidden) {
-  check_class(ex, "wv_explain")
+  protocol_check_class(ex, "wv_explain")
   ex <- as.data.frame(unclass(ex))
   if (identical(hidden, "none")) {
     return(list(top = ex$candidate[1], top_prob = ex$inclusion_prob[1], ok = all(ex$inclusion_prob < 0.5)))
   }
   mech <- ex[!startsWith(ex$candidate, "shift:"), , drop = FALSE]
   if (!hidden %in% mech$candidate) {
-    wv_abort("{.val {hidden}} is not among the candidates {.val {mech$candidate}}.")
+    protocol_abort("{.val {hidden}} is not among the candidates {.val {mech$candidate}}.")
   }
   p <- mech$inclusion_prob[mech$candidate == hidden]
   list(top = mech$candidate[1], top_prob = mech$inclusion_prob[1],
@@ -218,14 +238,14 @@ testbed_loop <- function(hidden, seed, fit_model = NULL, refine = FALSE, holdout
   before <- fit_model(tb, tb$A$runs, tb$iu, NULL)
   s_name <- paste0("s_", hidden)
   design <- tb$A$runs$design
-  with_rng_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
+  protocol_with_seed(1, design[[s_name]] <- (sample(nrow(design)) - 0.5) / nrow(design))
   runs <- simulate_suspension(design, mechanism = hidden)
   iu_after <- iu_add(tb$iu, s_name, lower = 0, upper = 1, nominal = 0.5)
   after <- fit_model(tb, runs, iu_after, hidden)
 
   design_B <- tb$B$runs$design
   s_range <- stats::quantile(as.matrix(after$draws)[, s_name], c(0.005, 0.995))
-  with_rng_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
+  protocol_with_seed(2, design_B[[s_name]] <- s_range[1] + diff(s_range) * (sample(nrow(design_B)) - 0.5) /
                   nrow(design_B))
   runs_B <- simulate_suspension(design_B, mechanism = hidden)
   p_before <- suppressWarnings(stats::predict(before, type = "new_nominal", new_runs = tb$B$runs,
