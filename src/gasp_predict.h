@@ -296,22 +296,8 @@ struct GaspBank {
   // beta is zero for a coefficient cost nothing for it.
   void mean_into(const Eigen::VectorXd& z, Eigen::VectorXd& m, Workspace& ws) const {
     corr_into(z, ws);
-#if WAVEVALID_VEXP_EIGEN
-    // Eigen's dot to the bit, in AVX2 vectors where the processor has them
-    // (vexp.h)
-    const int K = n_runs();
-    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
-      const double* a = ws.r.col(slot[i]).data();
-      const double* b = weights.col(i).data();
-      double d;
-      dots_eigen(&a, &b, 1, K, &d);
-      m(i) = mu(i) + d;
-    });
-#else
-    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) {
-      m(i) = mu(i) + ws.r.col(slot[i]).dot(weights.col(i));
-    });
-#endif
+    const Workspace* w = &ws;
+    for_each(n_coef(), ws.threads, ws.s, [&](int i, Eigen::ArrayXd&) { means_at(i, &w, 1, &m(i)); });
   }
 
   // The correlation vector of every distinct correlation at raw input z, in
@@ -333,28 +319,14 @@ struct GaspBank {
                     const std::vector<Eigen::VectorXd*>& v, const std::vector<Workspace*>& ws) const {
     const int E = static_cast<int>(zs.size());
     for (int e = 0; e < E; ++e) corr_into(*zs[e], *ws[e]);
-#if WAVEVALID_VEXP_EIGEN
-    // Eigen's dots to the bit, a coefficient's at up to four inputs at once,
-    // its weights read once for all of them (vexp.h)
-    const int K = n_runs();
     for_each(n_coef(), ws[0]->threads, ws[0]->s, [&](int i, Eigen::ArrayXd&) {
-      const double* w = weights.col(i).data();
-      const double* a[4];
-      const double* b[4] = {w, w, w, w};
       double d[4];
       for (int e0 = 0; e0 < E; e0 += 4) {
         const int ne = E - e0 < 4 ? E - e0 : 4;
-        for (int e = 0; e < ne; ++e) a[e] = ws[e0 + e]->r.col(slot[i]).data();
-        dots_eigen(a, b, ne, K, d);
-        for (int e = 0; e < ne; ++e) (*m[e0 + e])(i) = mu(i) + d[e];
+        means_at(i, ws.data() + e0, ne, d);
+        for (int e = 0; e < ne; ++e) (*m[e0 + e])(i) = d[e];
       }
     });
-#else
-    for_each(n_coef(), ws[0]->threads, ws[0]->s, [&](int i, Eigen::ArrayXd&) {
-      const auto w = weights.col(i);
-      for (int e = 0; e < E; ++e) (*m[e])(i) = mu(i) + ws[e]->r.col(slot[i]).dot(w);
-    });
-#endif
     for_each(static_cast<int>(uniq.size()), ws[0]->threads, ws[0]->x, [&](int u, Eigen::VectorXd& x) {
       for (int e = 0; e < E; ++e) ws[e]->q(u) = unexplained(u, *ws[e], x);
     });
@@ -432,6 +404,24 @@ struct GaspBank {
     }
     const double w = 1.0 - q;
     return w > 0.0 ? w : 0.0;
+  }
+
+  // out[e] = coefficient i's mean at the correlation vectors of ws[e], e < E
+  // (at most 4): mu(i) + r' weights, summed as Eigen's dot sums it; with the
+  // wide kernels (vexp.h) in AVX2 vectors where the processor has them, the
+  // weights read once for all E.
+  void means_at(int i, const Workspace* const* ws, int E, double* out) const {
+#if WAVEVALID_VEXP_EIGEN
+    const double* w = weights.col(i).data();
+    const double* a[4];
+    const double* b[4] = {w, w, w, w};
+    for (int e = 0; e < E; ++e) a[e] = ws[e]->r.col(slot[i]).data();
+    dots_eigen(a, b, E, n_runs(), out);
+    for (int e = 0; e < E; ++e) out[e] = mu(i) + out[e];
+#else
+    const auto w = weights.col(i);
+    for (int e = 0; e < E; ++e) out[e] = mu(i) + ws[e]->r.col(slot[i]).dot(w);
+#endif
   }
 
   // x[k] = (((x[k] - a0 p0[k]) - a1 p1[k]) - a2 p2[k]) - a3 p3[k], k < len.

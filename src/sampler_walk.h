@@ -56,11 +56,7 @@ class AdaptiveWalk {
   // The running covariance is restarted at 1/4 and 1/2 of the burn-in, to
   // forget the way in from the start.
   void restart_at(int burn_it, int burnin) {
-    if (burn_it == burnin / 4 || burn_it == burnin / 2) {
-      acc_n_ = 0.0;
-      acc_mean_.setZero();
-      acc_cov_.setZero();
-    }
+    if (burn_it == burnin / 4 || burn_it == burnin / 2) reset_moments();
   }
 
   // After a burn-in step with log acceptance ratio `lr`, at the chain's state
@@ -97,18 +93,11 @@ class AdaptiveWalk {
   bool learn_from_draws(const Eigen::MatrixXd& Z) {
     if (Z.cols() != p_ || Z.rows() < 20 * p_ || p_ == 0)
       throw std::invalid_argument("the draws must have one column per input and at least 20 rows per input");
-    acc_n_ = 0.0;
-    acc_mean_.setZero();
-    acc_cov_.setZero();
+    reset_moments();
     for (Eigen::Index r = 0; r < Z.rows(); ++r) accumulate(Z.row(r).transpose());
-    const Eigen::MatrixXd C = accumulated_covariance();
-    Eigen::MatrixXd W = C;
-    W *= kWalk / p_;
-    Eigen::LLT<Eigen::MatrixXd> llt(W);
-    if (llt.info() != Eigen::Success) return false;
-    chol_ = llt.matrixL();
+    if (!set_from_accumulator()) return false;
     log_scale_ = 0.0;
-    if (has_indep_) set_independence(acc_mean_, C);
+    if (has_indep_) set_independence(acc_mean_, accumulated_covariance());
     return true;
   }
 
@@ -200,12 +189,21 @@ class AdaptiveWalk {
     for (int k = 0; k < p_; ++k) C(k, k) += 1e-6 * range_(k) * range_(k);
   }
 
-  // Proposal covariance from the running covariance of the chain.
-  void set_from_accumulator() {
+  // Proposal covariance from the running covariance of the chain; false, and
+  // the walk unchanged, when it is not positive definite.
+  bool set_from_accumulator() {
     Eigen::MatrixXd C = accumulated_covariance();
     C *= kWalk / p_;
     Eigen::LLT<Eigen::MatrixXd> llt(C);
-    if (llt.info() == Eigen::Success) chol_ = llt.matrixL();
+    if (llt.info() != Eigen::Success) return false;
+    chol_ = llt.matrixL();
+    return true;
+  }
+
+  void reset_moments() {
+    acc_n_ = 0.0;
+    acc_mean_.setZero();
+    acc_cov_.setZero();
   }
 
   // The independence proposal's t with location m and scale matrix C; left
