@@ -168,8 +168,8 @@ class Sampler : public SamplerState {
     tau2_ = st.tau2;
     tau_ready_ = true;
     a_ = st.a;
-    for (SiteData& d : sites_)
-      if (d.shift_U.cols() > 0) d.wbar = d.wbar0 - d.shift_U * a_;
+    for (std::size_t s = 0; s < sites_.size(); ++s)
+      if (sites_[s].shift_U.cols() > 0) shift_moved(static_cast<int>(s), false);
     eta_ = st.eta;
     eta_step_ = st.eta_step;
     if (set_.adaptive) walk_.restore(st);
@@ -182,7 +182,8 @@ class Sampler : public SamplerState {
   double cycle(double ll, int burn_it) {
     if (K_ > 0 && tau_ready_) {
       registration_shift_step();
-      ll = loglik(tau2_);
+      // the inputs' target has the shifts integrated out: ll stands
+      if (!collapsed()) ll = loglik(tau2_);
     }
     if (any_learn_) ll = noise_steps(burn_it >= 0);
     if (!set_.adaptive) {

@@ -84,6 +84,18 @@ class SamplerState {
       if (d.shift_U.cols() != K_ || d.shift_U.rows() != d.bank->n_coef())
         throw std::invalid_argument("a site's registration shifts have the wrong size");
     }
+    shift_rows_.assign(S, std::vector<int>());
+    shift_Ur_.assign(S, std::vector<double>());
+    for (std::size_t s = 0; s < S; ++s) {
+      const SiteData& d = sites_[s];
+      for (int i = 0; i < d.shift_U.rows() && d.shift_U.cols() > 0; ++i) {
+        if (!(d.shift_U.row(i).array() != 0.0).any()) continue;
+        shift_rows_[s].push_back(i);
+        for (int k = 0; k < K_; ++k) shift_Ur_[s].push_back(d.shift_U(i, k));
+      }
+    }
+    shift_P_.resize(K_, K_);
+    shift_b_.resize(K_);
     if (K_ > 0 && (shared_ || !(set_.reg_shift_var.array() > 0.0).all()))
       throw std::invalid_argument("registration shifts need positive variances and no shared bias");
     eta_.assign(S, 0.0);
@@ -140,6 +152,17 @@ class SamplerState {
   bool shared_ = false;                     // some sites share a bias
   int K_ = 0;                               // the registration's shifts
   Eigen::VectorXd a_;                       // their current values
+  // By site, the coefficients that a shift moves (the rows of shift_U with a
+  // nonzero entry; a shift moves the curve near its landmark only, so most
+  // rows are zero) and those rows of shift_U, K values each, one after the
+  // other; the shifts' precision and its right-hand side (scratch).
+  std::vector<std::vector<int>> shift_rows_;
+  std::vector<std::vector<double>> shift_Ur_;
+  mutable Eigen::MatrixXd shift_P_;
+  mutable Eigen::VectorXd shift_b_;
+  void shift_start() const;
+  void shift_add(int s, int r, double w, double y) const;
+  void shift_moved(int s, bool resid);
 
   // The registration's shifts (sampler_shifts.h): their Gibbs step, and the
   // inputs' target with them integrated out (debug_break 8: given them).
