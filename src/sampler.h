@@ -167,6 +167,7 @@ class Sampler : public SamplerState {
     z_ = st.z;
     tau2_ = st.tau2;
     tau_ready_ = true;
+    logs_valid_ = false;
     a_ = st.a;
     for (std::size_t s = 0; s < sites_.size(); ++s)
       if (sites_[s].shift_U.cols() > 0) shift_moved(static_cast<int>(s), false);
@@ -207,6 +208,7 @@ class Sampler : public SamplerState {
   }
 
   void init_tau2() {
+    logs_valid_ = false;
     if (set_.fix_tau2 || set_.tau2_init.size() == G_) {
       tau2_ = set_.tau2_init;
       return;
@@ -240,6 +242,7 @@ class Sampler : public SamplerState {
       if (d.noise_mult.size()) sigma2_[s].array() *= d.noise_mult.array();
       for (int i = 0; i < d.bank->n_coef(); ++i) ebar_[s](i) = (sigma2_[s](i) + d.R * d.extra(i)) / d.R;
       base_[s] = v_[s] + ebar_[s];
+      logs_valid_ = false;
     }
     return loglik(tau2_);
   }
@@ -266,6 +269,7 @@ class Sampler : public SamplerState {
       const double l = lr[part] + loglik(next, true) - loglik(tau2_, true);
       if (std::log(unif_(rng_)) < l) {
         tau2_ = next;
+        logs_valid_ = false;
         acc_tau_ += cut ? 0.5 : 1.0;
       }
     }
@@ -284,6 +288,7 @@ class Sampler : public SamplerState {
       n_tau_ += 1.0 / G_;
       if (std::log(unif_(rng_)) < lr) {
         tau2_(g) = prop;
+        tau2_step_taken(g, cur);
         acc_tau_ += 1.0 / G_;
       }
     }
@@ -314,6 +319,11 @@ class Sampler : public SamplerState {
     m_.swap(mp_);
     v_.swap(vp_);
     refresh_cache();
+    if (logs_p_valid_) {
+      logs_.swap(logs_p_);
+      logs_valid_ = true;
+    }
+    logs_p_valid_ = false;
   }
 
   // Adaptive Metropolis (sampler_walk.h), adapted during the burn-in.
@@ -386,6 +396,7 @@ class Sampler : public SamplerState {
       if ((j + 1) % 50 == 0) check_();
     }
     z_ = best_z;
+    logs_valid_ = false;
     predict_all(z_, m_, v_);
     if (!set_.fix_tau2 && set_.tau2_init.size() != G_) tau2_ = moment_tau2(m_, v_);
   }

@@ -85,10 +85,13 @@ inline void SamplerState::registration_shift_step() {
 
 // The inputs' target with the shifts integrated out, at means m and
 // emulator variances v (see above). It does not depend on the current
-// shifts.
+// shifts. The logs of the variances are read from logs_in, or taken and
+// kept in logs_out (SamplerState::logs_).
 inline double SamplerState::collapsed_loglik(const std::vector<Eigen::VectorXd>& m,
                                              const std::vector<Eigen::VectorXd>& v,
-                                             const Eigen::VectorXd& tau2) const {
+                                             const Eigen::VectorXd& tau2,
+                                             const std::vector<Eigen::VectorXd>* logs_in,
+                                             std::vector<Eigen::VectorXd>* logs_out) const {
   shift_start();
   double ll = 0.0;
   for (std::size_t s = 0; s < sites_.size(); ++s) {
@@ -106,7 +109,9 @@ inline double SamplerState::collapsed_loglik(const std::vector<Eigen::VectorXd>&
       if (!informs_[d.group[i]]) continue;
       const double tot = v[s](i) + ebar_[s](i) + tau2(d.group[i]);
       const double res = (moved ? d.wbar0(i) : d.wbar(i)) - m[s](i);
-      ll -= 0.5 * (std::log(tot) + res * res / tot);
+      const double lt = logs_in ? (*logs_in)[s](i) : std::log(tot);
+      if (logs_out) (*logs_out)[s](i) = lt;
+      ll -= 0.5 * (lt + res * res / tot);
       if (hit) {
         const double w = set_.temper / tot;
         shift_add(static_cast<int>(s), ri, w, w * res);

@@ -118,6 +118,17 @@ class SamplerState {
       if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
       for (int g = 0; g < G_; ++g) informs_[g] = set_.informs[g] != 0;
     }
+    log_cache_ = !shared_ && set_.debug_break != 5 &&
+                 std::all_of(informs_.begin(), informs_.end(), [](char c) { return c != 0; });
+    logs_.resize(S);
+    logs_p_.resize(S);
+    for (std::size_t s = 0; s < S; ++s) {
+      logs_[s].resize(sites_[s].bank->n_coef());
+      logs_p_[s].resize(sites_[s].bank->n_coef());
+    }
+    std::size_t widest = 0;
+    for (const std::vector<int>& mem : members_) widest = std::max(widest, mem.size());
+    glogs_.resize(static_cast<Eigen::Index>(widest));
     half_.resize(p_);
     for (int k = 0; k < p_; ++k) half_(k) = set_.step * (priors_[k].upper - priors_[k].lower);
     std::seed_seq sq{static_cast<std::uint32_t>(set_.seed & 0xffffffffu),
@@ -160,6 +171,18 @@ class SamplerState {
   std::vector<std::vector<double>> shift_Ur_;
   mutable Eigen::MatrixXd shift_P_;
   mutable Eigen::VectorXd shift_b_;
+
+  // log(V + sigma2 / R + extra + tau2) of every coefficient at the current
+  // inputs and tau2 (logs_, when logs_valid_) and at the last proposed
+  // inputs (logs_p_, when logs_p_valid_), and of one group's coefficients at
+  // its proposed tau2 (glogs_): each log is taken once and read by every step
+  // that needs it, the same number as taken again, so the same draws. Kept
+  // where every coefficient enters the inputs' target on its own (no cut, no
+  // shared bias: log_cache_).
+  bool log_cache_ = false;
+  mutable std::vector<Eigen::VectorXd> logs_, logs_p_;
+  mutable bool logs_valid_ = false, logs_p_valid_ = false;
+  mutable Eigen::VectorXd glogs_;
   void shift_start() const;
   void shift_add(int s, int r, double w, double y) const;
   void shift_moved(int s, bool resid);
@@ -168,7 +191,8 @@ class SamplerState {
   // inputs' target with them integrated out (debug_break 8: given them).
   void registration_shift_step();
   double collapsed_loglik(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
-                          const Eigen::VectorXd& tau2) const;
+                          const Eigen::VectorXd& tau2, const std::vector<Eigen::VectorXd>* logs_in = nullptr,
+                          std::vector<Eigen::VectorXd>* logs_out = nullptr) const;
   bool collapsed() const { return K_ > 0 && set_.debug_break != 8; }
 
   AdaptiveWalk walk_;  // the random walk of the adaptive input step
@@ -218,6 +242,7 @@ class SamplerState {
   std::vector<GaspBank::Workspace*> group_ws_;
 
   void draw_sigma2() {
+    logs_valid_ = false;
     sigbar_.setZero();
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
@@ -250,6 +275,7 @@ class SamplerState {
 
   // base = V + sigma2 / R + extra, resid2 = (wbar - m)^2 at the current inputs.
   void refresh_cache() {
+    logs_valid_ = false;
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       const SiteData& d = sites_[s];
       base_[s] = v_[s] + ebar_[s];
@@ -359,9 +385,13 @@ class SamplerState {
   // The log likelihoods below are the target's: raised to the power
   // settings.temper (multiplied by it on the log scale), so that every
   // acceptance ratio takes them as they are.
+  // At the proposal's means and variances (mp_, vp_) and the current tau2,
+  // the logs are kept in logs_p_ for take_proposal().
   double loglik_with(const std::vector<Eigen::VectorXd>& m, const std::vector<Eigen::VectorXd>& v,
                      const Eigen::VectorXd& tau2) const {
-    if (collapsed()) return collapsed_loglik(m, v, tau2);
+    logs_p_valid_ = log_cache_ && &m == &mp_ && &v == &vp_ && &tau2 == &tau2_;
+    std::vector<Eigen::VectorXd>* out = logs_p_valid_ ? &logs_p_ : nullptr;
+    if (collapsed()) return collapsed_loglik(m, v, tau2, nullptr, out);
     if (shared_) {
       return shared_loglik(tau2, false, [&](int q, int i) { return v[q](i) + ebar_[q](i); },
                            [&](int q, int i) { return sites_[q].wbar(i) - m[q](i); });
@@ -375,7 +405,9 @@ class SamplerState {
         if (!informs_[d.group[i]]) continue;
         const double tot = v[s](i) + ebar_[s](i) + tau2(d.group[i]);
         const double r = d.wbar(i) - m[s](i);
-        ll -= 0.5 * (std::log(tot) + r * r / tot);
+        const double lt = std::log(tot);
+        if (out) (*out)[s](i) = lt;
+        ll -= 0.5 * (lt + r * r / tot);
       }
     }
     return set_.temper * ll;
@@ -383,8 +415,13 @@ class SamplerState {
 
   // The log likelihood of the coefficients that inform the inputs (all of
   // them with `all`), at the cached m, V.
+  // At the current tau2 the logs are read from logs_, or taken and kept there.
   double loglik(const Eigen::VectorXd& tau2, bool all = false) const {
-    if (!all && collapsed()) return collapsed_loglik(m_, v_, tau2);
+    const bool here = log_cache_ && !all && &tau2 == &tau2_;
+    const std::vector<Eigen::VectorXd>* in = here && logs_valid_ ? &logs_ : nullptr;
+    std::vector<Eigen::VectorXd>* out = here && !logs_valid_ ? &logs_ : nullptr;
+    if (here) logs_valid_ = true;
+    if (!all && collapsed()) return collapsed_loglik(m_, v_, tau2, in, out);
     if (shared_) {
       return shared_loglik(tau2, all, [&](int q, int i) { return base_[q](i); },
                            [&](int q, int i) { return resid_[q](i); });
@@ -397,7 +434,9 @@ class SamplerState {
       for (int i = 0; i < n; ++i) {
         if (!all && !informs_[d.group[i]]) continue;
         const double tot = base_[s](i) + tau2(d.group[i]);
-        ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+        const double lt = in ? (*in)[s](i) : std::log(tot);
+        if (out) (*out)[s](i) = lt;
+        ll -= 0.5 * (lt + resid2_[s](i) / tot);
       }
     }
     return set_.temper * ll;
@@ -413,13 +452,27 @@ class SamplerState {
       }
       return set_.temper * ll;
     }
+    // at the group's current tau2 the logs are read from logs_; at another
+    // they are kept in glogs_ (for tau2_step_taken())
+    const bool cur = log_cache_ && logs_valid_ && t2 == tau2_(g);
+    const bool keep = log_cache_ && !cur;
     double ll = 0.0;
     for (std::size_t k = 0; k < members_[g].size(); ++k) {
       const int s = msite_[g][k], i = members_[g][k];
       const double tot = base_[s](i) + t2;
-      ll -= 0.5 * (std::log(tot) + resid2_[s](i) / tot);
+      const double lt = cur ? logs_[s](i) : std::log(tot);
+      if (keep) glogs_(static_cast<Eigen::Index>(k)) = lt;
+      ll -= 0.5 * (lt + resid2_[s](i) / tot);
     }
     return set_.temper * ll;
+  }
+
+  // Group g's tau2 moved from `from` to tau2_(g), its likelihood last taken
+  // there (group_loglik()): its logs enter logs_.
+  void tau2_step_taken(int g, double from) {
+    if (!logs_valid_ || tau2_(g) == from) return;
+    for (std::size_t k = 0; k < members_[g].size(); ++k)
+      logs_[msite_[g][k]](members_[g][k]) = glogs_(static_cast<Eigen::Index>(k));
   }
 
   void draw_coefficients(int h, SamplerOutput& out) {
