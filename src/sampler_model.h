@@ -224,7 +224,10 @@ struct SamplerSettings {
                                     // 4: drop the Jacobian of log sigma2 in the learned-noise step,
                                     // 5: drop the likelihood of the sites with an input shift,
                                     // 6: the learned noise's multipliers taken as 1,
-                                    // 7: the inputs' likelihood weight taken as 1
+                                    // 7: the inputs' likelihood weight taken as 1,
+                                    // (8: the inputs' steps given the registration's shifts,)
+                                    // 9: every log of a coefficient's variance taken afresh (the
+                                    // reference of the kept logs: the same draws)
   int report_every = 50;
   bool adaptive = false;            // ADAPTIVE proposal (else the report's)
   int burnin = 0;                   // cycles before the first saved draw (adaptation in ADAPTIVE)

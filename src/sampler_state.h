@@ -118,7 +118,7 @@ class SamplerState {
       if (static_cast<int>(set_.informs.size()) != G_) throw std::invalid_argument("informs has the wrong length");
       for (int g = 0; g < G_; ++g) informs_[g] = set_.informs[g] != 0;
     }
-    log_cache_ = !shared_ && set_.debug_break != 5 &&
+    log_cache_ = !shared_ && set_.debug_break != 5 && set_.debug_break != 9 &&
                  std::all_of(informs_.begin(), informs_.end(), [](char c) { return c != 0; });
     logs_.resize(S);
     logs_p_.resize(S);
