@@ -77,6 +77,10 @@ calibrate_chain_cpp <- function(sites, priors, settings) {
     .Call(`_wavevalid_calibrate_chain_cpp`, sites, priors, settings)
 }
 
+calibrate_team_cpp <- function(sites, priors, settings) {
+    .Call(`_wavevalid_calibrate_team_cpp`, sites, priors, settings)
+}
+
 relearn_walk_cpp <- function(priors, state, Z) {
     .Call(`_wavevalid_relearn_walk_cpp`, priors, state, Z)
 }

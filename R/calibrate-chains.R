@@ -8,11 +8,15 @@
 # `sm$n_draws` NULL the chains run in rounds until the inputs' draws meet
 # the targets (chain_rounds()).
 run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global = 0.1) {
-  worker <- chain_worker(spec, sm, seed, tau, debug_break, p_global)
+  team <- isTRUE(sm$together) && chains >= 2L
+  worker <- chain_worker(spec, sm, seed, tau, debug_break, p_global, team = team)
   # the worker carries the sampler's spec in its closure, sent once per chain
+  # (once for all of them when they run together)
   run <- function(jobs) {
-    future.apply::future_lapply(jobs, worker, future.seed = NULL, future.packages = "wavevalid",
-                                future.globals = stats::setNames(list(), character(0)))
+    if (team) jobs <- list(jobs)
+    out <- future.apply::future_lapply(jobs, worker, future.seed = NULL, future.packages = "wavevalid",
+                                       future.globals = stats::setNames(list(), character(0)))
+    if (team) out[[1L]] else out
   }
   if (!is.null(sm$n_draws)) {
     return(run(lapply(seq_len(chains),
@@ -133,13 +137,16 @@ join_chain_runs <- function(a, b) {
 # resume): its environment holds only what the chain needs (the sampler's
 # spec, settings and seed). On the suspension test bed (2 sites, 431
 # coefficients each, 66 runs) that is 30 MiB per chain. A job with `resume`
-# (a chain's state) continues that chain, without burn-in.
-chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
+# (a chain's state) continues that chain, without burn-in. With `team`, the
+# function takes a list of jobs, one per chain, and runs them together in one
+# process, a thread each (calibrate_team_cpp()): the same draws.
+chain_worker <- function(spec, sm, seed, tau, debug_break, p_global, team = FALSE) {
   # forced, so that no promise carries the caller's frame to the worker
   force(sm)
   force(seed)
   force(debug_break)
   force(p_global)
+  force(team)
   fix <- any(tau$fixed)
   tau_init <- if (fix) unname(tau$values) else numeric(0)
   # what the C++ sampler reads: by site the emulators' banks and the field's
@@ -149,31 +156,43 @@ chain_worker <- function(spec, sm, seed, tau, debug_break, p_global) {
                informs = spec$informs, temper = spec$temper, input_weight = spec$input_weight,
                reg_shift_var = spec$reg_shift_var)
   rm(tau)
+  settings <- function(job, progress) {
+    list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
+         tau2_init = as.numeric(tau_init), fix_tau2 = fix,
+         n_draws = as.integer(job$n_draws),
+         n_inner = as.integer(sm$n_inner), step = as.numeric(sm$step),
+         seed = as.numeric(seed),
+         chain = as.integer(job$chain), debug_break = as.integer(debug_break),
+         progress = progress,
+         adaptive = identical(sm$proposal, "adaptive"), burnin = as.integer(sm$burnin),
+         p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
+         n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
+         informs = as.integer(spec$informs %||% integer(0)),
+         temper = as.numeric(spec$temper %||% 1),
+         input_weight = as.numeric(spec$input_weight %||% 1),
+         reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else
+           as.numeric(spec$reg_shift_var),
+         resume = job$resume)
+  }
+  progress_of <- function(label, n_draws) {
+    if (isTRUE(sm$quiet)) return(NULL)
+    id <- cli::cli_progress_bar(label, total = n_draws, .envir = parent.frame())
+    function(h) cli::cli_progress_update(id = id, set = h)
+  }
+  if (team) {
+    return(function(jobs) {
+      chains <- vapply(jobs, function(j) j$chain, integer(1))
+      label <- sprintf("Chains %s, together", paste(chains, collapse = " and "))
+      progress <- progress_of(label, jobs[[1]]$n_draws)
+      calibrate_team_cpp(spec$sites, spec$priors,
+                         lapply(seq_along(jobs), function(k) {
+                           settings(jobs[[k]], if (k == 1L) progress else NULL)
+                         }))
+    })
+  }
   function(job) {
-    ch <- job$chain
-    n_draws <- job$n_draws
-    progress <- NULL
-    if (!isTRUE(sm$quiet)) {
-      id <- cli::cli_progress_bar(sprintf("Chain %d", ch), total = n_draws, .envir = environment())
-      progress <- function(h) cli::cli_progress_update(id = id, set = h)
-    }
-    settings <- list(n_groups = nrow(spec$groups), z_init = as.numeric(spec$z_init),
-                     tau2_init = as.numeric(tau_init), fix_tau2 = fix,
-                     n_draws = as.integer(n_draws),
-                     n_inner = as.integer(sm$n_inner), step = as.numeric(sm$step),
-                     seed = as.numeric(seed),
-                     chain = as.integer(ch), debug_break = as.integer(debug_break),
-                     progress = progress,
-                     adaptive = identical(sm$proposal, "adaptive"), burnin = as.integer(sm$burnin),
-                     p_global = as.numeric(p_global), p_indep = as.numeric(sm$global_moves),
-                     n_search = as.integer(sm$n_search), threads = as.integer(sm$threads),
-                     informs = as.integer(spec$informs %||% integer(0)),
-                     temper = as.numeric(spec$temper %||% 1),
-                     input_weight = as.numeric(spec$input_weight %||% 1),
-                     reg_shift_var = if (is.null(spec$reg_shift_var)) NULL else
-                       as.numeric(spec$reg_shift_var),
-                     resume = job$resume)
-    calibrate_chain_cpp(spec$sites, spec$priors, settings)
+    progress <- progress_of(sprintf("Chain %d", job$chain), job$n_draws)
+    calibrate_chain_cpp(spec$sites, spec$priors, settings(job, progress))
   }
 }
 

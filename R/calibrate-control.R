@@ -218,6 +218,16 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #'   `getOption("wavevalid.quiet", FALSE)`).
 #' @param chains Number of chains (default 2), each with its own stream of
 #'   random numbers derived from the seed.
+#' @param together Run the chains together in one R process, a thread each,
+#'   their emulator predictions made in step: each coefficient's weights and
+#'   each emulator's factor are read from memory once per cycle for all the
+#'   chains, which is what limits a large problem. The draws are the same as
+#'   with the chains apart. `NULL` (default) runs them together when there
+#'   are two chains or more and a core for each: the workers of a
+#'   multisession, multicore or callr plan, or the free cores under the
+#'   sequential plan (not with `options(wavevalid.workers = 1)`); never under
+#'   a plan that sends work to other machines (a cluster or batchtools plan),
+#'   where each chain is a job of its own.
 #' @return A `wv_sampler_control` object: a list of the checked values.
 #' @seealso [bias_control()] for the statistical model's choices,
 #'   [calibrate()].
@@ -235,7 +245,7 @@ sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1,
                             threads = getOption("wavevalid.threads", 1L),
                             quiet = getOption("wavevalid.quiet", FALSE), ess = 400, rhat = 1.05,
                             max_draws = 1000,
-                            chains = 2) {
+                            chains = 2, together = NULL) {
   if (!is.null(n_draws)) check_number(n_draws, min = 1, integer = TRUE)
   check_number(n_inner, min = 1, integer = TRUE)
   check_number(ess, min = 10, max = 1e7)
@@ -249,10 +259,12 @@ sampler_control <- function(n_draws = NULL, n_inner = 50, step = 0.1,
   check_number(threads, min = 1, max = 1024, integer = TRUE)
   check_flag(quiet)
   check_number(chains, min = 1, integer = TRUE)
+  if (!is.null(together)) check_flag(together)
   structure(list(n_draws = n_draws, n_inner = n_inner, step = step, proposal = proposal,
                  global_moves = global_moves, burnin = burnin, n_search = n_search,
                  threads = threads,
-                 quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws, chains = chains),
+                 quiet = quiet, ess = ess, rhat = rhat, max_draws = max_draws, chains = chains,
+                 together = together),
             class = "wv_sampler_control")
 }
 
@@ -490,7 +502,7 @@ control_call <- function(x, always = character(0)) {
   }
   keep <- vapply(names(x), function(nm) nm %in% always || !identical(x[[nm]], defaults[[nm]]),
                  logical(1))
-  keep[names(x) %in% c("quiet", "threads", "chains")] <- FALSE
+  keep[names(x) %in% c("quiet", "threads", "chains", "together")] <- FALSE
   args <- vapply(names(x)[keep], function(nm) paste(nm, "=", show(x[[nm]])), "")
   paste0(name, "(", paste(args, collapse = ", "), ")")
 }

@@ -182,12 +182,33 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
     if (!sm$quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {sm$threads}.")
     sm$threads <- free
   }
+  sm$together <- chains_together(sm$together, chains, free)
   fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
   fit <- fit_set(fit, control = list(bias = bias, sampler = sampler))
-  hint_parallel_chains(fit_get(fit, "sampling_seconds"), chains, free, sm$quiet)
+  if (!sm$together) hint_parallel_chains(fit_get(fit, "sampling_seconds"), chains, free, sm$quiet)
   warn_fit_flags(fit)
   warn_experiment_extrapolation(fit)
   validate_wv_fit(fit)
+}
+
+# Whether the chains run together in one process, a thread each
+# (sampler_control(together = )): as asked, or with two chains or more when
+# each has a core of its own, the plan's workers under a local plan with
+# workers (multisession, multicore, callr) or the free cores under the
+# sequential plan (not with options(wavevalid.workers = 1)); never under a
+# plan that may send work to other machines.
+chains_together <- function(together, chains, free) {
+  if (chains < 2L) return(FALSE)
+  if (!is.null(together)) return(isTRUE(together))
+  if (!requireNamespace("future", quietly = TRUE)) return(FALSE)
+  pl <- future::plan()
+  if (inherits(pl, "sequential")) {
+    want <- getOption("wavevalid.workers", "auto")
+    if (is.numeric(want) && isTRUE(all(want <= 1))) return(FALSE)
+    return(free >= chains)
+  }
+  if (inherits(pl, c("multisession", "multicore", "callr"))) return(future::nbrOfWorkers() >= chains)
+  FALSE
 }
 
 # When the chains ran one after the other (future's sequential plan) for a
@@ -241,13 +262,20 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   }
   # the workers start once the inputs and the data have passed their checks,
   # and stop as calibrate() returns (after its hint on the plan)
-  use_cores(chains, sm$quiet, envir = parent.frame())
+  # chains run together take one process (the main one unless a plan is set)
+  together <- isTRUE(sm$together)
+  use_cores(if (together) 1L else chains, sm$quiet, envir = parent.frame())
+  if (together && !sm$quiet && requireNamespace("future", quietly = TRUE) && inherits(future::plan(), "sequential")) {
+    wv_inform(c("i" = paste0("The {chains} chains run together in this R process, a thread each ",
+                             "(the same draws as apart; {.code sampler_control(together = FALSE)} runs them apart).")),
+              class = "cores")
+  }
   t_sampling <- proc.time()[["elapsed"]]
   runs <- run_chains(spec, sm, chains, seed, tau)
   t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = sm$n_draws %||% nrow(runs[[1L]]$inputs),
-                                      n_inner = sm$n_inner, chains = chains,
+                                      n_inner = sm$n_inner, chains = chains, together = together,
                                       step = sm$step, proposal = sm$proposal,
                                       global_moves = sm$global_moves,
                                       burnin = sm$burnin,

@@ -271,6 +271,19 @@ BEGIN_RCPP
     return rcpp_result_gen;
 END_RCPP
 }
+// calibrate_team_cpp
+Rcpp::List calibrate_team_cpp(const Rcpp::List& sites, const Rcpp::List& priors, const Rcpp::List& settings);
+RcppExport SEXP _wavevalid_calibrate_team_cpp(SEXP sitesSEXP, SEXP priorsSEXP, SEXP settingsSEXP) {
+BEGIN_RCPP
+    Rcpp::RObject rcpp_result_gen;
+    Rcpp::RNGScope rcpp_rngScope_gen;
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type sites(sitesSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type priors(priorsSEXP);
+    Rcpp::traits::input_parameter< const Rcpp::List& >::type settings(settingsSEXP);
+    rcpp_result_gen = Rcpp::wrap(calibrate_team_cpp(sites, priors, settings));
+    return rcpp_result_gen;
+END_RCPP
+}
 // relearn_walk_cpp
 SEXP relearn_walk_cpp(const Rcpp::List& priors, const Rcpp::List& state, const Eigen::Map<Eigen::MatrixXd>& Z);
 RcppExport SEXP _wavevalid_relearn_walk_cpp(SEXP priorsSEXP, SEXP stateSEXP, SEXP ZSEXP) {
@@ -369,6 +382,7 @@ static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_gasp_bank_predict_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_cpp, 2},
     {"_wavevalid_gasp_bank_predict_augmented_cpp", (DL_FUNC) &_wavevalid_gasp_bank_predict_augmented_cpp, 4},
     {"_wavevalid_calibrate_chain_cpp", (DL_FUNC) &_wavevalid_calibrate_chain_cpp, 3},
+    {"_wavevalid_calibrate_team_cpp", (DL_FUNC) &_wavevalid_calibrate_team_cpp, 3},
     {"_wavevalid_relearn_walk_cpp", (DL_FUNC) &_wavevalid_relearn_walk_cpp, 3},
     {"_wavevalid_input_log_prior_cpp", (DL_FUNC) &_wavevalid_input_log_prior_cpp, 3},
     {"_wavevalid_suspension_simulate_cpp", (DL_FUNC) &_wavevalid_suspension_simulate_cpp, 9},

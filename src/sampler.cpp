@@ -1,8 +1,11 @@
 // R glue for the modular Metropolis-Hastings sampler (one chain per call).
 #include <RcppEigen.h>
 #include <algorithm>
+#include <exception>
+#include <functional>
 #include <memory>
 #include <string>
+#include <thread>
 #include "sampler.h"
 
 // [[Rcpp::depends(RcppEigen)]]
@@ -202,47 +205,24 @@ void read_priors(const Rcpp::List& priors, std::vector<wavevalid::InputPrior>& p
 
 }
 
-}  // namespace
+// The emulator banks (one copy of a bank that several sites evaluate), the
+// sites' data and the priors, read from calibrate_chain_cpp()'s arguments.
+// The sites' data point into `banks`: a Problem is not copied or moved.
+struct Problem {
+  std::vector<wavevalid::GaspBank> banks;
+  std::vector<wavevalid::SiteData> data;
+  std::vector<wavevalid::InputPrior> priors;
+  std::vector<wavevalid::JointPrior> joints;
+};
 
-// sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
-//   noise (optional: list(scale, family) when sigma2 is learned: family 0
-//   half-Cauchy, 1 half-normal on its sd; optional mult (length n: the
-//   coefficients' noise variances as multiples of sigma2), ss and df (the
-//   scatter of repeated measurements: ss / sigma2 ~ chi^2_df)),
-//   group (0-based global tau2 group per coefficient; a group may span
-//   sites), bias_of (optional, 0-based: the site whose bias coefficients this
-//   site shares; its groups must be that site's), shift (optional, length p:
-//   the change of the inputs at which the
-//   site's emulators are evaluated), extra (optional, length n: variance of
-//   wbar added to sigma2 / R).
-// priors: list with lower, upper, normal (logical: manufacturing variation),
-//   mean, sd (length p each); optional kind (0 uniform, 1 normal, 2 log-normal
-//   with mean and sd of log x, 3 under a joint block; default from normal) and
-//   joint (list of blocks: index (0-based), log (logical), mean, chol (lower
-//   Cholesky factor of the covariance)).
-// settings: named list with
-//   n_groups (number of tau2 groups), z_init (p starting inputs, coded),
-//   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
-//   fix_tau2, n_draws, n_inner, step, seed, chain;
-//   optional: debug_break (0; 1: no proposal-density ratio of the global moves, 2: no tau2 ratio,
-//   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
-//   5: no likelihood of the sites with a shift, 6: the learned noise's multipliers taken as 1,
-//   8: the inputs' steps given the registration's shifts, not with them integrated out; only to show that the
-//   simulation-based checks detect errors), progress
-//   (R function called with the number of finished draws, or NULL), adaptive
-//   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs
-//   (one 0/1 per group, or empty: all inform), temper (1), input_weight (1: the power of the
-//   likelihood in the inputs' steps alone; debug_break 7 takes it as 1).
-// [[Rcpp::export]]
-Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,
-                               const Rcpp::List& settings) {
-  const ChainSettings cs = read_settings(settings);
-  const wavevalid::SamplerSettings& set = cs.sampler;
-  const int n_groups = cs.n_groups;
+void read_problem(const Rcpp::List& sites, const Rcpp::List& priors, const wavevalid::SamplerSettings& set,
+                  int n_groups, Problem& P) {
   const Eigen::VectorXd& z_init = set.z_init;
   const int S = sites.size();
-  std::vector<wavevalid::GaspBank> banks(S);
-  std::vector<wavevalid::SiteData> data(S);
+  std::vector<wavevalid::GaspBank>& banks = P.banks;
+  std::vector<wavevalid::SiteData>& data = P.data;
+  banks.resize(S);
+  data.resize(S);
   // a site with `bank_of` evaluates an earlier site's emulators (one copy)
   std::vector<int> bank_at(S);
   for (int s = 0; s < S; ++s) {
@@ -308,27 +288,14 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
     if (set.debug_break == 6) data[s].noise_mult.resize(0);
   }
 
-  std::vector<wavevalid::InputPrior> pr;
-  std::vector<wavevalid::JointPrior> joints;
-  read_priors(priors, pr, joints);
-  if (static_cast<int>(pr.size()) != z_init.size()) Rcpp::stop("priors and z_init differ in length");
+  read_priors(priors, P.priors, P.joints);
+  if (static_cast<int>(P.priors.size()) != z_init.size()) Rcpp::stop("priors and z_init differ in length");
 
-  const bool has_progress = !cs.progress.isNULL();
-  Rcpp::Function* fn = nullptr;
-  std::unique_ptr<Rcpp::Function> holder;
-  if (has_progress) {
-    holder.reset(new Rcpp::Function(cs.progress));
-    fn = holder.get();
-  }
-  auto cb = [fn](int h) {
-    Rcpp::checkUserInterrupt();
-    if (fn) (*fn)(h);
-  };
+}
 
-  wavevalid::Sampler sampler(data, pr, n_groups, set, joints);
-  sampler.check_ = [] { Rcpp::checkUserInterrupt(); };
-  wavevalid::SamplerOutput out = sampler.run(cb);
-
+// A chain's run as the list calibrate_chain_cpp() returns.
+Rcpp::List output_list(const wavevalid::SamplerOutput& out) {
+  const int S = static_cast<int>(out.sigma2.size());
   Rcpp::List sigma2(S), wb(S), wM(S);
   for (int s = 0; s < S; ++s) {
     sigma2[s] = out.sigma2[s];
@@ -345,6 +312,134 @@ Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors
       Rcpp::Named("acc_noise") = out.n_noise > 0 ? out.acc_noise / out.n_noise : NA_REAL,
       Rcpp::Named("z_start") = out.z_start, Rcpp::Named("proposal_cov") = out.prop_cov,
       Rcpp::Named("reg_shift") = out.reg_shift, Rcpp::Named("state") = state_list(out.end));
+}
+
+// The R function `progress` of a chain's settings as the sampler's callback,
+// which also lets the user interrupt (the main thread only).
+std::function<void(int)> progress_callback(const Rcpp::RObject& progress, std::unique_ptr<Rcpp::Function>& holder) {
+  Rcpp::Function* fn = nullptr;
+  if (!progress.isNULL()) {
+    holder.reset(new Rcpp::Function(progress));
+    fn = holder.get();
+  }
+  return [fn](int h) {
+    Rcpp::checkUserInterrupt();
+    if (fn) (*fn)(h);
+  };
+}
+
+}  // namespace
+
+// sites: list of lists with bank, wbar, s2, R, sigma2 (NULL or length n),
+//   noise (optional: list(scale, family) when sigma2 is learned: family 0
+//   half-Cauchy, 1 half-normal on its sd; optional mult (length n: the
+//   coefficients' noise variances as multiples of sigma2), ss and df (the
+//   scatter of repeated measurements: ss / sigma2 ~ chi^2_df)),
+//   group (0-based global tau2 group per coefficient; a group may span
+//   sites), bias_of (optional, 0-based: the site whose bias coefficients this
+//   site shares; its groups must be that site's), shift (optional, length p:
+//   the change of the inputs at which the
+//   site's emulators are evaluated), extra (optional, length n: variance of
+//   wbar added to sigma2 / R).
+// priors: list with lower, upper, normal (logical: manufacturing variation),
+//   mean, sd (length p each); optional kind (0 uniform, 1 normal, 2 log-normal
+//   with mean and sd of log x, 3 under a joint block; default from normal) and
+//   joint (list of blocks: index (0-based), log (logical), mean, chol (lower
+//   Cholesky factor of the covariance)).
+// settings: named list with
+//   n_groups (number of tau2 groups), z_init (p starting inputs, coded),
+//   tau2_init (G values, fixed when fix_tau2; may be empty otherwise),
+//   fix_tau2, n_draws, n_inner, step, seed, chain;
+//   optional: debug_break (0; 1: no proposal-density ratio of the global moves, 2: no tau2 ratio,
+//   3: no prior density of the inputs, 4: no Jacobian in the learned-noise step,
+//   5: no likelihood of the sites with a shift, 6: the learned noise's multipliers taken as 1,
+//   8: the inputs' steps given the registration's shifts, not with them integrated out; only to show that the
+//   simulation-based checks detect errors), progress
+//   (R function called with the number of finished draws, or NULL), adaptive
+//   (FALSE), burnin (0), p_global (0.1), p_indep (0), n_search (200), threads (1), informs
+//   (one 0/1 per group, or empty: all inform), temper (1), input_weight (1: the power of the
+//   likelihood in the inputs' steps alone; debug_break 7 takes it as 1).
+// [[Rcpp::export]]
+Rcpp::List calibrate_chain_cpp(const Rcpp::List& sites, const Rcpp::List& priors,
+                               const Rcpp::List& settings) {
+  const ChainSettings cs = read_settings(settings);
+  const wavevalid::SamplerSettings& set = cs.sampler;
+  const int n_groups = cs.n_groups;
+  Problem P;
+  read_problem(sites, priors, set, n_groups, P);
+  std::unique_ptr<Rcpp::Function> holder;
+  const std::function<void(int)> cb = progress_callback(cs.progress, holder);
+  wavevalid::Sampler sampler(P.data, P.priors, n_groups, set, P.joints);
+  sampler.check_ = [] { Rcpp::checkUserInterrupt(); };
+  return output_list(sampler.run(cb));
+}
+
+// The chains of `settings` (a list of calibrate_chain_cpp()'s settings, one
+// per chain, differing only in chain, resume and progress) run together, each
+// on a thread of its own, their predictions made in step (sampler_team.h):
+// the list of their runs, each what calibrate_chain_cpp() returns for it.
+// Only the first chain's progress is reported (on the main thread, which
+// runs it and lets the user interrupt); its threads setting is ignored.
+// [[Rcpp::export]]
+Rcpp::List calibrate_team_cpp(const Rcpp::List& sites, const Rcpp::List& priors, const Rcpp::List& settings) {
+  const int C = settings.size();
+  if (C < 1) Rcpp::stop("settings: no chain");
+  std::vector<ChainSettings> cs;
+  for (int c = 0; c < C; ++c) cs.push_back(read_settings(settings[c]));
+  for (int c = 1; c < C; ++c) {
+    if (cs[c].n_groups != cs[0].n_groups || cs[c].sampler.z_init.size() != cs[0].sampler.z_init.size() ||
+        cs[c].sampler.debug_break != cs[0].sampler.debug_break)
+      Rcpp::stop("settings: the chains of a team must share their problem");
+  }
+  const int n_groups = cs[0].n_groups;
+  Problem P;
+  read_problem(sites, priors, cs[0].sampler, n_groups, P);
+  std::vector<std::unique_ptr<wavevalid::Sampler>> chains;
+  for (int c = 0; c < C; ++c) {
+    wavevalid::SamplerSettings set = cs[c].sampler;
+    set.threads = 1;
+    chains.emplace_back(new wavevalid::Sampler(P.data, P.priors, n_groups, set, P.joints));
+  }
+  wavevalid::PredictTeam team(C, chains[0]->n_bank_groups(),
+                              [&chains](int c, int g, wavevalid::BankCall& call) { chains[c]->team_group(g, call); });
+  for (int c = 0; c < C; ++c) chains[c]->join_team(&team, c);
+  std::vector<wavevalid::SamplerOutput> outs(C);
+  std::vector<std::exception_ptr> errs(C);
+  auto body = [&](int c, std::function<void(int)> cb) {
+    try {
+      outs[c] = chains[c]->run(cb);
+    } catch (...) {
+      errs[c] = std::current_exception();
+      team.stop();
+    }
+    team.leave();
+  };
+  std::vector<std::thread> threads;
+  for (int c = 1; c < C; ++c) {
+    try {
+      threads.emplace_back(body, c, [](int) {});
+    } catch (...) {
+      team.stop();
+      for (std::thread& t : threads) t.join();
+      Rcpp::stop("could not start a thread for each chain");
+    }
+  }
+  std::unique_ptr<Rcpp::Function> holder;
+  chains[0]->check_ = [] { Rcpp::checkUserInterrupt(); };
+  body(0, progress_callback(cs[0].progress, holder));
+  for (std::thread& t : threads) t.join();
+  // the error that stopped the team, not those it caused
+  for (int c = 0; c < C; ++c) {
+    if (!errs[c]) continue;
+    try {
+      std::rethrow_exception(errs[c]);
+    } catch (const wavevalid::TeamStopped&) {
+      continue;
+    }
+  }
+  Rcpp::List out(C);
+  for (int c = 0; c < C; ++c) out[c] = output_list(outs[c]);
+  return out;
 }
 
 // A chain's state (state_list()) with its frozen walk learned anew from its

@@ -17,6 +17,7 @@
 #include <vector>
 #include "gasp_predict.h"
 #include "sampler_model.h"
+#include "sampler_team.h"
 #include "sampler_walk.h"
 
 namespace wavevalid {
@@ -212,6 +213,13 @@ class SamplerState {
     for (std::size_t s = 0; s < sites_.size(); ++s) {
       if (sites_[s].shift.size() > 0) zs_[s] = z + sites_[s].shift;
     }
+    if (team_) {
+      team_z_ = &z;
+      team_m_ = &m;
+      team_v_ = &v;
+      team_->predict(team_chain_);
+      return;
+    }
     for (const std::vector<int>& grp : bank_groups_) {
       if (grp.size() == 1) {
         const int s = grp[0];
@@ -232,6 +240,33 @@ class SamplerState {
     }
   }
 
+  // A chain of a team (sampler_team.h): its predictions are made in step
+  // with the other chains'; team_group() gives the team the pending
+  // request's sites of one bank group.
+  PredictTeam* team_ = nullptr;
+  int team_chain_ = 0;
+  const Eigen::VectorXd* team_z_ = nullptr;
+  std::vector<Eigen::VectorXd>* team_m_ = nullptr;
+  std::vector<Eigen::VectorXd>* team_v_ = nullptr;
+
+ public:
+  void join_team(PredictTeam* team, int chain) {
+    team_ = team;
+    team_chain_ = chain;
+  }
+  int n_bank_groups() const { return static_cast<int>(bank_groups_.size()); }
+  void team_group(int g, BankCall& call) {
+    const std::vector<int>& grp = bank_groups_[g];
+    call.bank = sites_[grp[0]].bank;
+    for (int s : grp) {
+      call.z.push_back(sites_[s].shift.size() ? &zs_[s] : team_z_);
+      call.m.push_back(&(*team_m_)[s]);
+      call.v.push_back(&(*team_v_)[s]);
+      call.ws.push_back(&ws_[s]);
+    }
+  }
+
+ protected:
   // The sites grouped by the emulator bank they evaluate, in order of first
   // appearance.
   std::vector<std::vector<int>> bank_groups_;

@@ -1,0 +1,58 @@
+# Chains run together (sampler_control(together = TRUE)): one process, a
+# thread per chain, each emulator bank evaluated at every chain's inputs at
+# once. The draws must be those of the chains run apart, to the bit: with
+# one site and with an experiment (sites sharing a bank), with two and three
+# chains, and over the stopping rule's rounds (chains continued from their
+# state, their walks re-learned).
+
+expect_same_fit <- function(a, b) {
+  drop <- c("sampling_seconds", "control", "timing", "settings")
+  a <- unclass(a)
+  b <- unclass(b)
+  expect_identical(a[setdiff(names(a), drop)], b[setdiff(names(b), drop)])
+  expect_identical(a$settings[names(a$settings) != "together"], b$settings[names(b$settings) != "together"])
+}
+
+team_fit <- function(together, ex, chains = 2, experiments = NULL, ...) {
+  suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, seed = 5, experiments = experiments,
+                             sampler = sampler_control(n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE,
+                                                       chains = chains, together = together, ...)))
+}
+
+test_that("chains run together draw what they draw apart", {
+  ex <- example_problem(1)
+  apart <- team_fit(FALSE, ex, n_draws = 40)
+  together <- team_fit(TRUE, ex, n_draws = 40)
+  expect_false(fit_get(apart, "settings")$together)
+  expect_true(fit_get(together, "settings")$together)
+  expect_same_fit(apart, together)
+  # three chains: a batch of three requests
+  expect_same_fit(team_fit(FALSE, ex, chains = 3, n_draws = 30), team_fit(TRUE, ex, chains = 3, n_draws = 30))
+  # an experiment: its site and the base site evaluate one bank, for every chain at once
+  field2 <- ex$field
+  field2$curves$site1 <- field2$curves$site1[1:2, , drop = FALSE]
+  exps <- list(loaded = experiment(field2, change = c(x1 = 0.1)))
+  expect_same_fit(team_fit(FALSE, ex, experiments = exps, n_draws = 30),
+                  team_fit(TRUE, ex, experiments = exps, n_draws = 30))
+  # the stopping rule's rounds: every chain continued from its state
+  a <- team_fit(FALSE, ex, ess = 300, max_draws = 200)
+  b <- team_fit(TRUE, ex, ess = 300, max_draws = 200)
+  expect_gt(fit_get(a, "stopping")$rounds, 1L)
+  expect_same_fit(a, b)
+})
+
+test_that("the chains run together where each has a core, and apart where asked or sent away", {
+  withr::local_options(wavevalid.workers = "auto")
+  expect_false(chains_together(NULL, 1L, 4L))
+  expect_false(chains_together(TRUE, 1L, 4L))
+  expect_true(chains_together(TRUE, 2L, 1L))
+  expect_false(chains_together(FALSE, 2L, 4L))
+  withr::with_options(list(future.plan = NULL), {
+    old <- future::plan(future::sequential)
+    on.exit(future::plan(old), add = TRUE)
+    expect_true(chains_together(NULL, 2L, 2L))
+    expect_false(chains_together(NULL, 3L, 2L))
+    withr::with_options(list(wavevalid.workers = 1), expect_false(chains_together(NULL, 2L, 4L)))
+  })
+  expect_error(sampler_control(together = NA), class = "wavevalid_error_input")
+})
