@@ -84,7 +84,8 @@ test_that("a chain's future carries the sampler's sites and priors, not its call
   worker <- caller()
   size <- length(serialize(worker, NULL))
   expect_lt(size, 2 * length(serialize(spec$sites, NULL)) + 1e5)
-  expect_setequal(ls(environment(worker)), c("spec", "sm", "seed", "debug_break", "p_global", "fix", "tau_init"))
+  expect_setequal(ls(environment(worker)), c("spec", "sm", "seed", "debug_break", "p_global", "fix", "tau_init",
+                                              "team", "settings", "progress_of"))
   expect_null(environment(worker)$spec$basis)
   # the emulators' worker: the coefficients and the design, not the caller's runs
   fit_caller <- function() {
