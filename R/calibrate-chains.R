@@ -1,7 +1,8 @@
 # Running the chains of calibrate(): one future per chain, each the C++
 # sampler, on as many threads as there are free cores.
 
-# One future per chain. `sm`: the sampler's settings, a sampler_control()
+# One future per chain, or the chains together in this process
+# (sm$together). `sm`: the sampler's settings, a sampler_control()
 # with `burnin` and `threads` resolved (calibrate()). debug_break (1: no
 # proposal-density ratio of the global moves, 2: no tau2 ratio, ...) exists
 # only to show that the simulation-based checks detect errors. With
@@ -10,13 +11,14 @@
 run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global = 0.1) {
   team <- isTRUE(sm$together) && chains >= 2L
   worker <- chain_worker(spec, sm, seed, tau, debug_break, p_global, team = team)
-  # the worker carries the sampler's spec in its closure, sent once per chain
-  # (once for all of them when they run together)
+  # the worker carries the sampler's spec in its closure, sent once per chain;
+  # chains run together run in this process, on its threads: neither the
+  # spec nor the draws (at 4 sites x 4096 points, hundreds of MB a round)
+  # travel between processes
   run <- function(jobs) {
-    if (team) jobs <- list(jobs)
-    out <- future.apply::future_lapply(jobs, worker, future.seed = NULL, future.packages = "wavevalid",
-                                       future.globals = stats::setNames(list(), character(0)))
-    if (team) out[[1L]] else out
+    if (team) return(worker(jobs))
+    future.apply::future_lapply(jobs, worker, future.seed = NULL, future.packages = "wavevalid",
+                                future.globals = stats::setNames(list(), character(0)))
   }
   if (!is.null(sm$n_draws)) {
     return(run(lapply(seq_len(chains),

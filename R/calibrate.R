@@ -177,10 +177,17 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
     n <- sm$n_draws %||% first_round_draws(sm, chains)
     sm$burnin <- if (sm$proposal == "adaptive") max(5000, floor(n * sm$n_inner / 4)) else 0
   }
-  free <- free_cores()
-  if (sm$threads > free) {
-    if (!sm$quiet) wv_inform("Using {free} thread{?s}, the free cores, instead of {sm$threads}.")
-    sm$threads <- free
+  # the free cores, measured (a quarter of a second) only where a choice needs them
+  free <- local({
+    n <- NULL
+    function() {
+      if (is.null(n)) n <<- free_cores()
+      n
+    }
+  })
+  if (sm$threads > 1L && sm$threads > free()) {
+    if (!sm$quiet) wv_inform("Using {free()} thread{?s}, the free cores, instead of {sm$threads}.")
+    sm$threads <- free()
   }
   sm$together <- chains_together(sm$together, chains, free)
   fit <- calibrate_fit(emulators, field, iu, experiments, bias, sm, chains, seed)
@@ -196,7 +203,8 @@ calibrate <- function(emulators, field, iu, experiments = NULL, bias = bias_cont
 # each has a core of its own, the plan's workers under a local plan with
 # workers (multisession, multicore, callr) or the free cores under the
 # sequential plan (not with options(wavevalid.workers = 1)); never under a
-# plan that may send work to other machines.
+# plan that may send work to other machines. `free`: the free cores, or a
+# function giving them.
 chains_together <- function(together, chains, free) {
   if (chains < 2L) return(FALSE)
   if (!is.null(together)) return(isTRUE(together))
@@ -205,7 +213,7 @@ chains_together <- function(together, chains, free) {
   if (inherits(pl, "sequential")) {
     want <- getOption("wavevalid.workers", "auto")
     if (is.numeric(want) && isTRUE(all(want <= 1))) return(FALSE)
-    return(free >= chains)
+    return((if (is.function(free)) free() else free) >= chains)
   }
   if (inherits(pl, c("multisession", "multicore", "callr"))) return(future::nbrOfWorkers() >= chains)
   FALSE
@@ -215,7 +223,9 @@ chains_together <- function(together, chains, free) {
 # minute or more while other cores were free: how to run them at once. Not
 # when the user chose one process (options(wavevalid.workers = 1)).
 hint_parallel_chains <- function(seconds, chains, free, quiet) {
-  if (isTRUE(quiet) || chains < 2L || free < 2L || !isTRUE(seconds >= 60)) return(invisible(FALSE))
+  if (isTRUE(quiet) || chains < 2L || !isTRUE(seconds >= 60)) return(invisible(FALSE))
+  if (is.function(free)) free <- free()
+  if (free < 2L) return(invisible(FALSE))
   want <- getOption("wavevalid.workers", "auto")
   if (is.numeric(want) && isTRUE(all(want <= 1))) return(invisible(FALSE))
   if (!requireNamespace("future", quietly = TRUE) || !inherits(future::plan(), "sequential"))

@@ -24,24 +24,44 @@ run_futures <- function(tasks, worker, label, quiet = FALSE, steps = rep(1L, len
 }
 
 # Cores free for this process: the option wavevalid.free_cores when set, else
-# the cores R sees less the other processes the 1-minute load average counts
-# (this one counted once; Linux, elsewhere every core), at least 1.
+# the cores R sees less those that other processes keep busy, measured over a
+# quarter of a second from /proc/stat (Linux; elsewhere every core is free),
+# at least 1. This process sleeps meanwhile, so its own work is not counted.
+# (The load average lags: for a minute after a computation on every core it
+# still counts them busy.)
 free_cores <- function() {
   set <- getOption("wavevalid.free_cores")
   if (is.numeric(set) && length(set) == 1L && is.finite(set) && set >= 1) return(as.integer(set))
   n <- suppressWarnings(parallel::detectCores())
   if (is.na(n) || n < 1L) return(1L)
-  load <- tryCatch(as.numeric(strsplit(readLines("/proc/loadavg", n = 1L, warn = FALSE),
-                                       " ")[[1L]][1L]),
-                   error = function(e) NA_real_, warning = function(w) NA_real_)
-  busy <- if (length(load) == 1L && is.finite(load)) max(0, round(load - 1)) else 0
-  as.integer(max(1, n - busy))
+  as.integer(max(1, n - busy_cores(n)))
+}
+
+# The cores (of n) busy over `wait` seconds, from the first line of
+# /proc/stat (the time every core spent in each state); 0 where it cannot be
+# read.
+busy_cores <- function(n, wait = 0.25) {
+  read <- function() {
+    line <- tryCatch(readLines("/proc/stat", n = 1L, warn = FALSE), error = function(e) "",
+                     warning = function(w) "")
+    v <- suppressWarnings(as.numeric(strsplit(trimws(line[1L]), " +")[[1L]][-1L]))
+    if (length(v) < 5L || anyNA(v[1:5])) return(NULL)
+    c(idle = v[4L] + v[5L], total = sum(v[seq_len(min(8L, length(v)))]))
+  }
+  a <- read()
+  if (is.null(a)) return(0)
+  Sys.sleep(wait)
+  b <- read()
+  if (is.null(b)) return(0)
+  d <- b - a
+  if (!(d[["total"]] > 0)) return(0)
+  round(n * max(0, 1 - d[["idle"]] / d[["total"]]))
 }
 
 # The plan a call runs under when the user set none. With future's default
 # (sequential) plan and the option wavevalid.workers "auto" (the default),
 # or a number of workers, a multisession plan over the free cores
-# (free_cores(): the cores R sees less the other processes' load, within
+# (free_cores(): the cores R sees less those other processes keep busy, within
 # future::availableCores()) is set for
 # the caller's duration and the old plan restored on its exit; says so once
 # per call. A plan the user set (other than sequential, or through the

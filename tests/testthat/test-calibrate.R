@@ -373,6 +373,8 @@ test_that("bad input gives classed errors", {
   free <- free_cores()
   expect_true(is.integer(free) && free >= 1L && free <= max(1L, parallel::detectCores(), na.rm = TRUE))
   expect_identical(withr::with_options(list(wavevalid.free_cores = 3), free_cores()), 3L)
+  busy <- busy_cores(4L, wait = 0.05)
+  expect_true(busy >= 0 && busy <= 4 && busy == round(busy))
   expect_error(calibrate(em, f, ex$iu, bias = bias_control(fix_tau2 = -1),
                          sampler = sampler_control(quiet = TRUE)), class = "wavevalid_error_input")
   expect_error(calibrate(list(), f, ex$iu), class = "wavevalid_error_input")

@@ -56,3 +56,25 @@ test_that("the chains run together where each has a core, and apart where asked 
   })
   expect_error(sampler_control(together = NA), class = "wavevalid_error_input")
 })
+
+test_that("a chain that fails stops its team, and its own error is the one reported", {
+  withr::local_seed(3)
+  s <- sbc_setup(3L, NULL)
+  W <- matrix(stats::rnorm(3L * s$n, 0, 0.3), 3L, s$n)
+  spec <- s$spec
+  spec$sites$site1$wbar <- colMeans(W)
+  spec$sites$site1$s2 <- colSums(sweep(W, 2L, colMeans(W))^2)
+  set <- function(chain, resume = NULL) {
+    list(n_groups = s$G, z_init = 0.5, tau2_init = numeric(0), fix_tau2 = FALSE, n_draws = 20L, n_inner = 5L,
+         step = 0.3, seed = 7, chain = chain, adaptive = TRUE, burnin = 100L, n_search = 5L, resume = resume)
+  }
+  one <- calibrate_chain_cpp(spec$sites, spec$priors, set(1L))
+  both <- calibrate_team_cpp(spec$sites, spec$priors, list(set(1L), set(2L)))
+  expect_identical(both[[1]]$inputs, one$inputs)
+  expect_identical(both[[2]]$inputs, calibrate_chain_cpp(spec$sites, spec$priors, set(2L))$inputs)
+  bad <- one$state
+  bad$z <- c(bad$z, 0.1)
+  # the failing chain second, then first: the other chain stops at its next prediction
+  expect_error(calibrate_team_cpp(spec$sites, spec$priors, list(set(1L), set(2L, bad))), "state does not match")
+  expect_error(calibrate_team_cpp(spec$sites, spec$priors, list(set(1L, bad), set(2L))), "state does not match")
+})
