@@ -285,7 +285,7 @@ calibrate_fit <- function(emulators, field, iu, experiments, bias, sm, chains, s
   t_sampling <- proc.time()[["elapsed"]] - t_sampling
   fit <- assemble_fit(spec, runs, emulators, field, iu,
                       settings = list(n_draws = sm$n_draws %||% nrow(runs[[1L]]$inputs),
-                                      n_inner = sm$n_inner, chains = chains, together = together,
+                                      n_inner = sm$n_inner, chains = chains,
                                       step = sm$step, proposal = sm$proposal,
                                       global_moves = sm$global_moves,
                                       burnin = sm$burnin,

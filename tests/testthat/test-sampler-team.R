@@ -6,11 +6,20 @@
 # state, their walks re-learned).
 
 expect_same_fit <- function(a, b) {
-  drop <- c("sampling_seconds", "control", "timing", "settings")
+  drop <- c("sampling_seconds", "control", "timing")
   a <- unclass(a)
   b <- unclass(b)
   expect_identical(a[setdiff(names(a), drop)], b[setdiff(names(b), drop)])
-  expect_identical(a$settings[names(a$settings) != "together"], b$settings[names(b$settings) != "together"])
+}
+
+# The number of calls of the team's sampler while `expr` runs.
+team_calls <- function(expr) {
+  n <- 0L
+  ns <- asNamespace("wavevalid")
+  suppressMessages(trace("calibrate_team_cpp", tracer = function() n <<- n + 1L, where = ns, print = FALSE))
+  on.exit(suppressMessages(untrace("calibrate_team_cpp", where = ns)))
+  force(expr)
+  n
 }
 
 team_fit <- function(together, ex, chains = 2, experiments = NULL, ...) {
@@ -21,10 +30,8 @@ team_fit <- function(together, ex, chains = 2, experiments = NULL, ...) {
 
 test_that("chains run together draw what they draw apart", {
   ex <- example_problem(1)
-  apart <- team_fit(FALSE, ex, n_draws = 40)
-  together <- team_fit(TRUE, ex, n_draws = 40)
-  expect_false(fit_get(apart, "settings")$together)
-  expect_true(fit_get(together, "settings")$together)
+  expect_identical(team_calls(apart <- team_fit(FALSE, ex, n_draws = 40)), 0L)
+  expect_identical(team_calls(together <- team_fit(TRUE, ex, n_draws = 40)), 1L)
   expect_same_fit(apart, together)
   # three chains: a batch of three requests
   expect_same_fit(team_fit(FALSE, ex, chains = 3, n_draws = 30), team_fit(TRUE, ex, chains = 3, n_draws = 30))
@@ -36,8 +43,9 @@ test_that("chains run together draw what they draw apart", {
                   team_fit(TRUE, ex, experiments = exps, n_draws = 30))
   # the stopping rule's rounds: every chain continued from its state
   a <- team_fit(FALSE, ex, ess = 300, max_draws = 200)
-  b <- team_fit(TRUE, ex, ess = 300, max_draws = 200)
+  rounds <- team_calls(b <- team_fit(TRUE, ex, ess = 300, max_draws = 200))
   expect_gt(fit_get(a, "stopping")$rounds, 1L)
+  expect_identical(rounds, fit_get(b, "stopping")$rounds)
   expect_same_fit(a, b)
 })
 
