@@ -8,10 +8,15 @@ skip_unless_installed <- function() {
   skip_if(isNamespaceLoaded("pkgload") && pkgload::is_dev_package("wavevalid"))
 }
 
-plan_sampler <- function() sampler_control(n_draws = 40, n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE)
+plan_sampler <- function(together = NULL) {
+  sampler_control(n_draws = 40, n_inner = 5, burnin = 200, n_search = 10, quiet = TRUE, together = together)
+}
 
-plan_draws <- function(ex) {
-  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 7, sampler = plan_sampler()))
+# `together` NULL: under a local plan with a worker per chain the chains run
+# together in this process; FALSE: each chain a future of the plan.
+plan_draws <- function(ex, together = NULL) {
+  fit <- suppressWarnings(calibrate(ex$emulators, ex$field, ex$iu, chains = 2, seed = 7,
+                                    sampler = plan_sampler(together)))
   as.matrix(fit$draws)
 }
 
@@ -39,6 +44,7 @@ test_that("the chains' draws are the sequential ones under future.callr and batc
   ref <- plan_draws(ex)
   future::plan(future.callr::callr, workers = 2)
   expect_identical(plan_draws(ex), ref)
+  expect_identical(plan_draws(ex, together = FALSE), ref)
   # batchtools keeps its registries under the working directory
   withr::local_dir(withr::local_tempdir())
   future::plan(future.batchtools::batchtools_local)
@@ -124,18 +130,22 @@ test_that("chains that resume in rounds (n_draws = NULL) give the sequential dra
   gp <- grid_problem()
   old <- future::plan(future::sequential)
   withr::defer(future::plan(old))
-  run <- function(n_draws = NULL) {
+  run <- function(n_draws = NULL, together = NULL) {
     calibrate(gp$pb$emulators, gp$field, gp$pb$iu, chains = 2, seed = 3, bias = bias_control(sigma2 = gp$sigma2),
-              sampler = sampler_control(n_draws = n_draws, n_inner = 5, ess = 150, burnin = 2000, quiet = TRUE))
+              sampler = sampler_control(n_draws = n_draws, n_inner = 5, ess = 150, burnin = 2000, quiet = TRUE,
+                                        together = together))
   }
   ref <- run()
   # the stopping rule ran more than one round, and stopped before the ceiling
   expect_gt(ref$stopping$rounds, 1L)
   expect_lt(ref$stopping$draws, ref$stopping$max_draws)
   future::plan(future::multisession, workers = 2)
-  par <- run()
-  expect_identical(as.matrix(par$draws), as.matrix(ref$draws))
-  expect_identical(par$stopping, ref$stopping)
+  # the chains together in this process, then each a future of the plan
+  for (together in list(NULL, FALSE)) {
+    par <- run(together = together)
+    expect_identical(as.matrix(par$draws), as.matrix(ref$draws))
+    expect_identical(par$stopping, ref$stopping)
+  }
   # the first round (ess / chains = 75 draws each) is the chains run at once;
   # the continued rounds move by walks learned from their draws, so they differ
   future::plan(future::sequential)
