@@ -34,9 +34,10 @@ run_chains <- function(spec, sm, chains, seed, tau, debug_break = 0L, p_global =
 # ess / chains draws; each further round continues every chain from where it
 # stopped (its state), its walk re-learned from its own draws so far
 # (relearn_walk()), by the draws the slowest input's ESS says are missing, a
-# fifth more, and at least
-# twice the draws held while R-hat is above its target. Inputs held to a
-# point are not judged. The runs carry attribute `stopping`.
+# fifth more, but at most the draws held (their ESS, partly drawn with an
+# earlier walk, understates what the re-learned walk gives), and by the
+# draws held while R-hat is above its target. Inputs held to a point are not
+# judged. The runs carry attribute `stopping`.
 chain_rounds <- function(run, spec, sm, chains) {
   n <- first_round_draws(sm, chains)
   runs <- run(lapply(seq_len(chains), function(ch) list(chain = ch, n_draws = n, resume = NULL)))
@@ -46,8 +47,11 @@ chain_rounds <- function(run, spec, sm, chains) {
     chk <- chain_convergence(runs, judged, spec$inputs)
     met <- chk$ess >= sm$ess && (is.na(chk$rhat) || chk$rhat <= sm$rhat)
     if (met || n >= sm$max_draws) break
-    need <- n * max(1, 1.2 * sm$ess / max(chk$ess, 1))
-    if (!is.na(chk$rhat) && chk$rhat > sm$rhat) need <- max(need, 2 * n)
+    # the draws the slowest input's ESS says are missing, a fifth more
+    need <- n + 1.2 * n * max(0, sm$ess / max(chk$ess, 1) - 1)
+    # at most doubling: the projection rests on the draws held, taken in part
+    # with a walk learned from fewer draws than the next round's
+    need <- if (!is.na(chk$rhat) && chk$rhat > sm$rhat) 2 * n else min(need, 2 * n)
     more <- as.integer(min(sm$max_draws - n, max(20, ceiling(need) - n)))
     if (!isTRUE(sm$quiet)) {
       wv_inform(c("i" = sprintf("Chains continued by %d draws each: the slowest input's ESS is %s of %s%s.", more,

@@ -162,7 +162,9 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' with a warning. The chains first run `ess / chains` draws each after a
 #' burn-in sized to them; while a target is unmet, every chain continues from
 #' where it stopped by the draws the slowest input's ESS says are missing, a
-#' fifth more, or twice its draws while R-hat is above target. A continued
+#' fifth more, but at most the draws it holds (their ESS, partly drawn with
+#' the burn-in's walk, understates what the next round gives), or by the
+#' draws it holds while R-hat is above target. A continued
 #' chain's random walk is learned anew from that chain's draws so far
 #' (`2.38^2 / d` times their covariance; with `global_moves`, the
 #' independence proposal their mean and covariance): the burn-in's estimate

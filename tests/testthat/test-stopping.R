@@ -147,6 +147,55 @@ test_that("the chains stop when every input's ESS and R-hat meet the targets, or
   expect_identical(nrow(fixed$draws[[1]]), 40L)
 })
 
+test_that("a round adds the missing draws and a fifth, at most the draws held", {
+  # chains of known mixing: AR(1) draws with phi = 0.9 (about 0.05 effective draws per draw),
+  # continued from their last value. From 50 draws each, R-hat above target doubles the
+  # draws twice; then the ESS (29 of 100 at 200 draws, 40 at 400) projects about three
+  # times the draws held, and the rounds double them instead, until the projection rests on
+  # enough draws (85 of 100 at 800: 167 more)
+  phi <- 0.9
+  run <- function(jobs) {
+    lapply(jobs, function(j) {
+      set.seed(100L * j$chain + (j$resume$n %||% 0L))
+      x <- numeric(j$n_draws)
+      prev <- j$resume$last %||% 0
+      for (i in seq_along(x)) x[i] <- prev <- phi * prev + sqrt(1 - phi^2) * stats::rnorm(1)
+      list(inputs = cbind(u1 = x), state = list(last = prev, n = (j$resume$n %||% 0L) + j$n_draws),
+           acc_tau = NA_real_, acc_input = NA_real_, acc_global = NA_real_, acc_noise = NA_real_)
+    })
+  }
+  sm <- list(ess = 100, rhat = 1.05, max_draws = 5000L, quiet = FALSE, proposal = "report")
+  said <- character()
+  runs <- withCallingHandlers(
+    chain_rounds(run, list(inputs = "u1", priors = list()), sm, chains = 2L),
+    wavevalid_message = function(m) {
+      said[length(said) + 1L] <<- conditionMessage(m)
+      invokeRestart("muffleMessage")
+    })
+  st <- attr(runs, "stopping")
+  expect_true(st$met)
+  expect_gte(st$ess, 100)
+  more <- as.integer(sub(".*continued by ([0-9]+) draws each.*", "\\1", said))
+  held <- 50L + cumsum(c(0L, more))
+  expect_identical(as.integer(st$draws), held[length(held)])
+  expect_identical(nrow(runs[[1]]$inputs), as.integer(st$draws))
+  # never more than the draws held, and doubling while the projection asks for more
+  expect_true(all(more <= held[-length(held)]))
+  expect_identical(more[1:4], c(50L, 100L, 200L, 400L))
+  # the last round's size is the missing draws and a fifth: between what the
+  # round before projected without and with the fifth
+  before <- held[length(held) - 1L]
+  ess_before <- as.numeric(sub(".*ESS is ([0-9.]+) of.*", "\\1", said[length(said)]))
+  expect_lt(more[length(more)], before)
+  expect_equal(more[length(more)], ceiling(1.2 * before * (100 / ess_before - 1)), tolerance = 0.05)
+  # R-hat above target doubles the draws, whatever the ESS says
+  sm$rhat <- 1.0000001
+  sm$max_draws <- 400L
+  capped <- suppressMessages(chain_rounds(run, list(inputs = "u1", priors = list()), sm, chains = 2L))
+  expect_identical(attr(capped, "stopping")$draws, 400L)
+  expect_identical(attr(capped, "stopping")$rounds, 4L)
+})
+
 test_that("sampler_control() refuses targets it cannot use", {
   expect_error(sampler_control(ess = 0), class = "wavevalid_error")
   expect_error(sampler_control(rhat = 1), class = "wavevalid_error")
