@@ -171,12 +171,15 @@ bias_control <- function(sigma2 = NULL, pool_levels = "coarse", inform_levels = 
 #' rests on a few thousand cycles, noisy where an input moves slowly, and a
 #' round's draws on many more. Each round is then a time-homogeneous chain.
 #' At 4 sites x 4096 points x 200 runs x 2 experiments this took the slowest
-#' input from 0.2 to 0.4 effective draws per draw after the first round, and
-#' the chains stopped at 692 draws each instead of 1000. The print of the fit says where and why
-#' the chains stopped, and the slowest input's effective draws per second. On
-#' both test beds the chains stopped after two rounds, several times sooner
-#' than the former fixed 1000 draws of 200 cycles, with the same findings
-#' (`studies/README.md`, "stopping.R").
+#' input from 0.2 to 0.4 effective draws per draw after the first round. A
+#' round at most doubles the draws because the first round's ESS, drawn with
+#' the burn-in's walk, understates the next round's: projected from it, the
+#' chains stopped at 838 draws each with an ESS of 715; doubling first, at
+#' 608 with 470 (`bench/README.md`, "The stopping rule's rounds"). The print
+#' of the fit says where and why the chains stopped, and the slowest input's
+#' effective draws per second. On both test beds the chains stop after two or
+#' three rounds, several times sooner than the former fixed 1000 draws of 200
+#' cycles, with the same findings (`studies/README.md`, "stopping.R").
 #'
 #' @param n_draws Draws saved per chain: a number for chains of that
 #'   length, or `NULL` (default) for chains that stop when they have enough
