@@ -9,8 +9,8 @@ band_block_cpp <- function(Y, probs, n_cand) {
     .Call(`_wavevalid_band_block_cpp`, Y, probs, n_cand)
 }
 
-band_block_into_cpp <- function(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores = TRUE) {
-    .Call(`_wavevalid_band_block_into_cpp`, Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores)
+band_block_into_cpp <- function(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores = TRUE, threads = 1L) {
+    .Call(`_wavevalid_band_block_into_cpp`, Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores, threads)
 }
 
 band_outputs_cpp <- function(n, np, nc) {

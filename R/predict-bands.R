@@ -115,8 +115,9 @@ curve_means <- function(src) {
   src <- prepare_source(src)
   if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
   out <- block_outputs(src$n, 0L, 0L)
+  threads <- band_threads()
   for (cols in col_blocks(src$n, src$H)) block_stats_into(src, cols, numeric(), 0L, out,
-                                                          scores = FALSE)
+                                                          scores = FALSE, threads = threads)
   out$mean
 }
 
@@ -140,18 +141,31 @@ block_outputs <- function(n, np, nc) band_outputs_cpp(as.integer(n), as.integer(
 # The statistics of the block `cols` of a source, written into `out` at its
 # columns; returns each curve's largest distance over the block (`zmax`;
 # -Inf without `scores`) and the smallest spread (`smin`).
-block_stats_into <- function(src, cols, probs, nc, out, scores = TRUE) {
+# `threads`: the block's time points shared out among that many threads, the
+# same numbers (band_threads()).
+block_stats_into <- function(src, cols, probs, nc, out, scores = TRUE, threads = 1L) {
   lin <- src$linear
   none <- matrix(0, 0L, 0L)
   if (is.null(lin)) {
     band_block_into_cpp(src$block(cols), none, none, none, none, as.integer(cols), numeric(),
                         as.numeric(probs), nc,
-                        out, scores)
+                        out, scores, threads)
   } else {
     band_block_into_cpp(none, lin$W, lin$B, lin$W2 %||% none, lin$B2 %||% none, as.integer(cols),
                         lin$offset,
-                        as.numeric(probs), nc, out, scores)
+                        as.numeric(probs), nc, out, scores, threads)
   }
+}
+
+# Threads for the curve summaries (each block's time points shared out, the
+# same numbers under any count): the cores this R process may use
+# (future::availableCores(): 1 within a future's worker), or the number set by
+# options(wavevalid.workers = ) (1 keeps them on one).
+band_threads <- function() {
+  want <- getOption("wavevalid.workers", "auto")
+  if (is.numeric(want) && length(want) == 1L && is.finite(want) && want >= 1) return(as.integer(want))
+  if (!requireNamespace("future", quietly = TRUE)) return(1L)
+  max(1L, as.integer(future::availableCores()))
 }
 
 # --- bands ----------------------------------------------------------------------
@@ -194,9 +208,10 @@ curve_bands <- function(src, level, probs = numeric()) {
   src <- prepare_source(src)
   if (!is.null(src$linear)) on.exit(band_block_release_cpp(), add = TRUE)
   out <- block_outputs(src$n, length(probs), nc)
+  threads <- band_threads()
   for (k in seq_along(blocks)) {
     tick()
-    st <- block_stats_into(src, blocks[[k]], probs, nc, out)
+    st <- block_stats_into(src, blocks[[k]], probs, nc, out, threads = threads)
     zmax[, k] <- st$zmax
     smin[k] <- st$smin
   }

@@ -38,8 +38,8 @@ BEGIN_RCPP
 END_RCPP
 }
 // band_block_into_cpp
-Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out, bool scores);
-RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP, SEXP scoresSEXP) {
+Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2, const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols, const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand, const Rcpp::List& out, bool scores, int threads);
+RcppExport SEXP _wavevalid_band_block_into_cpp(SEXP YSEXP, SEXP WSEXP, SEXP BSEXP, SEXP W2SEXP, SEXP B2SEXP, SEXP colsSEXP, SEXP offsetSEXP, SEXP probsSEXP, SEXP n_candSEXP, SEXP outSEXP, SEXP scoresSEXP, SEXP threadsSEXP) {
 BEGIN_RCPP
     Rcpp::RObject rcpp_result_gen;
     Rcpp::RNGScope rcpp_rngScope_gen;
@@ -54,7 +54,8 @@ BEGIN_RCPP
     Rcpp::traits::input_parameter< int >::type n_cand(n_candSEXP);
     Rcpp::traits::input_parameter< const Rcpp::List& >::type out(outSEXP);
     Rcpp::traits::input_parameter< bool >::type scores(scoresSEXP);
-    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores));
+    Rcpp::traits::input_parameter< int >::type threads(threadsSEXP);
+    rcpp_result_gen = Rcpp::wrap(band_block_into_cpp(Y, W, B, W2, B2, cols, offset, probs, n_cand, out, scores, threads));
     return rcpp_result_gen;
 END_RCPP
 }
@@ -365,7 +366,7 @@ END_RCPP
 static const R_CallMethodDef CallEntries[] = {
     {"_wavevalid_basis_block_cpp", (DL_FUNC) &_wavevalid_basis_block_cpp, 3},
     {"_wavevalid_band_block_cpp", (DL_FUNC) &_wavevalid_band_block_cpp, 3},
-    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 11},
+    {"_wavevalid_band_block_into_cpp", (DL_FUNC) &_wavevalid_band_block_into_cpp, 12},
     {"_wavevalid_band_outputs_cpp", (DL_FUNC) &_wavevalid_band_outputs_cpp, 3},
     {"_wavevalid_band_block_release_cpp", (DL_FUNC) &_wavevalid_band_block_release_cpp, 0},
     {"_wavevalid_band_score_cpp", (DL_FUNC) &_wavevalid_band_score_cpp, 3},

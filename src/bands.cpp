@@ -8,6 +8,8 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
+#include <thread>
 #include <vector>
 #include "misfit_scan.h"
 
@@ -25,13 +27,22 @@ namespace {
 // With `add`, Y += W %*% t(Psi[cols, ]).
 constexpr int kChunk = 32;
 
-void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
-                   const Rcpp::IntegerVector& cols, Eigen::Map<Eigen::MatrixXd>& Y, bool add = false) {
-  const int H = W.rows(), K = W.cols(), m = cols.size(), T = Psi.rows();
-  if (Psi.cols() != K) Rcpp::stop("W and Psi need the same number of coefficients");
-  for (int i = 0; i < m; ++i) {
-    if (cols[i] < 1 || cols[i] > T) Rcpp::stop("time point out of range");
+// The sizes and time points of block_product(), checked before it runs (it
+// may run on a thread of its own, where R's errors cannot be raised).
+void check_block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
+                         const Rcpp::IntegerVector& cols) {
+  if (Psi.cols() != W.cols()) Rcpp::stop("W and Psi need the same number of coefficients");
+  for (int i = 0; i < cols.size(); ++i) {
+    if (cols[i] < 1 || cols[i] > Psi.rows()) Rcpp::stop("time point out of range");
   }
+}
+
+// Y's m columns from the time points cols[0 .. m) (checked:
+// check_block_product()); Y may be the middle columns of a larger block.
+template <class Out>
+void block_product(const Eigen::Map<Eigen::MatrixXd>& W, const Eigen::Map<Eigen::MatrixXd>& Psi,
+                   const int* cols, int m, Out&& Y, bool add = false) {
+  const int H = W.rows(), K = W.cols(), T = Psi.rows();
   if (H == 0 || m == 0) return;
   std::vector<int> active;
   active.reserve(K);
@@ -76,7 +87,8 @@ Rcpp::NumericMatrix basis_block_cpp(const Eigen::Map<Eigen::MatrixXd>& W, const 
                                     const Rcpp::IntegerVector& cols) {
   Rcpp::NumericMatrix out = Rcpp::no_init_matrix(W.rows(), cols.size());
   Eigen::Map<Eigen::MatrixXd> Y(out.begin(), W.rows(), cols.size());
-  block_product(W, Psi, cols, Y);
+  check_block_product(W, Psi, cols);
+  block_product(W, Psi, cols.begin(), cols.size(), Y);
   return out;
 }
 
@@ -85,8 +97,8 @@ namespace {
 struct ProbPositions {
   std::vector<int> lo, hi, need;  // 1-based order statistics; need: both, ascending, unique
   std::vector<double> f;
-  ProbPositions(const Rcpp::NumericVector& probs, int H) : lo(probs.size()), hi(probs.size()), f(probs.size()) {
-    for (int j = 0; j < probs.size(); ++j) {
+  ProbPositions(const std::vector<double>& probs, int H) : lo(probs.size()), hi(probs.size()), f(probs.size()) {
+    for (std::size_t j = 0; j < probs.size(); ++j) {
       const double pos = 1 + (H - 1) * probs[j];
       lo[j] = static_cast<int>(std::floor(pos));
       hi[j] = static_cast<int>(std::ceil(pos));
@@ -164,13 +176,13 @@ struct BlockOut {
   int off;
 };
 
-Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand,
-                       const BlockOut& o, bool scores = true) {
-  if (H < 1) Rcpp::stop("no curve draws");
+// block_stats() without R: each draw's largest distance into zmax (H values,
+// raised where larger), the smallest spread into smin; false (the outputs
+// partly written) when the draws hold NaN. `interrupts`: whether to check
+// for a user interrupt every 256 time points (only on R's own thread).
+bool block_stats_core(const double* Y, int H, int m, const ProbPositions& pp, int np, int n_cand,
+                      const BlockOut& o, bool scores, double* zmax_out, double& smin_out, bool interrupts) {
   n_cand = std::max(0, std::min(n_cand, H));
-  const int np = probs.size();
-  const ProbPositions pp(probs, H);
-  Rcpp::NumericVector zmax(H, R_NegInf);
   auto mean = [&](int j) -> double& { return o.mean[o.off + j]; };
   auto ss = [&](int j) -> double& { return o.ss[o.off + j]; };
   auto q = [&](int p, int j) -> double& { return o.q[static_cast<std::ptrdiff_t>(o.off + j) * np + p]; };
@@ -178,7 +190,7 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
   auto hi_val = [&](int k, int j) -> double& { return o.hi_val[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
   auto lo_idx = [&](int k, int j) -> int& { return o.lo_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
   auto hi_idx = [&](int k, int j) -> int& { return o.hi_idx[static_cast<std::ptrdiff_t>(o.off + j) * n_cand + k]; };
-  double smin = R_PosInf;
+  double smin = std::numeric_limits<double>::infinity();
   std::vector<double> v(H), sample;
   std::vector<ValueDraw> pv(n_cand > 0 ? H : 0), sel_lo, sel_hi;
   // The order statistics at the low and high ends (quantiles and, with
@@ -198,7 +210,7 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
     // as colMeans() and colSums(): sums in long double
     long double sum = 0;
     for (int h = 0; h < H; ++h) {
-      if (std::isnan(y[h])) Rcpp::stop("the curve draws hold NaN");
+      if (std::isnan(y[h])) return false;
       sum += y[h];
     }
     sum /= H;
@@ -213,7 +225,7 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
     const double s = std::sqrt(ss(j) / denom);
     smin = std::min(smin, s);
     if (scores && s > 0) {
-      double* zm = zmax.begin();
+      double* zm = zmax_out;
       for (int h = 0; h < H; ++h) {
         const double z = std::fabs((y[h] - c) / s);
         if (z > zm[h]) zm[h] = z;
@@ -294,8 +306,22 @@ Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector&
         }
       }
     }
-    if (j % 256 == 255) Rcpp::checkUserInterrupt();
+    if (interrupts && j % 256 == 255) Rcpp::checkUserInterrupt();
   }
+  smin_out = smin;
+  return true;
+}
+
+std::vector<double> probs_of(const Rcpp::NumericVector& probs) { return std::vector<double>(probs.begin(), probs.end()); }
+
+Rcpp::List block_stats(const double* Y, int H, int m, const Rcpp::NumericVector& probs, int n_cand,
+                       const BlockOut& o, bool scores = true) {
+  if (H < 1) Rcpp::stop("no curve draws");
+  const ProbPositions pp(probs_of(probs), H);
+  Rcpp::NumericVector zmax(H, R_NegInf);
+  double smin = R_PosInf;
+  if (!block_stats_core(Y, H, m, pp, probs.size(), n_cand, o, scores, zmax.begin(), smin, true))
+    Rcpp::stop("the curve draws hold NaN");
   return Rcpp::List::create(Rcpp::Named("zmax") = zmax, Rcpp::Named("smin") = smin);
 }
 
@@ -358,40 +384,98 @@ BlockOut block_out(const Rcpp::List& out, int off, int m, int np, int n_cand) {
 // The block is Y, or, when Y has no rows, W %*% t(B[cols, ]) (plus
 // W2 %*% t(B2[cols, ]) when W2 has rows) + offset[cols] (each draw), rebuilt
 // in a buffer kept between calls (see basis_block_cpp()). `out`'s vectors are written in place: curve_bands()
-// makes them for this alone.
+// makes them for this alone. With `threads` above 1 the block's time points
+// are shared out among that many threads in stretches of whole kChunk
+// points (each rebuilt and summarised as alone; each draw's largest
+// distance the largest of the threads'): the same numbers to the bit.
 // [[Rcpp::export]]
 Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Eigen::MatrixXd>& W,
                                const Eigen::Map<Eigen::MatrixXd>& B, const Eigen::Map<Eigen::MatrixXd>& W2,
                                const Eigen::Map<Eigen::MatrixXd>& B2, const Rcpp::IntegerVector& cols,
                                const Rcpp::NumericVector& offset, const Rcpp::NumericVector& probs, int n_cand,
-                               const Rcpp::List& out, bool scores = true) {
+                               const Rcpp::List& out, bool scores = true, int threads = 1) {
   const int m = cols.size();
   if (m < 1) Rcpp::stop("an empty block");
   for (int i = 1; i < m; ++i) {
     if (cols[i] != cols[0] + i) Rcpp::stop("the time points of a block must be consecutive");
   }
   const int off = cols[0] - 1;
-  if (Y.nrow() > 0) {
-    if (Y.ncol() != m) Rcpp::stop("one column of Y per time point");
-    const int nc = std::max(0, std::min(n_cand, static_cast<int>(Y.nrow())));
-    return block_stats(Y.begin(), Y.nrow(), m, probs, nc, block_out(out, off, m, probs.size(), nc), scores);
-  }
-  const int H = W.rows();
+  const bool given = Y.nrow() > 0;
+  if (given && Y.ncol() != m) Rcpp::stop("one column of Y per time point");
+  const int H = given ? Y.nrow() : W.rows();
+  if (H < 1) Rcpp::stop("no curve draws");
   const int nc = std::max(0, std::min(n_cand, H));
   const BlockOut o = block_out(out, off, m, probs.size(), nc);
-  std::vector<double>& buf = block_buffer();
-  buf.resize(static_cast<std::size_t>(H) * m);
-  Eigen::Map<Eigen::MatrixXd> Yb(buf.data(), H, m);
-  block_product(W, B, cols, Yb);
-  if (W2.rows() > 0) {
-    if (W2.rows() != H || B2.rows() != B.rows()) Rcpp::stop("the second term has the wrong sizes");
-    block_product(W2, B2, cols, Yb, true);
+  const bool second = !given && W2.rows() > 0;
+  if (!given) {
+    check_block_product(W, B, cols);
+    if (second) {
+      if (W2.rows() != H || B2.rows() != B.rows()) Rcpp::stop("the second term has the wrong sizes");
+      check_block_product(W2, B2, cols);
+    }
+    if (offset.size() > 0 && offset.size() != B.rows()) Rcpp::stop("one offset per time point");
   }
-  if (offset.size() > 0) {
-    if (offset.size() != B.rows()) Rcpp::stop("one offset per time point");
-    for (int i = 0; i < m; ++i) Yb.col(i).array() += offset[cols[i] - 1];
+  const double* data = given ? Y.begin() : nullptr;
+  if (!given) {
+    std::vector<double>& buf = block_buffer();
+    buf.resize(static_cast<std::size_t>(H) * m);
+    data = buf.data();
   }
-  return block_stats(buf.data(), H, m, probs, nc, o, scores);
+  const std::vector<double> pv = probs_of(probs);
+  const ProbPositions pp(pv, H);
+  const int np = probs.size();
+  const double* off_v = offset.size() > 0 ? offset.begin() : nullptr;
+  // time points [a, b) of the block: rebuilt (unless given) and summarised
+  auto part = [&](int a, int b, double* zmax, double& smin, bool main) {
+    if (!given) {
+      double* y = const_cast<double*>(data) + static_cast<std::ptrdiff_t>(a) * H;
+      Eigen::Map<Eigen::MatrixXd> Yb(y, H, b - a);
+      block_product(W, B, cols.begin() + a, b - a, Yb);
+      if (second) block_product(W2, B2, cols.begin() + a, b - a, Yb, true);
+      if (off_v) {
+        for (int i = a; i < b; ++i) Yb.col(i - a).array() += off_v[cols[i] - 1];
+      }
+    }
+    BlockOut oa = o;
+    oa.off = o.off + a;
+    return block_stats_core(data + static_cast<std::ptrdiff_t>(a) * H, H, b - a, pp, np, nc, oa, scores, zmax, smin,
+                            main);
+  };
+  const int stretches = (m + kChunk - 1) / kChunk;
+  const int T = std::max(1, std::min(threads, stretches));
+  Rcpp::NumericVector zmax(H, R_NegInf);
+  double smin = R_PosInf;
+  bool ok = true;
+  if (T == 1) {
+    ok = part(0, m, zmax.begin(), smin, true);
+  } else {
+    // thread t takes the stretches [t * per, (t + 1) * per), the first on R's own thread
+    const int per = (stretches + T - 1) / T;
+    std::vector<std::vector<double>> zm(T, std::vector<double>(H, -std::numeric_limits<double>::infinity()));
+    std::vector<double> sm(T, std::numeric_limits<double>::infinity());
+    std::vector<char> good(T, 1);
+    auto run = [&](int t) {
+      const int a = std::min(m, t * per * kChunk), b = std::min(m, (t + 1) * per * kChunk);
+      try {
+        if (a < b) good[t] = part(a, b, zm[t].data(), sm[t], false);
+      } catch (...) {
+        good[t] = 2;  // out of memory: reported below, on R's thread
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < T; ++t) pool.emplace_back(run, t);
+    run(0);
+    for (std::thread& th : pool) th.join();
+    for (int t = 0; t < T; ++t) {
+      if (good[t] == 2) Rcpp::stop("a thread summarising the curve draws failed (out of memory?)");
+      ok = ok && good[t];
+      smin = std::min(smin, sm[t]);
+      double* z = zmax.begin();
+      for (int h = 0; h < H; ++h) z[h] = std::max(z[h], zm[t][h]);
+    }
+  }
+  if (!ok) Rcpp::stop("the curve draws hold NaN");
+  return Rcpp::List::create(Rcpp::Named("zmax") = zmax, Rcpp::Named("smin") = smin);
 }
 
 // The outputs of band_block_into_cpp() for n time points, np quantiles and

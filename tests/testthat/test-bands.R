@@ -193,3 +193,58 @@ test_that("curve draws rebuilt in stretches from the wavelets not zero there equ
   expect_equal(linear_block(list(W = W, B = Psi, W2 = W2, B2 = Psi), 101:260),
                tcrossprod(W + W2, Psi[101:260, ]), tolerance = 1e-13)
 })
+
+test_that("curve summaries shared out among threads give the numbers of one thread to the bit", {
+  withr::local_seed(6)
+  s <- basis_settings(512, 2, "DaubExPhase", 0:3, 0.025)
+  idx <- sort(c(1:16, sample(17:512, 180)))
+  Psi <- basis_matrix(idx, s)
+  H <- 400
+  W <- matrix(stats::rnorm(H * length(idx)), H)
+  W2 <- matrix(stats::rnorm(H * length(idx), sd = 0.1), H)
+  offset <- stats::rnorm(512)
+  none <- matrix(0, 0L, 0L)
+  probs <- c(0.05, 0.5, 0.95)
+  # a block whose length is not a multiple of the stretches of 32 points, a
+  # block of fewer points than stretches for the threads, and a given block
+  for (cols in list(23:411, 1:512, 470:500)) {
+    run <- function(threads, given = FALSE) {
+      out <- block_outputs(512, length(probs), 21L)
+      st <- if (given) {
+        Y <- tcrossprod(W, Psi[cols, , drop = FALSE])
+        band_block_into_cpp(Y, none, none, none, none, cols, numeric(), probs, 21L, out, TRUE, threads)
+      } else {
+        band_block_into_cpp(none, W, Psi, W2, Psi, cols, offset, probs, 21L, out, TRUE, threads)
+      }
+      list(st = st, out = lapply(out, function(v) if (is.matrix(v)) v[, cols] else v[cols]))
+    }
+    for (given in c(FALSE, TRUE)) {
+      one <- run(1L, given)
+      expect_true(all(is.finite(one$st$zmax)))
+      for (threads in c(2L, 3L, 7L)) expect_identical(run(threads, given), one)
+    }
+  }
+  # the statistics themselves: the pointwise mean and quantiles of the rebuilt draws
+  Y <- tcrossprod(W + W2, Psi[23:411, ]) + rep(offset[23:411], each = H)
+  out <- block_outputs(512, length(probs), 0L)
+  st <- band_block_into_cpp(none, W, Psi, W2, Psi, 23:411, offset, probs, 0L, out, TRUE, 3L)
+  expect_equal(out$mean[23:411], colMeans(Y), tolerance = 1e-12)
+  expect_equal(out$q[, 23:411], unname(apply(Y, 2L, stats::quantile, probs)), tolerance = 1e-12)
+  sd <- sqrt(colSums(sweep(Y, 2L, colMeans(Y))^2) / (H - 1))
+  expect_equal(st$zmax, apply(abs(sweep(sweep(Y, 2L, colMeans(Y)), 2L, sd, "/")), 1L, max), tolerance = 1e-10)
+  expect_equal(st$smin, min(sd), tolerance = 1e-12)
+  # a draw that is not a number, in any thread's stretch, is an error on R's thread
+  for (j in c(30L, 400L)) {
+    Yn <- tcrossprod(W, Psi[1:512, ])
+    Yn[5, j] <- NaN
+    expect_error(band_block_into_cpp(Yn, none, none, none, none, 1:512, numeric(), probs, 0L,
+                                     block_outputs(512, length(probs), 0L), TRUE, 4L), "NaN")
+  }
+  # the threads: those set by options(wavevalid.workers = ), else the cores R may use
+  withr::local_options(wavevalid.workers = 1)
+  expect_identical(band_threads(), 1L)
+  withr::local_options(wavevalid.workers = 3)
+  expect_identical(band_threads(), 3L)
+  withr::local_options(wavevalid.workers = "auto")
+  expect_identical(band_threads(), max(1L, as.integer(future::availableCores())))
+})
