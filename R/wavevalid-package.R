@@ -33,7 +33,10 @@
 #' Slurm template that `batchtools` ships (or a path to one's own). With no
 #' plan set, [validate()] (and [calibrate()] with two or more chains) runs
 #' on the free cores through a multisession plan for the call, and says so;
-#' `options(wavevalid.workers = 1)` keeps the work in one process.
+#' `options(wavevalid.workers = 1)` keeps the work in one process. The curve
+#' summaries behind the bands and the findings run on a thread per core R may
+#' use (`future::availableCores()`), one with `options(wavevalid.workers = 1)`;
+#' the numbers do not depend on the threads.
 #'
 #' @keywords internal
 #' @useDynLib wavevalid, .registration = TRUE

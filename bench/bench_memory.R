@@ -154,3 +154,25 @@ cat(sprintf("Slowest summary: %s, %.1f s (target: at most 5 s each)\n", rownames
             max(out[, "sec"])))
 cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all four sites' curves)\n",
             max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))
+
+# --- the summaries on one thread and on the cores R may use, alternated -------
+# band_threads(): future::availableCores(), or options(wavevalid.workers = 1)
+# for one; each call three times in each setting, the settings alternated;
+# the results must be identical.
+threads_all <- wavevalid:::band_threads()
+cat(sprintf("\nThe same calls on 1 thread and on %d (the cores R may use), alternated, seconds:\n", threads_all))
+calls <- list(`bias()` = function() bias(fit), `reality()` = function() reality(fit),
+              `where_fails()` = function() where_fails(fit))
+for (nm in names(calls)) {
+  secs <- list(one = numeric(), all = numeric())
+  res <- list()
+  for (rep in 1:3) for (mode in c("one", "all")) {
+    options(wavevalid.workers = if (mode == "one") 1L else "auto")
+    secs[[mode]] <- c(secs[[mode]], system.time(res[[mode]] <- calls[[nm]]())[["elapsed"]])
+  }
+  options(wavevalid.workers = "auto")
+  cat(sprintf("%-14s 1 thread: %s   %d threads: %s   ratio of medians %.2f   identical: %s\n", nm,
+              paste(sprintf("%.2f", secs$one), collapse = ", "), threads_all,
+              paste(sprintf("%.2f", secs$all), collapse = ", "),
+              stats::median(secs$one) / stats::median(secs$all), identical(res$one, res$all)))
+}
