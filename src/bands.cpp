@@ -463,7 +463,14 @@ Rcpp::List band_block_into_cpp(const Rcpp::NumericMatrix& Y, const Eigen::Map<Ei
       }
     };
     std::vector<std::thread> pool;
-    for (int t = 1; t < T; ++t) pool.emplace_back(run, t);
+    for (int t = 1; t < T; ++t) {
+      // a thread that cannot be started: its stretches on this one
+      try {
+        pool.emplace_back(run, t);
+      } catch (...) {
+        run(t);
+      }
+    }
     run(0);
     for (std::thread& th : pool) th.join();
     for (int t = 0; t < T; ++t) {
