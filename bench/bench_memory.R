@@ -156,10 +156,11 @@ cat(sprintf("\nLargest peak: R %.1f MiB = %.2f x one site's curves (%.2f x all f
             max(out[, "r"]), max(out[, "r"]) / one_site, max(out[, "r"]) / (length(sites) * one_site)))
 
 # --- the summaries on one thread and on the cores R may use, alternated -------
-# band_threads(): future::availableCores(), or options(wavevalid.workers = 1)
-# for one; each call three times in each setting, the settings alternated;
-# the results must be identical.
-threads_all <- wavevalid:::band_threads()
+# the package's threads for them: future::availableCores() with
+# wavevalid.workers "auto" (the default), one with options(wavevalid.workers =
+# 1); each call three times in each setting, the settings alternated; the
+# results must be identical.
+threads_all <- max(1L, as.integer(future::availableCores()))
 cat(sprintf("\nThe same calls on 1 thread and on %d (the cores R may use), alternated, seconds:\n", threads_all))
 calls <- list(`bias()` = function() bias(fit), `reality()` = function() reality(fit),
               `where_fails()` = function() where_fails(fit))
